@@ -1,0 +1,82 @@
+"""From an amplitude density to phase space: p(E), p(x1, x2), p(x1), p(x2).
+
+Used for the closed-form densities and, by the harness, for an FPK's p(A) (paper eq. 15-16):
+
+    p(E) = p_A / g(A),      p(y, y') = p(E) / T(E),      E = y'^2 / 2 + U(y)
+    p(x1, x2) = 2 p(y, y')  on x1 > 0 with a barrier (x = |y| folds the line), else p(y, y')
+    p(x1) = int p(x1, x2) dx2 = 4 int_0^inf exp h dv   (2 int_0^inf without a barrier)
+    p(x2) = int p(x1, x2) dx1 = 2 int_0^inf exp h dx   (either way)
+
+with h = log p(y, y') interpolated in A by a cubic spline (A = U^{-1}(E) is smooth in (x, v)
+away from the origin). The marginals are Gauss-Legendre integrals over the part of each line
+where A lies in the support [A_lo, A_max], not sums over the joint grid, so the joint and the
+marginals are independent computations that a test can compare.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+
+from .geometry import Array, amplitude_of_energy, potential
+
+
+@dataclass(frozen=True)
+class PhaseDensities:
+    E: Array
+    p_E: Array
+    x1: Array
+    p_x1: Array
+    x2: Array
+    p_x2: Array
+    joint: Array  # joint[i, j] = p(x1[i], x2[j])
+    raw_mass: dict[str, float]
+
+
+def phase_densities(A: Array, log_h: Array, log_T: Array, *, omega0: float, alpha: float,
+                    barrier: bool, points: int = 201, nodes: int = 128) -> PhaseDensities:
+    """Map h(A) = log p(y, y') (given on the A grid, with log T(A)) to phase space."""
+    A = np.asarray(A, dtype=float)
+    spline = CubicSpline(A, log_h)
+    lo, hi = float(A[0]), float(A[-1])
+    E_lo, E_hi = float(potential(lo, omega0, alpha)), float(potential(hi, omega0, alpha))
+
+    def dens(x: Array, v: Array) -> Array:
+        a = amplitude_of_energy(0.5 * v**2 + potential(x, omega0, alpha), omega0, alpha)
+        inside = (a >= lo) & (a <= hi)
+        return np.where(inside, np.exp(spline(np.clip(a, lo, hi))), 0.0)
+
+    fold = 2.0 if barrier else 1.0
+    gx, gw = np.polynomial.legendre.leggauss(nodes)
+    # p(x1): integrate over v >= 0 where E in [E_lo, E_hi]
+    x1 = np.linspace(0.0 if barrier else -hi, hi, points)
+    Ux = potential(x1, omega0, alpha)
+    v_lo = np.sqrt(2.0 * np.maximum(E_lo - Ux, 0.0))
+    v_hi = np.sqrt(2.0 * np.maximum(E_hi - Ux, 0.0))
+    vm, vh = 0.5 * (v_hi + v_lo), 0.5 * (v_hi - v_lo)
+    v = vm[:, None] + vh[:, None] * gx[None, :]
+    p_x1 = fold * 2.0 * vh * (dens(x1[:, None], v) @ gw)
+    # p(x2): integrate over x >= 0 where E in [E_lo, E_hi]
+    vmax = float(np.sqrt(2.0 * E_hi))
+    x2 = np.linspace(-vmax, vmax, points)
+    K = 0.5 * x2**2
+    x_lo = amplitude_of_energy(np.maximum(E_lo - K, 0.0), omega0, alpha)
+    x_hi = amplitude_of_energy(np.maximum(E_hi - K, 0.0), omega0, alpha)
+    xm, xh = 0.5 * (x_hi + x_lo), 0.5 * (x_hi - x_lo)
+    x = xm[:, None] + xh[:, None] * gx[None, :]
+    p_x2 = 2.0 * xh * (dens(x, x2[:, None]) @ gw)
+    joint = fold * dens(x1[:, None], x2[None, :])
+    # p(E) = p(y, y') T(E) = p_A / g on the energy grid E_k = U(A_k): exact pointwise; its
+    # trapezoid mass differs from 1 by the quadrature error on this uneven grid (~1e-5)
+    E = potential(A, omega0, alpha)
+    p_E = np.exp(log_h + log_T)
+    raw = {
+        "E": float(np.trapezoid(p_E, E)),
+        "x1": float(np.trapezoid(p_x1, x1)),
+        "x2": float(np.trapezoid(p_x2, x2)),
+        "joint": float(np.trapezoid(np.trapezoid(joint, x2, axis=1), x1)),
+    }
+    return PhaseDensities(E=E, p_E=p_E / raw["E"], x1=x1, p_x1=p_x1 / raw["x1"], x2=x2,
+                          p_x2=p_x2 / raw["x2"], joint=joint / raw["joint"], raw_mass=raw)

@@ -1,0 +1,97 @@
+"""Entry point: solve(scene, model=...) -> Result(data, info).
+
+``data`` maps an observable name to a density record ``{"x": grid, "p": density}``
+(``"joint"`` holds ``{"x1", "x2", "p"}``); ``info`` holds timings, grid sizes, diagnostics,
+versions and a status with a human message.
+"""
+
+from __future__ import annotations
+
+import math
+import platform
+import time
+from typing import Any, NamedTuple
+
+import numpy as np
+import scipy
+
+from .exact import ExactModel
+from .paper import PaperModel
+from .phase import phase_densities
+from .stationary import NoStationaryDensity, amplitude_density, describe
+
+MODELS = ("paper", "exact")
+
+
+class Result(NamedTuple):
+    data: dict[str, dict[str, Any]]
+    info: dict[str, Any]
+
+
+def build_model(scene: Any, model: str = "paper", **options: Any) -> PaperModel | ExactModel:
+    """The averaged model named ``model`` for the scene (options: see each model)."""
+    if model == "paper":
+        return PaperModel.from_scene(scene, **options)
+    if model == "exact":
+        return ExactModel.from_scene(scene, **options)
+    raise ValueError(f"model must be one of {MODELS}, not {model!r}")
+
+
+def solve(scene: Any, *, model: str = "paper", **options: Any) -> Result:
+    """Stationary densities of the averaged model for a (duck-typed) scene.
+
+    Raises NoStationaryDensity when the averaged FPK has none (e.g. f = 0).
+    """
+    t0 = time.perf_counter()
+    sys_ = scene.system
+    settings = scene.averaging
+    if sys_.f == 0.0:
+        raise NoStationaryDensity(
+            "f = 0: there is no noise, so the averaged FPK has no stationary density "
+            "(the amplitude relaxes to a deterministic attractor)")
+    m = build_model(scene, model, **options)
+    amp = amplitude_density(m, points=settings.points, tail=settings.tail)
+    t1 = time.perf_counter()
+    log_T = np.log(m.period(amp.A))
+    ph = phase_densities(amp.A, amp.log_h, log_T, omega0=sys_.omega0, alpha=sys_.alpha,
+                         barrier=sys_.barrier, points=settings.phase_points)
+    t2 = time.perf_counter()
+    data = {
+        "A": {"x": amp.A, "p": amp.p},
+        "E": {"x": ph.E, "p": ph.p_E},
+        "x1": {"x": ph.x1, "p": ph.p_x1},
+        "x2": {"x": ph.x2, "p": ph.p_x2},
+        "joint": {"x1": ph.x1, "x2": ph.x2, "p": ph.joint},
+    }
+    summary = describe(amp.A, amp.p)
+    ok = all(np.all(np.isfinite(d["p"])) and np.min(d["p"]) >= 0.0 for d in data.values())
+    info = {
+        "solver": "averaging",
+        "model": model,
+        "options": {k: v for k, v in m.__dict__.items()
+                    if k in ("b6", "noise", "impact", "theta_nodes", "harmonics")},
+        "grid": {"points": int(amp.A.size), "A_min": float(amp.A[0]), "A_max": float(amp.A[-1]),
+                 "phase_points": int(settings.phase_points)},
+        "diagnostics": {
+            "mass": summary["mass"], "min": summary["min"], "tail_mass": amp.tail_mass,
+            "phase_mass_before_normalisation": ph.raw_mass, "scans": amp.scans,
+        },
+        "summary": {k: summary[k] for k in ("mean", "mode", "std")},
+        "seconds": {"amplitude": t1 - t0, "phase": t2 - t1, "total": t2 - t0},
+        "versions": versions(),
+        "status": {"ok": bool(ok and math.isfinite(summary["mean"])),
+                   "message": "stationary density computed" if ok
+                   else "density has non-finite or negative values"},
+    }
+    return Result(data=data, info=info)
+
+
+def versions() -> dict[str, str]:
+    from importlib import metadata
+
+    try:
+        own = metadata.version("vifpk")
+    except metadata.PackageNotFoundError:
+        own = "unknown"
+    return {"vifpk": own, "python": platform.python_version(), "numpy": np.__version__,
+            "scipy": scipy.__version__}

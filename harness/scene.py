@@ -1,0 +1,278 @@
+"""Scenes: a frozen description of one physical system, read from TOML.
+
+A scene switches physics on and off and says what to compute. Its format is documented in
+``docs/scenes.md``. Every field is validated on load; a bad value raises :class:`SceneError`
+whose message is one line naming the field and its allowed range (the CLI prints it and exits
+with code 2).
+
+The system (Liu, Xu, Yue & Huang, Symmetry 2019, 11(1):4, eq. 17)::
+
+    x'' + (c2 x^2 - c1) x' + omega0^2 x + alpha x^3 + mu sgn(x') = f xi(t),   x > 0
+    x'(+) = -r x'(-)  at the barrier x = 0
+    xi' + alpha1 xi = W(t),  E[W(t) W(t+s)] = 2 D delta(s)      (kind = "ou")
+    xi = W(t)                                                     (kind = "white")
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import math
+import tomllib
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, fields, replace
+from pathlib import Path
+from typing import Any
+
+
+class SceneError(ValueError):
+    """A scene that cannot be used; the message is one line naming the field."""
+
+
+# --------------------------------------------------------------------------------------------
+# range checks: each returns None when the value is fine, else the allowed range in words
+Check = Callable[[Any], "str | None"]
+
+
+def _finite(v: float) -> str | None:
+    return None if math.isfinite(v) else "a finite number"
+
+
+def _positive(v: float) -> str | None:
+    return None if math.isfinite(v) and v > 0 else "a finite number > 0"
+
+
+def _nonneg(v: float) -> str | None:
+    return None if math.isfinite(v) and v >= 0 else "a finite number >= 0"
+
+
+def _restitution(v: float) -> str | None:
+    return None if math.isfinite(v) and 0 < v <= 1 else "0 < r <= 1"
+
+
+def _int_at_least(lo: int) -> Check:
+    def check(v: Any) -> str | None:
+        ok = isinstance(v, int) and not isinstance(v, bool) and v >= lo
+        return None if ok else f"a whole number >= {lo}"
+
+    return check
+
+
+def _one_of(*allowed: str) -> Check:
+    def check(v: Any) -> str | None:
+        return None if v in allowed else "one of " + ", ".join(repr(a) for a in allowed)
+
+    return check
+
+
+def _bool(v: Any) -> str | None:
+    return None if isinstance(v, bool) else "true or false"
+
+
+def _meta(check: Check, doc: str) -> dict[str, Any]:
+    return {"check": check, "doc": doc}
+
+
+# --------------------------------------------------------------------------------------------
+@dataclass(frozen=True, kw_only=True)
+class System:
+    """Oscillator parameters (paper eq. 17). ``barrier = false`` removes the impact wall."""
+
+    c1: float = field(default=0.025, metadata=_meta(_finite, "negative: positive linear damping"))
+    c2: float = field(default=0.05, metadata=_meta(_nonneg, "Van der Pol cubic damping"))
+    omega0: float = field(default=1.0, metadata=_meta(_positive, "linear natural frequency"))
+    alpha: float = field(default=0.6, metadata=_meta(_nonneg, "Duffing hardening"))
+    mu: float = field(default=0.001, metadata=_meta(_nonneg, "Coulomb friction amplitude"))
+    r: float = field(default=0.96, metadata=_meta(_restitution, "restitution at x = 0"))
+    f: float = field(default=1.0, metadata=_meta(_finite, "noise gain (not given in paper)"))
+    barrier: bool = field(default=True, metadata=_meta(_bool, "impact barrier at x = 0"))
+
+
+@dataclass(frozen=True, kw_only=True)
+class Noise:
+    """Excitation xi(t): OU ("real") noise with bandwidth alpha1, or Gaussian white noise."""
+
+    kind: str = field(default="ou", metadata=_meta(_one_of("ou", "white"), "noise model"))
+    D: float = field(default=0.01, metadata=_meta(_positive, "intensity: E[W W] = 2 D delta"))
+    alpha1: float = field(default=2.0, metadata=_meta(_positive, "OU bandwidth"))
+
+    def spectrum(self, omega: Any) -> Any:
+        """Two-sided spectral density of xi, S(w) = (1/pi) int_0^inf R(t) cos(w t) dt.
+
+        OU: S(w) = D / (pi (w^2 + alpha1^2)) (paper eq. 18); white: S(w) = D / pi.
+        """
+        import numpy as np
+
+        omega = np.asarray(omega, dtype=float)
+        if self.kind == "white":
+            return np.full_like(omega, self.D / math.pi)
+        return self.D / (math.pi * (omega**2 + self.alpha1**2))
+
+
+@dataclass(frozen=True, kw_only=True)
+class AveragingSettings:
+    """Numerical settings of the averaged models (closed form and exact orbit averages)."""
+
+    points: int = field(default=801, metadata=_meta(_int_at_least(17), "grid points in A"))
+    tail: float = field(default=1e-10, metadata=_meta(_positive, "mass allowed beyond A_max"))
+    theta_nodes: int = field(default=64, metadata=_meta(_int_at_least(8), "GL nodes a quarter"))
+    harmonics: int = field(default=24, metadata=_meta(_int_at_least(4), "orbit harmonics"))
+    phase_points: int = field(default=201, metadata=_meta(_int_at_least(17), "x1, x2 grids"))
+
+
+SECTIONS: dict[str, type] = {
+    "system": System,
+    "noise": Noise,
+    "averaging": AveragingSettings,
+}
+SWEEPABLE = {"system", "noise"}
+
+
+@dataclass(frozen=True, kw_only=True)
+class Sweep:
+    """One parameter varied over a list of values (the paper's figures)."""
+
+    section: str
+    key: str
+    values: tuple[float, ...]
+
+    @property
+    def path(self) -> str:
+        return f"{self.section}.{self.key}"
+
+
+@dataclass(frozen=True, kw_only=True)
+class Scene:
+    """One system, its noise, and solver settings. Immutable; use :meth:`with_values`."""
+
+    name: str = "scene"
+    description: str = ""
+    system: System = field(default_factory=System)
+    noise: Noise = field(default_factory=Noise)
+    averaging: AveragingSettings = field(default_factory=AveragingSettings)
+    sweep: Sweep | None = None
+    source: str = ""
+
+    # ---------------------------------------------------------------- sweeps
+    def variants(self) -> list[Scene]:
+        """The concrete scenes of a sweep (or ``[self]``), each with ``sweep = None``."""
+        if self.sweep is None:
+            return [self]
+        out = []
+        for v in self.sweep.values:
+            s = self.with_values({self.sweep.path: v})
+            out.append(replace(s, name=f"{self.name}[{self.sweep.key}={v:g}]", sweep=None))
+        return out
+
+    def with_values(self, values: Mapping[str, Any]) -> Scene:
+        """A copy with ``{"section.key": value}`` overrides, validated like a file."""
+        raw = self.to_dict()
+        raw.pop("sweep", None)
+        for path, value in values.items():
+            section, _, key = path.partition(".")
+            if section not in SECTIONS or not key:
+                raise SceneError(f"{path}: unknown field; use section.key with a section in "
+                                 f"{sorted(SECTIONS)}")
+            raw.setdefault(section, {})[key] = value
+        if self.sweep is not None and self.sweep.path not in values:
+            raw[self.sweep.section][self.sweep.key] = list(self.sweep.values)
+        return scene_from_dict(raw, source=self.source or "<overrides>")
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain, JSON-ready dictionary (the ``scene`` entry of the solution JSON)."""
+        d: dict[str, Any] = {"name": self.name, "description": self.description}
+        for sec in SECTIONS:
+            d[sec] = dataclasses.asdict(getattr(self, sec))
+        if self.sweep is not None:
+            d["sweep"] = {"field": self.sweep.path, "values": list(self.sweep.values)}
+            d[self.sweep.section][self.sweep.key] = list(self.sweep.values)
+        return d
+
+
+# --------------------------------------------------------------------------------------------
+def _suggest(word: str, options: list[str]) -> str:
+    close = difflib.get_close_matches(word, options, n=1, cutoff=0.5)
+    if close:
+        return f"did you mean '{close[0]}'?"
+    return "allowed: " + ", ".join(options)
+
+
+def _coerce(where: str, cls: type, name: str, value: Any) -> Any:
+    f = next(f for f in fields(cls) if f.name == name)
+    check: Check = f.metadata["check"]
+    if isinstance(f.default, bool):
+        pass
+    elif isinstance(f.default, float):
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise SceneError(f"{where}: {name} = {value!r} must be {check(float('nan'))}")
+        value = float(value)
+    problem = check(value)
+    if problem is not None:
+        raise SceneError(f"{where}: {name} = {value!r} is out of range; allowed: {problem}")
+    return value
+
+
+def scene_from_dict(raw: Mapping[str, Any], *, source: str = "<dict>") -> Scene:
+    """Build and validate a Scene from a parsed TOML document."""
+    top = {"name", "description", *SECTIONS}
+    for key in raw:
+        if key == "sweep":
+            continue
+        if key not in top:
+            raise SceneError(f"{source}: unknown key '{key}'; {_suggest(key, sorted(top))}")
+    name = raw.get("name", Path(source).stem if source else "scene")
+    if not isinstance(name, str) or not name:
+        raise SceneError(f"{source}: name must be a non-empty string")
+    description = raw.get("description", "")
+    if not isinstance(description, str):
+        raise SceneError(f"{source}: description must be a string")
+
+    sweep: Sweep | None = None
+    parts: dict[str, Any] = {}
+    for sec, cls in SECTIONS.items():
+        table = raw.get(sec, {})
+        if not isinstance(table, Mapping):
+            raise SceneError(f"{source}: [{sec}] must be a table")
+        known = [f.name for f in fields(cls)]
+        kwargs: dict[str, Any] = {}
+        for key, value in table.items():
+            where = f"{source}: {sec}"
+            if key not in known:
+                raise SceneError(f"{where}.{key}: unknown key; {_suggest(key, known)}")
+            if isinstance(value, list):
+                if sec not in SWEEPABLE:
+                    raise SceneError(f"{where}.{key}: a list is only allowed in "
+                                     f"{sorted(SWEEPABLE)} (the varied parameter)")
+                if sweep is not None:
+                    raise SceneError(f"{where}.{key}: only one parameter may vary; "
+                                     f"{sweep.path} already does")
+                if not value:
+                    raise SceneError(f"{where}.{key}: the list of values is empty")
+                vals = tuple(_coerce(f"{where}.{key}[{i}]", cls, key, v)
+                             for i, v in enumerate(value))
+                if not all(isinstance(v, float) for v in vals):
+                    raise SceneError(f"{where}.{key}: only numeric parameters can vary")
+                sweep = Sweep(section=sec, key=key, values=vals)
+                kwargs[key] = vals[0]
+            else:
+                kwargs[key] = _coerce(f"{where}", cls, key, value)
+        parts[sec] = cls(**kwargs)
+    return Scene(name=name, description=description, sweep=sweep, source=source, **parts)
+
+
+def load_scene(path: str | Path) -> Scene:
+    """Read a scene file. Raises :class:`SceneError` (one line) on any problem."""
+    p = Path(path)
+    if not p.is_file():
+        shipped = Path(__file__).resolve().parent.parent / "scenes" / f"{p}.toml"
+        if p.suffix == "" and shipped.is_file():
+            p = shipped
+        else:
+            raise SceneError(f"{path}: no such scene file")
+    try:
+        raw = tomllib.loads(p.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError(f"{p.name}: not valid TOML: {exc}") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SceneError(f"{p.name}: cannot read: {exc}") from None
+    return scene_from_dict(raw, source=p.name)
