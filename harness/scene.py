@@ -198,17 +198,18 @@ def _suggest(word: str, options: list[str]) -> str:
 
 
 def _coerce(where: str, cls: type, name: str, value: Any) -> Any:
+    """Validate one value; ``where`` is "file: section.key" (with [i] for list entries)."""
     f = next(f for f in fields(cls) if f.name == name)
     check: Check = f.metadata["check"]
     if isinstance(f.default, bool):
         pass
     elif isinstance(f.default, float):
         if isinstance(value, bool) or not isinstance(value, int | float):
-            raise SceneError(f"{where}: {name} = {value!r} must be {check(float('nan'))}")
+            raise SceneError(f"{where} = {value!r} must be {check(float('nan'))}")
         value = float(value)
     problem = check(value)
     if problem is not None:
-        raise SceneError(f"{where}: {name} = {value!r} is out of range; allowed: {problem}")
+        raise SceneError(f"{where} = {value!r} is out of range; allowed: {problem}")
     return value
 
 
@@ -255,7 +256,7 @@ def scene_from_dict(raw: Mapping[str, Any], *, source: str = "<dict>") -> Scene:
                 sweep = Sweep(section=sec, key=key, values=vals)
                 kwargs[key] = vals[0]
             else:
-                kwargs[key] = _coerce(f"{where}", cls, key, value)
+                kwargs[key] = _coerce(f"{where}.{key}", cls, key, value)
         parts[sec] = cls(**kwargs)
     return Scene(name=name, description=description, sweep=sweep, source=source, **parts)
 

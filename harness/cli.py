@@ -1,0 +1,113 @@
+"""Command line: ``vifpk solve SCENE --solver averaging [--model paper|exact] [--json OUT]``.
+
+Exit codes: 0 success; 2 bad input (one line naming the field, no traceback, no output
+file); 3 the solver could not produce a result (one line saying why); 130 interrupted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from typing import Any
+
+from .scene import Scene, SceneError, load_scene
+from .run import SOLVERS, SolverFailure, run_solver, solution_record
+
+EXIT_BAD_INPUT = 2
+EXIT_SOLVER = 3
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # one line, exit 2
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message}\n")
+
+
+def _parse_override(text: str) -> tuple[str, Any]:
+    key, sep, value = text.partition("=")
+    if not sep or "." not in key:
+        raise SceneError(f"--set {text}: expected section.key=value, e.g. noise.D=0.02")
+    import tomllib
+
+    try:
+        parsed = tomllib.loads(f"v = {value}")["v"]
+    except tomllib.TOMLDecodeError:
+        parsed = value
+    return key.strip(), parsed
+
+
+def concrete_scene(path: str, overrides: Sequence[str]) -> Scene:
+    """Load a scene, apply ``--set`` overrides; a sweep must be pinned to one value."""
+    scene = load_scene(path)
+    if overrides:
+        scene = scene.with_values(dict(_parse_override(o) for o in overrides))
+    if scene.sweep is not None:
+        sw = scene.sweep
+        vals = ", ".join(f"{v:g}" for v in sw.values)
+        raise SceneError(f"{scene.source}: {sw.path} varies over [{vals}]; choose one value "
+                         f"with --set {sw.path}=VALUE")
+    return scene
+
+
+def _summary(result: Any) -> str:
+    info = result.info
+    s, d = info["summary"], info["diagnostics"]
+    lines = [
+        f"{info['solver']} ({info.get('model', '-')}): {info['status']['message']}",
+        f"  amplitude A: mean {s['mean']:.6g}, mode {s['mode']:.6g}, std {s['std']:.6g}",
+        f"  grid: {info['grid']['points']} points on [{info['grid']['A_min']:.4g}, "
+        f"{info['grid']['A_max']:.4g}]",
+        f"  mass check: {d['mass']:.12f} (mass outside grid {d['tail_mass']:.1e}), "
+        f"min p = {d['min']:.3g}",
+        f"  time: {info['seconds']['total'] * 1e3:.1f} ms",
+    ]
+    return "\n".join(lines)
+
+
+def cmd_solve(args: argparse.Namespace) -> int:
+    from .io import write_json
+
+    scene = concrete_scene(args.scene, args.set)
+    result = run_solver(scene, args.solver, model=args.model)
+    if args.json:
+        write_json(args.json, solution_record(scene, args.solver, args.model, result,
+                                              joint=args.joint))
+        print(f"wrote {args.json}", file=sys.stderr)
+    else:
+        print(_summary(result))
+    return 0 if result.info["status"]["ok"] else EXIT_SOLVER
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = _Parser(prog="vifpk", description="How wrong is a stochastic-averaging approximation?")
+    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    s = sub.add_parser("solve", help="solve one scene with one solver")
+    s.add_argument("scene", help="scene TOML file (or the name of a shipped scene)")
+    s.add_argument("--solver", choices=SOLVERS, default="averaging")
+    s.add_argument("--model", choices=("paper", "exact"), default="paper")
+    s.add_argument("--json", metavar="OUT", help="write the solution record to OUT")
+    s.add_argument("--joint", action="store_true", help="include the joint PDF in the JSON")
+    s.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
+                   help="override a scene value (repeatable)")
+    s.set_defaults(func=cmd_solve)
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args))
+    except SceneError as exc:
+        print(f"vifpk: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except SolverFailure as exc:
+        print(f"vifpk: {exc}", file=sys.stderr)
+        return EXIT_SOLVER
+    except KeyboardInterrupt:
+        print("vifpk: interrupted; no output was written", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())
