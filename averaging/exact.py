@@ -8,7 +8,8 @@ Write G = f dY/dt with Y = s(y) y. Averaging over the exact orbit of energy E (p
 Omega = 2 pi / T), the Stratonovich-Khasminskii limit gives the Ito equation
 dE = m_E dt + sigma_E dB with (derivation in docs/averaging.md)::
 
-    sigma_E^2 = 2 pi sum_{n in Z} |G_n|^2 S(n Omega) = 4 pi f^2 sum_{n>=1} n^2 Omega^2 Y_n^2 S(n Omega)
+    sigma_E^2 = 2 pi sum_{n in Z} |G_n|^2 S(n Omega)
+              = 4 pi f^2 sum_{n>=1} n^2 Omega^2 Y_n^2 S(n Omega)
     m_E = m_d + (1 / (2 T)) d(T sigma_E^2)/dE            (noise-induced drift)
     m_d = c1 <v^2> - c2 <x^2 v^2> - mu <|v|> - impact loss rate
     impact loss rate = (2/T) (1 - r^2) E   ("exact" law)   or   (2/T) 2 (1 - r) E   ("transformed")

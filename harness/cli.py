@@ -11,8 +11,8 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
-from .scene import Scene, SceneError, load_scene
 from .run import SOLVERS, SolverFailure, run_solver, solution_record
+from .scene import Scene, SceneError, load_scene
 
 EXIT_BAD_INPUT = 2
 EXIT_SOLVER = 3

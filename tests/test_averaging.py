@@ -123,7 +123,7 @@ def test_paper_friction_against_quadrature(base):
         b = m.b(np.array(A))
 
         def nu_series(th, b=b):
-            return b[0] + b[1] * math.cos(2 * th) + b[2] * math.cos(4 * th) + b[3] * math.cos(6 * th)
+            return sum(b[k] * math.cos(2 * k * th) for k in range(4))
 
         ref = quad(lambda th, A=A, f=nu_series: A * f(th) * abs(math.sin(th)), 0, 2 * math.pi,
                    epsrel=1e-12, points=[math.pi])[0] / (2 * math.pi)

@@ -1,0 +1,82 @@
+"""The command line: contracts of `vifpk solve`, and bad input (exit 2, one line, no file)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from harness.cli import main
+
+from .conftest import ROOT
+
+BASE = str(ROOT / "scenes" / "paper-base.toml")
+
+
+@pytest.mark.parametrize("model", ["paper", "exact"])
+def test_solve_json_contract(tmp_path: Path, model: str):
+    out = tmp_path / "sol.json"
+    assert main(["solve", BASE, "--solver", "averaging", "--model", model, "--json",
+                 str(out)]) == 0
+    d = json.loads(out.read_text())
+    assert d["solver"] == "averaging" and d["model"] == model
+    assert d["scene"]["system"]["r"] == 0.96
+    for key in ("A", "x1", "x2"):
+        x, p = np.array(d["pdf"][key]["x"]), np.array(d["pdf"][key]["p"])
+        assert x.shape == p.shape and np.trapezoid(p, x) == pytest.approx(1, abs=1e-10)
+    assert d["info"]["status"]["ok"] is True
+    assert not list(tmp_path.glob(".*tmp"))  # no temporary file left behind
+
+
+def test_solve_prints_summary(capsys):
+    assert main(["solve", BASE]) == 0
+    out = capsys.readouterr().out
+    assert "mean" in out and "mode" in out and "mass check: 1.0000000000" in out
+
+
+def run_cli(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "harness", *args], capture_output=True,
+                          text=True, timeout=120, cwd=ROOT)
+
+
+@pytest.mark.parametrize(
+    ("body", "needle"),
+    [
+        ("[system]\nr = 1.2\n", "system.r = 1.2 is out of range; allowed: 0 < r <= 1"),
+        ("[noise]\nD = -1\n", "noise.D = -1.0 is out of range"),
+        ("[noise]\nD = nan\n", "noise.D = nan"),
+        ("[system]\nmuu = 0.1\n", "did you mean 'mu'?"),
+        ("[noise]\nkind = 'pink'\n", "noise.kind = 'pink'"),
+        ("[system\n", "not valid TOML"),
+    ],
+)
+def test_bad_input_one_line_exit_2_no_file(tmp_path: Path, body: str, needle: str):
+    scene = tmp_path / "bad.toml"
+    scene.write_text(body)
+    out = tmp_path / "out.json"
+    res = run_cli("solve", str(scene), "--json", str(out))
+    assert res.returncode == 2
+    assert needle in res.stderr
+    assert len(res.stderr.strip().splitlines()) == 1 and "Traceback" not in res.stderr
+    assert not out.exists() and list(tmp_path.iterdir()) == [scene]
+
+
+def test_sweep_scene_needs_a_value(tmp_path: Path):
+    res = run_cli("solve", str(ROOT / "scenes" / "paper-fig2.toml"))
+    assert res.returncode == 2 and "--set noise.D=VALUE" in res.stderr
+
+
+def test_no_stationary_density_is_one_line_exit_3(tmp_path: Path):
+    out = tmp_path / "o.json"
+    res = run_cli("solve", BASE, "--set", "system.f=0", "--json", str(out))
+    assert res.returncode == 3 and "no stationary density" in res.stderr
+    assert len(res.stderr.strip().splitlines()) == 1 and not out.exists()
+
+
+def test_unknown_option_exit_2():
+    res = run_cli("solve", BASE, "--model", "nonsense")
+    assert res.returncode == 2 and "Traceback" not in res.stderr
