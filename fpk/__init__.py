@@ -1,1 +1,12 @@
-"""placeholder"""
+"""py-pde time stepping of the 1-D amplitude FPK in conservative flux form.
+
+Generic in the drift m(A) and diffusion sigma^2(A); imports no other vifpk package.
+``stationary(m, sigma2, ...)`` and ``transient(...)`` return ``Result(data, info)``.
+"""
+
+from .scheme import ORDER, Discretisation, discretise
+from .solve import Result, choose_domain, stationary, transient
+from .stepper import STEPPERS, FPKFailure
+
+__all__ = ["ORDER", "STEPPERS", "Discretisation", "FPKFailure", "Result", "choose_domain",
+           "discretise", "stationary", "transient"]

@@ -55,8 +55,8 @@ def _summary(result: Any) -> str:
     lines = [
         f"{info['solver']} ({info.get('model', '-')}): {info['status']['message']}",
         f"  amplitude A: mean {s['mean']:.6g}, mode {s['mode']:.6g}, std {s['std']:.6g}",
-        f"  grid: {info['grid']['points']} points on [{info['grid']['A_min']:.4g}, "
-        f"{info['grid']['A_max']:.4g}]",
+        f"  grid: {info['grid'].get('points', info['grid'].get('cells'))} points on "
+        f"[{info['grid']['A_min']:.4g}, {info['grid']['A_max']:.4g}]",
         f"  mass check: {d['mass']:.12f} (mass outside grid {d['tail_mass']:.1e}), "
         f"min p = {d['min']:.3g}",
         f"  time: {info['seconds']['total'] * 1e3:.1f} ms",
@@ -68,7 +68,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
     from .io import write_json
 
     scene = concrete_scene(args.scene, args.set)
-    result = run_solver(scene, args.solver, model=args.model)
+    result = run_solver(scene, args.solver, model=args.model, grid=args.grid)
     if args.json:
         write_json(args.json, solution_record(scene, args.solver, args.model, result,
                                               joint=args.joint))
@@ -86,6 +86,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--solver", choices=SOLVERS, default="averaging")
     s.add_argument("--model", choices=("paper", "exact"), default="paper")
     s.add_argument("--json", metavar="OUT", help="write the solution record to OUT")
+    s.add_argument("--grid", type=int, metavar="N",
+                   help="FPK: number of cells (default 400)")
     s.add_argument("--joint", action="store_true", help="include the joint PDF in the JSON")
     s.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
                    help="override a scene value (repeatable)")
