@@ -38,7 +38,8 @@ def bernoulli(x: Array) -> Array:
     x = np.asarray(x, dtype=float)
     small = np.abs(x) < 1e-8
     safe = np.where(small, 1.0, x)
-    return np.where(small, 1.0 - 0.5 * x, safe / np.expm1(safe))
+    with np.errstate(over="ignore"):  # x / inf = 0 is the right limit for large x
+        return np.where(small, 1.0 - 0.5 * x, safe / np.expm1(safe))
 
 
 @dataclass(frozen=True)

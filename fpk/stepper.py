@@ -69,7 +69,8 @@ def _solver_args(disc: Discretisation, stepper: str, rtol: float) -> dict[str, A
         return {"solver": "scipy", "backend": "numpy", "method": "BDF", "jac": disc.matrix(),
                 "rtol": rtol, "atol": rtol * 1e-3}
     if stepper == "explicit":
-        return {"solver": "explicit", "backend": "numba", "adaptive": True, "tolerance": rtol}
+        return {"solver": "runge-kutta", "backend": "numba", "adaptive": True,
+                "tolerance": rtol}
     raise ValueError(f"stepper must be one of {STEPPERS}, not {stepper!r}")
 
 
