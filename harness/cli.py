@@ -49,8 +49,33 @@ def concrete_scene(path: str, overrides: Sequence[str]) -> Scene:
     return scene
 
 
+def _mc_summary(info: dict[str, Any]) -> str:
+    st = info["settings"]
+    lines = [f"montecarlo: {info['status']['message']} ({st['paths']} paths, dt {st['dt']:g}, "
+             f"time {st['time']:g} after burn-in {st['burn_in']:g}; effects {info['effects']})"]
+    if "moments" in info:
+        a = info["moments"]["A"]["mean"]
+        lines.append(f"  amplitude A: mean {a['value']:.5g} +/- {a['err']:.2g} (batch error)")
+    if info.get("L1_floor"):
+        floors = ", ".join(f"{k} {v:.2g}" for k, v in info["L1_floor"].items())
+        lines.append(f"  L1 noise floor: {floors}")
+    if "events" in info:
+        ev = info["events"]
+        lines.append(
+            f"  impacts per unit time {ev['impacts_per_time']['value']:.4g} +/- "
+            f"{ev['impacts_per_time']['err']:.2g}; stuck fraction "
+            f"{ev['stuck_fraction']['value']:.3g} +/- {ev['stuck_fraction']['err']:.2g}; "
+            f"chatter-guard entries {ev['chatter_entries']}")
+    sec = info["seconds"]
+    lines.append(f"  time: compile {sec['compile']:.2f} s, run {sec['run']:.2f} s "
+                 f"({info['steps_per_second'] / 1e6:.0f} M steps/s on {info['threads']} threads)")
+    return "\n".join(lines)
+
+
 def _summary(result: Any) -> str:
     info = result.info
+    if info["solver"] == "montecarlo":
+        return _mc_summary(info)
     s, d = info["summary"], info["diagnostics"]
     lines = [
         f"{info['solver']} ({info.get('model', '-')}): {info['status']['message']}",
@@ -68,9 +93,17 @@ def cmd_solve(args: argparse.Namespace) -> int:
     from .io import write_json
 
     scene = concrete_scene(args.scene, args.set)
-    result = run_solver(scene, args.solver, model=args.model, grid=args.grid)
+    mc = {k: getattr(args, k) for k in ("paths", "dt", "time", "seed")
+          if getattr(args, k) is not None}
+    if mc:
+        scene = scene.with_values({f"montecarlo.{k}": v for k, v in mc.items()})
+    if args.solver == "montecarlo":
+        result = run_solver(scene, "montecarlo")
+    else:
+        result = run_solver(scene, args.solver, model=args.model, grid=args.grid)
     if args.json:
-        write_json(args.json, solution_record(scene, args.solver, args.model, result,
+        model = None if args.solver == "montecarlo" else args.model
+        write_json(args.json, solution_record(scene, args.solver, model, result,
                                               joint=args.joint))
         print(f"wrote {args.json}", file=sys.stderr)
     else:
@@ -88,6 +121,11 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--json", metavar="OUT", help="write the solution record to OUT")
     s.add_argument("--grid", type=int, metavar="N",
                    help="FPK: number of cells (default 400)")
+    s.add_argument("--paths", type=int, help="Monte Carlo: number of paths")
+    s.add_argument("--dt", type=float, help="Monte Carlo: time step")
+    s.add_argument("--time", type=float, metavar="T",
+                   help="Monte Carlo: simulated time sampled per path after the burn-in")
+    s.add_argument("--seed", type=int, help="Monte Carlo: root seed")
     s.add_argument("--joint", action="store_true", help="include the joint PDF in the JSON")
     s.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
                    help="override a scene value (repeatable)")

@@ -6,7 +6,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-SOLVERS = ("averaging", "fpk")
+SOLVERS = ("averaging", "fpk", "montecarlo")
 
 
 class SolverFailure(RuntimeError):
@@ -29,6 +29,8 @@ def run_solver(scene: Any, solver: str, *, model: str = "paper", grid: int | Non
             return averaging.solve(scene, model=model, **options)
         if solver == "fpk":
             return _fpk_solution(scene, model=model, cells=grid or 400, **options)
+        if solver == "montecarlo":
+            return montecarlo_solution(scene, **options)
     except (averaging.NoStationaryDensity, fpk.FPKFailure) as exc:
         raise SolverFailure(str(exc)) from None
     raise ValueError(f"solver must be one of {SOLVERS}, not {solver!r}")
@@ -66,6 +68,30 @@ def _fpk_solution(scene: Any, *, model: str, cells: int, method: str = "stepping
                        "std": float(np.sqrt(max(np.trapezoid((xa - mean) ** 2 * pa, xa), 0)))}
     info["diagnostics"] = dict(info["diagnostics"], phase_mass_before_normalisation=ph.raw_mass)
     return Solution(data=data, info=info)
+
+
+def montecarlo_solution(scene: Any, *, progress: bool = True, **edges: Any) -> Solution:
+    """The Monte Carlo of the original system with the scene's settings and observables.
+
+    ``edges``: optional histogram edges (``edges_A``, ``edges_x``, ``edges_v``); by default
+    the Monte Carlo picks its ranges from a pilot run, independently of the other solvers.
+    """
+    import dataclasses
+
+    import montecarlo
+
+    if scene.system.f == 0.0:
+        raise SolverFailure("f = 0: there is no noise; the Monte Carlo would only relax to a "
+                            "deterministic attractor, so there is no stationary density")
+    settings = montecarlo.Settings(**dataclasses.asdict(scene.montecarlo),
+                                   observables=scene.observables.names(), progress=progress,
+                                   edges=edges)
+    res = montecarlo.simulate(scene.system, scene.noise, settings)
+    info = dict(res.info)
+    mom = info.get("moments", {}).get("A", {}).get("mean")
+    if mom is not None:
+        info["summary"] = {"mean": mom["value"], "mean_err": mom["err"]}
+    return Solution(data=res.data, info=info)
 
 
 def solution_record(scene: Any, solver: str, model: str | None, result: Any, *,

@@ -120,10 +120,42 @@ class AveragingSettings:
     phase_points: int = field(default=201, metadata=_meta(_int_at_least(17), "x1, x2 grids"))
 
 
+@dataclass(frozen=True, kw_only=True)
+class MonteCarloSettings:
+    """Monte Carlo of the original system; defaults from the study in docs/montecarlo.md."""
+
+    paths: int = field(default=1024, metadata=_meta(_int_at_least(2), "independent paths"))
+    dt: float = field(default=0.01, metadata=_meta(_positive, "time step"))
+    time: float = field(default=2000.0, metadata=_meta(_positive, "sampled time per path"))
+    burn_in: float = field(default=300.0, metadata=_meta(_nonneg, "time before sampling"))
+    sample_every: float = field(default=0.5, metadata=_meta(_positive, "sampling interval"))
+    seed: int = field(default=20190101, metadata=_meta(_int_at_least(0), "root seed"))
+    blocks: int = field(default=32, metadata=_meta(_int_at_least(2), "batches of paths"))
+    bins: int = field(default=100, metadata=_meta(_int_at_least(4), "histogram bins"))
+    threads: int = field(default=0, metadata=_meta(_int_at_least(0), "0: all cores"))
+
+
+@dataclass(frozen=True, kw_only=True)
+class Observables:
+    """What the Monte Carlo records (unrequested ones are not computed)."""
+
+    A: bool = field(default=True, metadata=_meta(_bool, "histogram of the amplitude"))
+    x1: bool = field(default=True, metadata=_meta(_bool, "histogram of displacement"))
+    x2: bool = field(default=True, metadata=_meta(_bool, "histogram of velocity"))
+    joint: bool = field(default=False, metadata=_meta(_bool, "2-D histogram of (x1, x2)"))
+    moments: bool = field(default=True, metadata=_meta(_bool, "means and second moments"))
+    events: bool = field(default=True, metadata=_meta(_bool, "impacts, sticking, chatter"))
+
+    def names(self) -> tuple[str, ...]:
+        return tuple(f.name for f in fields(self) if getattr(self, f.name))
+
+
 SECTIONS: dict[str, type] = {
     "system": System,
     "noise": Noise,
     "averaging": AveragingSettings,
+    "montecarlo": MonteCarloSettings,
+    "observables": Observables,
 }
 SWEEPABLE = {"system", "noise"}
 
@@ -150,6 +182,8 @@ class Scene:
     system: System = field(default_factory=System)
     noise: Noise = field(default_factory=Noise)
     averaging: AveragingSettings = field(default_factory=AveragingSettings)
+    montecarlo: MonteCarloSettings = field(default_factory=MonteCarloSettings)
+    observables: Observables = field(default_factory=Observables)
     sweep: Sweep | None = None
     source: str = ""
 

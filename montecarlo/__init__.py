@@ -1,1 +1,7 @@
-"""placeholder"""
+"""numba Monte Carlo of the original non-smooth vibro-impact system (impacts, stick-slip,
+OU or white noise), and of an averaged 1-D amplitude SDE. Imports no other vifpk package.
+"""
+
+from .simulate import OBSERVABLES, Result, Settings, block_seeds, effects, simulate
+
+__all__ = ["OBSERVABLES", "Result", "Settings", "block_seeds", "effects", "simulate"]

@@ -80,3 +80,25 @@ def test_no_stationary_density_is_one_line_exit_3(tmp_path: Path):
 def test_unknown_option_exit_2():
     res = run_cli("solve", BASE, "--model", "nonsense")
     assert res.returncode == 2 and "Traceback" not in res.stderr
+
+
+def test_montecarlo_json_has_edges_and_errors(tmp_path: Path):
+    out = tmp_path / "mc.json"
+    assert main(["solve", BASE, "--solver", "montecarlo", "--paths", "64", "--time", "50",
+                 "--dt", "0.02", "--seed", "3", "--json", str(out)]) == 0
+    d = json.loads(out.read_text())
+    assert d["solver"] == "montecarlo" and d["info"]["settings"]["paths"] == 64
+    assert d["info"]["seed"]["root"] == 3 and d["info"]["settings"]["dt"] == 0.02
+    for key in ("A", "x1", "x2"):
+        rec = d["pdf"][key]
+        assert len(rec["edges"]) == len(rec["p"]) + 1 == len(rec["err"]) + 1
+    assert d["info"]["L1_floor"]["A"] > 0
+
+
+def test_fpk_json(tmp_path: Path):
+    out = tmp_path / "f.json"
+    assert main(["solve", BASE, "--solver", "fpk", "--grid", "200", "--json", str(out)]) == 0
+    d = json.loads(out.read_text())
+    assert d["solver"] == "fpk" and d["info"]["grid"]["cells"] == 200
+    x, p = np.array(d["pdf"]["A"]["x"]), np.array(d["pdf"]["A"]["p"])
+    assert np.trapezoid(p, x) == pytest.approx(1, abs=1e-10)

@@ -1,0 +1,145 @@
+"""Monte Carlo of a one-dimensional averaged amplitude SDE  dA = m(A) dt + sigma(A) dB.
+
+It lets the harness split the error of an averaged model into sampling error (this MC
+against the closed form of the same SDE) and averaging error (the original system's MC
+against the closed form).
+
+The drift of an amplitude equation is singular at A = 0 (m ~ sigma^2 / (2A)), and Euler-
+Maruyama on A overshoots below zero. We simulate Z = A^2 instead (Ito):
+
+    dZ = (2 A m + sigma^2) dt + 2 A sigma dB,
+
+whose drift is regular; near 0 it is a squared Bessel process of dimension 2 (drift
+2 sigma^2), on the Feller boundary, where Euler-Maruyama on Z is poor (measured: the first
+histogram bin short by 6 standard errors at dt = 0.01 for the Rayleigh case; a one-noise
+Milstein step, which keeps Z >= sigma^2 h, still by 4). We split the drift as
+2 sigma^2 + (2Am - sigma^2) and take the BESQ(2) part exactly for frozen sigma, as the squared
+radius of a 2-D Brownian step:
+
+    Z_{n+1} = (A_n + sigma dB_1)^2 + (sigma dB_2)^2 + (2 A_n m - sigma^2) h,
+
+where 2Am - sigma^2 -> 0 as A -> 0 (2m/sigma^2 ~ 1/A for an amplitude equation). Weak order 1
+(frozen sigma, explicit remainder). A rare negative Z (strong inward drift at large A) is
+reflected. 2Am - sigma^2 and sigma are tabulated from the caller's m, sigma^2 on a uniform
+grid and interpolated linearly; beyond the table the last value is used (the table should
+reach well past the support).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+from numba import prange
+
+from ._jit import jit
+from .rng import normal, states_from_seed
+from .simulate import Result, _density, _mean_se
+
+ORDER = 1
+
+
+@jit(parallel=True)
+def run_sde_blocks(states, n_paths, n_burn, n_samples, stride, h, a_tab, b_tab, dA_tab,
+                   z0, a_lo, a_inv, hist_A, sums):
+    """Per block: histogram of A and sums (A, A^2, samples, reflections) after burn-in.
+    a_tab = 2 A m(A) - sigma^2(A), b_tab = sigma(A) on the grid A_j = j dA_tab."""
+    n_blocks = states.shape[0]
+    total = n_burn + n_samples * stride
+    sq = math.sqrt(h)
+    last = a_tab.size - 1
+    inv_d = 1.0 / dA_tab
+    for b in prange(n_blocks):
+        s0, s1, s2, s3 = states[b, 0], states[b, 1], states[b, 2], states[b, 3]
+        for _p in range(n_paths):
+            Z = z0
+            for n in range(total):
+                A = math.sqrt(Z)
+                u = A * inv_d
+                j = int(u)
+                if j >= last:
+                    a = a_tab[last]
+                    bb = b_tab[last]
+                else:
+                    w = u - j
+                    a = (1.0 - w) * a_tab[j] + w * a_tab[j + 1]
+                    bb = (1.0 - w) * b_tab[j] + w * b_tab[j + 1]
+                z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
+                z2, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
+                y = A + bb * sq * z
+                y2 = bb * sq * z2
+                Z = y * y + y2 * y2 + a * h
+                if Z < 0.0:
+                    Z = -Z
+                    if n >= n_burn:
+                        sums[b, 3] += 1.0
+                if n < n_burn or (n - n_burn + 1) % stride != 0:
+                    continue
+                A = math.sqrt(Z)
+                i = int((A - a_lo) * a_inv)
+                if 0 <= i < hist_A.shape[1]:
+                    hist_A[b, i] += 1.0
+                sums[b, 0] += A
+                sums[b, 1] += A * A
+                sums[b, 2] += 1.0
+        states[b, 0], states[b, 1], states[b, 2], states[b, 3] = s0, s1, s2, s3
+
+
+def simulate_sde(drift: Callable[[np.ndarray], np.ndarray],
+                 diffusion: Callable[[np.ndarray], np.ndarray], *, edges: np.ndarray,
+                 A_table: float | None = None, table_points: int = 4001, paths: int = 1024,
+                 blocks: int = 32, dt: float = 0.01, time_: float = 2000.0,
+                 burn_in: float = 300.0, sample_every: float = 0.5, seed: int = 20190102,
+                 A0: float | None = None) -> Result:
+    """Histogram of A for the averaged SDE with batch error bars (blocks are the batches)."""
+    edges = np.asarray(edges, dtype=float)
+    top = float(A_table if A_table is not None else 1.5 * edges[-1])
+    grid = np.linspace(0.0, top, table_points)
+    inner = grid[1:]
+    m, s2 = np.asarray(drift(inner), float), np.asarray(diffusion(inner), float)
+    a_inner = 2.0 * inner * m - s2
+    a_tab = np.concatenate([[2.0 * a_inner[0] - a_inner[1]], a_inner])  # linear extrapolation
+    sig = np.sqrt(np.maximum(s2, 0.0))
+    b_tab = np.concatenate([[2.0 * sig[0] - sig[1]], sig])
+    if not (np.all(np.isfinite(a_tab)) and np.all(np.isfinite(b_tab))):
+        raise ValueError("drift or diffusion is not finite on the table")
+    states = states_from_seed(seed, blocks)
+    n_burn = int(round(burn_in / dt))
+    stride = max(int(round(sample_every / dt)), 1)
+    n_samples = max(int(time_ / (stride * dt)), 1)
+    per_block = paths // blocks
+    z0 = (A0 if A0 is not None else 0.5 * (edges[0] + edges[-1])) ** 2
+    hist = np.zeros((blocks, edges.size - 1))
+    sums = np.zeros((blocks, 4))
+    t0 = time.perf_counter()
+    run_sde_blocks(states[:1].copy(), 1, 1, 1, 1, dt, a_tab, b_tab, grid[1] - grid[0], z0,
+                   edges[0], 1.0 / (edges[1] - edges[0]), np.zeros((1, edges.size - 1)),
+                   np.zeros((1, 4)))
+    compile_s = time.perf_counter() - t0
+    t1 = time.perf_counter()
+    run_sde_blocks(states, per_block, n_burn, n_samples, stride, dt, a_tab, b_tab,
+                   grid[1] - grid[0], z0, edges[0], 1.0 / (edges[1] - edges[0]), hist, sums)
+    run_s = time.perf_counter() - t1
+    d = _density(hist, sums[:, 2], np.diff(edges))
+    steps = float(blocks * per_block * (n_burn + n_samples * stride))
+    info: dict[str, Any] = {
+        "solver": "averaged-sde",
+        "order": {"weak": ORDER, "note": "exact BESQ(2) part + explicit remainder, Z = A^2"},
+        "settings": {"paths": blocks * per_block, "dt": dt, "time": n_samples * stride * dt,
+                     "burn_in": n_burn * dt, "sample_every": stride * dt, "blocks": blocks,
+                     "table_points": table_points, "A_table": top},
+        "seed": {"root": seed, "scheme": "numpy.random.SeedSequence(root).spawn(blocks)"},
+        "L1_floor": {"A": d["L1_floor"]},
+        "moments": {"A": {"mean": _mean_se(sums[:, 0] / sums[:, 2]),
+                          "second": _mean_se(sums[:, 1] / sums[:, 2])}},
+        "reflections_per_sample": float(sums[:, 3].sum() / sums[:, 2].sum()),
+        "seconds": {"compile": compile_s, "run": run_s, "total": compile_s + run_s},
+        "steps": steps, "steps_per_second": steps / run_s if run_s > 0 else math.nan,
+        "status": {"ok": bool(np.all(np.isfinite(d["p"]))), "message": "simulated"},
+    }
+    data = {"A": {"x": 0.5 * (edges[1:] + edges[:-1]), "p": d["p"], "edges": edges,
+                  "err": d["err"]}}
+    return Result(data=data, info=info)

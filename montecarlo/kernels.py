@@ -1,0 +1,219 @@
+"""numba kernels for the ORIGINAL non-smooth system (Liu et al. 2019, eq. 17)::
+
+    x'' + (c2 x^2 - c1) x' + w0^2 x + alpha x^3 + mu sgn(x') = f xi(t),   x > 0
+    x'(+) = -r x'(-) at x = 0;   xi' = -alpha1 xi + W (OU)  or  xi = W (white), E[W W] = 2 D delta
+
+One step of size h is the Strang splitting (weak order 2 on the smooth sub-system)::
+
+    OU:    A(h/2)  B(h; xi)                     A(h/2)  C(h)
+    white: A(h/2)  B(h/2)  kick f sqrt(2 D h) N  B(h/2)  A(h/2)
+
+- A(tau), drift: x += v tau. With the barrier the root of x = 0 inside the sub-step is exact
+  (x is linear there): v -> -r v and the rest of the sub-step is completed.
+  Chatter guard: if the rebound speed r|v| is below P h, with P > 0 the net force pressing
+  the mass back onto the wall (f xi at the wall, plus friction mu against the rebound),
+  the next flight is shorter than one step: the mass comes to rest at x = 0, v = 0. It
+  leaves when the net force pulls it away by more than mu (the rule of B at the wall).
+- B(tau), velocity: x and xi frozen, v' = F - k v - mu sgn(v) with F = -g(x) + f xi,
+  k = c2 x^2 - c1. Linear in v between sign changes, so solved exactly:
+  v(t) = v e^{-kt} + (F - mu s) t phi(kt), phi(z) = (1 - e^{-z}) / z. A zero crossing at
+  t* = (-v/F') log1p(z)/z, z = -k v / F', is found analytically; at v = 0 the mass sticks
+  while |F| <= mu (at the wall: while F <= mu), else slips the other way.
+- C(h): the exact OU update xi <- a xi + sqrt(D/alpha1 (1 - a^2)) N, a = e^{-alpha1 h}.
+  (C(h/2) C(h/2) of consecutive steps merge: xi lives at the middle of each step.)
+
+Switched-off effects are ``None`` (mu, r, alpha1 for white noise, unrequested histograms):
+numba prunes those branches at compile time.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import prange
+
+from ._jit import jit
+from .geometry import amplitude
+from .rng import normal
+
+# columns of the per-block event array
+EV_IMPACTS, EV_STUCK, EV_CHATTER, EV_TIME, EV_SAMPLES, EV_OUT_A, EV_OUT_X, EV_OUT_V = range(8)
+N_EVENTS = 8
+# columns of the per-block moment array
+MO_A, MO_A2, MO_X, MO_X2, MO_V, MO_V2, MO_MAXA, MO_MAXX, MO_MAXV = range(9)
+N_MOMENTS = 9
+
+
+@jit
+def exp_phi(z: float) -> tuple[float, float]:
+    """(e^{-z}, (1 - e^{-z}) / z) for all z. Below |z| = 0.02 (every step at the default dt)
+    a series whose first neglected terms are z^5/120 and z^5/720 (< 3e-11 relative)."""
+    if abs(z) < 0.02:
+        phi = 1.0 - z * (0.5 - z * (1.0 / 6.0 - z * (1.0 / 24.0 - z / 120.0)))
+        return 1.0 - z * phi, phi
+    em = math.expm1(-z)
+    return 1.0 + em, -em / z
+
+
+@jit
+def holds(F: float, mu: float, at_wall: bool) -> bool:
+    """Static friction (and the wall) hold a mass at rest under the net force F."""
+    if at_wall:
+        return F <= mu
+    return abs(F) <= mu
+
+
+@jit
+def velocity_flow(v: float, tau: float, F: float, k: float, mu, at_wall: bool):
+    """Exact v after tau under v' = F - k v - mu sgn(v) (x, xi frozen); (v, time stuck)."""
+    if mu is None:
+        e, phi = exp_phi(k * tau)
+        return v * e + F * tau * phi, 0.0
+    if v == 0.0:
+        if holds(F, mu, at_wall):
+            return 0.0, tau
+        s = 1.0 if F > 0.0 else -1.0
+        e, phi = exp_phi(k * tau)
+        return (F - mu * s) * tau * phi, 0.0
+    s = 1.0 if v > 0.0 else -1.0
+    Fs = F - mu * s
+    e, phi = exp_phi(k * tau)
+    vt = v * e + Fs * tau * phi
+    if vt * s > 0.0:
+        return vt, 0.0
+    # the velocity reaches zero inside the sub-step (Fs opposes v)
+    z = -k * v / Fs
+    if abs(z) < 1e-8:
+        L = 1.0 - 0.5 * z
+    elif z > -1.0:
+        L = math.log1p(z) / z
+    else:
+        L = math.inf
+    t_star = min((-v / Fs) * L, tau)
+    rest = tau - t_star
+    if holds(F, mu, at_wall):
+        return 0.0, rest
+    s2 = 1.0 if F > 0.0 else -1.0
+    e, phi = exp_phi(k * rest)
+    return (F - mu * s2) * rest * phi, 0.0
+
+
+@jit
+def drift(x: float, v: float, tau: float, r, press: float, h: float):
+    """x += v tau with the barrier; returns (x, v, impacts, chatter entries)."""
+    xn = x + v * tau
+    if r is None:
+        return xn, v, 0, 0
+    if xn >= 0.0:
+        return xn, v, 0, 0
+    t_hit = -x / v
+    w = -r * v
+    if press > 0.0 and w < press * h:
+        return 0.0, 0.0, 1, 1
+    return w * (tau - t_hit), w, 1, 0
+
+
+@jit(parallel=True)
+def run_blocks(states, n_paths, n_burn, n_samples, stride, h,
+               c1, c2, w0sq, alpha, f, D, mu, r, alpha1, spread,
+               a_lo, a_inv, hist_A, x_lo, x_inv, hist_x, v_lo, v_inv, hist_v, hist_joint,
+               moments, events):
+    """Simulate ``n_paths`` paths in each block (one block per prange iteration, with its
+    own generator state states[b], so results do not depend on the thread count). Histogram
+    counts, moment sums and event counts are accumulated per block, after ``n_burn``
+    burn-in steps, every ``stride`` steps for ``n_samples`` samples."""
+    n_blocks = states.shape[0]
+    total = n_burn + n_samples * stride
+    if alpha1 is None:
+        kick = 0.0
+        ou_a = 0.0
+        ou_s = 0.0
+    else:
+        ou_a = math.exp(-alpha1 * h)
+        ou_s = math.sqrt(D / alpha1 * (1.0 - ou_a * ou_a))
+    kick = f * math.sqrt(2.0 * D * h)
+    half = 0.5 * h
+    for b in prange(n_blocks):
+        s0, s1, s2, s3 = states[b, 0], states[b, 1], states[b, 2], states[b, 3]
+        for _p in range(n_paths):
+            z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
+            x = spread * z
+            if r is not None:
+                x = abs(x)
+            z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
+            v = spread * z
+            xi = 0.0
+            if alpha1 is not None:
+                z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
+                xi = math.sqrt(D / alpha1) * z
+            for n in range(total):
+                press = 0.0
+                if r is not None:
+                    if alpha1 is not None:
+                        press = -f * xi
+                    if mu is not None:
+                        press += mu
+                x, v, imp1, ch1 = drift(x, v, half, r, press, h)
+                at_wall = False
+                if r is not None:
+                    at_wall = x == 0.0
+                k = c2 * x * x - c1
+                g = (w0sq + alpha * x * x) * x
+                if alpha1 is not None:
+                    v, stuck = velocity_flow(v, h, -g + f * xi, k, mu, at_wall)
+                else:
+                    v, st1 = velocity_flow(v, half, -g, k, mu, at_wall)
+                    z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
+                    v += kick * z
+                    v, st2 = velocity_flow(v, half, -g, k, mu, at_wall)
+                    stuck = st1 + st2
+                x, v, imp2, ch2 = drift(x, v, half, r, press, h)
+                if alpha1 is not None:
+                    z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
+                    xi = ou_a * xi + ou_s * z
+                if n < n_burn:
+                    continue
+                events[b, EV_IMPACTS] += imp1 + imp2
+                events[b, EV_CHATTER] += ch1 + ch2
+                events[b, EV_STUCK] += stuck
+                events[b, EV_TIME] += h
+                if (n - n_burn + 1) % stride != 0:
+                    continue
+                events[b, EV_SAMPLES] += 1.0
+                A = amplitude(x, v, w0sq, alpha)
+                if hist_A is not None:
+                    i = int((A - a_lo) * a_inv)
+                    if 0 <= i < hist_A.shape[1]:
+                        hist_A[b, i] += 1.0
+                    else:
+                        events[b, EV_OUT_A] += 1.0
+                ix = -1
+                iv = -1
+                if hist_x is not None or hist_joint is not None:
+                    ix = int((x - x_lo) * x_inv)
+                if hist_v is not None or hist_joint is not None:
+                    iv = int((v - v_lo) * v_inv)
+                if hist_x is not None:
+                    if 0 <= ix < hist_x.shape[1]:
+                        hist_x[b, ix] += 1.0
+                    else:
+                        events[b, EV_OUT_X] += 1.0
+                if hist_v is not None:
+                    if 0 <= iv < hist_v.shape[1]:
+                        hist_v[b, iv] += 1.0
+                    else:
+                        events[b, EV_OUT_V] += 1.0
+                if hist_joint is not None:
+                    if 0 <= ix < hist_joint.shape[1] and 0 <= iv < hist_joint.shape[2]:
+                        hist_joint[b, ix, iv] += 1.0
+                if moments is not None:
+                    moments[b, MO_A] += A
+                    moments[b, MO_A2] += A * A
+                    moments[b, MO_X] += x
+                    moments[b, MO_X2] += x * x
+                    moments[b, MO_V] += v
+                    moments[b, MO_V2] += v * v
+                    moments[b, MO_MAXA] = max(moments[b, MO_MAXA], A)
+                    moments[b, MO_MAXX] = max(moments[b, MO_MAXX], abs(x))
+                    moments[b, MO_MAXV] = max(moments[b, MO_MAXV], abs(v))
+        states[b, 0], states[b, 1], states[b, 2], states[b, 3] = s0, s1, s2, s3
