@@ -246,3 +246,21 @@ def test_settings_are_frozen():
     with pytest.raises(AttributeError):
         s.dt = 0.1  # type: ignore[misc]
     assert replace(s, dt=0.02).dt == 0.02
+
+
+def test_numpy_reference_is_the_same_scheme(base):
+    """The benchmark's NumPy implementation must simulate the same scheme: stuck fraction and
+    impact rate agree within 4 combined batch standard errors (friction-heavy scene)."""
+    from montecarlo.reference import simulate_numpy
+    from montecarlo.simulate import _params
+
+    sc = vary(base, mu=0.1)
+    r = mc.simulate(sc.system, sc.noise, paths=256, blocks=16, dt=0.01, time=200, burn_in=50,
+                    progress=False, edges=FIXED, observables=("events",))
+    ev = r.info["events"]
+    runs = [simulate_numpy(_params(sc.system, sc.noise), paths=256, steps=15000, burn=5000,
+                           stride=50, h=0.01, edges_A=FIXED["edges_A"], seed=s) for s in range(4)]
+    for key, num in (("stuck_fraction", "stuck_time"), ("impacts_per_time", "impacts")):
+        vals = np.array([o[num] / o["time"] for o in runs])
+        se = math.hypot(ev[key]["err"], vals.std(ddof=1) / 2)
+        assert abs(ev[key]["value"] - vals.mean()) < 4 * se

@@ -1,0 +1,118 @@
+"""The same Strang-splitting scheme as ``kernels.py``, vectorised over paths in plain NumPy.
+
+A reference for speed (benchmarks/bench_montecarlo.py: the ratio numba / NumPy is measured
+in one run) and for correctness (tests/test_montecarlo.py checks that both give the same
+statistics). Same physics, same rules (impacts, chatter guard, stick-slip); NumPy's own
+random numbers, so results agree in distribution, not bit for bit.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+
+def _exp_phi(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    small = np.abs(z) < 1e-8
+    zz = np.where(small, 1.0, z)
+    em = np.expm1(-zz)
+    phi = np.where(small, 1.0 - 0.5 * z, -em / zz)
+    return 1.0 - z * phi, phi
+
+
+def _velocity_flow(v, tau, F, k, mu, at_wall):
+    e, phi = _exp_phi(k * tau)
+    if mu is None:
+        return v * e + F * tau * phi, np.zeros_like(v)
+    hold = np.where(at_wall, F <= mu, np.abs(F) <= mu)
+    s = np.sign(v)
+    s_rest = np.where(F > 0, 1.0, -1.0)
+    moving = v != 0.0
+    Fs = F - mu * np.where(moving, s, s_rest)
+    vt = np.where(moving, v * e + Fs * tau * phi, Fs * tau * phi)
+    crossed = moving & (vt * s <= 0.0)
+    # zero crossing time (only where crossed)
+    Fsafe = np.where(crossed, Fs, -1.0)
+    z = -k * v / Fsafe
+    zsafe = np.where(np.abs(z) < 1e-8, 1.0, z)
+    L = np.where(np.abs(z) < 1e-8, 1.0 - 0.5 * z,
+                 np.where(z > -1.0, np.log1p(np.maximum(zsafe, -1 + 1e-300)) / zsafe, np.inf))
+    t_star = np.minimum((-v / Fsafe) * L, tau)
+    rest = tau - t_star
+    e2, phi2 = _exp_phi(k * rest)
+    after = np.where(hold, 0.0, (F - mu * s_rest) * rest * phi2)
+    v_new = np.where(crossed, after, vt)
+    stuck = np.where(crossed & hold, rest, 0.0)
+    at_rest = ~moving & hold
+    v_new = np.where(at_rest, 0.0, v_new)
+    stuck = np.where(at_rest, tau, stuck)
+    return v_new, stuck
+
+
+def _drift(x, v, tau, r, press, h):
+    xn = x + v * tau
+    if r is None:
+        return xn, v, 0, 0
+    hit = xn < 0.0
+    if not hit.any():
+        return xn, v, 0, 0
+    t_hit = np.where(hit, -x / np.where(v == 0, -1.0, v), 0.0)
+    w = -r * v
+    rest = hit & (press > 0.0) & (w < press * h)
+    x_new = np.where(hit, np.where(rest, 0.0, w * (tau - t_hit)), xn)
+    v_new = np.where(hit, np.where(rest, 0.0, w), v)
+    return x_new, v_new, int(hit.sum()), int(rest.sum())
+
+
+def simulate_numpy(phys: dict[str, Any], *, paths: int, steps: int, burn: int, stride: int,
+                   h: float, edges_A: np.ndarray, seed: int = 0) -> dict[str, Any]:
+    """Histogram of A (counts), impacts and stuck time, for ``paths`` paths of ``steps``."""
+    rng = np.random.default_rng(seed)
+    c1, c2, w0sq, alpha, f, D = (phys[k] for k in ("c1", "c2", "w0sq", "alpha", "f", "D"))
+    mu, r, alpha1 = phys["mu"], phys["r"], phys["alpha1"]
+    x = 0.1 * rng.standard_normal(paths)
+    if r is not None:
+        x = np.abs(x)
+    v = 0.1 * rng.standard_normal(paths)
+    xi = np.zeros(paths)
+    if alpha1 is not None:
+        xi = math.sqrt(D / alpha1) * rng.standard_normal(paths)
+        ou_a = math.exp(-alpha1 * h)
+        ou_s = math.sqrt(D / alpha1 * (1 - ou_a * ou_a))
+    kick = f * math.sqrt(2 * D * h)
+    half = 0.5 * h
+    counts = np.zeros(edges_A.size - 1)
+    impacts = 0
+    stuck_time = 0.0
+    for n in range(steps):
+        press = np.zeros(paths)
+        if r is not None:
+            if alpha1 is not None:
+                press = -f * xi
+            if mu is not None:
+                press = press + mu
+        x, v, i1, _ = _drift(x, v, half, r, press, h)
+        at_wall = (x == 0.0) if r is not None else np.zeros(paths, dtype=bool)
+        k = c2 * x * x - c1
+        g = (w0sq + alpha * x * x) * x
+        if alpha1 is not None:
+            v, st = _velocity_flow(v, h, -g + f * xi, k, mu, at_wall)
+        else:
+            v, st1 = _velocity_flow(v, half, -g, k, mu, at_wall)
+            v = v + kick * rng.standard_normal(paths)
+            v, st2 = _velocity_flow(v, half, -g, k, mu, at_wall)
+            st = st1 + st2
+        x, v, i2, _ = _drift(x, v, half, r, press, h)
+        if alpha1 is not None:
+            xi = ou_a * xi + ou_s * rng.standard_normal(paths)
+        if n >= burn:
+            impacts += i1 + i2
+            stuck_time += float(st.sum())
+            if (n - burn + 1) % stride == 0:
+                E = 0.5 * v * v + 0.5 * w0sq * x * x + 0.25 * alpha * x**4
+                A = np.sqrt(4 * E / (w0sq + np.sqrt(w0sq * w0sq + 4 * alpha * E)))
+                counts += np.histogram(A, bins=edges_A)[0]
+    return {"counts": counts, "impacts": impacts, "stuck_time": stuck_time,
+            "time": (steps - burn) * h * paths}
