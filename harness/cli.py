@@ -1,4 +1,5 @@
-"""Command line: ``vifpk solve SCENE --solver averaging [--model paper|exact] [--json OUT]``.
+"""Command line: ``vifpk solve SCENE --solver averaging|fpk|montecarlo ...`` and
+``vifpk check SCENE [--out DIR]`` (the cross-check and its error report).
 
 Exit codes: 0 success; 2 bad input (one line naming the field, no traceback, no output
 file); 3 the solver could not produce a result (one line saying why); 130 interrupted.
@@ -92,11 +93,7 @@ def _summary(result: Any) -> str:
 def cmd_solve(args: argparse.Namespace) -> int:
     from .io import write_json
 
-    scene = concrete_scene(args.scene, args.set)
-    mc = {k: getattr(args, k) for k in ("paths", "dt", "time", "seed")
-          if getattr(args, k) is not None}
-    if mc:
-        scene = scene.with_values({f"montecarlo.{k}": v for k, v in mc.items()})
+    scene = _apply_mc_options(concrete_scene(args.scene, args.set), args)
     if args.solver == "montecarlo":
         result = run_solver(scene, "montecarlo")
     else:
@@ -111,6 +108,41 @@ def cmd_solve(args: argparse.Namespace) -> int:
     return 0 if result.info["status"]["ok"] else EXIT_SOLVER
 
 
+def _apply_mc_options(scene: Scene, args: argparse.Namespace) -> Scene:
+    mc = {k: getattr(args, k) for k in ("paths", "dt", "time", "seed")
+          if getattr(args, k, None) is not None}
+    if mc:
+        scene = scene.with_values({f"montecarlo.{k}": v for k, v in mc.items()})
+    return scene
+
+
+def cmd_check(args: argparse.Namespace) -> int:
+    from .check import cross_check
+    from .report import write_report
+
+    scene = _apply_mc_options(concrete_scene(args.scene, args.set), args)
+    if scene.system.f == 0.0:
+        raise SolverFailure("f = 0: there is no noise, so no stationary density exists; "
+                            "nothing to cross-check")
+    out = args.out or f"out/{scene.name}"
+    result = cross_check(scene, quiet=args.quiet)
+    files = write_report(result, out)
+    for v in result.verdicts:
+        print(v)
+    for w in result.warnings:
+        print(f"warning: {w}")
+    print(f"report: {files['report.html']}")
+    return 0
+
+
+def _add_mc_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--paths", type=int, help="Monte Carlo: number of paths")
+    p.add_argument("--dt", type=float, help="Monte Carlo: time step")
+    p.add_argument("--time", type=float, metavar="T",
+                   help="Monte Carlo: simulated time sampled per path after the burn-in")
+    p.add_argument("--seed", type=int, help="Monte Carlo: root seed")
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog="vifpk", description="How wrong is a stochastic-averaging approximation?")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
@@ -121,15 +153,20 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--json", metavar="OUT", help="write the solution record to OUT")
     s.add_argument("--grid", type=int, metavar="N",
                    help="FPK: number of cells (default 400)")
-    s.add_argument("--paths", type=int, help="Monte Carlo: number of paths")
-    s.add_argument("--dt", type=float, help="Monte Carlo: time step")
-    s.add_argument("--time", type=float, metavar="T",
-                   help="Monte Carlo: simulated time sampled per path after the burn-in")
-    s.add_argument("--seed", type=int, help="Monte Carlo: root seed")
+    _add_mc_options(s)
     s.add_argument("--joint", action="store_true", help="include the joint PDF in the JSON")
     s.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
                    help="override a scene value (repeatable)")
     s.set_defaults(func=cmd_solve)
+    c = sub.add_parser("check", help="cross-check both averaged models against the Monte "
+                                     "Carlo of the original system and write an error report")
+    c.add_argument("scene", help="scene TOML file (or the name of a shipped scene)")
+    c.add_argument("--out", metavar="DIR", help="report directory (default out/<scene name>)")
+    c.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
+                   help="override a scene value (repeatable)")
+    c.add_argument("--quiet", action="store_true", help="no progress on the terminal")
+    _add_mc_options(c)
+    c.set_defaults(func=cmd_check)
     return p
 
 

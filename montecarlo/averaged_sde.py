@@ -36,17 +36,39 @@ import numpy as np
 from numba import prange
 
 from ._jit import jit
-from .rng import normal, states_from_seed
+from .rng import normal, states_from_seed, uniform
 from .simulate import Result, _density, _mean_se
 
 ORDER = 1
 
 
+@jit
+def orbit_point(A, w0sq, alpha, s0, s1, s2, s3):
+    """(y, y', state): a time-uniform point of the Duffing orbit of amplitude A.
+
+    On the orbit y = A cos(th), y' = -A nu sin(th), d(th)/dt = nu with
+    nu^2 = w0^2 + alpha A^2 (1 + cos^2 th) / 2, so a time-uniform phase has density ~ 1/nu:
+    th uniform, accepted with probability nu_min / nu (>= 1/sqrt(2))."""
+    nu_min = math.sqrt(w0sq + 0.5 * alpha * A * A)
+    while True:
+        u, s0, s1, s2, s3 = uniform(s0, s1, s2, s3)
+        a, s0, s1, s2, s3 = uniform(s0, s1, s2, s3)
+        th = 2.0 * math.pi * u
+        c = math.cos(th)
+        nu = math.sqrt(w0sq + 0.5 * alpha * A * A * (1.0 + c * c))
+        if a * nu <= nu_min:
+            return A * c, -A * nu * math.sin(th), s0, s1, s2, s3
+
+
 @jit(parallel=True)
 def run_sde_blocks(states, n_paths, n_burn, n_samples, stride, h, a_tab, b_tab, dA_tab,
-                   z0, a_lo, a_inv, hist_A, sums):
+                   z0, a_lo, a_inv, hist_A, sums, barrier, w0sq, alpha, x_lo, x_inv, hist_x,
+                   v_lo, v_inv, hist_v):
     """Per block: histogram of A and sums (A, A^2, samples, reflections) after burn-in.
-    a_tab = 2 A m(A) - sigma^2(A), b_tab = sigma(A) on the grid A_j = j dA_tab."""
+    a_tab = 2 A m(A) - sigma^2(A), b_tab = sigma(A) on the grid A_j = j dA_tab.
+    With hist_x / hist_v, each sample also records a time-uniform point of the orbit of
+    amplitude A (x1 = |y|, x2 = y' sgn(y) with the barrier): the averaged model's own
+    phase-space density, p(y, y') = p(E) / T(E)."""
     n_blocks = states.shape[0]
     total = n_burn + n_samples * stride
     sq = math.sqrt(h)
@@ -85,6 +107,17 @@ def run_sde_blocks(states, n_paths, n_burn, n_samples, stride, h, a_tab, b_tab, 
                 sums[b, 0] += A
                 sums[b, 1] += A * A
                 sums[b, 2] += 1.0
+                if hist_x is not None:
+                    y, yp, s0, s1, s2, s3 = orbit_point(A, w0sq, alpha, s0, s1, s2, s3)
+                    if barrier and y < 0.0:
+                        y = -y
+                        yp = -yp
+                    ix = int((y - x_lo) * x_inv)
+                    if 0 <= ix < hist_x.shape[1]:
+                        hist_x[b, ix] += 1.0
+                    iv = int((yp - v_lo) * v_inv)
+                    if 0 <= iv < hist_v.shape[1]:
+                        hist_v[b, iv] += 1.0
         states[b, 0], states[b, 1], states[b, 2], states[b, 3] = s0, s1, s2, s3
 
 
@@ -93,8 +126,11 @@ def simulate_sde(drift: Callable[[np.ndarray], np.ndarray],
                  A_table: float | None = None, table_points: int = 4001, paths: int = 1024,
                  blocks: int = 32, dt: float = 0.01, time_: float = 2000.0,
                  burn_in: float = 300.0, sample_every: float = 0.5, seed: int = 20190102,
-                 A0: float | None = None) -> Result:
-    """Histogram of A for the averaged SDE with batch error bars (blocks are the batches)."""
+                 A0: float | None = None, phase: dict[str, Any] | None = None) -> Result:
+    """Histogram of A for the averaged SDE with batch error bars (blocks are the batches).
+
+    phase: optional ``{"omega0", "alpha", "barrier", "edges_x", "edges_v"}`` to also record
+    x1, x2 from time-uniform points of the orbit of each sampled amplitude."""
     edges = np.asarray(edges, dtype=float)
     top = float(A_table if A_table is not None else 1.5 * edges[-1])
     grid = np.linspace(0.0, top, table_points)
@@ -114,14 +150,28 @@ def simulate_sde(drift: Callable[[np.ndarray], np.ndarray],
     z0 = (A0 if A0 is not None else 0.5 * (edges[0] + edges[-1])) ** 2
     hist = np.zeros((blocks, edges.size - 1))
     sums = np.zeros((blocks, 4))
+    if phase is not None:
+        ex = np.asarray(phase["edges_x"], dtype=float)
+        ev = np.asarray(phase["edges_v"], dtype=float)
+        geo = (bool(phase["barrier"]), float(phase["omega0"]) ** 2, float(phase["alpha"]))
+        hx, hv = np.zeros((blocks, ex.size - 1)), np.zeros((blocks, ev.size - 1))
+    else:
+        ex = ev = np.array([0.0, 1.0])
+        geo = (True, 1.0, 0.0)
+        hx = hv = None
+
+    def call(st, n_p, n_b, n_s, stride_, hA, sm, hx_, hv_):
+        run_sde_blocks(st, n_p, n_b, n_s, stride_, dt, a_tab, b_tab, grid[1] - grid[0], z0,
+                       edges[0], 1.0 / (edges[1] - edges[0]), hA, sm, geo[0], geo[1], geo[2],
+                       ex[0], 1.0 / (ex[1] - ex[0]), hx_, ev[0], 1.0 / (ev[1] - ev[0]), hv_)
+
     t0 = time.perf_counter()
-    run_sde_blocks(states[:1].copy(), 1, 1, 1, 1, dt, a_tab, b_tab, grid[1] - grid[0], z0,
-                   edges[0], 1.0 / (edges[1] - edges[0]), np.zeros((1, edges.size - 1)),
-                   np.zeros((1, 4)))
+    call(states[:1].copy(), 1, 1, 1, 1, np.zeros((1, edges.size - 1)), np.zeros((1, 4)),
+         None if hx is None else np.zeros((1, ex.size - 1)),
+         None if hv is None else np.zeros((1, ev.size - 1)))
     compile_s = time.perf_counter() - t0
     t1 = time.perf_counter()
-    run_sde_blocks(states, per_block, n_burn, n_samples, stride, dt, a_tab, b_tab,
-                   grid[1] - grid[0], z0, edges[0], 1.0 / (edges[1] - edges[0]), hist, sums)
+    call(states, per_block, n_burn, n_samples, stride, hist, sums, hx, hv)
     run_s = time.perf_counter() - t1
     d = _density(hist, sums[:, 2], np.diff(edges))
     steps = float(blocks * per_block * (n_burn + n_samples * stride))
@@ -142,4 +192,9 @@ def simulate_sde(drift: Callable[[np.ndarray], np.ndarray],
     }
     data = {"A": {"x": 0.5 * (edges[1:] + edges[:-1]), "p": d["p"], "edges": edges,
                   "err": d["err"]}}
+    if hx is not None:
+        for name, hh, e in (("x1", hx, ex), ("x2", hv, ev)):
+            dd = _density(hh, sums[:, 2], np.diff(e))
+            data[name] = {"x": 0.5 * (e[1:] + e[:-1]), "p": dd["p"], "edges": e, "err": dd["err"]}
+            info["L1_floor"][name] = dd["L1_floor"]
     return Result(data=data, info=info)

@@ -1,0 +1,135 @@
+"""The cross-check: metrics on hand-computed cases, the report end to end on a tiny scene."""
+
+from __future__ import annotations
+
+import json
+import math
+from html.parser import HTMLParser
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from harness.cli import main
+from harness.compare import bin_average, compare
+
+from .conftest import ROOT
+
+TINY = str(ROOT / "tests" / "data" / "tiny.toml")
+
+
+def uniform(lo, hi, n=2001):
+    x = np.linspace(lo - 1e-9, hi + 1e-9, n)
+    return {"x": x, "p": np.where((x >= lo) & (x <= hi), 1.0 / (hi - lo), 0.0)}
+
+
+def test_metrics_of_two_shifted_uniforms():
+    """U[0,1] against U[0.5,1.5]: L1 = 1, Bhattacharyya 1/2 so H = sqrt(1/2), KS = 1/2,
+    mean shift -1/2 (grid error of the step edges ~1e-3)."""
+    m = compare(uniform(0, 1), uniform(0.5, 1.5))
+    assert m["L1"] == pytest.approx(1.0, abs=2e-3)
+    assert m["hellinger"] == pytest.approx(math.sqrt(0.5), abs=2e-3)
+    assert m["ks"] == pytest.approx(0.5, abs=2e-3)
+    assert m["mean_diff"] == pytest.approx(-0.5, abs=2e-3)
+    assert compare(uniform(0, 1), uniform(0, 1))["L1"] == pytest.approx(0, abs=1e-12)
+
+
+def test_gaussians_against_closed_forms():
+    """N(0,1) against N(d,1): L1 = 2 (2 Phi(d/2) - 1), H^2 = 1 - exp(-d^2/8), KS = 2Phi(d/2)-1."""
+    from scipy.stats import norm
+
+    x = np.linspace(-12, 12, 20001)
+    d = 0.7
+    a = {"x": x, "p": norm.pdf(x)}
+    b = {"x": x, "p": norm.pdf(x, loc=d)}
+    m = compare(a, b)
+    tv = 2 * norm.cdf(d / 2) - 1
+    assert m["L1"] == pytest.approx(2 * tv, rel=1e-6)
+    assert m["hellinger"] == pytest.approx(math.sqrt(1 - math.exp(-d * d / 8)), rel=1e-6)
+    assert m["ks"] == pytest.approx(tv, rel=1e-4)
+    assert m["mean_diff"] == pytest.approx(-d, abs=1e-9)
+
+
+def test_histogram_noise_floor_matches_theory():
+    """With Gaussian bin errors the L1 floor is sum sqrt(2/pi) se w (bootstrap: 400 draws,
+    relative noise ~1/sqrt(400 n_bins))."""
+    edges = np.linspace(0, 1, 51)
+    w = np.diff(edges)
+    se = np.full(50, 0.05)
+    hist = {"x": 0.5 * (edges[1:] + edges[:-1]), "p": np.ones(50), "edges": edges, "err": se}
+    m = compare({"x": np.linspace(0, 1, 11), "p": np.ones(11)}, hist)
+    assert m["L1"] == pytest.approx(0.0, abs=1e-12)
+    assert m["L1_floor"] == pytest.approx(np.sum(math.sqrt(2 / math.pi) * se * w), rel=0.03)
+    assert m["ks_floor"] > 0 and m["hellinger_floor"] > 0
+
+
+def test_bin_average_is_exact_for_piecewise_linear():
+    x = np.linspace(0, 2, 5)
+    d = {"x": x, "p": x / 2}  # density p = x / 2 on [0, 2]
+    edges = np.array([0.0, 1.0, 2.0])
+    np.testing.assert_allclose(bin_average(d, edges), [0.25, 0.75])
+
+
+def test_two_histograms_need_the_same_edges():
+    e1, e2 = np.linspace(0, 1, 5), np.linspace(0, 1, 6)
+    h1 = {"x": e1[:-1], "p": np.ones(4), "edges": e1, "err": np.ones(4) * 0.1}
+    h2 = {"x": e2[:-1], "p": np.ones(5), "edges": e2, "err": np.ones(5) * 0.1}
+    with pytest.raises(ValueError, match="share their edges"):
+        compare(h1, h2)
+
+
+class _Collect(HTMLParser):
+    def __init__(self):
+        super().__init__()
+        self.tags: list[str] = []
+        self.imgs: list[str] = []
+
+    def handle_starttag(self, tag, attrs):
+        self.tags.append(tag)
+        if tag == "img":
+            self.imgs.append(dict(attrs)["src"])
+
+
+def test_check_end_to_end(tmp_path: Path, capsys):
+    out = tmp_path / "rep"
+    assert main(["check", TINY, "--out", str(out), "--quiet"]) == 0
+    printed = capsys.readouterr().out
+    assert "paper model: L1(A) =" in printed and "exact model: L1(A) =" in printed
+    for name in ("report.html", "report.md", "metrics.json", "arrays.npz",
+                 "figures/densities.png", "figures/decomposition.png"):
+        assert (out / name).is_file(), name
+    assert not list(out.glob(".partial-*"))
+    m = json.loads((out / "metrics.json").read_text())
+    for model in ("paper", "exact"):
+        for kind in ("averaging_error", "discretisation_error", "sampling_error"):
+            for obs in ("A", "x1", "x2"):
+                e = m["models"][model][kind][obs]
+                for key in ("L1", "L1_floor", "hellinger", "ks"):
+                    assert math.isfinite(e[key]), (model, kind, obs, key)
+    assert m["scene"]["name"] == "tiny" and len(m["verdicts"]) == 2
+    parser = _Collect()
+    parser.feed((out / "report.html").read_text())
+    assert "table" in parser.tags and len(parser.imgs) == 2
+    assert all(src.startswith("data:image/png;base64,") for src in parser.imgs)  # offline
+    with np.load(out / "arrays.npz") as z:
+        assert "mc_original__A__err" in z and "closed_paper__A__p" in z
+
+
+def test_interrupted_report_leaves_no_complete_looking_file(tmp_path: Path, monkeypatch):
+    from harness import report
+
+    def boom(*a, **k):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(report, "render_html", boom)
+    out = tmp_path / "rep"
+    assert main(["check", TINY, "--out", str(out), "--quiet"]) == 130
+    assert not (out / "metrics.json").exists() and not (out / "report.md").exists()
+    assert not list(out.glob(".partial-*"))
+
+
+def test_check_f_zero_is_a_clear_message(tmp_path: Path, capsys):
+    assert main(["check", TINY, "--set", "system.f=0", "--out", str(tmp_path / "o"),
+                 "--quiet"]) == 3
+    err = capsys.readouterr().err
+    assert "no stationary density" in err and not (tmp_path / "o").exists()
