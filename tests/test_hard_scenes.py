@@ -1,0 +1,105 @@
+"""The hard scenes of scenes/hard/: bounded time, finite normalised densities, and the report
+says in words when an averaging assumption fails. The full-size checks are marked slow."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from averaging import solve
+from harness.check import assumption_warnings, cross_check
+from harness.cli import main
+from harness.scene import load_scene
+
+from .conftest import ROOT
+
+HARD = sorted((ROOT / "scenes" / "hard").glob("*.toml"))
+# what the warnings must say (one keyword a failed assumption), from the physics of each scene
+EXPECTED = {
+    "alpha1-narrow": ["narrow-band"], "c1-strong": ["strong damping"],
+    "r-low": ["strong damping"], "mu-large": ["strong damping"],
+    "D-large": ["strong noise"], "D-tiny": ["strong damping"],
+    "alpha1-wide": ["strong damping"], "alpha-stiff": [], "r-elastic": [], "white": [],
+}
+
+
+def test_there_are_enough_hard_scenes():
+    names = {p.stem for p in HARD}
+    assert len(names - {"no-noise"}) >= 10 and "no-noise" in names
+    assert set(EXPECTED) <= names
+
+
+@pytest.mark.parametrize("name", sorted(EXPECTED))
+def test_assumption_warnings(name):
+    scene = load_scene(ROOT / "scenes" / "hard" / f"{name}.toml")
+    closed = {"exact": solve(scene, model="exact")}
+    warnings = assumption_warnings(scene, closed, {})
+    text = " ".join(warnings)
+    for key in EXPECTED[name]:
+        assert key in text, warnings
+    if not EXPECTED[name]:
+        assert warnings == []
+
+
+def test_base_scene_has_no_warning():
+    scene = load_scene(ROOT / "scenes" / "paper-base.toml")
+    assert assumption_warnings(scene, {"exact": solve(scene, model="exact")}, {}) == []
+
+
+def test_sticking_is_reported_from_the_simulation():
+    scene = load_scene(ROOT / "scenes" / "paper-base.toml")
+    warnings = assumption_warnings(scene, {"exact": solve(scene, model="exact")},
+                                   {"events": {"stuck_fraction": {"value": 0.5}}})
+    assert any("sticking-dominated" in w for w in warnings)
+
+
+def test_unconverged_simulation_is_reported():
+    """Too short a burn-in at D = 1e-5 leaves the simulation far outside the models' range."""
+    scene = load_scene(ROOT / "scenes" / "hard" / "D-tiny.toml").with_values(
+        {"montecarlo.paths": 32, "montecarlo.blocks": 16, "montecarlo.time": 20.0,
+         "montecarlo.burn_in": 10.0})
+    result = cross_check(scene, quiet=True)
+    assert any("outside the range" in w for w in result.warnings)
+
+
+def test_no_noise_scene_is_a_clear_message(tmp_path: Path, capsys):
+    assert main(["check", str(ROOT / "scenes/hard/no-noise.toml"), "--out", str(tmp_path / "o"),
+                 "--quiet"]) == 3
+    assert "no stationary density" in capsys.readouterr().err
+
+
+def _check_finite(result) -> None:
+    for name, sol in result.solutions.items():
+        for obs in ("A", "x1", "x2"):
+            d = sol.data[obs]
+            p = np.asarray(d["p"])
+            assert np.all(np.isfinite(p)) and np.min(p) >= 0, (name, obs)
+            if "edges" in d:
+                mass = float(np.sum(p * np.diff(d["edges"])))
+                assert 0.99 <= mass <= 1.0 + 1e-9, (name, obs, mass)
+            else:
+                assert np.trapezoid(p, d["x"]) == pytest.approx(1, abs=1e-9), (name, obs)
+    for m in result.metrics["models"].values():
+        for kind in m.values():
+            for e in kind.values():
+                assert all(np.isfinite(v) for v in e.values())
+
+
+@pytest.mark.parametrize("name", ["alpha1-narrow", "r-low", "D-tiny"])
+def test_hard_scene_cross_check_small(name):
+    scene = load_scene(ROOT / "scenes" / "hard" / f"{name}.toml")
+    scene = scene.with_values({"montecarlo.paths": 64, "montecarlo.blocks": 16,
+                               "montecarlo.time": 100.0})
+    result = cross_check(scene, quiet=True)
+    _check_finite(result)
+    assert result.warnings and all("NOT an estimate" in v for v in result.verdicts)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("path", [p for p in HARD if p.stem != "no-noise"], ids=lambda p: p.stem)
+def test_hard_scene_cross_check_full(path):
+    """Every hard scene at the default (full) settings: ~12 s each on 2 cores."""
+    result = cross_check(load_scene(path), quiet=True)
+    _check_finite(result)
