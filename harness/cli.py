@@ -135,6 +135,30 @@ def cmd_check(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_bifurcation(args: argparse.Namespace) -> int:
+    from .bifurcation import bifurcation
+    from .io import write_json
+
+    scene = _apply_mc_options(concrete_scene(args.scene, args.set), args)
+    lo, hi = args.range if args.range else (None, None)
+    if not args.quiet:
+        print(f"searching the critical {args.vary} (shape criterion on each averaged model)"
+              + ("; then Monte Carlo on both sides" if not args.no_mc else "") + " ...",
+              file=sys.stderr, flush=True)
+    res = bifurcation(scene, args.vary, lo=lo, hi=hi, mc=not args.no_mc)
+    for m, c in res["critical"].items():
+        where = f"{c:.6g}" if c is not None else f"none in {res['range']}"
+        print(f"{m} model: critical {args.vary} = {where}")
+    for chk in res.get("mc_check", []):
+        print(f"  {args.vary} = {chk['value']:.5g}: models predict {chk['predicted']}; "
+              f"original system (MC): {chk['monte_carlo']['shape']} "
+              f"(largest rise of log p(y, y') {chk['monte_carlo']['max_rise_in_se']:.1f} s.e.)")
+    print(f"paper claims: {res['paper_claim']}")
+    if args.json:
+        write_json(args.json, res)
+    return 0
+
+
 def _add_mc_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--paths", type=int, help="Monte Carlo: number of paths")
     p.add_argument("--dt", type=float, help="Monte Carlo: time step")
@@ -167,6 +191,18 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--quiet", action="store_true", help="no progress on the terminal")
     _add_mc_options(c)
     c.set_defaults(func=cmd_check)
+    b = sub.add_parser("bifurcation", help="find the critical mu or r of the P-bifurcation of "
+                                           "each averaged model and check it by Monte Carlo")
+    b.add_argument("scene", help="scene TOML file (or the name of a shipped scene)")
+    b.add_argument("--vary", choices=("mu", "r"), required=True)
+    b.add_argument("--range", nargs=2, type=float, metavar=("LO", "HI"),
+                   help="search interval (default mu: 0 0.05, r: 0.9 1)")
+    b.add_argument("--json", metavar="OUT", help="write the result as JSON")
+    b.add_argument("--no-mc", action="store_true", help="skip the Monte Carlo check")
+    b.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE")
+    b.add_argument("--quiet", action="store_true")
+    _add_mc_options(b)
+    b.set_defaults(func=cmd_bifurcation)
     return p
 
 

@@ -1,0 +1,119 @@
+"""Stochastic P-bifurcation: where the section of the joint PDF at x1 = 0 turns into a crater.
+
+The section is p(0, x2) = 2 p(y, y')|_{y=0} = 2 exp(h(A)) with h = log(p_E / T) and
+A = U^{-1}(x2^2 / 2) increasing in |x2|. So the section has a single peak at x2 = 0 exactly
+when h decreases on all of A > 0, and a crater (a ring of maxima at |x2| > 0, with or without a
+central spike from friction) when h rises somewhere. The **shape criterion** is
+
+    F(parameter) = max_{A > 0} h'(A)        (< 0: one peak;  > 0: crater)
+
+and the critical value is the root of F, found by Brent's method. For the exact model
+h' = 2 m_d g / sigma_E^2: a crater appears where the deterministic energy balance m_d turns
+positive somewhere, whatever the noise intensity. With alpha = 0 both models give the
+closed form mu_c = (pi w0 c / 6) sqrt(4 c / (3 c2)) with c = c1 - (1 - r^2) w0 / pi (exact law)
+or c1 - 2 (1 - r) w0 / pi (paper): tests/test_bifurcation.py checks the finder against it.
+
+The Monte Carlo of the original system is then run on both sides of each critical value: its
+A-histogram gives h = log(p_A / (g T)) bin by bin with error bars, and the shape is "crater"
+when h rises by more than 3 combined standard errors between two bins.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+from scipy.optimize import brentq
+
+VARIABLES = {"mu": ("system", "mu", (0.0, 0.05)), "r": ("system", "r", (0.9, 1.0))}
+PAPER_CLAIMS = {
+    "mu": "mu near 0.038 at r = 0.975 (section 5.2; its own Figure 5 spans mu = 0.001-0.008, "
+          "so 0.0038 may be meant)",
+    "r": "r near 0.968 at mu = 0.001 (section 5.2)",
+}
+
+
+def with_param(scene: Any, vary: str, value: float) -> Any:
+    section, key, _ = VARIABLES[vary]
+    return replace(scene, **{section: replace(getattr(scene, section), **{key: value})})
+
+
+def shape_index(scene: Any, model: str) -> float:
+    """F = max over the support of h'(A) (finite differences of h on the model's grid)."""
+    import averaging
+    from averaging.stationary import amplitude_density
+
+    m = averaging.build_model(scene, model)
+    amp = amplitude_density(m, points=scene.averaging.points, tail=scene.averaging.tail)
+    slope = np.diff(amp.log_h) / np.diff(amp.A)
+    return float(np.max(slope[np.isfinite(slope)]))
+
+
+def critical_value(scene: Any, model: str, vary: str, lo: float, hi: float, *,
+                   xtol: float = 1e-6) -> float | None:
+    """Root of the shape criterion in [lo, hi], or None when it does not change sign."""
+    def F(v: float) -> float:
+        return shape_index(with_param(scene, vary, v), model)
+
+    f_lo, f_hi = F(lo), F(hi)
+    if not (math.isfinite(f_lo) and math.isfinite(f_hi)) or f_lo * f_hi > 0:
+        return None
+    return float(brentq(F, lo, hi, xtol=xtol))
+
+
+def mc_shape(scene: Any, *, z: float = 3.0) -> dict[str, Any]:
+    """The section's shape in the Monte Carlo of the original system (from p_A)."""
+    from averaging.geometry import period, restoring
+
+    from .run import montecarlo_solution
+
+    sc = replace(scene, observables=replace(scene.observables, A=True, x1=False, x2=False,
+                                            joint=False, moments=False, events=True))
+    res = montecarlo_solution(sc, progress=False)
+    d = res.data["A"]
+    A, p, err = d["x"], d["p"], d["err"]
+    ok = (p > 5 * err) & (A > 0)
+    g = restoring(A[ok], scene.system.omega0, scene.system.alpha)
+    T = period(A[ok], scene.system.omega0, scene.system.alpha)
+    h = np.log(p[ok] / (g * T))
+    se = err[ok] / p[ok]
+    # the largest significant rise h_j - h_i (i < j), in units of the combined error
+    best = -math.inf
+    for i in range(h.size - 1):
+        rise = (h[i + 1:] - h[i]) / np.sqrt(se[i + 1:] ** 2 + se[i] ** 2)
+        best = max(best, float(np.max(rise)))
+    return {"shape": "crater" if best > z else "single peak", "max_rise_in_se": best,
+            "bins_used": int(ok.sum())}
+
+
+def bifurcation(scene: Any, vary: str, *, lo: float | None = None, hi: float | None = None,
+                models: tuple[str, ...] = ("paper", "exact"), mc: bool = True,
+                offset: float = 0.1) -> dict[str, Any]:
+    """Critical values for each model and, optionally, the MC shape on both sides of each."""
+    if vary not in VARIABLES:
+        raise ValueError(f"--vary must be one of {sorted(VARIABLES)}")
+    d_lo, d_hi = VARIABLES[vary][2]
+    lo = d_lo if lo is None else lo
+    hi = d_hi if hi is None else hi
+    out: dict[str, Any] = {"vary": vary, "range": [lo, hi], "critical": {},
+                           "criterion": "max_{A>0} d/dA log p(y, y') = 0",
+                           "paper_claim": PAPER_CLAIMS[vary]}
+    for m in models:
+        out["critical"][m] = critical_value(scene, m, vary, lo, hi)
+    if mc:
+        span = offset * (hi - lo)
+        found = sorted(c for c in out["critical"].values() if c is not None)
+        points: list[float] = []
+        for c in found:  # one point each side of every distinct critical value
+            for v in (max(c - span, lo), min(c + span, hi)):
+                if all(abs(v - q) > 0.5 * span for q in points):
+                    points.append(v)
+        checks = []
+        for v in sorted(points):
+            s = with_param(scene, vary, v)
+            pred = {k: ("crater" if shape_index(s, k) > 0 else "single peak") for k in models}
+            checks.append({"value": v, "predicted": pred, "monte_carlo": mc_shape(s)})
+        out["mc_check"] = checks
+    return out

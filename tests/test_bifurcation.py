@@ -1,0 +1,57 @@
+"""The P-bifurcation finder against the closed form for alpha = 0, and the command."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import pytest
+
+from harness.bifurcation import critical_value, mc_shape, with_param
+from harness.cli import main
+
+from .conftest import ROOT, vary
+
+
+def mu_critical(c1: float, c2: float, w0: float, loss: float) -> float:
+    """alpha = 0: h' ~ A [(w0^2/2) A (c - c2 A^2/4) - 2 mu w0/pi] (energy form) changes sign
+    when mu = (pi w0 c / 6) sqrt(4c / (3 c2)), c = c1 - impact loss rate."""
+    c = c1 - loss
+    return math.pi * w0 * c / 6 * math.sqrt(4 * c / (3 * c2))
+
+
+@pytest.mark.parametrize(("model", "r"), [("paper", 1.0), ("paper", 0.98), ("exact", 0.98)])
+def test_critical_mu_matches_closed_form(base, model, r):
+    sc = vary(base, alpha=0.0, r=r)
+    loss = (1 - r * r) / math.pi if model == "exact" else 2 * (1 - r) / math.pi
+    expect = mu_critical(0.025, 0.05, 1.0, loss)
+    got = critical_value(sc, model, "mu", 0.0, 0.05)
+    # the max of h' is taken on the 801-point grid: relative error ~(h/A*)^2 ~ 1e-5
+    assert got == pytest.approx(expect, rel=1e-4)
+
+
+def test_no_root_in_range_is_none(base):
+    assert critical_value(vary(base, alpha=0.0, r=1.0), "paper", "mu", 0.02, 0.05) is None
+
+
+def test_paper_model_reproduces_the_papers_critical_r(base):
+    """Section 5.2: P-bifurcation near r = 0.968 at mu = 0.001 (our paper model: 0.9681)."""
+    assert critical_value(base, "paper", "r", 0.9, 1.0) == pytest.approx(0.968, abs=5e-4)
+
+
+def test_mc_shape_sees_crater_and_peak(base):
+    small = {"montecarlo.paths": 128, "montecarlo.blocks": 16, "montecarlo.time": 400.0}
+    crater = mc_shape(with_param(base, "r", 0.995).with_values(small))
+    peak = mc_shape(with_param(base, "r", 0.94).with_values(small))
+    assert crater["shape"] == "crater" and peak["shape"] == "single peak"
+
+
+def test_bifurcation_command_json(tmp_path: Path, capsys):
+    out = tmp_path / "b.json"
+    assert main(["bifurcation", str(ROOT / "scenes" / "paper-base.toml"), "--vary", "r",
+                 "--no-mc", "--json", str(out), "--quiet"]) == 0
+    d = json.loads(out.read_text())
+    assert d["vary"] == "r" and set(d["critical"]) == {"paper", "exact"}
+    assert 0.96 < d["critical"]["paper"] < 0.975
+    assert "critical r" in capsys.readouterr().out
