@@ -159,6 +159,20 @@ def cmd_bifurcation(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_figures(args: argparse.Namespace) -> int:
+    from .figures import draw_figures, render_table
+
+    overrides = {}
+    for k in ("paths", "time", "dt", "seed"):
+        if getattr(args, k, None) is not None:
+            overrides[f"montecarlo.{k}"] = getattr(args, k)
+    table = draw_figures(args.out, numbers=tuple(args.figure or (2, 3, 4, 5, 6)),
+                         overrides=overrides, quiet=args.quiet)
+    print(render_table(table), end="")
+    print(f"figures: {args.out}/paper-fig*.png")
+    return 0
+
+
 def _add_mc_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--paths", type=int, help="Monte Carlo: number of paths")
     p.add_argument("--dt", type=float, help="Monte Carlo: time step")
@@ -203,6 +217,14 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--quiet", action="store_true")
     _add_mc_options(b)
     b.set_defaults(func=cmd_bifurcation)
+    f = sub.add_parser("figures", help="redraw the paper's Figures 2-6: both averaged models "
+                                       "against the Monte Carlo of the original system")
+    f.add_argument("--out", default="out/figures", metavar="DIR")
+    f.add_argument("--figure", type=int, action="append", choices=(2, 3, 4, 5, 6),
+                   help="only this figure (repeatable)")
+    f.add_argument("--quiet", action="store_true")
+    _add_mc_options(f)
+    f.set_defaults(func=cmd_figures)
     return p
 
 

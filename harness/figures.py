@@ -1,0 +1,163 @@
+"""The paper's Figures 2-6, redrawn from the figure scenes: both averaged models against the
+Monte Carlo of the original system.
+
+Figures 2-4: p(A), p(x1), p(x2) for each value of the varied parameter (lines: models;
+markers with 2 s.e. bars: Monte Carlo). Figures 5-6: the joint PDF p(x1, x2) of each model and
+of the Monte Carlo for each value, and the section at x1 = 0. The Monte Carlo section is
+the first x1 column of its joint histogram, a direct measurement that does not assume the
+density depends on energy alone. ``figures.json`` / ``figures.md`` hold the L1 distances.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .compare import compare
+from .io import jsonable, write_atomic
+from .run import montecarlo_solution
+from .scene import Scene, load_scene
+
+FIGURES = {2: "paper-fig2", 3: "paper-fig3", 4: "paper-fig4", 5: "paper-fig5", 6: "paper-fig6"}
+JOINT = {5, 6}
+COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple")
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _run_variant(scene: Scene, joint: bool) -> dict[str, Any]:
+    import averaging
+
+    closed = {m: averaging.solve(scene, model=m) for m in ("paper", "exact")}
+    a_max = 1.1 * max(float(c.data["A"]["x"][-1]) for c in closed.values())
+    v_max = 1.1 * max(float(np.max(np.abs(c.data["x2"]["x"]))) for c in closed.values())
+    bins = scene.montecarlo.bins
+    edges = {"edges_A": np.linspace(0, a_max, bins + 1), "edges_x": np.linspace(0, a_max,
+                                                                                  bins + 1),
+             "edges_v": np.linspace(-v_max, v_max, bins + 1)}
+    obs = replace(scene.observables, joint=joint, events=True)
+    mc = montecarlo_solution(replace(scene, observables=obs), progress=False, **edges)
+    l1 = {m: {o: compare(closed[m].data[o], mc.data[o]) for o in ("A", "x1", "x2")}
+          for m in closed}
+    return {"closed": closed, "mc": mc, "metrics": l1}
+
+
+def _plot_pdfs(fig_no: int, scene: Scene, runs: list[dict[str, Any]], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    sw = scene.sweep
+    fig, axes = plt.subplots(1, 3, figsize=(13, 3.9))
+    for k, (val, run) in enumerate(zip(sw.values, runs, strict=True)):
+        col = COLORS[k % len(COLORS)]
+        for ax, o in zip(axes, ("A", "x1", "x2"), strict=True):
+            for m, ls in (("paper", "--"), ("exact", "-")):
+                d = run["closed"][m].data[o]
+                ax.plot(d["x"], d["p"], ls, color=col, lw=1.3,
+                        label=f"{sw.key} = {val:g}, {m}" if o == "A" else None)
+            d = run["mc"].data[o]
+            ax.errorbar(d["x"][::2], d["p"][::2], yerr=2 * d["err"][::2], fmt="o", ms=2.2,
+                        color=col, elinewidth=0.6, label=f"{sw.key} = {val:g}, MC"
+                        if o == "A" else None)
+    for ax, o in zip(axes, ("A", "x1", "x2"), strict=True):
+        ax.set_xlabel({"A": "amplitude A", "x1": "displacement x1", "x2": "velocity x2"}[o])
+        ax.set_ylabel("density")
+    axes[0].legend(fontsize=6.5, ncol=1)
+    fig.suptitle(f"Figure {fig_no} redrawn: dashed = paper model, solid = exact-orbit model, "
+                 "markers = Monte Carlo of the original system (±2 s.e.)", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _plot_joint(fig_no: int, scene: Scene, runs: list[dict[str, Any]], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    sw = scene.sweep
+    n = len(runs)
+    fig, axes = plt.subplots(n, 4, figsize=(15, 3.3 * n), squeeze=False)
+    for i, (val, run) in enumerate(zip(sw.values, runs, strict=True)):
+        panels = [("paper model", run["closed"]["paper"].data["joint"]),
+                  ("exact model", run["closed"]["exact"].data["joint"]),
+                  ("Monte Carlo", run["mc"].data["joint"])]
+        top = max(float(np.max(p["p"])) for _, p in panels)
+        xl = (0.0, max(float(np.max(d["x1"])) for _, d in panels))
+        vl = max(float(np.max(np.abs(d["x2"]))) for _, d in panels)
+        for j, (title, d) in enumerate(panels):
+            ax = axes[i, j]
+            ax.set_xlim(*xl)
+            ax.set_ylim(-vl, vl)
+            ax.set_facecolor(plt.get_cmap("viridis")(0.0))  # beyond a grid the density is 0
+            ax.pcolormesh(d["x1"], d["x2"], np.asarray(d["p"]).T, shading="auto", vmin=0,
+                          vmax=top, cmap="viridis")
+            ax.set_title(f"{title}, {sw.key} = {val:g}", fontsize=8)
+            ax.set_xlabel("x1")
+            ax.set_ylabel("x2")
+        ax = axes[i, 3]
+        for (title, d), ls in zip(panels[:2], ("--", "-"), strict=True):
+            ax.plot(d["x2"], np.asarray(d["p"])[0], ls, label=title)
+        mc = run["mc"].data["joint"]
+        ax.errorbar(mc["x2"], np.asarray(mc["p"])[0], yerr=2 * np.asarray(mc["err"])[0], fmt="o",
+                    ms=2, color="k", elinewidth=0.5, label="Monte Carlo (first x1 bin)")
+        ax.set_title(f"section x1 = 0, {sw.key} = {val:g}", fontsize=8)
+        ax.set_xlabel("x2")
+        ax.legend(fontsize=6)
+    fig.suptitle(f"Figure {fig_no} redrawn: joint PDF p(x1, x2) and its section at x1 = 0",
+                 fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def draw_figures(out_dir: str | Path, *, numbers: tuple[int, ...] = (2, 3, 4, 5, 6),
+                 overrides: dict[str, Any] | None = None, quiet: bool = False
+                 ) -> dict[str, Any]:
+    """Draw the figures into out_dir; return (and write) the table of L1 distances."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    table: dict[str, Any] = {}
+    for no in numbers:
+        scene = load_scene(ROOT / "scenes" / f"{FIGURES[no]}.toml")
+        if overrides:
+            scene = scene.with_values(overrides)
+        runs = []
+        for v in scene.variants():
+            if not quiet:
+                print(f"figure {no}: {v.name} ...", file=sys.stderr, flush=True)
+            runs.append(_run_variant(v, no in JOINT))
+        png = out / f"paper-fig{no}.png"
+        tmp = png.with_suffix(".tmp.png")
+        (_plot_joint if no in JOINT else _plot_pdfs)(no, scene, runs, tmp)
+        tmp.replace(png)
+        table[f"figure{no}"] = {
+            "varied": scene.sweep.path, "values": list(scene.sweep.values),
+            "L1": [{m: {o: r["metrics"][m][o]["L1"] for o in ("A", "x1", "x2")}
+                    for m in ("paper", "exact")} for r in runs],
+            "L1_floor": [{o: r["metrics"]["exact"][o]["L1_floor"] for o in ("A", "x1", "x2")}
+                         for r in runs],
+            "stuck_fraction": [r["mc"].info["events"]["stuck_fraction"]["value"] for r in runs],
+        }
+    write_atomic(out / "figures.json", json.dumps(jsonable(table), indent=1) + "\n")
+    write_atomic(out / "figures.md", render_table(table))
+    return table
+
+
+def render_table(table: dict[str, Any]) -> str:
+    lines = ["| figure | value | L1(A) paper | L1(A) exact | L1(x1) paper | L1(x1) exact | "
+             "L1(x2) paper | L1(x2) exact | MC floor (A) |", "|" + "---|" * 9]
+    for name, t in table.items():
+        for v, l1, fl in zip(t["values"], t["L1"], t["L1_floor"], strict=True):
+            lines.append(f"| {name[6:]} | {t['varied'].split('.')[1]} = {v:g} | "
+                         f"{l1['paper']['A']:.3f} | {l1['exact']['A']:.3f} | "
+                         f"{l1['paper']['x1']:.3f} | {l1['exact']['x1']:.3f} | "
+                         f"{l1['paper']['x2']:.3f} | {l1['exact']['x2']:.3f} | {fl['A']:.3f} |")
+    return "\n".join(lines) + "\n"
