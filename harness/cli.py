@@ -173,6 +173,29 @@ def cmd_figures(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_workprecision(args: argparse.Namespace) -> int:
+    import json
+    from pathlib import Path
+
+    from .io import jsonable, write_atomic
+    from .workprecision import log_stderr, plot, run_workprecision, table_markdown
+
+    scene = _apply_mc_options(concrete_scene(args.scene, args.set), args)
+    out = Path(args.out or f"out/{scene.name}-workprecision")
+    out.mkdir(parents=True, exist_ok=True)
+    data = run_workprecision(scene, quick=args.quick, repeats=args.repeats,
+                             log=None if args.quiet else log_stderr)
+    tmp = out / ".workprecision.tmp.png"
+    plot(data, tmp)
+    tmp.replace(out / "workprecision.png")
+    table = table_markdown(data)
+    write_atomic(out / "workprecision.md", table)
+    write_atomic(out / "workprecision.json", json.dumps(jsonable(data), indent=1) + "\n")
+    print(table, end="")
+    print(f"diagram: {out / 'workprecision.png'}")
+    return 0
+
+
 def _add_mc_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--paths", type=int, help="Monte Carlo: number of paths")
     p.add_argument("--dt", type=float, help="Monte Carlo: time step")
@@ -225,6 +248,15 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--quiet", action="store_true")
     _add_mc_options(f)
     f.set_defaults(func=cmd_figures)
+    w = sub.add_parser("workprecision", help="what accuracy costs in time, for every solver")
+    w.add_argument("scene", help="scene TOML file (or the name of a shipped scene)")
+    w.add_argument("--out", metavar="DIR", help="default out/<scene>-workprecision")
+    w.add_argument("--quick", action="store_true", help="short ladders (a smoke test)")
+    w.add_argument("--repeats", type=int, default=3, help="timed repeats after the warm-up")
+    w.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE")
+    w.add_argument("--quiet", action="store_true")
+    _add_mc_options(w)
+    w.set_defaults(func=cmd_workprecision)
     return p
 
 

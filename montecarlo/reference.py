@@ -84,6 +84,8 @@ def simulate_numpy(phys: dict[str, Any], *, paths: int, steps: int, burn: int, s
     kick = f * math.sqrt(2 * D * h)
     half = 0.5 * h
     counts = np.zeros(edges_A.size - 1)
+    v2_sum = 0.0
+    n_samples = 0
     impacts = 0
     stuck_time = 0.0
     for n in range(steps):
@@ -114,5 +116,7 @@ def simulate_numpy(phys: dict[str, Any], *, paths: int, steps: int, burn: int, s
                 E = 0.5 * v * v + 0.5 * w0sq * x * x + 0.25 * alpha * x**4
                 A = np.sqrt(4 * E / (w0sq + np.sqrt(w0sq * w0sq + 4 * alpha * E)))
                 counts += np.histogram(A, bins=edges_A)[0]
+                v2_sum += float(np.sum(v * v))
+                n_samples += paths
     return {"counts": counts, "impacts": impacts, "stuck_time": stuck_time,
-            "time": (steps - burn) * h * paths}
+            "time": (steps - burn) * h * paths, "mean_v2": v2_sum / max(n_samples, 1)}

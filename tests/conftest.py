@@ -27,3 +27,6 @@ def vary(scene: Scene, **kw: float | str | bool) -> Scene:
     unknown = set(kw) - {k for p in parts.values() for k in p.__dict__}
     assert not unknown, unknown
     return replace(scene, **parts)
+
+
+pytest_plugins = ["pytester"]

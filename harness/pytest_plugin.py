@@ -1,0 +1,51 @@
+"""pytest plugin of vifpk (entry point ``pytest11``; active once vifpk is installed).
+
+Options: ``--vifpk-cache DIR`` (where Monte Carlo references are cached; default
+``$VIFPK_CACHE`` or ``~/.cache/vifpk``) and ``--vifpk-refresh`` (rebuild them).
+
+Fixtures:
+- ``vifpk_scene``: ``vifpk_scene("paper-base")`` or ``vifpk_scene("my/scene.toml",
+  **{"noise.D": 0.02})`` returns a validated Scene;
+- ``vifpk_reference``: ``vifpk_reference(scene, paths=256, time=500)`` returns the cached Monte
+  Carlo reference of the original system (``.data``, ``.info``, ``.cached``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import pytest
+
+
+def pytest_addoption(parser: pytest.Parser) -> None:
+    group = parser.getgroup("vifpk", "vifpk tolerance tests")
+    group.addoption("--vifpk-cache", metavar="DIR", default=None,
+                    help="directory of cached Monte Carlo references")
+    group.addoption("--vifpk-refresh", action="store_true", default=False,
+                    help="rebuild the cached Monte Carlo references")
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    from . import testing
+
+    testing.configure(cache=config.getoption("--vifpk-cache"),
+                      refresh=config.getoption("--vifpk-refresh"))
+
+
+@pytest.fixture
+def vifpk_scene() -> Callable[..., Any]:
+    from .scene import load_scene
+
+    def make(name_or_path: str, **values: Any) -> Any:
+        scene = load_scene(name_or_path)
+        return scene.with_values(values) if values else scene
+
+    return make
+
+
+@pytest.fixture
+def vifpk_reference() -> Callable[..., Any]:
+    from .testing import mc_reference
+
+    return mc_reference

@@ -1,0 +1,230 @@
+"""Tolerance tests for averaged models, the way ``numpy.testing`` pins numbers.
+
+    from harness.testing import assert_density_close, assert_averaging_error
+
+    assert_averaging_error("paper-base", "exact", below=0.1)          # L1(A) against the MC
+    assert_averaging_error(scene, MyModel(), below=0.05, observable="x2")
+    assert_density_close(fpk_result.data["A"], closed.data["A"], atol=1e-4)
+
+A density is a record ``{"x", "p"}`` (smooth) or ``{"x", "p", "edges", "err"}`` (a Monte Carlo
+histogram with batch standard errors), or an ``(x, p)`` pair. When a side is a histogram its
+sampling noise floor for the chosen metric is added to the tolerance automatically.
+
+``model`` in :func:`assert_averaging_error` is ``"paper"``, ``"exact"`` or any object with the
+**averaged-model protocol**::
+
+    drift(A: ndarray) -> ndarray        # m(A) of dA = m dt + sigma dB, for A > 0
+    diffusion(A: ndarray) -> ndarray    # sigma^2(A) > 0
+    period(A: ndarray) -> ndarray       # optional: T(A) for p(x1, x2) = p(E)/T (default: exact)
+
+Its stationary p(A) comes from the generic FPK direct solve, and p(x1), p(x2) from the same
+phase-space mapping as the closed forms.
+
+Monte Carlo references of the original system are cached on disk (``cache_dir()``: the
+``--vifpk-cache`` pytest option, else ``$VIFPK_CACHE``, else ``~/.cache/vifpk``) under a key
+of the scene's physics, the Monte Carlo settings and the package version, so a test suite
+pays for each reference once; ``--vifpk-refresh`` rebuilds them.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import os
+from pathlib import Path
+from typing import Any, Protocol
+
+import numpy as np
+
+from .compare import compare, is_histogram
+from .io import jsonable, write_atomic
+from .scene import Scene, load_scene
+
+METRICS = ("L1", "hellinger", "ks")
+_STATE: dict[str, Any] = {"cache": None, "refresh": False, "stats": {"hits": 0, "misses": 0}}
+
+
+class AveragedModel(Protocol):
+    def drift(self, A: np.ndarray) -> np.ndarray: ...
+    def diffusion(self, A: np.ndarray) -> np.ndarray: ...
+
+
+def configure(*, cache: str | Path | None = None, refresh: bool | None = None) -> None:
+    """Set the reference cache directory and refresh flag (the pytest plugin calls this)."""
+    if cache is not None:
+        _STATE["cache"] = Path(cache)
+    if refresh is not None:
+        _STATE["refresh"] = refresh
+
+
+def cache_dir() -> Path:
+    if _STATE["cache"] is not None:
+        return Path(_STATE["cache"])
+    env = os.environ.get("VIFPK_CACHE")
+    return Path(env) if env else Path.home() / ".cache" / "vifpk"
+
+
+def cache_stats() -> dict[str, int]:
+    return dict(_STATE["stats"])
+
+
+def _record(d: Any) -> dict[str, Any]:
+    if isinstance(d, tuple) and len(d) == 2:
+        return {"x": np.asarray(d[0], float), "p": np.asarray(d[1], float)}
+    if isinstance(d, dict) and "x" in d and "p" in d:
+        return d
+    raise TypeError("a density is a dict with 'x' and 'p' (and 'edges', 'err' for a histogram)"
+                    f" or an (x, p) pair, not {type(d).__name__}")
+
+
+def assert_density_close(actual: Any, desired: Any, *, metric: str = "L1", atol: float,
+                         noise_floor: float | None = None) -> dict[str, float]:
+    """Assert metric(actual, desired) <= atol + noise floor; return the metrics.
+
+    The noise floor is that of the Monte Carlo side(s) for this metric (a parametric
+    bootstrap of their batch errors, harness/compare.py), unless given.
+    """
+    if metric not in METRICS:
+        raise ValueError(f"metric must be one of {METRICS}, not {metric!r}")
+    a, d = _record(actual), _record(desired)
+    m = compare(a, d)
+    floor = m.get(f"{metric}_floor", 0.0) if noise_floor is None else noise_floor
+    tol = atol + floor
+    if not m[metric] <= tol:
+        mc = " (one side is a Monte Carlo histogram)" if is_histogram(a) or is_histogram(d) \
+            else ""
+        raise AssertionError(
+            f"densities differ: {metric} = {m[metric]:.4g} > tolerance {tol:.4g} = atol "
+            f"{atol:.4g} + noise floor {floor:.4g}{mc}")
+    return m
+
+
+# ------------------------------------------------------------------- Monte Carlo references
+def _scene(scene: Any) -> Scene:
+    if isinstance(scene, Scene):
+        return scene
+    return load_scene(scene)
+
+
+def reference_key(scene: Scene) -> str:
+    """Cache key: the physics (system, noise), the Monte Carlo settings, the version."""
+    from importlib import metadata
+
+    try:
+        version = metadata.version("vifpk")
+    except metadata.PackageNotFoundError:
+        version = "unknown"
+    d = scene.to_dict()
+    payload = {"system": d["system"], "noise": d["noise"], "montecarlo": d["montecarlo"],
+               "version": version}
+    return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()[:20]
+
+
+def reproduce_command(scene: Scene) -> str:
+    st = scene.montecarlo
+    where = scene.source or "SCENE.toml"
+    sets = " ".join(f"--set {sec}.{k}={v}" for sec in ("system", "noise")
+                    for k, v in dataclasses.asdict(getattr(scene, sec)).items()
+                    if not isinstance(v, str))
+    return (f"vifpk solve {where} --solver montecarlo --paths {st.paths} --dt {st.dt:g} "
+            f"--time {st.time:g} --seed {st.seed} {sets} --json reference.json")
+
+
+class Reference:
+    """A cached Monte Carlo reference of the original system: ``data`` and ``info``."""
+
+    def __init__(self, data: dict[str, Any], info: dict[str, Any], *, cached: bool):
+        self.data, self.info, self.cached = data, info, cached
+
+
+def mc_reference(scene: Any, **montecarlo: Any) -> Reference:
+    """The Monte Carlo of the original system for a scene, from the cache or run and cached.
+
+    ``montecarlo`` overrides the scene's [montecarlo] settings (paths, dt, time, seed, ...).
+    """
+    from .run import montecarlo_solution
+
+    sc = _scene(scene)
+    if montecarlo:
+        sc = sc.with_values({f"montecarlo.{k}": v for k, v in montecarlo.items()})
+    key = reference_key(sc)
+    folder = cache_dir()
+    npz, meta = folder / f"{key}.npz", folder / f"{key}.json"
+    if npz.is_file() and meta.is_file() and not _STATE["refresh"]:
+        _STATE["stats"]["hits"] += 1
+        with np.load(npz) as z:
+            data: dict[str, Any] = {}
+            for name in z.files:
+                obs, field = name.split("__")
+                data.setdefault(obs, {})[field] = z[name]
+        return Reference(data, json.loads(meta.read_text()), cached=True)
+    _STATE["stats"]["misses"] += 1
+    obs = dataclasses.replace(sc.observables, A=True, x1=True, x2=True, joint=False)
+    res = montecarlo_solution(dataclasses.replace(sc, observables=obs), progress=False)
+    folder.mkdir(parents=True, exist_ok=True)
+    arrays = {f"{o}__{k}": np.asarray(v) for o, rec in res.data.items() if o != "joint"
+              for k, v in rec.items()}
+    tmp = folder / f".{key}.{os.getpid()}.npz"
+    np.savez(tmp, **arrays)
+    os.replace(tmp, npz)
+    info = {"settings": res.info["settings"], "seed": res.info["seed"]["root"],
+            "scene": sc.to_dict(), "command": reproduce_command(sc), "key": key}
+    write_atomic(meta, json.dumps(jsonable(info), indent=1))
+    return Reference({o: r for o, r in res.data.items() if o != "joint"}, info, cached=False)
+
+
+def model_densities(scene: Scene, model: Any) -> dict[str, dict[str, Any]]:
+    """p(A), p(x1), p(x2) of an averaged model: closed form for "paper"/"exact", else the
+    FPK direct solve of the user's m and sigma^2 mapped to phase space."""
+    import averaging
+    import fpk
+    from averaging.geometry import period, restoring
+    from averaging.phase import phase_densities
+
+    if isinstance(model, str):
+        return averaging.solve(scene, model=model).data
+    for attr in ("drift", "diffusion"):
+        if not callable(getattr(model, attr, None)):
+            raise TypeError(f"model must be 'paper', 'exact' or provide {attr}(A) "
+                            "(see harness.testing.AveragedModel)")
+    s = scene.system
+    res = fpk.stationary(model.drift, model.diffusion, cells=800, method="direct")
+    A, p = res.data["A_cells"]["x"], res.data["A_cells"]["p"]
+    T = model.period(A) if callable(getattr(model, "period", None)) else period(
+        A, s.omega0, s.alpha)
+    log_T = np.log(T)
+    log_h = np.log(np.maximum(p, 1e-300)) - np.log(restoring(A, s.omega0, s.alpha)) - log_T
+    ph = phase_densities(A, log_h, log_T, omega0=s.omega0, alpha=s.alpha, barrier=s.barrier,
+                         points=scene.averaging.phase_points)
+    return {"A": res.data["A"], "x1": {"x": ph.x1, "p": ph.p_x1},
+            "x2": {"x": ph.x2, "p": ph.p_x2}}
+
+
+def assert_averaging_error(scene: Any, model: Any, *, below: float, observable: str = "A",
+                           metric: str = "L1", **montecarlo: Any) -> dict[str, float]:
+    """Assert that the model's error against the original system is below ``below``.
+
+    The error is metric(model density, Monte Carlo of the original system) for the
+    observable; the failure message prints it with its error bar and noise floor, the
+    reference's settings, and the command that reproduces the reference.
+    """
+    if metric not in METRICS:
+        raise ValueError(f"metric must be one of {METRICS}, not {metric!r}")
+    if observable not in ("A", "x1", "x2"):
+        raise ValueError("observable must be 'A', 'x1' or 'x2'")
+    sc = _scene(scene)
+    ref = mc_reference(sc, **montecarlo)
+    dens = model_densities(sc, model)
+    m = compare(dens[observable], ref.data[observable])
+    if not m[metric] < below:
+        name = model if isinstance(model, str) else type(model).__name__
+        st = ref.info["settings"]
+        raise AssertionError(
+            f"averaging error of {name} on p({observable}): {metric} = {m[metric]:.4g} "
+            f"+/- {m[f'{metric}_err']:.2g} (noise floor {m[f'{metric}_floor']:.2g}) is not below "
+            f"{below:g}\n  reference: Monte Carlo of the original system, {st['paths']} paths, "
+            f"dt {st['dt']:g}, time {st['time']:g} after burn-in {st['burn_in']:g}, seed "
+            f"{ref.info['seed']}{' (from cache)' if ref.cached else ''}\n  reproduce: "
+            f"{ref.info['command']}")
+    return m

@@ -1,0 +1,118 @@
+"""harness.testing and the pytest plugin: pass when they should, fail readably, cache."""
+
+from __future__ import annotations
+
+import math
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from harness import testing
+from harness.testing import assert_averaging_error, assert_density_close
+
+from .conftest import ROOT
+
+SMALL = {"paths": 128, "time": 400.0, "blocks": 16}
+
+
+@pytest.fixture(autouse=True)
+def isolated_cache(tmp_path):
+    testing.configure(cache=tmp_path / "cache", refresh=False)
+    yield
+    testing.configure(cache=None, refresh=False)
+    testing._STATE["cache"] = None
+
+
+def gauss(mu=0.0, s=1.0):
+    x = np.linspace(-8, 8, 4001)
+    return {"x": x, "p": np.exp(-0.5 * ((x - mu) / s) ** 2) / (s * math.sqrt(2 * math.pi))}
+
+
+def test_density_close_passes_and_fails_readably():
+    assert_density_close(gauss(), gauss(0.001), atol=1e-2)
+    with pytest.raises(AssertionError, match=r"L1 = 0\.0\d+ > tolerance 0\.01 = atol 0\.01 "
+                                             r"\+ noise floor 0"):
+        assert_density_close(gauss(), gauss(0.1), atol=1e-2)
+    with pytest.raises(AssertionError, match="ks ="):
+        assert_density_close(gauss(), gauss(0.5), atol=1e-2, metric="ks")
+    assert_density_close((gauss()["x"], gauss()["p"]), gauss(), atol=1e-12)
+
+
+def test_histogram_floor_is_added_automatically():
+    edges = np.linspace(-4, 4, 41)
+    c = 0.5 * (edges[1:] + edges[:-1])
+    rng = np.random.default_rng(1)
+    exact = np.exp(-0.5 * c**2) / math.sqrt(2 * math.pi)
+    se = np.full(40, 0.01)
+    hist = {"x": c, "p": exact + se * rng.standard_normal(40), "edges": edges, "err": se}
+    m = assert_density_close(hist, gauss(), atol=0.0)  # passes on the floor alone
+    assert m["L1"] <= m["L1_floor"] * 2
+    with pytest.raises(AssertionError, match="noise floor"):
+        assert_density_close(hist, gauss(0.3), atol=0.0)
+
+
+def test_averaging_error_pass_fail_and_message():
+    m = assert_averaging_error("paper-base", "exact", below=0.2, **SMALL)
+    assert m["L1"] < 0.2
+    with pytest.raises(AssertionError) as exc:
+        assert_averaging_error("paper-base", "paper", below=0.2, **SMALL)
+    msg = str(exc.value)
+    assert "averaging error of paper on p(A): L1 = 0.4" in msg
+    assert "+/-" in msg and "noise floor" in msg and "128 paths" in msg
+    assert "reproduce: vifpk solve paper-base.toml --solver montecarlo --paths 128" in msg
+    assert "(from cache)" in msg  # the second assertion reused the reference
+
+
+def test_user_model_protocol():
+    import averaging
+
+    scene = testing._scene("paper-base")
+
+    class Mine:  # the exact model's m and sigma^2, handed over as a user's object
+        def __init__(self):
+            self.m = averaging.build_model(scene, "exact")
+
+        def drift(self, A):
+            return self.m.drift(A)
+
+        def diffusion(self, A):
+            return self.m.diffusion(A)
+
+    a = assert_averaging_error(scene, Mine(), below=0.2, observable="x2", **SMALL)
+    b = assert_averaging_error(scene, "exact", below=0.2, observable="x2", **SMALL)
+    assert a["L1"] == pytest.approx(b["L1"], abs=5e-3)  # FPK route vs closed form
+    with pytest.raises(TypeError, match="provide drift"):
+        assert_averaging_error(scene, object(), below=1.0, **SMALL)
+
+
+def test_cache_is_hit_and_refreshed(pytester):
+    pytester.makepyfile("""
+        from harness.testing import cache_stats
+
+        def test_ref(vifpk_scene, vifpk_reference):
+            ref = vifpk_reference(vifpk_scene("paper-base"), paths=64, time=100.0, blocks=16)
+            print("CACHED", ref.cached)
+            assert ref.data["A"]["p"].size > 0
+    """)
+    cache = pytester.path / "cache"
+    first = pytester.runpytest_subprocess("-s", "--vifpk-cache", str(cache))
+    first.assert_outcomes(passed=1)
+    assert "CACHED False" in first.stdout.str()
+    second = pytester.runpytest_subprocess("-s", "--vifpk-cache", str(cache))
+    assert "CACHED True" in second.stdout.str()
+    third = pytester.runpytest_subprocess("-s", "--vifpk-cache", str(cache), "--vifpk-refresh")
+    assert "CACHED False" in third.stdout.str()
+    assert len(list(cache.glob("*.npz"))) == 1
+
+
+def test_example_runs(tmp_path):
+    example = tmp_path / "test_my_model.py"
+    shutil.copy(ROOT / "docs" / "examples" / "test_my_model.py", example)
+    res = subprocess.run([sys.executable, "-m", "pytest", str(example), "-q", "-s",
+                          "--vifpk-cache", str(tmp_path / "c"), "-p", "no:cacheprovider"],
+                         capture_output=True, text=True, cwd=tmp_path, timeout=600)
+    assert res.returncode == 0, res.stdout + res.stderr
+    assert "2 passed" in res.stdout and "reproduce: vifpk solve" in res.stdout

@@ -1,0 +1,60 @@
+"""Work-precision: a small ladder end to end; the error falls as the cost rises."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from harness.cli import main
+from harness.workprecision import seconds_to_reach, timed
+
+
+def test_timed_records_nan_on_failure():
+    def boom():
+        raise RuntimeError("x")
+
+    out, first, best = timed(boom, repeats=2)
+    assert isinstance(out, RuntimeError) and math.isnan(first) and math.isnan(best)
+    out, first, best = timed(lambda: 3, repeats=2)
+    assert out == 3 and best <= first + 1e-3
+
+
+def test_seconds_to_reach_takes_the_cheapest_run():
+    pts = [{"seconds": 1.0, "error": 1e-2}, {"seconds": 2.0, "error": 1e-3},
+           {"seconds": 0.5, "error": 5e-3}, {"seconds": math.nan, "error": math.nan}]
+    row = seconds_to_reach({"s": pts})["s"]
+    assert row["0.01"] == 0.5 and row["0.001"] == 2.0 and math.isnan(row["0.0001"])
+
+
+def test_small_ladder_end_to_end(tmp_path: Path):
+    out = tmp_path / "wp"
+    assert main(["workprecision", "paper-base", "--quick", "--repeats", "1", "--out", str(out),
+                 "--quiet"]) == 0
+    d = json.loads((out / "workprecision.json").read_text())
+    assert (out / "workprecision.png").stat().st_size > 10_000
+    for name, pts in d["solvers"].items():
+        for p in pts:
+            assert {"setting", "seconds", "error"} <= set(p), name
+    # deterministic solvers: the error falls as the resolution (and the cost) rises; the
+    # ladder steps are 2x apart, far above the timing noise (tolerance: 1e-12 for ties)
+    for name in ("closed form (paper)", "FPK direct (paper)"):
+        errs = [p["error"] for p in d["solvers"][name]]
+        assert np.all(np.diff(errs) < 1e-12), (name, errs)
+    # Monte Carlo: the error falls with the samples within its noise floor
+    for name in ("MC averaged SDE (paper)", "MC original system"):
+        pts = d["solvers"][name]
+        a, b = pts[0], pts[-1]
+        assert b["error"] <= a["error"] + 2 * a["error_floor"], (name, pts)
+    assert "best_dt_for_budget" in d["mc_bias_variance"]
+
+
+@pytest.mark.slow
+def test_full_ladder_reaches_the_targets(tmp_path: Path):
+    out = tmp_path / "wp"
+    assert main(["workprecision", "paper-base", "--out", str(out), "--quiet"]) == 0
+    d = json.loads((out / "workprecision.json").read_text())
+    assert math.isfinite(d["seconds_to_reach"]["FPK direct (paper)"]["0.0001"])
