@@ -299,11 +299,12 @@ def load_scene(path: str | Path) -> Scene:
     """Read a scene file. Raises :class:`SceneError` (one line) on any problem."""
     p = Path(path)
     if not p.is_file():
-        shipped = Path(__file__).resolve().parent.parent / "scenes" / f"{p}.toml"
-        if p.suffix == "" and shipped.is_file():
-            p = shipped
-        else:
+        shipped = Path(__file__).resolve().parent.parent / "scenes"
+        candidates = [shipped / f"{p}.toml"] if p.suffix == "" else [shipped / p.name]
+        found = [c for c in candidates if c.is_file()]
+        if not found:
             raise SceneError(f"{path}: no such scene file")
+        p = found[0]
     try:
         raw = tomllib.loads(p.read_text(encoding="utf-8"))
     except tomllib.TOMLDecodeError as exc:

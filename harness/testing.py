@@ -124,9 +124,13 @@ def reference_key(scene: Scene) -> str:
 def reproduce_command(scene: Scene) -> str:
     st = scene.montecarlo
     where = scene.source or "SCENE.toml"
-    sets = " ".join(f"--set {sec}.{k}={v}" for sec in ("system", "noise")
-                    for k, v in dataclasses.asdict(getattr(scene, sec)).items()
-                    if not isinstance(v, str))
+    def show(v: Any) -> str:  # as --set parses it: TOML booleans, bare words
+        return str(v).lower() if isinstance(v, bool) else f"{v}"
+
+    sets = " ".join(f"--set {sec}.{k}={show(v)}" for sec in ("system", "noise")
+                    for k, v in dataclasses.asdict(getattr(scene, sec)).items())
+    sets += "".join(f" --set montecarlo.{k}={getattr(st, k)}"
+                    for k in ("blocks", "burn_in", "sample_every", "bins"))
     return (f"vifpk solve {where} --solver montecarlo --paths {st.paths} --dt {st.dt:g} "
             f"--time {st.time:g} --seed {st.seed} {sets} --json reference.json")
 

@@ -116,3 +116,21 @@ def test_example_runs(tmp_path):
                          capture_output=True, text=True, cwd=tmp_path, timeout=600)
     assert res.returncode == 0, res.stdout + res.stderr
     assert "2 passed" in res.stdout and "reproduce: vifpk solve" in res.stdout
+
+
+def test_reproduce_command_gives_the_same_reference(tmp_path):
+    """The command printed in a failure message rebuilds the reference bit for bit."""
+    import json
+    import shlex
+
+    scene = testing._scene("paper-base").with_values(
+        {"noise.kind": "white", "montecarlo.paths": 32, "montecarlo.time": 20.0,
+         "montecarlo.blocks": 16})
+    ref = testing.mc_reference(scene)
+    out = tmp_path / "ref.json"
+    cmd = ref.info["command"].replace("vifpk ", "", 1).replace("reference.json", str(out))
+    res = subprocess.run([sys.executable, "-m", "harness", *shlex.split(cmd)], cwd=tmp_path,
+                         capture_output=True, text=True, timeout=300)
+    assert res.returncode == 0, res.stderr
+    got = np.array(json.loads(out.read_text())["pdf"]["A"]["p"])
+    assert np.array_equal(got, ref.data["A"]["p"])
