@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from .compare import compare
-from .run import _fpk_solution, montecarlo_solution
+from .run import fpk_solution, montecarlo_solution
 
 MODELS = ("paper", "exact")
 OBSERVABLES = ("A", "x1", "x2")
@@ -35,7 +35,6 @@ class CheckResult:
     metrics: dict[str, Any]
     warnings: list[str]
     verdicts: list[str]
-    seconds: dict[str, float]
 
 
 class _Stages:
@@ -136,7 +135,7 @@ def cross_check(scene: Any, *, quiet: bool = False) -> CheckResult:
         sol[f"closed:{m}"] = closed[m]
     for m in MODELS:
         stages(f"FPK of the {m} model")
-        sol[f"fpk:{m}"] = _fpk_solution(scene, model=m, cells=400)
+        sol[f"fpk:{m}"] = fpk_solution(scene, model=m, cells=400)
     edges = _edges(closed, scene.montecarlo.bins)
     stages("Monte Carlo of the original system")
     mc = montecarlo_solution(replace(scene, observables=replace(
@@ -179,7 +178,7 @@ def cross_check(scene: Any, *, quiet: bool = False) -> CheckResult:
     metrics["monte_carlo"] = {k: mc.info[k] for k in ("settings", "effects", "events", "L1_floor",
                                                      "seed", "steps_per_second") if k in mc.info}
     return CheckResult(scene=scene, solutions=sol, metrics=metrics, warnings=warnings,
-                       verdicts=verdicts, seconds={})
+                       verdicts=verdicts)
 
 
 def verdict(model: str, entry: dict[str, Any], warnings: list[str]) -> str:

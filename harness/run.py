@@ -28,7 +28,7 @@ def run_solver(scene: Any, solver: str, *, model: str = "paper", grid: int | Non
         if solver == "averaging":
             return averaging.solve(scene, model=model, **options)
         if solver == "fpk":
-            return _fpk_solution(scene, model=model, cells=grid or 400, **options)
+            return fpk_solution(scene, model=model, cells=grid or 400, **options)
         if solver == "montecarlo":
             return montecarlo_solution(scene, **options)
     except (averaging.NoStationaryDensity, fpk.FPKFailure) as exc:
@@ -36,7 +36,7 @@ def run_solver(scene: Any, solver: str, *, model: str = "paper", grid: int | Non
     raise ValueError(f"solver must be one of {SOLVERS}, not {solver!r}")
 
 
-def _fpk_solution(scene: Any, *, model: str, cells: int, method: str = "stepping",
+def fpk_solution(scene: Any, *, model: str, cells: int, method: str = "stepping",
                   **options: Any) -> Solution:
     """FPK on the averaged model's m and sigma^2, mapped to phase space like the closed form."""
     import averaging
