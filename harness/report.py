@@ -94,10 +94,17 @@ def _png(fig: Any) -> bytes:
     return buf.getvalue()
 
 
+def _num(v: float, signed: bool = False) -> str:
+    """4 decimals, or 3 significant digits in scientific notation below 1e-3."""
+    if v != 0 and abs(v) < 1e-3:
+        return f"{v:+.2e}" if signed else f"{v:.2e}"
+    return f"{v:+.4f}" if signed else f"{v:.4f}"
+
+
 def _fmt(e: dict[str, float], key: str) -> str:
     v = e[key]
     err = e.get(f"{key}_err")
-    return f"{v:.4f}" + (f" ± {err:.4f}" if err else "")
+    return _num(v) + (f" ± {_num(err)}" if err else "")
 
 
 def _tables(res: CheckResult) -> list[tuple[str, list[str], list[list[str]]]]:
@@ -107,9 +114,10 @@ def _tables(res: CheckResult) -> list[tuple[str, list[str], list[list[str]]]]:
         for kind in KINDS:
             for o in OBSERVABLES:
                 e = res.metrics["models"][m][kind][o]
-                rows.append([KIND_TEXT[kind].split(" (")[0], o, _fmt(e, "L1"),
-                             f"{e['L1_floor']:.4f}", _fmt(e, "hellinger"), _fmt(e, "ks"),
-                             f"{e['mean_diff']:+.4f}"])
+                floor = _num(e["L1_floor"]) if e["L1_floor"] > 0 else "–"
+                rows.append([KIND_TEXT[kind].split(" (")[0], o, _fmt(e, "L1"), floor,
+                             _fmt(e, "hellinger"), _fmt(e, "ks"),
+                             _num(e["mean_diff"], signed=True)])
         tables.append((f"{m} model: error decomposition",
                        ["error", "obs.", "L1", "L1 noise floor", "Hellinger", "KS",
                         "mean diff"], rows))
