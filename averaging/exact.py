@@ -203,7 +203,9 @@ class ExactModel:
         return t["damping"] + t["impact"] + t["friction"] + t["noise"]
 
     def diffusion(self, A: Array) -> Array:
-        return self.terms(A)["sigma2"]
+        """sigma_A^2 = sigma_E^2 / g^2 (without the drift's derivative stencil)."""
+        A = np.asarray(A, dtype=float)
+        return self.sigma2_energy(A) / restoring(A, self.omega0, self.alpha) ** 2
 
     def period(self, A: Array) -> Array:
         return self.orbit(np.asarray(A, dtype=float))["T"]

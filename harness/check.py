@@ -43,7 +43,6 @@ class _Stages:
     def __init__(self, total: int, quiet: bool):
         self.total, self.quiet, self.i = total, quiet, 0
         self.t = time.perf_counter()
-        self.seconds: dict[str, float] = {}
 
     def __call__(self, name: str) -> None:
         now = time.perf_counter()
@@ -51,7 +50,6 @@ class _Stages:
             print(f" {now - self.t:.1f} s", file=sys.stderr, flush=True)
         self.i += 1
         self.t = now
-        self.name = name
         if not self.quiet:
             print(f"[{self.i}/{self.total}] {name} ...", end="", file=sys.stderr, flush=True)
 
@@ -60,13 +58,14 @@ class _Stages:
             print(f" {time.perf_counter() - self.t:.1f} s", file=sys.stderr, flush=True)
 
 
-def _edges(closed: dict[str, Any], bins: int) -> dict[str, np.ndarray]:
+def mc_edges(closed: dict[str, Any], bins: int) -> dict[str, np.ndarray]:
+    """Histogram edges for the Monte Carlo runs: 10% beyond the closed forms' supports."""
     a_max = max(float(r.data["A"]["x"][-1]) for r in closed.values())
     v_max = max(float(np.max(np.abs(r.data["x2"]["x"]))) for r in closed.values())
-    x_lo = min(float(r.data["x1"]["x"][0]) for r in closed.values())
+    x_lo = min(min(float(r.data["x1"]["x"][0]) for r in closed.values()), 0.0)
     top = 1.1 * a_max
     return {"edges_A": np.linspace(0.0, top, bins + 1),
-            "edges_x": np.linspace(min(x_lo, 0.0) if x_lo < 0 else 0.0, top, bins + 1),
+            "edges_x": np.linspace(1.1 * x_lo, top, bins + 1),
             "edges_v": np.linspace(-1.1 * v_max, 1.1 * v_max, bins + 1)}
 
 
@@ -136,7 +135,7 @@ def cross_check(scene: Any, *, quiet: bool = False) -> CheckResult:
     for m in MODELS:
         stages(f"FPK of the {m} model")
         sol[f"fpk:{m}"] = fpk_solution(scene, model=m, cells=400)
-    edges = _edges(closed, scene.montecarlo.bins)
+    edges = mc_edges(closed, scene.montecarlo.bins)
     stages("Monte Carlo of the original system")
     mc = montecarlo_solution(replace(scene, observables=replace(
         scene.observables, A=True, x1=True, x2=True, events=True, moments=True)),

@@ -108,12 +108,15 @@ def cmd_solve(args: argparse.Namespace) -> int:
     return 0 if result.info["status"]["ok"] else EXIT_SOLVER
 
 
+def _mc_overrides(args: argparse.Namespace) -> dict[str, Any]:
+    """{"montecarlo.<key>": value} for the --paths, --dt, --time, --seed given."""
+    return {f"montecarlo.{k}": getattr(args, k) for k in ("paths", "dt", "time", "seed")
+            if getattr(args, k, None) is not None}
+
+
 def _apply_mc_options(scene: Scene, args: argparse.Namespace) -> Scene:
-    mc = {k: getattr(args, k) for k in ("paths", "dt", "time", "seed")
-          if getattr(args, k, None) is not None}
-    if mc:
-        scene = scene.with_values({f"montecarlo.{k}": v for k, v in mc.items()})
-    return scene
+    mc = _mc_overrides(args)
+    return scene.with_values(mc) if mc else scene
 
 
 def cmd_check(args: argparse.Namespace) -> int:
@@ -162,10 +165,7 @@ def cmd_bifurcation(args: argparse.Namespace) -> int:
 def cmd_figures(args: argparse.Namespace) -> int:
     from .figures import draw_figures, render_table
 
-    overrides = {}
-    for k in ("paths", "time", "dt", "seed"):
-        if getattr(args, k, None) is not None:
-            overrides[f"montecarlo.{k}"] = getattr(args, k)
+    overrides = _mc_overrides(args)
     table = draw_figures(args.out, numbers=tuple(args.figure or (2, 3, 4, 5, 6)),
                          overrides=overrides, quiet=args.quiet)
     print(render_table(table), end="")

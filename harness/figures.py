@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from .check import mc_edges
 from .compare import compare
 from .io import jsonable, write_atomic
 from .run import montecarlo_solution
@@ -33,12 +34,7 @@ def _run_variant(scene: Scene, joint: bool) -> dict[str, Any]:
     import averaging
 
     closed = {m: averaging.solve(scene, model=m) for m in ("paper", "exact")}
-    a_max = 1.1 * max(float(c.data["A"]["x"][-1]) for c in closed.values())
-    v_max = 1.1 * max(float(np.max(np.abs(c.data["x2"]["x"]))) for c in closed.values())
-    bins = scene.montecarlo.bins
-    edges = {"edges_A": np.linspace(0, a_max, bins + 1), "edges_x": np.linspace(0, a_max,
-                                                                                  bins + 1),
-             "edges_v": np.linspace(-v_max, v_max, bins + 1)}
+    edges = mc_edges(closed, scene.montecarlo.bins)
     obs = replace(scene.observables, joint=joint, events=True)
     mc = montecarlo_solution(replace(scene, observables=obs), progress=False, **edges)
     l1 = {m: {o: compare(closed[m].data[o], mc.data[o]) for o in ("A", "x1", "x2")}

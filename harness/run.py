@@ -41,33 +41,39 @@ def fpk_solution(scene: Any, *, model: str, cells: int, method: str = "stepping"
     """FPK on the averaged model's m and sigma^2, mapped to phase space like the closed form."""
     import averaging
     import fpk
-    from averaging.geometry import restoring
-    from averaging.phase import phase_densities
 
     if scene.system.f == 0.0:
         raise averaging.NoStationaryDensity(
             "f = 0: there is no noise, so the averaged FPK has no stationary density")
     m = averaging.build_model(scene, model, **options)
     res = fpk.stationary(m.drift, m.diffusion, cells=cells, method=method)
-    A, p = res.data["A_cells"]["x"], res.data["A_cells"]["p"]
-    log_T = np.log(m.period(A))
-    with np.errstate(divide="ignore"):
-        log_h = np.log(np.maximum(p, 1e-300)) - np.log(restoring(A, scene.system.omega0,
-                                                                  scene.system.alpha)) - log_T
-    ph = phase_densities(A, log_h, log_T, omega0=scene.system.omega0,
-                         alpha=scene.system.alpha, barrier=scene.system.barrier,
-                         points=scene.averaging.phase_points)
-    data = {"A": res.data["A"], "E": {"x": ph.E, "p": ph.p_E}, "x1": {"x": ph.x1, "p": ph.p_x1},
-            "x2": {"x": ph.x2, "p": ph.p_x2},
-            "joint": {"x1": ph.x1, "x2": ph.x2, "p": ph.joint}}
+    data, raw_mass = phase_solution(scene, res, m.period)
     info = dict(res.info)
     info["model"] = model
     xa, pa = data["A"]["x"], data["A"]["p"]
     mean = float(np.trapezoid(xa * pa, xa))
     info["summary"] = {"mean": mean, "mode": float(xa[int(np.argmax(pa))]),
                        "std": float(np.sqrt(max(np.trapezoid((xa - mean) ** 2 * pa, xa), 0)))}
-    info["diagnostics"] = dict(info["diagnostics"], phase_mass_before_normalisation=ph.raw_mass)
+    info["diagnostics"] = dict(info["diagnostics"], phase_mass_before_normalisation=raw_mass)
     return Solution(data=data, info=info)
+
+
+def phase_solution(scene: Any, res: Any, period: Any) -> tuple[dict[str, Any], dict]:
+    """An FPK result's p(A) mapped to p(E), p(x1, x2), p(x1), p(x2) as for the closed form,
+    with p(y, y') = p_A / (g T); ``period`` gives T(A). Returns (data, raw masses)."""
+    from averaging.geometry import restoring
+    from averaging.phase import phase_densities
+
+    s = scene.system
+    A, p = res.data["A_cells"]["x"], res.data["A_cells"]["p"]
+    log_T = np.log(period(A))
+    log_h = np.log(np.maximum(p, 1e-300)) - np.log(restoring(A, s.omega0, s.alpha)) - log_T
+    ph = phase_densities(A, log_h, log_T, omega0=s.omega0, alpha=s.alpha, barrier=s.barrier,
+                         points=scene.averaging.phase_points)
+    data = {"A": res.data["A"], "E": {"x": ph.E, "p": ph.p_E}, "x1": {"x": ph.x1, "p": ph.p_x1},
+            "x2": {"x": ph.x2, "p": ph.p_x2},
+            "joint": {"x1": ph.x1, "x2": ph.x2, "p": ph.joint}}
+    return data, ph.raw_mass
 
 
 def montecarlo_solution(scene: Any, *, progress: bool = True, **edges: Any) -> Solution:

@@ -183,8 +183,9 @@ def model_densities(scene: Scene, model: Any) -> dict[str, dict[str, Any]]:
     FPK direct solve of the user's m and sigma^2 mapped to phase space."""
     import averaging
     import fpk
-    from averaging.geometry import period, restoring
-    from averaging.phase import phase_densities
+    from averaging.geometry import period
+
+    from .run import phase_solution
 
     if isinstance(model, str):
         return averaging.solve(scene, model=model).data
@@ -194,15 +195,12 @@ def model_densities(scene: Scene, model: Any) -> dict[str, dict[str, Any]]:
                             "(see harness.testing.AveragedModel)")
     s = scene.system
     res = fpk.stationary(model.drift, model.diffusion, cells=800, method="direct")
-    A, p = res.data["A_cells"]["x"], res.data["A_cells"]["p"]
-    T = model.period(A) if callable(getattr(model, "period", None)) else period(
-        A, s.omega0, s.alpha)
-    log_T = np.log(T)
-    log_h = np.log(np.maximum(p, 1e-300)) - np.log(restoring(A, s.omega0, s.alpha)) - log_T
-    ph = phase_densities(A, log_h, log_T, omega0=s.omega0, alpha=s.alpha, barrier=s.barrier,
-                         points=scene.averaging.phase_points)
-    return {"A": res.data["A"], "x1": {"x": ph.x1, "p": ph.p_x1},
-            "x2": {"x": ph.x2, "p": ph.p_x2}}
+    if callable(getattr(model, "period", None)):
+        T = model.period
+    else:
+        def T(A):
+            return period(A, s.omega0, s.alpha)
+    return phase_solution(scene, res, T)[0]
 
 
 def assert_averaging_error(scene: Any, model: Any, *, below: float, observable: str = "A",

@@ -125,7 +125,6 @@ def run_blocks(states, n_paths, n_burn, n_samples, stride, h,
     n_blocks = states.shape[0]
     total = n_burn + n_samples * stride
     if alpha1 is None:
-        kick = 0.0
         ou_a = 0.0
         ou_s = 0.0
     else:
