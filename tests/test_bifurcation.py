@@ -37,6 +37,7 @@ def test_no_root_in_range_is_none(base):
 
 def test_paper_model_reproduces_the_papers_critical_r(base):
     """Section 5.2: P-bifurcation near r = 0.968 at mu = 0.001 (our paper model: 0.9681)."""
+    # the paper prints 3 decimals: 5e-4 is the precision of its claim
     assert critical_value(base, "paper", "r", 0.9, 1.0) == pytest.approx(0.968, abs=5e-4)
 
 

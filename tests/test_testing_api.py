@@ -83,7 +83,9 @@ def test_user_model_protocol():
 
     a = assert_averaging_error(scene, Mine(), below=0.2, observable="x2", **SMALL)
     b = assert_averaging_error(scene, "exact", below=0.2, observable="x2", **SMALL)
-    assert a["L1"] == pytest.approx(b["L1"], abs=5e-3)  # FPK route vs closed form
+    # |L1(a, ref) - L1(b, ref)| <= L1(a, b) (triangle inequality; bin-averaging only shrinks
+    # L1), the FPK route's discretisation error on x2: measured 7.7e-5 at 800 cells
+    assert a["L1"] == pytest.approx(b["L1"], abs=5e-4)
     with pytest.raises(TypeError, match="provide drift"):
         assert_averaging_error(scene, object(), below=1.0, **SMALL)
 
