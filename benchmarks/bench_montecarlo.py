@@ -15,7 +15,7 @@ import json
 import platform
 import sys
 import time
-from dataclasses import replace
+from dataclasses import asdict, replace
 from pathlib import Path
 
 import numba
@@ -25,9 +25,11 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 import montecarlo as mc  # noqa: E402
-from harness.scene import load_scene  # noqa: E402
+from harness.scene import MonteCarloSettings, load_scene  # noqa: E402
 from montecarlo.reference import simulate_numpy  # noqa: E402
 from montecarlo.simulate import _params  # noqa: E402
+
+DEFAULTS = mc.Settings(**asdict(MonteCarloSettings()), certificate=False)
 
 EDGES = {"edges_A": np.linspace(0, 2, 101), "edges_x": np.linspace(-2, 2, 101),
          "edges_v": np.linspace(-2, 2, 101)}
@@ -37,9 +39,10 @@ def kernel_rate(system, noise, threads: int, repeats: int = 3) -> dict[str, floa
     kw = dict(paths=64, blocks=16, dt=0.01, time=1000.0, burn_in=10.0, progress=False,
               threads=threads, edges=EDGES, observables=("A", "x1", "x2", "moments", "events"))
     t0 = time.perf_counter()
-    mc.simulate(system, noise, **dict(kw, paths=16, time=1.0))
+    mc.simulate(system, noise, DEFAULTS, **dict(kw, paths=16, time=1.0))
     warm = time.perf_counter() - t0
-    rates = [mc.simulate(system, noise, **kw).info["steps_per_second"] for _ in range(repeats)]
+    rates = [mc.simulate(system, noise, DEFAULTS, **kw).info["steps_per_second"]
+             for _ in range(repeats)]
     return {"steps_per_second": max(rates), "first_call_seconds": warm}
 
 

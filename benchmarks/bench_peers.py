@@ -18,6 +18,7 @@ import math
 import platform
 import sys
 import time
+from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
@@ -26,9 +27,11 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 import montecarlo as mc  # noqa: E402
-from harness.scene import Scene  # noqa: E402
+from harness.scene import MonteCarloSettings, Scene  # noqa: E402
 from montecarlo.reference import simulate_numpy  # noqa: E402
 from montecarlo.simulate import _params  # noqa: E402
+
+DEFAULTS = mc.Settings(**asdict(MonteCarloSettings()), certificate=False)
 
 G, D, A1, F = 0.5, 0.05, 1.0, 1.0
 EXACT = 0.04
@@ -49,9 +52,9 @@ def numba_run(dt: float, paths: int, time_: float, threads: int = 0) -> tuple[fl
     sc = scene()
     kw = dict(paths=paths, blocks=32, dt=dt, time=time_, burn_in=50.0, sample_every=2.0,
               progress=False, observables=("moments",), edges=EDGES, threads=threads)
-    mc.simulate(sc.system, sc.noise, **dict(kw, paths=32, time=10.0))
+    mc.simulate(sc.system, sc.noise, DEFAULTS, **dict(kw, paths=32, time=10.0))
     t0 = time.perf_counter()
-    r = mc.simulate(sc.system, sc.noise, **kw)
+    r = mc.simulate(sc.system, sc.noise, DEFAULTS, **kw)
     sec = time.perf_counter() - t0
     v2 = r.info["moments"]["x2"]["second"]
     return v2["value"], v2["err"], sec

@@ -100,20 +100,42 @@ def bifurcation(scene: Any, vary: str, *, lo: float | None = None, hi: float | N
     out: dict[str, Any] = {"vary": vary, "range": [lo, hi], "critical": {},
                            "criterion": "max_{A>0} d/dA log p(y, y') = 0",
                            "paper_claim": PAPER_CLAIMS[vary]}
+    other = "r" if vary == "mu" else "mu"
+    out["fixed"] = {other: getattr(scene.system, other),
+                    **{k: getattr(scene.system, k) for k in ("c1", "c2", "alpha", "omega0", "f")},
+                    "D": scene.noise.D, "alpha1": scene.noise.alpha1, "noise": scene.noise.kind}
     for m in models:
         out["critical"][m] = critical_value(scene, m, vary, lo, hi)
     if mc:
-        span = offset * (hi - lo)
-        found = sorted(c for c in out["critical"].values() if c is not None)
-        points: list[float] = []
-        for c in found:  # one point each side of every distinct critical value
-            for v in (max(c - span, lo), min(c + span, hi)):
-                if all(abs(v - q) > 0.5 * span for q in points):
-                    points.append(v)
-        checks = []
-        for v in sorted(points):
-            s = with_param(scene, vary, v)
-            pred = {k: ("crater" if shape_index(s, k) > 0 else "single peak") for k in models}
-            checks.append({"value": v, "predicted": pred, "monte_carlo": mc_shape(s)})
-        out["mc_check"] = checks
+        out["mc_check"] = [_mc_check(scene, vary, v, models) for v in
+                           check_points(list(out["critical"].values()), lo, hi, offset)]
     return out
+
+
+def check_points(critical: list[float | None], lo: float, hi: float, offset: float
+                 ) -> list[float]:
+    """One point on each side of every distinct critical value, at offset x (hi - lo) from it
+    but never beyond half the way to an end of the range (so never at an end itself)."""
+    span = offset * (hi - lo)
+    points: list[float] = []
+    for c in sorted(c for c in critical if c is not None):
+        for v in (c - min(span, 0.5 * (c - lo)), c + min(span, 0.5 * (hi - c))):
+            if v not in (lo, hi) and all(abs(v - q) > 0.25 * span for q in points):
+                points.append(v)
+    return sorted(points)
+
+
+def _mc_check(scene: Any, vary: str, v: float, models: tuple[str, ...]) -> dict[str, Any]:
+    s = with_param(scene, vary, v)
+    pred = {k: ("crater" if shape_index(s, k) > 0 else "single peak") for k in models}
+    shape = mc_shape(s)
+    agree = [k for k in models if pred[k] == shape["shape"]]
+    disagree = [k for k in models if pred[k] != shape["shape"]]
+    if not disagree:
+        words = f"the Monte Carlo agrees with every model: {shape['shape']}"
+    else:
+        words = (f"the Monte Carlo shows a {shape['shape']} and DISAGREES with the "
+                 + " and ".join(f"{k} model ({pred[k]})" for k in disagree)
+                 + (f"; it agrees with the {' and '.join(agree)} model" if agree else ""))
+    return {"value": v, "predicted": pred, "monte_carlo": shape, "agrees": {
+        k: k in agree for k in models}, "words": words}

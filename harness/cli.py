@@ -67,6 +67,25 @@ def _mc_summary(info: dict[str, Any]) -> str:
             f"{ev['impacts_per_time']['err']:.2g}; stuck fraction "
             f"{ev['stuck_fraction']['value']:.3g} +/- {ev['stuck_fraction']['err']:.2g}; "
             f"chatter-guard entries {ev['chatter_entries']}")
+    conv = info.get("convergence", {})
+    if conv.get("equilibrated") is not None:
+        burn = f"burn-in {conv['burn_in']:g}"
+        if "relaxation_time" in conv:
+            burn += f" = 6 x measured relaxation time {conv['relaxation_time']:.3g}"
+        if conv["equilibrated"]:
+            lines.append(f"  equilibrated: yes (R-hat {conv['rhat']:.4f} <= "
+                         f"{conv['rhat_limit']:.4f}, drift {conv['drift_z']:+.1f} s.e., ESS "
+                         f"{conv['ess']:.0f}; {burn})")
+        else:
+            lines.append(f"  NOT equilibrated: {conv['reason']} ({burn})")
+    if conv.get("target_floor"):
+        lines.append(f"  target floor {conv['target_floor']:g}: "
+                     + ("reached" if conv["reached"] else "NOT reached")
+                     + f" (floor {conv['floor']:.4g}; stopped: {conv['stopped']})")
+    atom = info.get("atoms", {}).get("x2")
+    if atom and atom["weight"] > 0:
+        lines.append(f"  atom of p(x2) at v = 0 (mass at rest): weight {atom['weight']:.4g} "
+                     f"+/- {atom['err']:.2g}, kept out of the x2 bins")
     sec = info["seconds"]
     lines.append(f"  time: compile {sec['compile']:.2f} s, run {sec['run']:.2f} s "
                  f"({info['steps_per_second'] / 1e6:.0f} M steps/s on {info['threads']} threads)")
@@ -110,7 +129,8 @@ def cmd_solve(args: argparse.Namespace) -> int:
 
 def _mc_overrides(args: argparse.Namespace) -> dict[str, Any]:
     """{"montecarlo.<key>": value} for the --paths, --dt, --time, --seed given."""
-    return {f"montecarlo.{k}": getattr(args, k) for k in ("paths", "dt", "time", "seed")
+    return {f"montecarlo.{k}": getattr(args, k)
+            for k in ("paths", "dt", "time", "seed", "floor", "budget")
             if getattr(args, k, None) is not None}
 
 
@@ -149,13 +169,17 @@ def cmd_bifurcation(args: argparse.Namespace) -> int:
               + ("; then Monte Carlo on both sides" if not args.no_mc else "") + " ...",
               file=sys.stderr, flush=True)
     res = bifurcation(scene, args.vary, lo=lo, hi=hi, mc=not args.no_mc)
+    fixed = ", ".join(f"{k} = {v:g}" if isinstance(v, float) else f"{k} = {v}"
+                      for k, v in res["fixed"].items())
+    print(f"varying {args.vary} with {fixed}")
     for m, c in res["critical"].items():
         where = f"{c:.6g}" if c is not None else f"none in {res['range']}"
         print(f"{m} model: critical {args.vary} = {where}")
     for chk in res.get("mc_check", []):
         print(f"  {args.vary} = {chk['value']:.5g}: models predict {chk['predicted']}; "
               f"original system (MC): {chk['monte_carlo']['shape']} "
-              f"(largest rise of log p(y, y') {chk['monte_carlo']['max_rise_in_se']:.1f} s.e.)")
+              f"(largest rise of log p(y, y') {chk['monte_carlo']['max_rise_in_se']:.1f} s.e.)"
+              f" -- {chk['words']}")
     print(f"paper claims: {res['paper_claim']}")
     if args.json:
         write_json(args.json, res)
@@ -198,10 +222,25 @@ def cmd_workprecision(args: argparse.Namespace) -> int:
 
 def _add_mc_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--paths", type=int, help="Monte Carlo: number of paths")
-    p.add_argument("--dt", type=float, help="Monte Carlo: time step")
+    p.add_argument("--dt", type=_dt_value, metavar="H|auto",
+                   help='Monte Carlo: time step, or "auto" (the largest with bias below half '
+                        'the target floor)')
     p.add_argument("--time", type=float, metavar="T",
                    help="Monte Carlo: simulated time sampled per path after the burn-in")
     p.add_argument("--seed", type=int, help="Monte Carlo: root seed")
+    p.add_argument("--floor", type=float, metavar="F",
+                   help="Monte Carlo: simulate until the L1 noise floor of p(A) is at most F")
+    p.add_argument("--budget", type=float, metavar="SECONDS",
+                   help="Monte Carlo: wall seconds allowed to reach the floor (default 600)")
+
+
+def _dt_value(text: str) -> float | str:
+    if text == "auto":
+        return text
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number or 'auto'") from None
 
 
 def build_parser() -> argparse.ArgumentParser:

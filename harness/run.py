@@ -92,7 +92,10 @@ def montecarlo_solution(scene: Any, *, progress: bool = True, **edges: Any) -> S
     settings = montecarlo.Settings(**dataclasses.asdict(scene.montecarlo),
                                    observables=scene.observables.names(), progress=progress,
                                    edges=edges)
-    res = montecarlo.simulate(scene.system, scene.noise, settings)
+    try:
+        res = montecarlo.simulate(scene.system, scene.noise, settings)
+    except montecarlo.SimulationDiverged as exc:
+        raise SolverFailure(str(exc)) from None
     info = dict(res.info)
     mom = info.get("moments", {}).get("A", {}).get("mean")
     if mom is not None:

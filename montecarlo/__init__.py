@@ -2,6 +2,15 @@
 OU or white noise), and of an averaged 1-D amplitude SDE. Imports no other vifpk package.
 """
 
-from .simulate import OBSERVABLES, Result, Settings, block_seeds, effects, simulate
+from .simulate import (
+                       OBSERVABLES,
+                       Result,
+                       Settings,
+                       SimulationDiverged,
+                       block_seeds,
+                       effects,
+                       simulate,
+)
 
-__all__ = ["OBSERVABLES", "Result", "Settings", "block_seeds", "effects", "simulate"]
+__all__ = ["OBSERVABLES", "Result", "Settings", "SimulationDiverged", "block_seeds", "effects",
+           "simulate"]

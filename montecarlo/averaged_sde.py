@@ -40,6 +40,36 @@ from .rng import normal, states_from_seed, uniform
 from .simulate import Result, _density, _mean_se
 
 ORDER = 1
+BURN_FACTOR = 6.0  # as for the original system (tuning.py): burn-in = 6 x relaxation time
+
+
+def relaxation_time(drift: Callable[[np.ndarray], np.ndarray],
+                    diffusion: Callable[[np.ndarray], np.ndarray], top: float,
+                    cells: int = 400) -> float:
+    """Slowest relaxation time 1 / lambda_1 of THIS SDE, from its own generator
+    L f = (1/pi) (pi sigma^2 / 2 f')' (pi the stationary density, reflecting ends), discretised
+    on ``cells`` cells of [0, top] and symmetrised by sqrt(pi): a tridiagonal eigenproblem.
+    Used for ``burn_in = "auto"``: a 1-D SDE's relaxation time is a property of the SDE
+    itself, so no pilot run is needed."""
+    from scipy.linalg import eigh_tridiagonal
+
+    h = top / cells
+    A = (np.arange(cells) + 0.5) * h
+    m, s2 = np.asarray(drift(A), float), np.maximum(np.asarray(diffusion(A), float), 1e-300)
+    g = 2 * m / s2
+    log_pi = np.concatenate([[0.0], np.cumsum(0.5 * (g[1:] + g[:-1]) * h)]) - np.log(s2)
+    log_pi = np.maximum(log_pi - log_pi.max(), -300.0)
+    log_c = log_pi + np.log(0.5 * s2)  # pi sigma^2 / 2 at the cells
+    c_face = np.exp(0.5 * (log_c[1:] + log_c[:-1]))  # at the interior faces
+    pi = np.exp(log_pi)
+    diag = np.zeros(cells)
+    diag[:-1] += c_face
+    diag[1:] += c_face
+    diag /= pi * h * h
+    off = -c_face / (h * h * np.sqrt(pi[1:] * pi[:-1]))
+    lam = eigh_tridiagonal(diag, off, select="i", select_range=(0, 1),
+                           eigvals_only=True)
+    return float(1.0 / lam[1]) if lam[1] > 0 else math.inf
 
 
 @jit
@@ -125,14 +155,21 @@ def simulate_sde(drift: Callable[[np.ndarray], np.ndarray],
                  diffusion: Callable[[np.ndarray], np.ndarray], *, edges: np.ndarray,
                  A_table: float | None = None, table_points: int = 4001, paths: int = 1024,
                  blocks: int = 32, dt: float = 0.01, time_: float = 2000.0,
-                 burn_in: float = 300.0, sample_every: float = 0.5, seed: int = 20190102,
+                 burn_in: float | str = "auto", sample_every: float = 0.5,
+                 seed: int = 20190102,
                  A0: float | None = None, phase: dict[str, Any] | None = None) -> Result:
     """Histogram of A for the averaged SDE with batch error bars (blocks are the batches).
 
     phase: optional ``{"omega0", "alpha", "barrier", "edges_x", "edges_v"}`` to also record
-    x1, x2 from time-uniform points of the orbit of each sampled amplitude."""
+    x1, x2 from time-uniform points of the orbit of each sampled amplitude.
+    burn_in: a time, or "auto": BURN_FACTOR x relaxation_time(drift, diffusion)."""
     edges = np.asarray(edges, dtype=float)
     top = float(A_table if A_table is not None else 1.5 * edges[-1])
+    tau = None
+    if burn_in == "auto":
+        tau = relaxation_time(drift, diffusion, top)
+        burn_in = BURN_FACTOR * tau if math.isfinite(tau) else 300.0
+    burn_in = float(burn_in)
     grid = np.linspace(0.0, top, table_points)
     inner = grid[1:]
     m, s2 = np.asarray(drift(inner), float), np.asarray(diffusion(inner), float)
@@ -182,6 +219,7 @@ def simulate_sde(drift: Callable[[np.ndarray], np.ndarray],
                      "burn_in": n_burn * dt, "sample_every": stride * dt, "blocks": blocks,
                      "table_points": table_points, "A_table": top},
         "seed": {"root": seed, "scheme": "numpy.random.SeedSequence(root).spawn(blocks)"},
+        "relaxation_time": tau,
         "L1_floor": {"A": d["L1_floor"]},
         "moments": {"A": {"mean": _mean_se(sums[:, 0] / sums[:, 2]),
                           "second": _mean_se(sums[:, 1] / sums[:, 2])}},

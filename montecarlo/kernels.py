@@ -37,11 +37,19 @@ from .geometry import amplitude
 from .rng import normal
 
 # columns of the per-block event array
-EV_IMPACTS, EV_STUCK, EV_CHATTER, EV_TIME, EV_SAMPLES, EV_OUT_A, EV_OUT_X, EV_OUT_V = range(8)
-N_EVENTS = 8
+(EV_IMPACTS, EV_STUCK, EV_CHATTER, EV_TIME, EV_SAMPLES, EV_OUT_A, EV_OUT_X, EV_OUT_V,
+ EV_ATOM) = range(9)
+N_EVENTS = 9
 # columns of the per-block moment array
 MO_A, MO_A2, MO_X, MO_X2, MO_V, MO_V2, MO_MAXA, MO_MAXX, MO_MAXV = range(9)
 N_MOMENTS = 9
+# columns of the per-block energy-balance array (observable "energy")
+EN_INPUT, EN_DAMP, EN_FRICTION, EN_IMPACT = range(4)
+N_ENERGY = 4
+
+# declared weak orders (measured in tests/test_montecarlo.py against these constants)
+WEAK_ORDER_SMOOTH = 2  # Strang splitting, no barrier and no friction
+WEAK_ORDER_NONSMOOTH = 1  # across impacts and stick-slip events
 
 
 @jit
@@ -113,17 +121,41 @@ def drift(x: float, v: float, tau: float, r, press: float, h: float):
     return w * (tau - t_hit), w, 1, 0
 
 
+@jit(inline="always")
+def impact_loss(v_before: float, impacts: int, chatter: int, r: float) -> float:
+    """Kinetic energy lost in one drift sub-flow: (1 - r^2) v^2 / 2 at an impact, all of
+    v^2 / 2 when the chatter guard rests the mass (the limit of the Zeno sequence)."""
+    if impacts == 0:
+        return 0.0
+    if chatter:
+        return 0.5 * v_before * v_before
+    return 0.5 * (1.0 - r * r) * v_before * v_before
+
+
 @jit(parallel=True)
-def run_blocks(states, n_paths, n_burn, n_samples, stride, h,
-               c1, c2, w0sq, alpha, f, D, mu, r, alpha1, spread,
-               a_lo, a_inv, hist_A, x_lo, x_inv, hist_x, v_lo, v_inv, hist_v, hist_joint,
-               moments, events):
-    """Simulate ``n_paths`` paths in each block (one block per prange iteration, with its
-    own generator state states[b], so results do not depend on the thread count). Histogram
-    counts, moment sums and event counts are accumulated per block, after ``n_burn``
-    burn-in steps, every ``stride`` steps for ``n_samples`` samples."""
-    n_blocks = states.shape[0]
-    total = n_burn + n_samples * stride
+def run_paths(rng, state, n_steps, step0, n_burn, stride, h,
+              c1, c2, w0sq, alpha, f, D, mu, r, alpha1,
+              a_lo, a_inv, hist_A, x_lo, x_inv, hist_x, v_lo, v_inv, hist_v, hist_joint,
+              moments, events, energy, spw, windows):
+    """Advance every path of every block by ``n_steps`` steps (global step indices
+    ``step0 .. step0 + n_steps - 1``). Each path has its own generator state rng[b, p] and its
+    own (x, v, xi) in state[b, p], both updated in place, so a run cut into any number of calls
+    gives bit-identical results, for any thread count (one block per prange iteration).
+
+    Steps with global index < ``n_burn`` are burn-in. After it, event counts (and, with
+    ``energy``, the power balance) are accumulated every step, and every ``stride`` steps a
+    sample is taken: histograms, moments, and with ``windows`` the per-path sum of A over
+    windows of ``spw`` samples (windows[b, p, w]; the certificate's raw data). A sample with
+    v == 0 exactly (the mass at rest: stuck, or resting on the wall) is the atom of p(x2) at 0
+    and is counted in EV_ATOM, not in the x2 (or joint) bins.
+
+    energy[b] columns (time integrals over the sampled time, Strang sub-flow by sub-flow):
+    EN_INPUT the work of the noise (OU: f xi v, trapezoid over B; white: the kick's exact
+    change of v^2/2), EN_DAMP (c2 x^2 - c1) v^2, EN_FRICTION mu |v| (trapezoid over B),
+    EN_IMPACT the kinetic energy lost at impacts, (1 - r^2) v^2 / 2 each, and v^2 / 2 when
+    the chatter guard rests the mass."""
+    n_blocks = state.shape[0]
+    n_paths = state.shape[1]
     if alpha1 is None:
         ou_a = 0.0
         ou_s = 0.0
@@ -133,40 +165,43 @@ def run_blocks(states, n_paths, n_burn, n_samples, stride, h,
     kick = f * math.sqrt(2.0 * D * h)
     half = 0.5 * h
     for b in prange(n_blocks):
-        s0, s1, s2, s3 = states[b, 0], states[b, 1], states[b, 2], states[b, 3]
-        for _p in range(n_paths):
-            z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
-            x = spread * z
-            if r is not None:
-                x = abs(x)
-            z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
-            v = spread * z
-            xi = 0.0
-            if alpha1 is not None:
-                z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
-                xi = math.sqrt(D / alpha1) * z
-            for n in range(total):
+        for p in range(n_paths):
+            s0, s1, s2, s3 = rng[b, p, 0], rng[b, p, 1], rng[b, p, 2], rng[b, p, 3]
+            x = state[b, p, 0]
+            v = state[b, p, 1]
+            xi = state[b, p, 2]
+            for n in range(step0, step0 + n_steps):
                 press = 0.0
                 if r is not None:
                     if alpha1 is not None:
                         press = -f * xi
                     if mu is not None:
                         press += mu
+                va = v
                 x, v, imp1, ch1 = drift(x, v, half, r, press, h)
                 at_wall = False
                 if r is not None:
                     at_wall = x == 0.0
                 k = c2 * x * x - c1
                 g = (w0sq + alpha * x * x) * x
+                vb = v
                 if alpha1 is not None:
                     v, stuck = velocity_flow(v, h, -g + f * xi, k, mu, at_wall)
+                    vc = v
+                    vk = v
+                    vd = v
                 else:
                     v, st1 = velocity_flow(v, half, -g, k, mu, at_wall)
+                    vc = v
                     z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
                     v += kick * z
+                    vk = v
                     v, st2 = velocity_flow(v, half, -g, k, mu, at_wall)
+                    vd = v
                     stuck = st1 + st2
+                ve = v
                 x, v, imp2, ch2 = drift(x, v, half, r, press, h)
+                xi_used = xi
                 if alpha1 is not None:
                     z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
                     xi = ou_a * xi + ou_s * z
@@ -176,10 +211,30 @@ def run_blocks(states, n_paths, n_burn, n_samples, stride, h,
                 events[b, EV_CHATTER] += ch1 + ch2
                 events[b, EV_STUCK] += stuck
                 events[b, EV_TIME] += h
+                if energy is not None:
+                    if alpha1 is not None:
+                        energy[b, EN_INPUT] += f * xi_used * h * 0.5 * (vb + ve)
+                        energy[b, EN_DAMP] += k * h * 0.5 * (vb * vb + ve * ve)
+                        if mu is not None:
+                            energy[b, EN_FRICTION] += mu * h * 0.5 * (abs(vb) + abs(ve))
+                    else:
+                        energy[b, EN_INPUT] += 0.5 * (vk * vk - vc * vc)
+                        energy[b, EN_DAMP] += k * half * 0.5 * (vb * vb + vc * vc
+                                                                + vk * vk + vd * vd)
+                        if mu is not None:
+                            energy[b, EN_FRICTION] += mu * half * 0.5 * (
+                                abs(vb) + abs(vc) + abs(vk) + abs(vd))
+                    if r is not None:
+                        energy[b, EN_IMPACT] += impact_loss(va, imp1, ch1, r)
+                        energy[b, EN_IMPACT] += impact_loss(ve, imp2, ch2, r)
                 if (n - n_burn + 1) % stride != 0:
                     continue
                 events[b, EV_SAMPLES] += 1.0
                 A = amplitude(x, v, w0sq, alpha)
+                if windows is not None:
+                    w = ((n - n_burn + 1) // stride - 1) // spw
+                    if w < windows.shape[2]:
+                        windows[b, p, w] += A
                 if hist_A is not None:
                     i = int((A - a_lo) * a_inv)
                     if 0 <= i < hist_A.shape[1]:
@@ -192,6 +247,9 @@ def run_blocks(states, n_paths, n_burn, n_samples, stride, h,
                     ix = int((x - x_lo) * x_inv)
                 if hist_v is not None or hist_joint is not None:
                     iv = int((v - v_lo) * v_inv)
+                    if v == 0.0:
+                        iv = -2
+                        events[b, EV_ATOM] += 1.0
                 if hist_x is not None:
                     if 0 <= ix < hist_x.shape[1]:
                         hist_x[b, ix] += 1.0
@@ -200,7 +258,7 @@ def run_blocks(states, n_paths, n_burn, n_samples, stride, h,
                 if hist_v is not None:
                     if 0 <= iv < hist_v.shape[1]:
                         hist_v[b, iv] += 1.0
-                    else:
+                    elif iv != -2:
                         events[b, EV_OUT_V] += 1.0
                 if hist_joint is not None:
                     if 0 <= ix < hist_joint.shape[1] and 0 <= iv < hist_joint.shape[2]:
@@ -215,4 +273,7 @@ def run_blocks(states, n_paths, n_burn, n_samples, stride, h,
                     moments[b, MO_MAXA] = max(moments[b, MO_MAXA], A)
                     moments[b, MO_MAXX] = max(moments[b, MO_MAXX], abs(x))
                     moments[b, MO_MAXV] = max(moments[b, MO_MAXV], abs(v))
-        states[b, 0], states[b, 1], states[b, 2], states[b, 3] = s0, s1, s2, s3
+            rng[b, p, 0], rng[b, p, 1], rng[b, p, 2], rng[b, p, 3] = s0, s1, s2, s3
+            state[b, p, 0] = x
+            state[b, p, 1] = v
+            state[b, p, 2] = xi

@@ -1,11 +1,22 @@
-"""Driver of the Monte Carlo of the original system: seeding, batching, histograms, errors.
+"""Driver of the Monte Carlo of the original system: seeding, batching, histograms, errors,
+the burn-in, the equilibration certificate and the stop at a target noise floor.
 
-Independent blocks of paths are the batches: block b runs ``paths_per_block`` paths seeded by
-the b-th child of ``numpy.random.SeedSequence(seed)``, inside one numba thread, so the same
-seed gives identical histograms for any number of threads. Densities are block means; the
-error bar of each bin is the standard error of the block means (paths in different blocks
-are independent, samples along one path are not). The L1 noise floor is the expected L1 of
-pure sampling noise, sum_i sqrt(2/pi) se_i w_i (Gaussian bin errors).
+Independent blocks of paths are the batches. Path p of block b has its own generator, seeded
+from ``numpy.random.SeedSequence(seed, spawn_key=(b,))`` (the b-th child of
+``SeedSequence(seed)``; its 4 x paths-per-block state words seed the block's paths), and its
+own state (x, v, xi). The kernel advances all paths by a given number of steps, so a run may be
+cut into any number of calls (short ones, so that Ctrl-C is seen within about a second, and
+more of them when the run is extended toward a target floor) and still gives bit-identical
+results for a seed, for any thread count. Densities are block means; the error bar of each bin
+is the standard error of the block means (paths in different blocks are independent, samples
+along one path are not). The L1 noise floor is the expected L1 of pure sampling noise,
+sum_i sqrt(2/pi) se_i w_i (Gaussian bin errors).
+
+The run: a short pilot sets the histogram ranges and the amplitude scale; with
+``burn_in = "auto"`` a second pilot measures the relaxation time (tuning.py); the paths start
+over-dispersed; after the burn-in the sampled time is 16 windows of ``time / 16`` (8 when a
+target floor is set, then extended window by window toward the floor, within the budget);
+the certificate (certificate.py) reads the per-path window means.
 """
 
 from __future__ import annotations
@@ -14,16 +25,21 @@ import math
 import platform
 import sys
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, NamedTuple
 
 import numba
 import numpy as np
 
 from . import kernels as K
-from .rng import states_from_seed
+from .certificate import certificate
+from .tuning import BURN_FACTOR, auto_dt, fit_relaxation
 
-OBSERVABLES = ("A", "x1", "x2", "joint", "moments", "events")
+OBSERVABLES = ("A", "x1", "x2", "joint", "moments", "events", "energy")
+NOISE_KINDS = ("ou", "white")
+WINDOWS = 16  # sampled windows of time / 16 (the certificate's draws along each path)
+CHUNK_SECONDS = 0.4  # wall time of one kernel call: Ctrl-C is seen between calls
+START_LOW = 0.05  # lowest start amplitude, as a fraction of the pilot's largest
 
 
 class Result(NamedTuple):
@@ -31,31 +47,54 @@ class Result(NamedTuple):
     info: dict[str, Any]
 
 
+class SimulationDiverged(RuntimeError):
+    """The simulation produced a non-finite state, or no sample inside any histogram range.
+    The message is one line and names the time step (the usual cause)."""
+
+
 @dataclass(frozen=True, kw_only=True)
 class Settings:
-    """Monte Carlo settings (the scene's [montecarlo] section); defaults from docs/montecarlo.md."""
+    """Monte Carlo settings: plain numbers, no defaults (the scene's [montecarlo] section
+    holds the one set of defaults, harness.scene.MonteCarloSettings).
 
-    paths: int = 512
-    dt: float = 0.01
-    time: float = 2000.0
-    burn_in: float = 200.0
-    sample_every: float = 0.5
-    seed: int = 20190101
-    blocks: int = 32
-    bins: int = 100
-    threads: int = 0
+    dt: a step, or "auto" (tuning.auto_dt for the target floor); burn_in: a time, or "auto"
+    (BURN_FACTOR x the relaxation time measured by a pilot); floor: target L1 noise floor of
+    p(A), 0 for none (then exactly ``time`` is sampled); budget: wall seconds for reaching the
+    floor (0: no limit)."""
+
+    paths: int
+    dt: float | str
+    time: float
+    burn_in: float | str
+    sample_every: float
+    seed: int
+    blocks: int
+    bins: int
+    threads: int
+    floor: float
+    budget: float
     observables: tuple[str, ...] = ("A", "x1", "x2", "joint", "moments", "events")
     progress: bool = True
+    certificate: bool = True
     edges: dict[str, Any] = field(default_factory=dict, compare=False)
 
 
-def block_seeds(seed: int, blocks: int) -> np.ndarray:
-    """(blocks, 4) generator states from SeedSequence(seed).spawn(blocks) (rng.py)."""
-    return states_from_seed(seed, blocks)
+def block_seeds(seed: int, blocks: int, per_block: int = 1, key: int = 0) -> np.ndarray:
+    """(blocks, per_block, 4) uint64 xoshiro states: block b from the state words of
+    SeedSequence(seed, spawn_key=(key + b,)), i.e. the b-th child of SeedSequence(seed)."""
+    out = np.empty((blocks, per_block, 4), dtype=np.uint64)
+    for b in range(blocks):
+        words = np.random.SeedSequence(seed, spawn_key=(key + b,)).generate_state(
+            4 * per_block, dtype=np.uint64).reshape(per_block, 4)
+        words[~words.any(axis=1), 0] = 1  # the all-zero state is a fixed point
+        out[b] = words
+    return out
 
 
 def _params(system: Any, noise: Any) -> dict[str, Any]:
     """Kernel physics arguments; a switched-off effect is None (pruned at compile time)."""
+    if noise.kind not in NOISE_KINDS:
+        raise ValueError(f"noise kind must be one of {NOISE_KINDS}, not {noise.kind!r}")
     return {
         "c1": float(system.c1), "c2": float(system.c2), "w0sq": float(system.omega0) ** 2,
         "alpha": float(system.alpha), "f": float(system.f), "D": float(noise.D),
@@ -71,18 +110,17 @@ def effects(system: Any, noise: Any) -> dict[str, bool | str]:
             "noise": "ou" if p["alpha1"] is not None else "white"}
 
 
-def _call(seeds, n_paths, n_burn, n_samples, stride, h, phys, hist, moments, events,
-          spread) -> None:
-    ea, ex, ev = hist["edges_A"], hist["edges_x"], hist["edges_v"]
-    K.run_blocks(seeds, n_paths, n_burn, n_samples, stride, h,
-                 phys["c1"], phys["c2"], phys["w0sq"], phys["alpha"], phys["f"], phys["D"],
-                 phys["mu"], phys["r"], phys["alpha1"], spread,
-                 ea[0], 1.0 / (ea[1] - ea[0]), hist["A"],
-                 ex[0], 1.0 / (ex[1] - ex[0]), hist["x"],
-                 ev[0], 1.0 / (ev[1] - ev[0]), hist["v"], hist["joint"], moments, events)
+# --------------------------------------------------------------------------------------------
+class _Arrays(NamedTuple):
+    rng: np.ndarray
+    state: np.ndarray
+    hist: dict[str, Any]
+    moments: np.ndarray | None
+    events: np.ndarray
+    energy: np.ndarray | None
 
 
-def _empty(blocks: int, edges: dict[str, np.ndarray], obs: tuple[str, ...]) -> dict[str, Any]:
+def _hists(blocks: int, edges: dict[str, np.ndarray], obs: tuple[str, ...]) -> dict[str, Any]:
     na, nx, nv = (edges[k].size - 1 for k in ("edges_A", "edges_x", "edges_v"))
     return {
         **edges,
@@ -93,24 +131,141 @@ def _empty(blocks: int, edges: dict[str, np.ndarray], obs: tuple[str, ...]) -> d
     }
 
 
-def _pilot_edges(phys: dict[str, Any], h: float, bins: int, seed: int,
-                 barrier: bool) -> dict[str, np.ndarray]:
-    """Histogram ranges from a short pilot run (maxima x 1.25)."""
-    seeds = block_seeds(seed + 7919, 8)
-    dummy = {"edges_A": np.array([0.0, 1.0]), "edges_x": np.array([0.0, 1.0]),
-             "edges_v": np.array([0.0, 1.0]), "A": None, "x": None, "v": None, "joint": None}
-    mom = np.zeros((8, K.N_MOMENTS))
-    ev = np.zeros((8, K.N_EVENTS))
+def _kernel(arr: _Arrays, phys: dict[str, Any], h: float, n_steps: int, step0: int,
+            n_burn: int, stride: int, spw: int, windows: np.ndarray | None) -> None:
+    hi = arr.hist
+    ea, ex, ev = hi["edges_A"], hi["edges_x"], hi["edges_v"]
+    K.run_paths(arr.rng, arr.state, n_steps, step0, n_burn, stride, h,
+                phys["c1"], phys["c2"], phys["w0sq"], phys["alpha"], phys["f"], phys["D"],
+                phys["mu"], phys["r"], phys["alpha1"],
+                ea[0], 1.0 / (ea[1] - ea[0]), hi["A"], ex[0], 1.0 / (ex[1] - ex[0]), hi["x"],
+                ev[0], 1.0 / (ev[1] - ev[0]), hi["v"], hi["joint"], arr.moments, arr.events,
+                arr.energy, spw, windows)
+
+
+def _diverged(h: float, what: str) -> SimulationDiverged:
+    return SimulationDiverged(
+        f"the Monte Carlo blew up ({what}) at dt = {h:g}: the time step is most likely too "
+        "large for this scene; try a smaller --dt (e.g. 0.01) or --dt auto")
+
+
+class _Stepper:
+    """Advances arrays in kernel calls of about CHUNK_SECONDS each (Ctrl-C is raised between
+    calls), checks the state for finiteness after each call, and drives the progress bar."""
+
+    def __init__(self, phys: dict[str, Any], h: float, threads: int, bar: Any):
+        self.phys, self.h, self.bar = phys, h, bar
+        self.rate = 5e6 * threads  # steps per second: a cautious first guess, then measured
+        self.busy = 0.0  # seconds spent in the kernel
+
+    def run(self, arr: _Arrays, n_steps: int, step0: int, n_burn: int, stride: int,
+            spw: int = 1, windows: np.ndarray | None = None) -> None:
+        """Advance by n_steps."""
+        n_paths = arr.state.shape[0] * arr.state.shape[1]
+        done = 0
+        while done < n_steps:
+            chunk = int(max(1, min(n_steps - done, CHUNK_SECONDS * self.rate / n_paths)))
+            t0 = time.perf_counter()
+            _kernel(arr, self.phys, self.h, chunk, step0 + done, n_burn, stride, spw, windows)
+            dt = time.perf_counter() - t0
+            self.busy += dt
+            if dt > 0:
+                self.rate = 0.5 * self.rate + 0.5 * chunk * n_paths / dt if done else \
+                    chunk * n_paths / dt
+            if not np.all(np.isfinite(arr.state)):
+                raise _diverged(self.h, "non-finite position or velocity")
+            done += chunk
+            if self.bar is not None:
+                self.bar.update(chunk * n_paths)
+
+
+def _arrays(rng: np.ndarray, state: np.ndarray, edges: dict[str, np.ndarray],
+            obs: tuple[str, ...]) -> _Arrays:
+    blocks = state.shape[0]
+    return _Arrays(rng=rng, state=state, hist=_hists(blocks, edges, obs),
+                   moments=np.zeros((blocks, K.N_MOMENTS)) if "moments" in obs else None,
+                   events=np.zeros((blocks, K.N_EVENTS)),
+                   energy=np.zeros((blocks, K.N_ENERGY)) if "energy" in obs else None)
+
+
+def _starts(amplitudes: np.ndarray, phys: dict[str, Any], gen: np.random.Generator
+            ) -> np.ndarray:
+    """(x, v, xi) on the conservative orbit of each amplitude, at a uniform random phase;
+    xi from the stationary OU law."""
+    w0sq, alpha = phys["w0sq"], phys["alpha"]
+
+    def U(x: np.ndarray) -> np.ndarray:
+        return 0.5 * w0sq * x * x + 0.25 * alpha * x**4
+
+    th = gen.uniform(0.0, 2 * math.pi, amplitudes.shape)
+    x = amplitudes * np.cos(th)
+    v = -np.sign(np.sin(th)) * np.sqrt(np.maximum(2 * (U(amplitudes) - U(x)), 0.0))
+    if phys["r"] is not None:
+        x = np.abs(x)
+    xi = np.zeros_like(x)
+    if phys["alpha1"] is not None:
+        xi = gen.standard_normal(x.shape) * math.sqrt(phys["D"] / phys["alpha1"])
+    return np.stack([x, v, xi], axis=-1)
+
+
+_DUMMY = {"edges_A": np.array([0.0, 1.0]), "edges_x": np.array([0.0, 1.0]),
+          "edges_v": np.array([0.0, 1.0])}
+
+
+def _pilot_scale(phys: dict[str, Any], h: float, seed: int, step: _Stepper,
+                 a_hint: float) -> float:
+    """The largest amplitude seen by 32 paths from small starts over 200 + 1000 time units,
+    times 1.25 (the histogram ranges and the top of the over-dispersed starts)."""
+    gen = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(1 << 20,)))
+    amps = np.full((8, 4), 0.1 * a_hint)
+    arr = _arrays(block_seeds(seed, 8, 4, key=1 << 21), _starts(amps, phys, gen), _DUMMY,
+                  ("moments",))
     n_burn = int(round(200.0 / h))
-    _call(seeds, 4, n_burn, 2000, max(int(round(0.5 / h)), 1), h, phys, dummy, mom, ev, 0.1)
-    amax = 1.25 * float(np.max(mom[:, K.MO_MAXA]))
-    if not math.isfinite(amax) or amax <= 0:
-        amax = 1.0
-    # |x| <= A and |v| <= sqrt(2 U(A)) on the orbit through (x, v)
-    vmax = math.sqrt(2 * (0.5 * phys["w0sq"] * amax**2 + 0.25 * phys["alpha"] * amax**4))
-    return {"edges_A": np.linspace(0.0, amax, bins + 1),
-            "edges_x": np.linspace(0.0 if barrier else -amax, amax, bins + 1),
-            "edges_v": np.linspace(-vmax, vmax, bins + 1)}
+    stride = max(int(round(0.5 / h)), 1)
+    step.run(arr, n_burn + 2000 * stride, 0, n_burn, stride)
+    amax = 1.25 * float(np.max(arr.moments[:, K.MO_MAXA]))
+    if not math.isfinite(amax):
+        raise _diverged(h, "non-finite amplitude in the pilot run")
+    return amax if amax > 0 else a_hint
+
+
+def _relaxation(phys: dict[str, Any], h: float, seed: int, step: _Stepper, a_hi: float,
+                sample_every: float, pairs: int = 128, max_time: float = 20000.0
+                ) -> dict[str, Any]:
+    """tau from pairs started low and high with common random numbers (tuning.py)."""
+    gen = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(1 << 22,)))
+    amps = np.empty((2, pairs))
+    amps[0], amps[1] = START_LOW * a_hi, a_hi
+    state = _starts(amps, phys, gen)
+    state[1, :, 2] = state[0, :, 2]  # the same noise state in both members of a pair
+    rng = block_seeds(seed, 1, pairs, key=1 << 23)
+    rng = np.concatenate([rng, rng.copy()])
+    arr = _arrays(rng, state, _DUMMY, ())
+    stride = max(int(round(sample_every / h)), 1)
+    spw = max(int(round(10.0 / (stride * h))), 1)  # windows of ~10 time units
+    win_steps = spw * stride
+    win_time = win_steps * h
+    n_win_max = int(max_time / win_time)
+    windows = np.zeros((2, pairs, n_win_max))
+    seg = max(int(200.0 / win_time), 4)  # windows per segment
+    done = 0
+    t_d = np.empty(0)
+    d = se = np.empty(0)
+    while done < n_win_max:
+        n = min(seg, n_win_max - done)
+        step.run(arr, n * win_steps, done * win_steps, 0, stride, spw, windows)
+        done += n
+        diff = (windows[1, :, :done] - windows[0, :, :done]) / spw
+        d = diff.mean(axis=0)
+        se = diff.std(axis=0, ddof=1) / math.sqrt(pairs)
+        t_d = (np.arange(done) + 0.5) * win_time
+        if done >= 8 and np.all(np.abs(d[-4:]) < 2 * np.maximum(se[-4:], 1e-300)):
+            break
+    fit = fit_relaxation(t_d, d, se)
+    fit.update({"pilot_time": float(done * win_time), "pairs": pairs,
+                "converged": bool(done < n_win_max), "factor": BURN_FACTOR,
+                "start_amplitudes": [START_LOW * a_hi, a_hi]})
+    return fit
 
 
 def _density(counts: np.ndarray, samples: np.ndarray, widths: np.ndarray) -> dict[str, Any]:
@@ -122,103 +277,205 @@ def _density(counts: np.ndarray, samples: np.ndarray, widths: np.ndarray) -> dic
     return {"p": mean, "err": se, "L1_floor": floor}
 
 
-def simulate(system: Any, noise: Any, settings: Settings | None = None, **overrides: Any
-             ) -> Result:
-    """Monte Carlo of the original system for (duck-typed) scene.system and scene.noise."""
-    from dataclasses import replace
+def _floor_A(arr: _Arrays) -> float:
+    e = arr.hist["edges_A"]
+    return _density(arr.hist["A"], np.maximum(arr.events[:, K.EV_SAMPLES], 1.0),
+                    np.diff(e))["L1_floor"]
 
-    st = replace(settings or Settings(), **overrides)
+
+def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> Result:
+    """Monte Carlo of the original system for (duck-typed) scene.system and scene.noise.
+
+    Raises ValueError on settings it cannot use and SimulationDiverged when the run blows up.
+    """
+    st = replace(settings, **overrides)
     obs = tuple(o for o in st.observables if o in OBSERVABLES)
-    h = float(st.dt)
-    if not (h > 0 and st.paths >= st.blocks >= 2):
-        raise ValueError("need dt > 0 and paths >= blocks >= 2")
+    target = float(st.floor) if st.floor else 0.0
+    if target > 0 and "A" not in obs:
+        obs = ("A", *obs)
     phys = _params(system, noise)
-    barrier = phys["r"] is not None
+    h = auto_dt(target, phys) if st.dt == "auto" else float(st.dt)
+    if not (math.isfinite(h) and h > 0 and st.paths >= st.blocks >= 2):
+        raise ValueError("need dt > 0 and paths >= blocks >= 2")
+    t_start = time.perf_counter()
+    deadline = t_start + st.budget if st.budget and st.budget > 0 else math.inf
     threads = st.threads or numba.config.NUMBA_NUM_THREADS
     numba.set_num_threads(threads)
-    n_burn = int(round(st.burn_in / h))
     stride = max(int(round(st.sample_every / h)), 1)
-    n_samples = max(int(st.time / (stride * h)), 1)
     per_block = st.paths // st.blocks
-    seeds = block_seeds(st.seed, st.blocks)
-    seeds_used = seeds.copy()
+    blocks = st.blocks
 
     # compile (or load from the cache) apart from the run: a one-step call of the same types
     t0 = time.perf_counter()
     edges = {k: np.asarray(v, dtype=float) for k, v in st.edges.items()}
-    tiny = _empty(1, edges or {"edges_A": np.linspace(0, 1, 3), "edges_x": np.linspace(0, 1, 3),
-                                "edges_v": np.linspace(-1, 1, 3)}, obs)
-    _call(seeds[:1].copy(), 1, 1, 1, 1, h, phys, tiny, np.zeros((1, K.N_MOMENTS)),
-          np.zeros((1, K.N_EVENTS)), 0.1)
+    tiny = _arrays(block_seeds(st.seed, 1, 1), np.full((1, 1, 3), 0.1),
+                   edges or {"edges_A": np.linspace(0, 1, 3), "edges_x": np.linspace(0, 1, 3),
+                             "edges_v": np.linspace(-1, 1, 3)}, obs)
+    _kernel(tiny, phys, h, 2, 0, 1, 1, 1, np.zeros((1, 1, 1)) if st.certificate else None)
     compile_s = time.perf_counter() - t0
-    t1 = time.perf_counter()
-    if not edges:
-        edges = _pilot_edges(phys, h, st.bins, st.seed, barrier)
-    pilot_s = time.perf_counter() - t1
 
-    hist = _empty(st.blocks, edges, obs)
-    moments = np.zeros((st.blocks, K.N_MOMENTS))
-    events = np.zeros((st.blocks, K.N_EVENTS))
-    chunk = max(2 * threads, 1)
-    t2 = time.perf_counter()
-    bar = _progress(st.blocks, st.progress)
-    for start in range(0, st.blocks, chunk):
-        sl = slice(start, min(start + chunk, st.blocks))
-        part = {k: (v[sl] if isinstance(v, np.ndarray) and k in ("A", "x", "v", "joint")
-                    else v) for k, v in hist.items()}
-        _call(seeds[sl], per_block, n_burn, n_samples, stride, h, phys, part, moments[sl],
-              events[sl], 0.1)
+    bar = _progress(st.progress)
+    step = _Stepper(phys, h, threads, bar)
+    try:
+        t1 = time.perf_counter()
+        a_hint = float(edges["edges_A"][-1]) if "edges_A" in edges else 1.0
+        a_hi = _pilot_scale(phys, h, st.seed, step, a_hint)
+        if not edges:
+            vmax = math.sqrt(2 * (0.5 * phys["w0sq"] * a_hi**2 + 0.25 * phys["alpha"] * a_hi**4))
+            edges = {"edges_A": np.linspace(0.0, a_hi, st.bins + 1),
+                     "edges_x": np.linspace(0.0 if phys["r"] is not None else -a_hi, a_hi,
+                                            st.bins + 1),
+                     "edges_v": np.linspace(-vmax, vmax, st.bins + 1)}
+        relax = None
+        if st.burn_in == "auto":
+            _label(bar, "monte carlo: relaxation pilot")
+            relax = _relaxation(phys, h, st.seed, step, a_hi, st.sample_every)
+            burn_in = max(BURN_FACTOR * relax["tau"], 20.0)
+        else:
+            burn_in = float(st.burn_in)
+        pilot_s = time.perf_counter() - t1
+
+        n_burn = int(round(burn_in / h))
+        n_samples_full = max(int(st.time / (stride * h)), 1)
+        spw = max(n_samples_full // WINDOWS, 1)
+        win_steps = spw * stride
+        n_win = WINDOWS // 2 if target > 0 else max(n_samples_full // spw, 1)
+        gen = np.random.default_rng(np.random.SeedSequence(st.seed, spawn_key=(1 << 24,)))
+        frac = START_LOW + (1 - START_LOW) * (np.arange(per_block) + 0.5) / per_block
+        amps = np.broadcast_to(a_hi * frac, (blocks, per_block)).copy()
+        arr = _arrays(block_seeds(st.seed, blocks, per_block), _starts(amps, phys, gen),
+                      edges, obs)
+        windows = np.zeros((blocks, per_block, n_win)) if st.certificate else None
+
+        t2 = time.perf_counter()
         if bar is not None:
-            bar.update(sl.stop - sl.start)
-    if bar is not None:
-        bar.close()
-    run_s = time.perf_counter() - t2
+            bar.reset(total=blocks * per_block * (n_burn + n_win * win_steps))
+            _label(bar, "monte carlo")
+        step.run(arr, n_burn, 0, n_burn, stride)
+        run_to = 0  # windows simulated
+        stopped = "fixed time"
+        floor = math.nan
+        while True:
+            while run_to < n_win:  # window by window: the budget is checked between windows
+                if target > 0 and time.perf_counter() >= deadline:
+                    stopped = "budget"
+                    break
+                step.run(arr, win_steps, n_burn + run_to * win_steps, n_burn, stride, spw,
+                         windows)
+                run_to += 1
+            if "A" in obs:
+                floor = _floor_A(arr)
+            if target <= 0:
+                break
+            if floor <= target:
+                stopped = "floor reached"
+                break
+            if stopped == "budget" or time.perf_counter() >= deadline:
+                stopped = "budget"
+                break
+            grow = max(math.ceil(run_to * ((floor / target) ** 2 * 1.02 - 1)), 1)
+            n_win = run_to + grow
+            if windows is not None:
+                windows = np.concatenate([windows, np.zeros((blocks, per_block, grow))], axis=2)
+            if bar is not None:
+                bar.total += blocks * per_block * grow * win_steps
+                bar.set_postfix_str(f"L1 floor {floor:.4f} -> {target:g}", refresh=False)
+        run_s = time.perf_counter() - t2
+    finally:
+        if bar is not None:
+            bar.close()
 
-    samples = events[:, K.EV_SAMPLES]
+    if windows is not None and run_to < windows.shape[2]:
+        windows = windows[:, :, :run_to]
+    ev = arr.events
+    samples = ev[:, K.EV_SAMPLES]
+    if not samples.min() > 0:
+        raise ValueError("no sample was taken: time must be at least sample_every")
     data: dict[str, dict[str, Any]] = {}
     names = {"A": ("A", "edges_A"), "x1": ("x", "edges_x"), "x2": ("v", "edges_v")}
     floors = {}
     for name, (key, ekey) in names.items():
-        if hist[key] is None:
+        if arr.hist[key] is None:
             continue
         e = edges[ekey]
-        d = _density(hist[key], samples, np.diff(e))
+        d = _density(arr.hist[key], samples, np.diff(e))
         data[name] = {"x": 0.5 * (e[1:] + e[:-1]), "p": d["p"], "edges": e, "err": d["err"]}
         floors[name] = d["L1_floor"]
-    if hist["joint"] is not None:
-        ex, ev = edges["edges_x"], edges["edges_v"]
-        area = np.outer(np.diff(ex), np.diff(ev))
-        d = _density(hist["joint"], samples, area)
-        data["joint"] = {"x1": 0.5 * (ex[1:] + ex[:-1]), "x2": 0.5 * (ev[1:] + ev[:-1]),
-                         "p": d["p"], "err": d["err"], "edges_x1": ex, "edges_x2": ev}
+    if "x2" in data or "joint" in obs:
+        atom = _mean_se(ev[:, K.EV_ATOM] / samples)
+        if "x2" in data:  # flat numbers, so that every density field stays an array
+            data["x2"].update(atom_at=0.0, atom_weight=atom["value"], atom_err=atom["err"])
+    if arr.hist["joint"] is not None:
+        ex, evv = edges["edges_x"], edges["edges_v"]
+        area = np.outer(np.diff(ex), np.diff(evv))
+        d = _density(arr.hist["joint"], samples, area)
+        data["joint"] = {"x1": 0.5 * (ex[1:] + ex[:-1]), "x2": 0.5 * (evv[1:] + evv[:-1]),
+                         "p": d["p"], "err": d["err"], "edges_x1": ex, "edges_x2": evv}
         floors["joint"] = d["L1_floor"]
+    for name, col in (("A", K.EV_OUT_A), ("x1", K.EV_OUT_X)):
+        if name in data and ev[:, col].sum() >= samples.sum():
+            raise _diverged(h, f"every sample of {name} fell outside its histogram range")
 
-    steps = float(st.blocks * per_block * (n_burn + n_samples * stride))
-    sim_time = events[:, K.EV_TIME]
+    sampled = run_to * win_steps * h
+    steps = float(blocks * per_block * (n_burn + run_to * win_steps))
     info: dict[str, Any] = {
         "solver": "montecarlo",
-        "settings": {"paths": st.blocks * per_block, "dt": h, "time": n_samples * stride * h,
-                     "burn_in": n_burn * h, "sample_every": stride * h, "blocks": st.blocks,
-                     "bins": st.bins, "observables": list(obs)},
-        "seed": {"root": st.seed, "scheme": "numpy.random.SeedSequence(root).spawn(blocks)",
-                 "first_block_state": [int(v) for v in seeds_used[0]]},
+        "settings": {"paths": blocks * per_block, "dt": h, "time": sampled,
+                     "burn_in": n_burn * h, "sample_every": stride * h, "blocks": blocks,
+                     "bins": st.bins, "observables": list(obs),
+                     "dt_mode": "auto" if st.dt == "auto" else "fixed",
+                     "burn_in_mode": "auto" if st.burn_in == "auto" else "fixed"},
+        "seed": {"root": st.seed, "scheme": "path p of block b: words 4p..4p+3 of "
+                 "numpy.random.SeedSequence(root, spawn_key=(b,)).generate_state",
+                 "first_path_state": [int(v) for v in block_seeds(st.seed, 1, 1)[0, 0]]},
         "effects": effects(system, noise),
         "threads": threads,
-        "order": {"weak": 2, "note": "Strang splitting; 2 on the smooth sub-system "
-                                     "(no barrier, no friction), measured in tests"},
+        "order": {"weak": K.WEAK_ORDER_NONSMOOTH, "weak_smooth": K.WEAK_ORDER_SMOOTH,
+                  "note": "Strang splitting: 2 on the smooth sub-system (no barrier, no "
+                          "friction), 1 across impacts and stick-slip; measured in tests"},
         "L1_floor": floors,
         "seconds": {"compile": compile_s, "pilot": pilot_s, "run": run_s,
-                    "total": compile_s + pilot_s + run_s},
-        "steps": steps, "steps_per_second": steps / run_s if run_s > 0 else math.nan,
+                    "total": time.perf_counter() - t_start},
+        "steps": steps, "steps_per_second": steps / step.busy if step.busy > 0 else math.nan,
         "versions": {"numba": numba.__version__, "numpy": np.__version__,
                      "python": platform.python_version()},
     }
+    if relax is not None:
+        info["relaxation"] = relax
+    conv: dict[str, Any] = {}
+    if windows is not None and run_to >= 1 and arr.moments is not None:
+        m = arr.moments
+        var_A = float(np.sum(m[:, K.MO_A2]) / samples.sum()
+                      - (np.sum(m[:, K.MO_A]) / samples.sum()) ** 2)
+        conv = certificate(windows, spw, var_A, win_steps * h)
+    elif windows is not None and run_to >= 1:
+        conv = certificate(windows, spw, float(np.var(windows / spw)), win_steps * h)
+    else:
+        conv = {"equilibrated": None, "reason": "no certificate was asked for"}
+    conv.update({"burn_in": n_burn * h, "burn_in_mode": info["settings"]["burn_in_mode"],
+                 "target_floor": target if target > 0 else None,
+                 "floor": floor if "A" in obs else None,
+                 "reached": (bool(floor <= target) if target > 0 else None),
+                 "stopped": stopped, "budget": st.budget if st.budget else None})
+    if relax is not None:
+        conv["relaxation_time"] = relax["tau"]
+    if target > 0 and not conv["reached"]:
+        why = f"the budget of {st.budget:g} s ran out at L1 floor {floor:.4f}"
+        conv["reason"] = "; ".join(r for r in (conv.get("reason"), why) if r)
+    info["convergence"] = conv
     if "events" in obs:
-        info["events"] = _events(events, sim_time, samples)
+        info["events"] = _events(ev, ev[:, K.EV_TIME], samples, h)
     if "moments" in obs:
-        info["moments"] = _moments(moments, samples)
+        info["moments"] = _moments(arr.moments, samples)
+    if arr.energy is not None:
+        info["energy"] = _energy(arr.energy, ev[:, K.EV_TIME], phys)
+    if "x2" in data:
+        info["atoms"] = {"x2": {"at": 0.0, "weight": data["x2"]["atom_weight"],
+                                "err": data["x2"]["atom_err"]}}
     ok = all(np.all(np.isfinite(d["p"])) for d in data.values())
-    info["status"] = {"ok": bool(ok), "message": "simulated" if ok else "non-finite histogram"}
+    if not ok:
+        raise _diverged(h, "non-finite histogram")
+    info["status"] = {"ok": True, "message": "simulated"}
     return Result(data=data, info=info)
 
 
@@ -227,15 +484,36 @@ def _mean_se(per_block: np.ndarray) -> dict[str, float]:
             "err": float(per_block.std(ddof=1) / math.sqrt(per_block.size))}
 
 
-def _events(events: np.ndarray, sim_time: np.ndarray, samples: np.ndarray) -> dict[str, Any]:
+def _events(events: np.ndarray, sim_time: np.ndarray, samples: np.ndarray, h: float
+            ) -> dict[str, Any]:
     out = {
         "impacts_per_time": _mean_se(events[:, K.EV_IMPACTS] / sim_time),
         "stuck_fraction": _mean_se(events[:, K.EV_STUCK] / sim_time),
         "chatter_entries_per_time": _mean_se(events[:, K.EV_CHATTER] / sim_time),
         "chatter_entries": int(events[:, K.EV_CHATTER].sum()),
+        "chatter_cutoff": {
+            "rule": "after an impact the mass rests on the wall when its rebound speed r|v| is "
+                    "below P dt, P = mu - f xi > 0 the net force pressing it back (the next "
+                    "flight would be shorter than one step)",
+            "dt": h,
+            "note": "in chattering motion the impact rate depends on this cut-off"},
         "outside_fraction": {k: float(events[:, c].sum() / samples.sum()) for k, c in
                              (("A", K.EV_OUT_A), ("x1", K.EV_OUT_X), ("x2", K.EV_OUT_V))},
     }
+    return out
+
+
+def _energy(en: np.ndarray, sim_time: np.ndarray, phys: dict[str, Any]) -> dict[str, Any]:
+    """Stationary power balance, per unit time with block errors: input = damping + friction
+    + impacts. ``residual`` = input - losses block by block (its error bar is the test)."""
+    rate = en / sim_time[:, None]
+    losses = rate[:, K.EN_DAMP] + rate[:, K.EN_FRICTION] + rate[:, K.EN_IMPACT]
+    out = {"input": _mean_se(rate[:, K.EN_INPUT]), "damping": _mean_se(rate[:, K.EN_DAMP]),
+           "friction": _mean_se(rate[:, K.EN_FRICTION]),
+           "impacts": _mean_se(rate[:, K.EN_IMPACT]), "losses": _mean_se(losses),
+           "residual": _mean_se(rate[:, K.EN_INPUT] - losses)}
+    if phys["alpha1"] is None:
+        out["input_exact"] = phys["f"] ** 2 * phys["D"]  # white noise: f^2 D (Ito)
     return out
 
 
@@ -249,12 +527,18 @@ def _moments(mom: np.ndarray, samples: np.ndarray) -> dict[str, Any]:
     return out
 
 
-def _progress(total: int, enabled: bool) -> Any:
+def _progress(enabled: bool) -> Any:
+    """A tqdm bar in path-steps (it shows the ETA); quiet for runs under 3 s."""
     if not enabled:
         return None
     try:
         from tqdm import tqdm
     except ImportError:  # pragma: no cover
         return None
-    return tqdm(total=total, desc="monte carlo", unit="block", delay=3.0, file=sys.stderr,
-                leave=False)
+    return tqdm(total=1, desc="monte carlo: pilot", unit=" steps", unit_scale=True, delay=3.0,
+                file=sys.stderr, leave=False)
+
+
+def _label(bar: Any, text: str) -> None:
+    if bar is not None:
+        bar.set_description_str(text, refresh=False)

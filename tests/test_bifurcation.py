@@ -56,3 +56,31 @@ def test_bifurcation_command_json(tmp_path: Path, capsys):
     assert d["vary"] == "r" and set(d["critical"]) == {"paper", "exact"}
     assert 0.96 < d["critical"]["paper"] < 0.975
     assert "critical r" in capsys.readouterr().out
+
+
+def test_mc_checks_sit_on_both_sides_of_each_critical_value_never_at_the_ends():
+    from harness.bifurcation import check_points
+
+    # the paper's critical mu at the base scene is 0.0025, close to the range's lower end 0
+    pts = check_points([0.0025, None], 0.0, 0.05, 0.1)
+    assert len(pts) == 2 and pts[0] < 0.0025 < pts[1]
+    assert 0.0 < pts[0] and pts[1] < 0.05
+    # two critical values far apart: four points, two around each
+    pts = check_points([0.91, 0.97], 0.9, 1.0, 0.1)
+    assert len(pts) == 4 and pts[0] < 0.91 < pts[1] <= pts[2] < 0.97 < pts[3] < 1.0
+
+
+def test_bifurcation_names_fixed_parameters_and_flags_disagreement(base, monkeypatch):
+    """The output names what is held fixed, and a Monte Carlo shape that contradicts a model's
+    prediction is flagged in words (the MC is replaced by a stub that always sees a crater, to
+    test the wording, not the physics)."""
+    import harness.bifurcation as B
+
+    monkeypatch.setattr(B, "mc_shape", lambda s: {"shape": "crater", "max_rise_in_se": 9.0,
+                                                  "bins_used": 50})
+    res = B.bifurcation(base, "r", lo=0.9, hi=1.0, models=("paper",))
+    assert res["fixed"]["mu"] == base.system.mu and "r" not in res["fixed"]
+    below = [c for c in res["mc_check"] if c["value"] < res["critical"]["paper"]]
+    assert below and all(c["predicted"]["paper"] == "single peak" for c in below)
+    assert all(c["agrees"]["paper"] is False and "DISAGREES with the paper model" in c["words"]
+               for c in below)

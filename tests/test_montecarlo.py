@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 import subprocess
 import sys
-from dataclasses import replace
+from dataclasses import asdict, replace
 
 import numpy as np
 import pytest
@@ -18,11 +18,21 @@ from scipy import stats
 from scipy.integrate import quad
 
 import montecarlo as mc
+from harness.scene import MonteCarloSettings
 from montecarlo import kernels as K
 from montecarlo.averaged_sde import simulate_sde
 from montecarlo.rng import fill_normals, states_from_seed
 
 from .conftest import vary
+
+
+def settings(**kw) -> mc.Settings:
+    """montecarlo.Settings from the scene's defaults (the one set), quiet, with overrides."""
+    return mc.Settings(**{**asdict(MonteCarloSettings()), "progress": False, **kw})
+
+
+def run(scene, **kw):
+    return mc.simulate(scene.system, scene.noise, settings(**kw))
 
 FIXED = {"edges_A": np.linspace(0, 2, 41), "edges_x": np.linspace(-2, 2, 41),
          "edges_v": np.linspace(-2, 2, 41)}
@@ -116,13 +126,14 @@ def test_chatter_guard_rests_the_mass():
 # ------------------------------------------------------------------------------- exact densities
 @pytest.mark.parametrize("barrier", [False, True])
 def test_gibbs_density_white_noise_linear_damping(base, barrier):
-    """c2 = 0, c1 = -g < 0, mu = 0, white noise: p(x, v) ~ exp(-g H / (D f^2)); with an elastic
-    barrier (r = 1) the same density folded onto x > 0."""
+    """c2 = 0, c1 = -c < 0, mu = 0, white noise: p(x, v) ~ exp(-c H / (D f^2)); with an elastic
+    barrier (r = 1) the same density folded onto x > 0. With the barrier, Rice's formula gives
+    the impact rate exactly: the flux through x = 0,
+    nu = p_x(0) E[v^-] = sqrt(f^2 D / (2 pi c)) / int_0^inf exp(-c U(x) / (f^2 D)) dx."""
     g, D = 0.2, 0.02
     sc = vary(base, c1=-g, c2=0.0, mu=0.0, r=1.0, barrier=barrier, kind="white", D=D)
-    res = mc.simulate(sc.system, sc.noise, paths=512, blocks=32, dt=0.02, time=2000,
-                      burn_in=50, sample_every=1.0, progress=False,
-                      observables=("x1", "x2", "events"))
+    res = run(sc, paths=512, blocks=32, dt=0.02, time=2000, burn_in=50, sample_every=1.0,
+              observables=("x1", "x2", "events"))
     T = D / g
     fold = 2.0 if barrier else 1.0
 
@@ -135,19 +146,32 @@ def test_gibbs_density_white_noise_linear_damping(base, barrier):
     for name, f in refs.items():
         d = res.data[name]
         assert abs(chi_z(d["p"], d["err"], bin_average(f, d["edges"]))) < 4
-    rate = res.info["events"]["impacts_per_time"]["value"]
-    assert (rate > 0.3) if barrier else (rate == 0.0)
+    if barrier:
+        rice = math.sqrt(T / (2 * math.pi)) / (Z / 2)
+        rate = res.info["events"]["impacts_per_time"]
+        # two-sided, 4 batch standard errors (the scheme's bias here is below 1e-4, measured)
+        assert abs(rate["value"] - rice) < 4 * rate["err"], (rate, rice)
+        assert rate["err"] < 2e-3 * rice  # the test resolves the rate to 0.2%
 
 
-def test_friction_gives_a_measurable_stuck_fraction(base):
-    common = dict(paths=64, blocks=16, time=500, burn_in=100, progress=False, edges=FIXED,
-                  observables=("events",))
-    sc = vary(base, mu=0.1)
-    ev = mc.simulate(sc.system, sc.noise, **common).info["events"]["stuck_fraction"]
-    assert ev["value"] > 0.01 and ev["value"] > 10 * ev["err"]
-    sc0 = vary(base, mu=0.0)
-    assert mc.simulate(sc0.system, sc0.noise, **common).info["events"]["stuck_fraction"][
-        "value"] == 0.0
+def test_atom_at_rest_is_the_stuck_fraction(base):
+    """mu = 0.05: the mass is at rest ~30% of the time. The share of samples at v = 0 (the atom
+    of p(x2)) and the time-integrated stuck fraction are two estimators of the same number:
+    they agree within 4 combined batch errors (conservative: both come from the same paths).
+    The atom is out of the bins: the continuous part integrates to 1 - weight (- the share
+    outside the range), i.e. no sample is counted twice or lost."""
+    sc = vary(base, mu=0.05)
+    res = run(sc, paths=64, blocks=16, time=500, burn_in=200.0, observables=("x2", "events"),
+              edges=FIXED)
+    atom = res.info["atoms"]["x2"]
+    assert res.data["x2"]["atom_weight"] == atom["weight"]
+    stuck = res.info["events"]["stuck_fraction"]
+    assert 0.1 < atom["weight"] < 0.6  # a finite fraction: this is a sticking scene
+    assert abs(atom["weight"] - stuck["value"]) < 4 * math.hypot(atom["err"], stuck["err"])
+    d = res.data["x2"]
+    mass = float(np.sum(d["p"] * np.diff(d["edges"])))
+    out = res.info["events"]["outside_fraction"]["x2"]
+    assert mass + atom["weight"] + out == pytest.approx(1.0, abs=1e-9)
 
 
 def test_switched_off_effects_are_not_compiled(tmp_path):
@@ -169,20 +193,28 @@ for sig in K.velocity_flow.signatures:
 
 def test_same_seed_same_histograms_for_any_thread_count(base):
     kw = dict(paths=32, blocks=8, time=100, burn_in=20, progress=False, edges=FIXED, seed=99)
-    one = mc.simulate(base.system, base.noise, threads=1, **kw)
-    two = mc.simulate(base.system, base.noise, threads=2, **kw)
+    one = run(base, threads=1, **kw)
+    two = run(base, threads=2, **kw)
     for key in ("A", "x1", "x2"):
         assert np.array_equal(one.data[key]["p"], two.data[key]["p"])
     assert one.info["events"] == two.info["events"]
-    other = mc.simulate(base.system, base.noise, threads=2, **dict(kw, seed=100))
+    other = run(base, threads=2, **dict(kw, seed=100))
     assert not np.array_equal(one.data["A"]["p"], other.data["A"]["p"])
+
+
+def fitted_order(dts, bias):
+    """Least-squares slope of log|bias| on log dt and its standard error."""
+    x, y = np.log(dts), np.log(np.abs(bias))
+    (slope, _), cov = np.polyfit(x, y, 1, cov=True)
+    return float(slope), float(math.sqrt(cov[0, 0]))
 
 
 def test_weak_order_on_the_smooth_subsystem(base):
     """Linear oscillator (alpha = 0, c2 = 0, no barrier, no friction) under OU noise:
-    E[v^2] = f^2 int w^2 |H|^2 S dw exactly. The bias of the splitting must fall at the
-    declared weak order 2 (measured bias 7.8%, 4.0%, 2.0%, 0.9% at dt = 0.4 ... 0.141; the
-    batch error is ~0.08%)."""
+    E[v^2] = f^2 int w^2 |H|^2 S dw exactly. The bias of the splitting falls at the declared
+    smooth weak order K.WEAK_ORDER_SMOOTH (measured bias 7.8%, 4.0%, 2.0%, 0.9% at dt = 0.4
+    ... 0.141; the batch error is ~0.08%). Tolerance: 4 standard errors of the fitted slope
+    plus 0.15 for the next term of the bias expansion (the ladder's largest dt is 0.4)."""
     g, D, a1 = 0.5, 0.05, 1.0
     sc = vary(base, c1=-g, c2=0.0, alpha=0.0, mu=0.0, barrier=False, D=D, alpha1=a1)
     exact = quad(lambda w: w * w / ((1 - w * w) ** 2 + (g * w) ** 2) * D
@@ -190,34 +222,109 @@ def test_weak_order_on_the_smooth_subsystem(base):
     dts = np.array([0.4, 0.2828, 0.2, 0.1414])
     bias = []
     for dt in dts:
-        r = mc.simulate(sc.system, sc.noise, paths=256, blocks=64, dt=float(dt), time=40000,
-                        burn_in=50, sample_every=2.0, progress=False, observables=("moments",),
-                        edges=FIXED)
+        r = run(sc, paths=256, blocks=64, dt=float(dt), time=40000, burn_in=50.0,
+                sample_every=2.0, observables=("moments",), edges=FIXED, certificate=False)
         v2 = r.info["moments"]["x2"]["second"]
         assert v2["err"] < 0.1 * abs(v2["value"] - exact)  # bias resolved above noise
-        bias.append(abs(v2["value"] - exact))
-    slope = np.polyfit(np.log(dts), np.log(bias), 1)[0]
-    assert slope == pytest.approx(2.0, abs=0.35), bias
+        bias.append(v2["value"] - exact)
+    slope, se = fitted_order(dts, bias)
+    assert abs(slope - K.WEAK_ORDER_SMOOTH) < 4 * se + 0.15, (slope, se, bias)
+
+
+def test_weak_order_across_impacts_and_sticking(base):
+    """With impacts (r = 0.8) and stick-slip (mu = 0.05) the exact stationary power balance
+    input = damping + friction + impact losses has residual 0; the scheme's residual is its
+    bias. The declared order across events, K.WEAK_ORDER_NONSMOOTH = 1, is what Strang
+    splitting guarantees across a non-smooth event; for this identity it does better
+    (measured slope 1.87 on dt = 0.2 ... 0.025, error bars 1e-7 against biases 2e-4 ... 5e-6).
+    Two-sided: the fitted order lies between the declared non-smooth order and the smooth
+    one, within 4 standard errors of the fit."""
+    sc = vary(base, c1=-0.5, c2=0.0, alpha=0.0, mu=0.05, r=0.8, D=0.05, alpha1=1.0)
+    dts = np.array([0.2, 0.1, 0.05])
+    res = []
+    for dt in dts:
+        r = run(sc, paths=128, blocks=32, dt=float(dt), time=10000, burn_in=50.0,
+                sample_every=2.0, observables=("energy", "events"), edges=FIXED,
+                certificate=False)
+        en = r.info["energy"]["residual"]
+        assert en["err"] < 0.05 * abs(en["value"])  # bias resolved above noise
+        res.append(en["value"])
+    slope, se = fitted_order(dts, res)
+    assert K.WEAK_ORDER_NONSMOOTH - 4 * se <= slope <= K.WEAK_ORDER_SMOOTH + 4 * se, (
+        slope, se, res)
+
+
+def test_weak_order_of_the_averaged_sde():
+    """Rayleigh case m = -A + 1/(2A), sigma^2 = 1: p(A) = 2A exp(-A^2), E[A] = sqrt(pi)/2.
+    The bias of E[A] falls at the declared order averaged_sde.ORDER = 1 (tolerance: 4
+    standard errors of the fitted slope plus 0.2 for the next term of the expansion)."""
+    from montecarlo import averaged_sde
+
+    edges = np.linspace(0, 4, 41)
+    dts = np.array([0.2, 0.1, 0.05])
+    bias = []
+    for dt in dts:
+        r = simulate_sde(lambda A: -A + 0.5 / A, lambda A: 1.0 + 0 * A, edges=edges,
+                         paths=512, blocks=32, dt=float(dt), time_=4000, burn_in=20.0,
+                         sample_every=1.0)
+        m = r.info["moments"]["A"]["mean"]
+        bias.append(m["value"] - math.sqrt(math.pi) / 2)
+        assert m["err"] < 0.2 * abs(bias[-1]), (m, bias)
+    slope, se = fitted_order(dts, bias)
+    assert abs(slope - averaged_sde.ORDER) < 4 * se + 0.2, (slope, se, bias)
+
+
+def test_energy_balance_ou_noise(base):
+    """Exact in stationarity for the original system with OU noise:
+    E[f xi v] = E[(c2 x^2 - c1) v^2] + mu E|v| + (1 - r^2) E[v^2/2 per impact] x rate.
+    Both sides measured block by block at r = 0.8, mu = 0.05 (base scene otherwise); their
+    difference is zero within 4 batch errors (the scheme's bias at dt = 0.01 is ~1e-6 of the
+    input: second order, see the test above), and each loss term is resolved."""
+    sc = vary(base, r=0.8, mu=0.05)
+    en = run(sc, paths=256, blocks=32, time=1000, burn_in=300.0,
+             observables=("events", "energy")).info["energy"]
+    assert abs(en["residual"]["value"]) < 4 * en["residual"]["err"], en
+    for term in ("friction", "impacts"):
+        assert en[term]["value"] > 20 * en[term]["err"], (term, en[term])
+    assert en["residual"]["err"] < 1e-3 * en["input"]["value"]  # a sharp test
+
+
+def test_energy_balance_white_noise(base):
+    """White noise: the input is exactly f^2 D (Ito). The measured losses (damping + friction
+    + impacts, r = 0.8, mu = 0.05) match it within 4 batch errors plus the scheme's bias,
+    1e-3 of the input at dt = 0.01 (second order: 3e-4 x input at dt = 0.05, measured)."""
+    sc = vary(base, r=0.8, mu=0.05, kind="white")
+    en = run(sc, paths=256, blocks=32, time=1000, burn_in=300.0,
+             observables=("events", "energy")).info["energy"]
+    exact = en["input_exact"]
+    assert exact == pytest.approx(sc.system.f ** 2 * sc.noise.D)
+    assert abs(en["losses"]["value"] - exact) < 4 * en["losses"]["err"] + 1e-3 * exact, en
+    for term in ("friction", "impacts"):
+        assert en[term]["value"] > 20 * en[term]["err"], (term, en[term])
 
 
 @pytest.mark.parametrize("params", [dict(r=0.5), dict(mu=0.1), dict(D=1e-5), dict(alpha1=50.0),
                                     dict(r=0.3, mu=0.2), dict(kind="white", r=0.5)])
-def test_hard_cases_finish_finite_normalised(base, params):
+def test_hard_cases_keep_the_energy_balance(base, params):
+    """Hard cases finish with finite, non-negative densities, and the stationary power balance
+    (input = damping + friction + impact losses, an exact identity of the original system)
+    holds within 4 batch errors plus the scheme's bias, which is second order in dt
+    (measured at r = 0.5: 1e-3 x input at dt = 0.4, falling 4x per halving; at dt = 0.01 the
+    relative bias is below 1e-5 in the smooth cases): we allow 1% of the input."""
     sc = vary(base, **params)
-    res = mc.simulate(sc.system, sc.noise, paths=64, blocks=16, time=200, burn_in=100,
-                      progress=False)
-    out = res.info["events"]["outside_fraction"]
+    res = run(sc, paths=64, blocks=16, time=200, burn_in=100.0,
+              observables=("A", "x1", "x2", "events", "moments", "energy"))
     for key in ("A", "x1", "x2"):
         d = res.data[key]
         assert np.all(np.isfinite(d["p"])) and np.min(d["p"]) >= 0
-        mass = float(np.sum(d["p"] * np.diff(d["edges"])))
-        assert mass == pytest.approx(1.0 - out[key], abs=1e-9)
-    assert res.info["status"]["ok"]
+    en = res.info["energy"]
+    assert abs(en["residual"]["value"]) < 4 * en["residual"]["err"] + 0.01 * en["input"]["value"]
+    assert en["input"]["value"] > 3 * en["input"]["err"]  # the input itself is resolved
 
 
 def test_chatter_is_reported(base):
     sc = vary(base, r=0.3, mu=0.2)
-    res = mc.simulate(sc.system, sc.noise, paths=32, blocks=16, time=200, burn_in=50,
+    res = run(sc, paths=32, blocks=16, time=200, burn_in=50,
                       progress=False, edges=FIXED, observables=("events",))
     assert res.info["events"]["chatter_entries"] > 0
 
@@ -241,11 +348,24 @@ def test_montecarlo_imports_no_other_vifpk_package():
     assert subprocess.run([sys.executable, "-c", code]).returncode == 0
 
 
-def test_settings_are_frozen():
-    s = mc.Settings()
-    with pytest.raises(AttributeError):
-        s.dt = 0.1  # type: ignore[misc]
-    assert replace(s, dt=0.02).dt == 0.02
+def test_settings_have_no_defaults_of_their_own():
+    """The scene holds the one set of Monte Carlo defaults; montecarlo.Settings takes numbers."""
+    with pytest.raises(TypeError):
+        mc.Settings()  # type: ignore[call-arg]
+    assert replace(settings(), dt=0.02).dt == 0.02
+
+
+def test_unknown_noise_kind_raises(base):
+    from types import SimpleNamespace
+
+    noise = SimpleNamespace(kind="pink", D=0.01, alpha1=2.0)
+    with pytest.raises(ValueError, match="pink"):
+        mc.simulate(base.system, noise, settings(paths=32, blocks=16, time=10, burn_in=1.0))
+
+
+def test_blow_up_raises_naming_the_time_step(base):
+    with pytest.raises(mc.SimulationDiverged, match="dt = 2"):
+        run(base, paths=32, blocks=16, dt=2.0, time=100, burn_in=10.0, edges=FIXED)
 
 
 def test_numpy_reference_is_the_same_scheme(base):
@@ -255,7 +375,7 @@ def test_numpy_reference_is_the_same_scheme(base):
     from montecarlo.simulate import _params
 
     sc = vary(base, mu=0.1)
-    r = mc.simulate(sc.system, sc.noise, paths=256, blocks=16, dt=0.01, time=200, burn_in=50,
+    r = run(sc, paths=256, blocks=16, dt=0.01, time=200, burn_in=50,
                     progress=False, edges=FIXED, observables=("events",))
     ev = r.info["events"]
     runs = [simulate_numpy(_params(sc.system, sc.noise), paths=256, steps=15000, burn=5000,
@@ -264,3 +384,145 @@ def test_numpy_reference_is_the_same_scheme(base):
         vals = np.array([o[num] / o["time"] for o in runs])
         se = math.hypot(ev[key]["err"], vals.std(ddof=1) / 2)
         assert abs(ev[key]["value"] - vals.mean()) < 4 * se
+
+
+# ------------------------------------------------------------------------------- certificate
+def long_relaxation(base):
+    """The issue's scene: the base scene with every dissipative effect (c1, c2, mu, 1 - r)
+    and D scaled by 1/4; its amplitude relaxes ~4x slower (FPK: tau ~ 370)."""
+    s = base.system
+    return vary(base, c1=s.c1 / 4, c2=s.c2 / 4, mu=s.mu / 4, r=1 - (1 - s.r) / 4,
+                D=base.noise.D / 4)
+
+
+def test_certificate_fails_with_its_reason_when_burn_in_is_far_too_short(base):
+    sc = long_relaxation(base)
+    res = run(sc, paths=256, blocks=16, time=1000, burn_in=50.0, observables=("A", "moments"))
+    conv = res.info["convergence"]
+    assert conv["equilibrated"] is False
+    assert "R-hat" in conv["reason"] and conv["rhat"] > conv["rhat_limit"]
+
+
+def test_auto_burn_in_measures_a_long_relaxation_and_certifies(base):
+    """burn_in = "auto" on the long-relaxation scene: the pilot's tau is several times the
+    base scene's, the burn-in is BURN_FACTOR tau, and the certificate passes."""
+    from montecarlo.tuning import BURN_FACTOR
+
+    res = run(long_relaxation(base), paths=256, blocks=16, time=1000, burn_in="auto",
+              observables=("A", "moments"))
+    tau = res.info["relaxation"]["tau"]
+    assert tau > 150  # the base scene measures 80-140; the FPK gives 370 here
+    assert res.info["settings"]["burn_in"] == pytest.approx(BURN_FACTOR * tau, rel=1e-3)
+    assert res.info["convergence"]["equilibrated"] is True, res.info["convergence"]
+
+
+def test_runs_cut_into_any_chunks_are_bit_identical(base, monkeypatch):
+    import sys as _sys
+
+    sim = _sys.modules["montecarlo.simulate"]
+    kw = dict(paths=32, blocks=16, time=200, burn_in=50.0, edges=FIXED, seed=5)
+    one = run(base, **kw)
+    monkeypatch.setattr(sim, "CHUNK_SECONDS", 1e-4)  # hundreds of tiny kernel calls
+    many = run(base, **kw)
+    for key in ("A", "x1", "x2"):
+        assert np.array_equal(one.data[key]["p"], many.data[key]["p"])
+
+
+def test_floor_is_reached_and_is_the_real_noise(base):
+    """--floor F: the run stops with L1 floor <= F. Re-estimated from independent seeds: two
+    independent runs differ by E L1 = sqrt(2/pi) sum sqrt(se1^2 + se2^2) w ~ sqrt(2) F (same
+    dt, so no bias between them). The mean of three pairwise L1s is at most 1.25 x that (the
+    promise: the noise is not larger than stated; the L1 of 40 bins fluctuates by ~10%) and
+    at least 0.5 x (the floor is not vacuous). Measured ratio 0.72: sparse tail bins have
+    lighter-than-Gaussian absolute deviations, so the Gaussian floor is slightly cautious."""
+    F = 0.03
+    runs = [run(base, paths=128, blocks=16, time=800, burn_in=1000.0, floor=F, seed=s, edges=FIXED,
+                observables=("A", "moments")) for s in (1, 2, 3)]
+    for r in runs:
+        c = r.info["convergence"]
+        assert c["reached"] is True and c["floor"] <= F and c["target_floor"] == F
+    l1 = [float(np.sum(np.abs(a.data["A"]["p"] - b.data["A"]["p"])
+                       * np.diff(a.data["A"]["edges"])))
+          for a, b in ((runs[0], runs[1]), (runs[0], runs[2]), (runs[1], runs[2]))]
+    expect = np.mean([math.hypot(a.info["convergence"]["floor"], b.info["convergence"]["floor"])
+                      for a, b in ((runs[0], runs[1]), (runs[0], runs[2]), (runs[1], runs[2]))])
+    assert 0.5 < np.mean(l1) / expect < 1.25, (l1, expect)
+
+
+def test_a_budget_too_small_says_so(base):
+    res = run(base, paths=64, blocks=16, time=400, burn_in=100.0, floor=1e-4, budget=0.5,
+              observables=("A", "moments"))
+    c = res.info["convergence"]
+    assert c["reached"] is False and c["stopped"] == "budget" and "budget" in c["reason"]
+
+
+# ------------------------------------------------------------------------------- command line
+def test_cli_floor_dt_auto_and_convergence_in_the_json(tmp_path):
+    import json
+
+    from harness.cli import main
+
+    out = tmp_path / "mc.json"
+    rc = main(["solve", "paper-base", "--solver", "montecarlo", "--paths", "64", "--time", "200",
+               "--set", "montecarlo.blocks=16", "--floor", "0.05", "--dt", "auto",
+               "--budget", "60", "--json", str(out)])
+    assert rc == 0
+    info = json.loads(out.read_text())["info"]
+    conv = info["convergence"]
+    assert conv["target_floor"] == 0.05 and conv["reached"] is True and conv["floor"] <= 0.05
+    assert isinstance(conv["equilibrated"], bool) and "reason" in conv
+    assert info["settings"]["dt_mode"] == "auto" and info["settings"]["dt"] > 0.01
+    assert info["settings"]["burn_in_mode"] == "auto"
+
+
+def test_cli_blow_up_exits_3_naming_the_time_step(tmp_path, capsys):
+    from harness.cli import main
+
+    out = tmp_path / "mc.json"
+    rc = main(["solve", "paper-base", "--solver", "montecarlo", "--paths", "32", "--time", "50",
+               "--set", "montecarlo.blocks=16", "--set", "montecarlo.burn_in=10",
+               "--dt", "2", "--json", str(out)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 3 and not out.exists()
+    assert len(err) == 1 and "dt = 2" in err[0] and "time step" in err[0]
+
+
+# ------------------------------------------------------------------------------- slow tier
+@pytest.mark.slow
+def test_long_relaxation_scene_is_right_at_default_settings(base):
+    """The issue's motivating failure: with the old fixed burn-in (300) E[A] came out 7 standard
+    errors low and L1 against a long run was 4.6x the combined floor. At default settings
+    (burn-in "auto") p(A) agrees with an independent run 8x longer (burn-in 5000, 512 paths x
+    16000) within 2x the combined noise floor (the L1 of two independent histograms is about
+    the combined floor, sqrt(f1^2 + f2^2); same dt, so no bias between them), or the
+    certificate says it has not equilibrated. ~25 s on 2 cores."""
+    sc = long_relaxation(base)
+    edges = {"edges_A": np.linspace(0, 1.6, 101), "edges_x": np.linspace(0, 1.6, 101),
+             "edges_v": np.linspace(-2, 2, 101)}
+    default = run(sc, edges=edges, observables=("A", "moments"))
+    long = run(sc, paths=512, time=16000, burn_in=5000.0, seed=7, edges=edges,
+               observables=("A", "moments"))
+    assert long.info["convergence"]["equilibrated"] is True
+    conv = default.info["convergence"]
+    if conv["equilibrated"]:
+        w = np.diff(edges["edges_A"])
+        l1 = float(np.sum(np.abs(default.data["A"]["p"] - long.data["A"]["p"]) * w))
+        combined = math.hypot(default.info["L1_floor"]["A"], long.info["L1_floor"]["A"])
+        assert l1 < 2 * combined, (l1, combined)
+        ma, mb = (r.info["moments"]["A"]["mean"] for r in (default, long))
+        assert abs(ma["value"] - mb["value"]) < 4 * math.hypot(ma["err"], mb["err"])
+    else:  # the other honest outcome
+        assert conv["reason"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["paper-base", "paper-fig2", "paper-fig3", "paper-fig4",
+                                  "paper-fig5", "paper-fig6"])
+def test_certificate_passes_on_shipped_scenes_at_defaults(name):
+    """Each shipped scene (its first sweep value) at default settings: equilibrated.
+    A false alarm has probability ~1e-4 per diagnostic by construction of the limits."""
+    from harness.scene import load_scene
+
+    sc = load_scene(name).variants()[0]
+    res = run(sc, observables=("A", "moments"))
+    assert res.info["convergence"]["equilibrated"] is True, res.info["convergence"]
