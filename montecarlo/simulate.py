@@ -373,7 +373,10 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
             if stopped == "budget" or time.perf_counter() >= deadline:
                 stopped = "budget"
                 break
-            grow = max(math.ceil(run_to * ((floor / target) ** 2 * 1.02 - 1)), 1)
+            # the 1/sqrt(time) law, but at most doubling: early floors fall faster than the
+            # law (the start of the sampled time is correlated with the burn-in's end), so a
+            # long leap from a short run overshoots
+            grow = min(max(math.ceil(run_to * ((floor / target) ** 2 * 1.02 - 1)), 1), run_to)
             n_win = run_to + grow
             if windows is not None:
                 windows = np.concatenate([windows, np.zeros((blocks, per_block, grow))], axis=2)
