@@ -1,0 +1,113 @@
+"""Provenance of a run: which run made an output, from what, with which software.
+
+Every output of vifpk (solve JSON ``info.provenance``, metrics.json ``provenance``, report.html
+and report.md, figures/workprecision/sweep outputs) carries the block :func:`collect` returns:
+
+    run_id     a fresh id per run: UTC time to the second plus 6 random hex digits,
+               e.g. ``20261123T113512Z-3fa9c1``; every file of one run carries the same id
+    created    UTC time, ISO 8601
+    vifpk      the installed package version
+    git        ``{"commit": sha, "dirty": bool}`` when the code runs from a git checkout, else None
+    versions   python, numpy, scipy, numba, py-pde, matplotlib (those that are importable)
+    command    the command line, shell-quoted
+    scene      ``{"path": ..., "sha256": ...}`` of the scene file read, or None
+    overrides  the ``--set`` overrides in the order given
+
+None of these enter a computed number: results are a function of (scene, settings, seed) only,
+which is why metrics.json keeps this block apart (issue 11: byte-identical metrics once
+``provenance`` and ``timings`` are removed).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib
+import os
+import platform
+import secrets
+import shlex
+import subprocess
+import sys
+from collections.abc import Mapping, Sequence
+from datetime import UTC, datetime
+from functools import lru_cache
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+_MODULES = {"numpy": "numpy", "scipy": "scipy", "numba": "numba", "py-pde": "pde",
+            "matplotlib": "matplotlib"}
+
+
+def new_run_id(now: datetime | None = None) -> str:
+    """``YYYYmmddTHHMMSSZ-xxxxxx``: sortable by time, unique across concurrent runs."""
+    now = now or datetime.now(UTC)
+    return f"{now:%Y%m%dT%H%M%SZ}-{secrets.token_hex(3)}"
+
+
+def vifpk_version() -> str:
+    try:
+        return metadata.version("vifpk")
+    except metadata.PackageNotFoundError:
+        return "unknown"
+
+
+@lru_cache(maxsize=1)
+def git_state() -> dict[str, Any] | None:
+    """Commit and dirty flag of the checkout the code runs from, or None outside one."""
+    here = Path(__file__).resolve().parent.parent
+    if not (here / ".git").exists():
+        return None
+    env = {**os.environ, "GIT_OPTIONAL_LOCKS": "0"}
+    try:
+        sha = subprocess.run(["git", "-C", str(here), "rev-parse", "HEAD"], capture_output=True,
+                             text=True, timeout=5, env=env, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "-C", str(here), "status", "--porcelain",
+                                "--untracked-files=no"], capture_output=True, text=True,
+                               timeout=5, env=env, check=True).stdout.strip() != ""
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return {"commit": sha, "dirty": dirty}
+
+
+def versions() -> dict[str, str]:
+    """Versions of python and of the numerical libraries that are importable."""
+    out = {"python": platform.python_version()}
+    for name, module in _MODULES.items():
+        mod = sys.modules.get(module)
+        if mod is None:
+            try:
+                mod = importlib.import_module(module)
+            except ImportError:
+                continue
+        out[name] = str(getattr(mod, "__version__", "unknown"))
+    return out
+
+
+def file_sha256(path: str | Path) -> str:
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def collect(*, argv: Sequence[str] | None = None, scene_path: str | Path | None = None,
+            overrides: Mapping[str, Any] | Sequence[str] = (), run_id: str | None = None,
+            now: datetime | None = None) -> dict[str, Any]:
+    """The provenance block of one run (see the module docstring for its keys)."""
+    now = now or datetime.now(UTC)
+    argv = list(sys.argv if argv is None else argv)
+    if argv and argv[0].endswith(("__main__.py", "vifpk")):
+        argv[0] = "vifpk"
+    if isinstance(overrides, Mapping):
+        overrides = [f"{k}={v}" for k, v in overrides.items()]
+    scene = None
+    if scene_path is not None and Path(scene_path).is_file():
+        scene = {"path": str(scene_path), "sha256": file_sha256(scene_path)}
+    return {
+        "run_id": run_id or new_run_id(now),
+        "created": now.isoformat(timespec="seconds").replace("+00:00", "Z"),
+        "vifpk": vifpk_version(),
+        "git": git_state(),
+        "versions": versions(),
+        "command": shlex.join(argv),
+        "scene": scene,
+        "overrides": list(overrides),
+    }
