@@ -197,6 +197,10 @@ def cross_check(scene: Any, *, quiet: bool = False) -> CheckResult:
                         "(not converged, or a different state altogether); its densities there "
                         "are not shown and count in full toward L1")
     verdicts = [verdict(m, metrics["models"][m], warnings, convergence=conv) for m in MODELS]
+    for m in MODELS:
+        cls, cause = verdict_class(metrics["models"][m], warnings, convergence=conv)
+        metrics["models"][m]["verdict_class"] = cls
+        metrics["models"][m]["verdict_cause"] = cause
     stages.done()
     metrics["verdicts"] = verdicts
     metrics["warnings"] = warnings
@@ -231,20 +235,74 @@ def _evidence(conv: dict[str, Any], sampling: dict[str, dict[str, float]]) -> li
     return out
 
 
+# Verdict classes of the averaging error L1(A) (docs/report.md, "Verdict classes").
+# L1 runs from 0 (identical densities) to 2 (disjoint); L1 / 2 is the total-variation
+# distance, the largest difference in probability the two densities give to any event.
+INDISTINGUISHABLE_FACTOR = 2.0  # L1 < 2 x noise floor: cannot be told from zero
+SMALL_L1 = 0.1  # at most 5% of the probability mass misplaced
+LARGE_L1 = 0.3  # at least 15% of the probability mass misplaced
+CLASSES = ("indistinguishable", "small", "moderate", "large", "not an estimate")
+DOMINANCE = 3.0  # a cause dominates when it is 3 x every other part of the decomposition
+
+
+def verdict_class(entry: dict[str, Any], warnings: list[str], *,
+                  convergence: dict[str, Any] | None = None) -> tuple[str, str]:
+    """(class, dominant cause) of one model's averaging error of p(A).
+
+    Class: "not an estimate" when the Monte Carlo has not converged or an averaging assumption
+    fails (the distance is then not an approximation error); else "indistinguishable" when
+    L1 < 2 x its noise floor, "small" when L1 < 0.1, "moderate" when L1 < 0.3, "large" above.
+    Cause: what the decomposition says the distance comes from (the averaged model itself when
+    its averaging error is 3 x the FPK discretisation and the sampling errors and floors).
+    """
+    e = entry["averaging_error"]["A"]
+    conv = convergence or {}
+    if conv.get("equilibrated") is False or entry.get("sampling_ok") is False:
+        return "not an estimate", "the Monte Carlo has not converged"
+    if warnings:
+        names = [w.split(":")[0] for w in warnings]
+        return "not an estimate", "failing averaging assumptions (" + ", ".join(names) + ")"
+    l1, floor = e["L1"], e["L1_floor"]
+    disc = entry["discretisation_error"]["A"]["L1"]
+    samp = entry["sampling_error"]["A"]
+    noise = max(samp["L1"], samp["L1_floor"], floor)
+    if l1 < INDISTINGUISHABLE_FACTOR * floor:
+        return "indistinguishable", "Monte Carlo noise (the distance is at its floor)"
+    cls = "small" if l1 < SMALL_L1 else ("moderate" if l1 < LARGE_L1 else "large")
+    if l1 >= DOMINANCE * max(disc, noise):
+        cause = (f"the averaged model itself (FPK numerics {disc:.1e}, Monte Carlo noise "
+                 f"{noise:.1e})")
+    elif disc >= DOMINANCE * noise:
+        cause = f"the FPK discretisation ({disc:.1e})"
+    elif noise >= DOMINANCE * disc:
+        cause = f"Monte Carlo noise ({noise:.1e}) as much as the model"
+    else:
+        cause = "none dominant"
+    return cls, cause
+
+
 def verdict(model: str, entry: dict[str, Any], warnings: list[str], *,
             convergence: dict[str, Any] | None = None) -> str:
-    """One line: the averaging error of p(A) with its error bar and the noise floor."""
+    """One line: the class, the averaging error of p(A) with its error bar, what it means
+    against the noise floor and against the 0..2 scale of L1, and the dominant cause."""
     e = entry["averaging_error"]["A"]
-    line = (f"{model} model: L1(A) = {e['L1']:.3f} +/- {e['L1_err']:.3f} against the original "
-            f"system (MC noise floor {e['L1_floor']:.3f}; KS {e['ks']:.3f}, "
-            f"mean shift {e['mean_diff']:+.3f})")
-    if (convergence or {}).get("equilibrated") is False or entry.get("sampling_ok") is False:
+    cls, cause = verdict_class(entry, warnings, convergence=convergence)
+    ratio = e["L1"] / e["L1_floor"] if e["L1_floor"] > 0 else math.inf
+    line = (f"{model} model: {cls.upper()} -- L1(A) = {e['L1']:.3f} +/- {e['L1_err']:.3f} "
+            f"against the original system, {ratio:.1f} x its MC noise floor "
+            f"{e['L1_floor']:.3f}; on the 0-2 scale of L1, {50 * e['L1']:.1f}% of the "
+            f"probability mass is misplaced (KS {e['ks']:.3f}, mean shift "
+            f"{e['mean_diff']:+.3f})")
+    conv = convergence or {}
+    if cls == "not an estimate" and (conv.get("equilibrated") is False
+                                     or entry.get("sampling_ok") is False):
         line += (" -- the simulation has not converged, so this is NOT an estimate of the "
-                 "averaging error: " + ((convergence or {}).get("reason") or
-                                        "the averaged-SDE check failed"))
-    elif warnings:
+                 "averaging error: " + (conv.get("reason") or "the averaged-SDE check failed"))
+    elif cls == "not an estimate":
         line += (" -- NOT an estimate of an approximation error: the averaging assumptions do "
                  "not hold here (see warnings)")
-    elif e["L1"] < 2 * e["L1_floor"]:
+    elif cls == "indistinguishable":
         line += " -- indistinguishable from the original system at this sample size"
+    else:
+        line += f"; dominant cause: {cause}"
     return line

@@ -19,6 +19,11 @@ EXIT_BAD_INPUT = 2
 EXIT_SOLVER = 3
 
 
+SET_HELP = ("override a scene value, e.g. noise.D=0.02 (repeatable; default: none, the scene "
+            "as written)")
+QUIET_HELP = "no progress on the terminal (default: progress on stderr)"
+
+
 class _Parser(argparse.ArgumentParser):
     def error(self, message: str) -> None:  # one line, exit 2
         self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message}\n")
@@ -221,17 +226,22 @@ def cmd_workprecision(args: argparse.Namespace) -> int:
 
 
 def _add_mc_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--paths", type=int, help="Monte Carlo: number of paths")
+    p.add_argument("--paths", type=int, metavar="N",
+                   help="Monte Carlo: number of paths (default: the scene's montecarlo.paths)")
     p.add_argument("--dt", type=_dt_value, metavar="H|auto",
                    help='Monte Carlo: time step, or "auto" (the largest with bias below half '
-                        'the target floor)')
+                        "the target floor) (default: the scene's montecarlo.dt)")
     p.add_argument("--time", type=float, metavar="T",
-                   help="Monte Carlo: simulated time sampled per path after the burn-in")
-    p.add_argument("--seed", type=int, help="Monte Carlo: root seed")
+                   help="Monte Carlo: simulated time sampled per path after the burn-in "
+                        "(default: the scene's montecarlo.time)")
+    p.add_argument("--seed", type=int, metavar="S",
+                   help="Monte Carlo: root seed (default: the scene's montecarlo.seed)")
     p.add_argument("--floor", type=float, metavar="F",
-                   help="Monte Carlo: simulate until the L1 noise floor of p(A) is at most F")
+                   help="Monte Carlo: simulate until the L1 noise floor of p(A) is at most F "
+                        "(default: the scene's montecarlo.floor; 0: sample exactly --time)")
     p.add_argument("--budget", type=float, metavar="SECONDS",
-                   help="Monte Carlo: wall seconds allowed to reach the floor (default 600)")
+                   help="Monte Carlo: wall seconds allowed to reach the floor, 0: no limit "
+                        "(default: the scene's montecarlo.budget, 600 unless set)")
 
 
 def _dt_value(text: str) -> float | str:
@@ -244,56 +254,77 @@ def _dt_value(text: str) -> float | str:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from .provenance import vifpk_version
+
     p = _Parser(prog="vifpk", description="How wrong is a stochastic-averaging approximation?")
+    p.add_argument("--version", action="version", version=f"vifpk {vifpk_version()}",
+                   help="print the version and exit")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
     s = sub.add_parser("solve", help="solve one scene with one solver")
     s.add_argument("scene", help="scene TOML file (or the name of a shipped scene)")
-    s.add_argument("--solver", choices=SOLVERS, default="averaging")
-    s.add_argument("--model", choices=("paper", "exact"), default="paper")
-    s.add_argument("--json", metavar="OUT", help="write the solution record to OUT")
+    s.add_argument("--solver", choices=SOLVERS, default="averaging",
+                   help="averaging: closed form of an averaged model; fpk: its Fokker-Planck "
+                        "equation; montecarlo: the original system (default: %(default)s)")
+    s.add_argument("--model", choices=("paper", "exact"), default="paper",
+                   help="averaged model for --solver averaging|fpk: the paper's printed one or "
+                        "the exact-orbit one (default: %(default)s)")
+    s.add_argument("--json", metavar="OUT",
+                   help="write the solution record to OUT (default: print a summary)")
     s.add_argument("--grid", type=int, metavar="N",
-                   help="FPK: number of cells (default 400)")
+                   help="FPK: number of cells (default: 400)")
     _add_mc_options(s)
-    s.add_argument("--joint", action="store_true", help="include the joint PDF in the JSON")
+    s.add_argument("--joint", action="store_true",
+                   help="include the joint PDF in the JSON (default: off)")
     s.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
-                   help="override a scene value (repeatable)")
+                   help=SET_HELP)
     s.set_defaults(func=cmd_solve)
     c = sub.add_parser("check", help="cross-check both averaged models against the Monte "
                                      "Carlo of the original system and write an error report")
     c.add_argument("scene", help="scene TOML file (or the name of a shipped scene)")
-    c.add_argument("--out", metavar="DIR", help="report directory (default out/<scene name>)")
+    c.add_argument("--out", metavar="DIR", help="report directory (default: out/<scene name>)")
     c.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
-                   help="override a scene value (repeatable)")
-    c.add_argument("--quiet", action="store_true", help="no progress on the terminal")
+                   help=SET_HELP)
+    c.add_argument("--quiet", action="store_true", help=QUIET_HELP)
     _add_mc_options(c)
     c.set_defaults(func=cmd_check)
     b = sub.add_parser("bifurcation", help="find the critical mu or r of the P-bifurcation of "
                                            "each averaged model and check it by Monte Carlo")
     b.add_argument("scene", help="scene TOML file (or the name of a shipped scene)")
-    b.add_argument("--vary", choices=("mu", "r"), required=True)
+    b.add_argument("--vary", choices=("mu", "r"), required=True,
+                   help="the parameter to vary (required; the other one stays at the scene's "
+                        "value, and the output names it)")
     b.add_argument("--range", nargs=2, type=float, metavar=("LO", "HI"),
-                   help="search interval (default mu: 0 0.05, r: 0.9 1)")
-    b.add_argument("--json", metavar="OUT", help="write the result as JSON")
-    b.add_argument("--no-mc", action="store_true", help="skip the Monte Carlo check")
-    b.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE")
-    b.add_argument("--quiet", action="store_true")
+                   help="search interval (default: mu 0 0.05, r 0.9 1)")
+    b.add_argument("--json", metavar="OUT", help="write the result as JSON (default: none)")
+    b.add_argument("--no-mc", action="store_true",
+                   help="skip the Monte Carlo check (default: run it on both sides)")
+    b.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
+                   help=SET_HELP)
+    b.add_argument("--quiet", action="store_true", help=QUIET_HELP)
     _add_mc_options(b)
     b.set_defaults(func=cmd_bifurcation)
     f = sub.add_parser("figures", help="redraw the paper's Figures 2-6: both averaged models "
                                        "against the Monte Carlo of the original system")
-    f.add_argument("--out", default="out/figures", metavar="DIR")
+    f.add_argument("--out", default="out/figures", metavar="DIR",
+                   help="directory for paper-fig*.png and figures.json/.md "
+                        "(default: %(default)s)")
     f.add_argument("--figure", type=int, action="append", choices=(2, 3, 4, 5, 6),
-                   help="only this figure (repeatable)")
-    f.add_argument("--quiet", action="store_true")
+                   help="only this figure (repeatable; default: all of 2-6)")
+    f.add_argument("--quiet", action="store_true", help=QUIET_HELP)
     _add_mc_options(f)
     f.set_defaults(func=cmd_figures)
     w = sub.add_parser("workprecision", help="what accuracy costs in time, for every solver")
     w.add_argument("scene", help="scene TOML file (or the name of a shipped scene)")
-    w.add_argument("--out", metavar="DIR", help="default out/<scene>-workprecision")
-    w.add_argument("--quick", action="store_true", help="short ladders (a smoke test)")
-    w.add_argument("--repeats", type=int, default=3, help="timed repeats after the warm-up")
-    w.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE")
-    w.add_argument("--quiet", action="store_true")
+    w.add_argument("--out", metavar="DIR",
+                   help="directory for workprecision.png/.md/.json "
+                        "(default: out/<scene>-workprecision)")
+    w.add_argument("--quick", action="store_true",
+                   help="short ladders, a smoke test (default: the full ladders)")
+    w.add_argument("--repeats", type=int, default=3,
+                   help="timed repeats after the warm-up (default: %(default)s)")
+    w.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
+                   help=SET_HELP)
+    w.add_argument("--quiet", action="store_true", help=QUIET_HELP)
     _add_mc_options(w)
     w.set_defaults(func=cmd_workprecision)
     return p
@@ -301,6 +332,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if not argv:  # `vifpk` alone: the usage and the commands, exit 2
+        parser.print_help(sys.stderr)
+        return EXIT_BAD_INPUT
     args = parser.parse_args(argv)
     try:
         return int(args.func(args))

@@ -12,6 +12,7 @@ import base64
 import html
 import io
 import json
+import math
 import os
 import shutil
 import tempfile
@@ -20,7 +21,14 @@ from typing import Any
 
 import numpy as np
 
-from .check import MODELS, OBSERVABLES, CheckResult
+from .check import (
+    INDISTINGUISHABLE_FACTOR,
+    LARGE_L1,
+    MODELS,
+    OBSERVABLES,
+    SMALL_L1,
+    CheckResult,
+)
 from .io import jsonable
 
 LABELS = {"A": "amplitude A", "x1": "displacement x1", "x2": "velocity x2"}
@@ -94,34 +102,131 @@ def _png(fig: Any) -> bytes:
     return buf.getvalue()
 
 
-def _num(v: float, signed: bool = False) -> str:
-    """4 decimals, or 3 significant digits in scientific notation below 1e-3."""
-    if v != 0 and abs(v) < 1e-3:
-        return f"{v:+.2e}" if signed else f"{v:.2e}"
-    return f"{v:+.4f}" if signed else f"{v:.4f}"
+def _column_format(values: list[float]) -> str:
+    """One format for a whole column: fixed 3 decimals when every nonzero value is in
+    [0.01, 1000), else scientific with 3 significant digits ("scientific where small")."""
+    mags = [abs(v) for v in values if v is not None and math.isfinite(v) and abs(v) > TINY]
+    return "fixed" if all(1e-2 <= m < 1e3 for m in mags) else "sci"
 
 
-def _fmt(e: dict[str, float], key: str) -> str:
-    v = e[key]
-    err = e.get(f"{key}_err")
-    return _num(v) + (f" ± {_num(err)}" if err else "")
+TINY = 1e-12  # below this a difference is rounding (sums of ~1e3 terms in double precision)
+
+
+def _cell(v: float | None, fmt: str, *, signed: bool = False, floor: float | None = None
+          ) -> str:
+    if v is None:
+        return "–"
+    if not math.isfinite(v):
+        return "n/a"
+    if floor is not None and floor > 0 and v < floor:
+        return "< floor"
+    if abs(v) <= TINY:
+        return "0 (< 1e-12)"
+    sign = "+" if signed else ""
+    return f"{v:{sign}.3f}" if fmt == "fixed" else f"{v:{sign}.2e}"
+
+
+def _format_columns(raw: list[list[Any]], spec: list[dict[str, Any]],
+                   fmts: list[str | None] | None = None) -> list[list[str]]:
+    """Format a table of raw numbers, one format per column (see _column_format).
+
+    spec[j]: {"text": True} for a text column, or {"signed": bool, "floor": k, "err_of": i}:
+    k is the index of the column holding this one's noise floor (values below it show
+    "< floor"), i the column this one is the error bar of (blank when that value is below its
+    floor). fmts: the formats, when several tables share them."""
+    cols = len(spec)
+    if fmts is None:
+        fmts = _column_formats([raw], spec)
+    out = []
+    for r in raw:
+        row = []
+        for j in range(cols):
+            if spec[j].get("text"):
+                row.append(str(r[j]))
+                continue
+            k = spec[j].get("floor")
+            i = spec[j].get("err_of")
+            if i is not None:
+                k = spec[i].get("floor")
+            floor = r[k] if k is not None else None
+            if i is not None and r[i] is not None and floor and r[i] < floor:
+                row.append("–")
+                continue
+            row.append(_cell(r[j], fmts[j], signed=spec[j].get("signed", False),
+                             floor=floor if i is None else None))
+        out.append(row)
+    return out
+
+
+def _column_formats(raws: list[list[list[Any]]], spec: list[dict[str, Any]]
+                    ) -> list[str | None]:
+    """One format per column over several tables of the same layout."""
+    return [None if spec[j].get("text") else
+            _column_format([r[j] for raw in raws for r in raw]) for j in range(len(spec))]
+
+
+TABLE_HEAD = ["error", "obs.", "L1", "L1 error bar", "L1 floor", "Hellinger", "Hellinger floor",
+              "KS", "KS floor", "mean diff", "std diff"]
+_TABLE_SPEC = [{"text": True}, {"text": True}, {"floor": 4}, {"err_of": 2}, {}, {"floor": 6}, {},
+               {"floor": 8}, {}, {"signed": True}, {"signed": True}]
 
 
 def _tables(res: CheckResult) -> list[tuple[str, list[str], list[list[str]]]]:
-    tables = []
+    """Per model, the error decomposition: every metric with its noise floor; a value below
+    its floor reads "< floor"; the FPK comparison is deterministic (no floor: "–")."""
+    raws = []
     for m in MODELS:
-        rows = []
+        raw = []
         for kind in KINDS:
             for o in OBSERVABLES:
                 e = res.metrics["models"][m][kind][o]
-                floor = _num(e["L1_floor"]) if e["L1_floor"] > 0 else "–"
-                rows.append([KIND_TEXT[kind].split(" (")[0], o, _fmt(e, "L1"), floor,
-                             _fmt(e, "hellinger"), _fmt(e, "ks"),
-                             _num(e["mean_diff"], signed=True)])
-        tables.append((f"{m} model: error decomposition",
-                       ["error", "obs.", "L1", "L1 noise floor", "Hellinger", "KS",
-                        "mean diff"], rows))
-    return tables
+                has = e.get("L1_floor", 0.0) > 0
+
+                def fl(key: str, e=e, has=has) -> float | None:
+                    return e[key] if has else None
+
+                raw.append([KIND_TEXT[kind].split(" (")[0], o, e["L1"], fl("L1_err"),
+                            fl("L1_floor"), e["hellinger"], fl("hellinger_floor"), e["ks"],
+                            fl("ks_floor"), e["mean_diff"], e["std_diff"]])
+        raws.append(raw)
+    fmts = _column_formats(raws, _TABLE_SPEC)
+    return [(f"{m} model: error decomposition", TABLE_HEAD,
+             _format_columns(raw, _TABLE_SPEC, fmts)) for m, raw in zip(MODELS, raws, strict=True)]
+
+
+CLASS_TEXT = {
+    "indistinguishable": f"L1 < {INDISTINGUISHABLE_FACTOR:g} x its noise floor: no error "
+                         "measurable at this sample size",
+    "small": f"L1 < {SMALL_L1:g}: at most {50 * SMALL_L1:g}% of the probability mass misplaced",
+    "moderate": f"{SMALL_L1:g} <= L1 < {LARGE_L1:g}: {50 * SMALL_L1:g}-{50 * LARGE_L1:g}% of "
+                "the mass misplaced",
+    "large": f"L1 >= {LARGE_L1:g}: {50 * LARGE_L1:g}% of the mass or more misplaced",
+    "not an estimate": "the Monte Carlo has not converged or an averaging assumption fails: "
+                       "the distance is not an approximation error",
+}
+
+
+def verdict_rows(res: CheckResult) -> list[list[str]]:
+    """The ten-second verdict: per model, class, L1(A) +/- error bar, times the noise floor,
+    share of the probability mass misplaced (L1 / 2, on L1's 0..2 scale), dominant cause."""
+    rows = []
+    for m in MODELS:
+        entry = res.metrics["models"][m]
+        e = entry["averaging_error"]["A"]
+        floor = e["L1_floor"]
+        ratio = f"{e['L1'] / floor:.1f} x floor {floor:.3f}" if floor > 0 else "–"
+        rows.append([m, entry.get("verdict_class", "?").upper(),
+                     f"{e['L1']:.3f} ± {e['L1_err']:.3f}", ratio, f"{50 * e['L1']:.1f}%",
+                     entry.get("verdict_cause", "")])
+    return rows
+
+
+VERDICT_HEAD = ["model", "class", "L1(A) vs original system", "against the noise floor",
+                "mass misplaced (L1/2)", "dominant cause"]
+
+
+def _class_legend() -> list[str]:
+    return [f"{k}: {v}" for k, v in CLASS_TEXT.items()]
 
 
 def _scene_rows(res: CheckResult) -> list[list[str]]:
@@ -147,7 +252,11 @@ def _mc_rows(res: CheckResult) -> list[list[str]]:
 
 def render_markdown(res: CheckResult, figures: dict[str, str]) -> str:
     out = [f"# Error report: {res.scene.name}", "", res.scene.description, "",
-           "## Verdict", ""]
+           "## Verdict: is each averaged model usable here?", "",
+           "| " + " | ".join(VERDICT_HEAD) + " |", "|" + "---|" * len(VERDICT_HEAD)]
+    out += ["| " + " | ".join(r) + " |" for r in verdict_rows(res)]
+    out += ["", "L1 = ∫|p - q| runs from 0 (identical) to 2 (disjoint). Classes: "
+            + "; ".join(_class_legend()) + ".", ""]
     out += [f"- {v}" for v in res.verdicts]
     if res.warnings:
         out += ["", "## Warnings: averaging assumptions that fail here", ""]
@@ -187,12 +296,25 @@ def render_html(res: CheckResult, pngs: dict[str, bytes]) -> str:
         "<style>body{font-family:sans-serif;max-width:1200px;margin:2em auto;padding:0 1em}"
         "table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #ccc;padding:3px 8px;"
         "text-align:right}th{background:#eee}img{max-width:100%}.warn{color:#a00}"
-        ".verdict{font-weight:bold}</style></head><body>",
+        "table.verdict td{text-align:left}.cls{font-weight:bold}.indistinguishable{background:#cfc}"
+        ".small{background:#dfd}.moderate{background:#ffd}.large{background:#fcc}"
+        ".not-an-estimate{background:#ddd}</style></head><body>",
         f"<h1>Error report: {e(res.scene.name)}</h1>", f"<p>{e(res.scene.description)}</p>",
-        "<h2>Verdict</h2><ul>",
+        "<h2>Verdict: is each averaged model usable here?</h2>",
     ]
-    parts += [f'<li class="verdict">{e(v)}</li>' for v in res.verdicts]
-    parts.append("</ul>")
+    vh = "".join(f"<th>{e(c)}</th>" for c in VERDICT_HEAD)
+    vb = "".join(
+        "<tr>" + "".join(
+            (f'<td class="cls {e(c.lower().replace(" ", "-"))}">{e(c)}</td>' if j == 1
+             else f"<td>{e(c)}</td>") for j, c in enumerate(r)) + "</tr>"
+        for r in verdict_rows(res))
+    parts.append(f'<table class="verdict"><thead><tr>{vh}</tr></thead><tbody>{vb}</tbody>'
+                 "</table>")
+    parts.append("<p>L1 = ∫|p − q| runs from 0 (identical) to 2 (disjoint). Classes:</p><ul>"
+                 + "".join(f"<li>{e(x)}</li>" for x in _class_legend()) + "</ul>")
+    parts.append("<details><summary>The verdict in full</summary><ul>")
+    parts += [f"<li>{e(v)}</li>" for v in res.verdicts]
+    parts.append("</ul></details>")
     if res.warnings:
         parts.append("<h2>Warnings: averaging assumptions that fail here</h2><ul>")
         parts += [f'<li class="warn">{e(w)}</li>' for w in res.warnings]

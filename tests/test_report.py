@@ -1,0 +1,96 @@
+"""The error report as a researcher reads it: verdict classes, table formats, CLI help."""
+
+from __future__ import annotations
+
+import argparse
+
+import pytest
+
+from harness.check import LARGE_L1, SMALL_L1, verdict, verdict_class
+from harness.cli import build_parser, main
+from harness.report import _column_format, _format_columns
+
+
+def _entry(l1: float, floor: float = 0.01, disc: float = 1e-4, samp: float = 0.008,
+           sampling_ok: bool = True) -> dict:
+    hist = {"L1": l1, "L1_err": 0.002, "L1_floor": floor, "ks": l1 / 2, "mean_diff": 0.01}
+    return {"averaging_error": {"A": hist},
+            "discretisation_error": {"A": {"L1": disc, "L1_floor": 0.0}},
+            "sampling_error": {"A": {"L1": samp, "L1_floor": floor}},
+            "sampling_ok": sampling_ok}
+
+
+@pytest.mark.parametrize(("l1", "cls"), [(0.015, "indistinguishable"), (0.05, "small"),
+                                         (0.2, "moderate"), (0.48, "large")])
+def test_verdict_classes_follow_the_stated_thresholds(l1, cls):
+    # thresholds: 2 x floor (noise), SMALL_L1 = 0.1, LARGE_L1 = 0.3 (docs/report.md)
+    assert (SMALL_L1, LARGE_L1) == (0.1, 0.3)
+    assert verdict_class(_entry(l1), [])[0] == cls
+
+
+def test_verdict_names_the_dominant_cause_and_the_scale():
+    cls, cause = verdict_class(_entry(0.48), [])
+    assert cls == "large" and cause.startswith("the averaged model itself")
+    line = verdict("paper", _entry(0.48), [])
+    assert line.startswith("paper model: LARGE")
+    assert "48.0 x its MC noise floor" in line and "24.0% of the probability mass" in line
+    # the numerics, not the model, when the FPK discretisation is as large as the distance
+    assert verdict_class(_entry(0.2, disc=0.15), [])[1] != "none dominant"
+    assert "averaged model" not in verdict_class(_entry(0.2, disc=0.15), [])[1]
+
+
+def test_not_an_estimate_keeps_the_convergence_wording():
+    conv = {"equilibrated": False, "reason": "R-hat 1.2 > 1.01"}
+    assert verdict_class(_entry(0.3), [], convergence=conv)[0] == "not an estimate"
+    line = verdict("exact", _entry(0.3), [], convergence=conv)
+    assert "the simulation has not converged" in line and "R-hat 1.2" in line
+    line = verdict("exact", _entry(0.3, sampling_ok=False), [])
+    assert "the simulation has not converged" in line
+    w = ["strong damping: at the mean amplitude ..."]
+    cls, cause = verdict_class(_entry(0.3), w)
+    assert cls == "not an estimate" and "strong damping" in cause
+    assert "NOT an estimate" in verdict("exact", _entry(0.3), w)
+
+
+def test_table_columns_have_one_format_and_hide_values_below_the_floor():
+    assert _column_format([0.48, 0.073, 0.05]) == "fixed"
+    assert _column_format([0.48, 6.2e-4]) == "sci"
+    raw = [["a", 0.48, 0.01, -2.78e-17], ["b", 6.2e-4, 0.01, 0.0012], ["c", 1e-5, None, 0.3]]
+    spec = [{"text": True}, {"floor": 2}, {}, {"signed": True}]
+    rows = _format_columns(raw, spec)
+    assert rows[0][1] == "4.80e-01" and rows[1][1] == "< floor" and rows[2][1] == "1.00e-05"
+    assert rows[2][2] == "–"  # no floor for a deterministic comparison
+    assert rows[0][3] == "0 (< 1e-12)" and rows[1][3] == "+1.20e-03"
+    # an error bar of a value below its floor is not shown either
+    spec = [{"floor": 2}, {"err_of": 0}, {}]
+    rows = _format_columns([[0.02, 0.003, 0.05], [0.5, 0.003, 0.05]], spec)
+    assert rows[0][:2] == ["< floor", "–"] and rows[1][:2] == ["0.500", "3.00e-03"]
+
+
+def _subparsers(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:
+    for a in parser._actions:
+        if isinstance(a, argparse._SubParsersAction):
+            return dict(a.choices)
+    return {}
+
+
+def test_every_option_has_help_showing_its_default():
+    parser = build_parser()
+    for name, sub in _subparsers(parser).items():
+        for a in sub._actions:
+            if isinstance(a, argparse._HelpAction):
+                continue
+            assert a.help, (name, a.dest)
+            if a.option_strings and not a.required:
+                assert "default" in a.help, (name, a.option_strings)
+
+
+def test_version_and_bare_usage(capsys):
+    from harness.provenance import vifpk_version
+
+    with pytest.raises(SystemExit) as exc:
+        main(["--version"])
+    assert exc.value.code == 0 and capsys.readouterr().out.strip() == f"vifpk {vifpk_version()}"
+    assert main([]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("usage: vifpk") and "check" in err and "workprecision" in err
