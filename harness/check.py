@@ -35,6 +35,7 @@ class CheckResult:
     metrics: dict[str, Any]
     warnings: list[str]
     verdicts: list[str]
+    provenance: dict[str, Any] | None = None  # harness.provenance.collect(); set by the writer
 
 
 class _Stages:
@@ -42,20 +43,27 @@ class _Stages:
 
     def __init__(self, total: int, quiet: bool):
         self.total, self.quiet, self.i = total, quiet, 0
-        self.t = time.perf_counter()
+        self.t = self.start = time.perf_counter()
+        self.name = ""
+        self.seconds: dict[str, float] = {}  # stage -> wall seconds (metrics.json "timings")
 
     def __call__(self, name: str) -> None:
         now = time.perf_counter()
-        if self.i and not self.quiet:
-            print(f" {now - self.t:.1f} s", file=sys.stderr, flush=True)
+        if self.i:
+            self.seconds[self.name] = self.seconds.get(self.name, 0.0) + now - self.t
+            if not self.quiet:
+                print(f" {now - self.t:.1f} s", file=sys.stderr, flush=True)
         self.i += 1
-        self.t = now
+        self.t, self.name = now, name
         if not self.quiet:
             print(f"[{self.i}/{self.total}] {name} ...", end="", file=sys.stderr, flush=True)
 
     def done(self) -> None:
+        now = time.perf_counter()
+        if self.i:
+            self.seconds[self.name] = self.seconds.get(self.name, 0.0) + now - self.t
         if not self.quiet and self.i:
-            print(f" {time.perf_counter() - self.t:.1f} s", file=sys.stderr, flush=True)
+            print(f" {now - self.t:.1f} s", file=sys.stderr, flush=True)
 
 
 def mc_edges(closed: dict[str, Any], bins: int) -> dict[str, np.ndarray]:
@@ -205,9 +213,20 @@ def cross_check(scene: Any, *, quiet: bool = False) -> CheckResult:
     metrics["verdicts"] = verdicts
     metrics["warnings"] = warnings
     metrics["monte_carlo"] = {k: mc.info[k] for k in ("settings", "effects", "events", "L1_floor",
-                                                     "seed", "steps_per_second", "atoms",
-                                                     "relaxation") if k in mc.info}
+                                                     "seed", "atoms", "relaxation")
+                              if k in mc.info}
     metrics["monte_carlo"]["convergence"] = conv
+    # everything that depends on the machine's speed lives under "timings" only, so that the
+    # rest of metrics.json is a function of (scene, settings, seed) alone (issue 11.5)
+    metrics["timings"] = {
+        "wall_seconds": time.perf_counter() - stages.start,
+        "stages": stages.seconds,
+        "steps_per_second": {name: s.info["steps_per_second"] for name, s in sol.items()
+                             if "steps_per_second" in s.info},
+        "solutions": {name: s.info["seconds"] for name, s in sol.items()
+                      if "seconds" in s.info},
+        "threads": mc.info.get("threads"),
+    }
     return CheckResult(scene=scene, solutions=sol, metrics=metrics, warnings=warnings,
                        verdicts=verdicts)
 

@@ -44,9 +44,17 @@ def _parse_override(text: str) -> tuple[str, Any]:
 
 def concrete_scene(path: str, overrides: Sequence[str]) -> Scene:
     """Load a scene, apply ``--set`` overrides; a sweep must be pinned to one value."""
+    from dataclasses import replace
+
+    from .provenance import overridden_name
+
     scene = load_scene(path)
     if overrides:
         scene = scene.with_values(dict(_parse_override(o) for o in overrides))
+        # titled with its overrides, and never written into the base scene's default folder
+        scene = replace(scene, name=overridden_name(scene.name, overrides),
+                        description=f"{scene.description} With --set "
+                                    f"{', '.join(overrides)}.".lstrip())
     if scene.sweep is not None:
         sw = scene.sweep
         vals = ", ".join(f"{v:g}" for v in sw.values)
@@ -114,6 +122,16 @@ def _summary(result: Any) -> str:
     return "\n".join(lines)
 
 
+def _provenance(args: argparse.Namespace) -> dict[str, Any]:
+    """The provenance block of this run (harness/provenance.py)."""
+    from . import provenance
+
+    scene = getattr(args, "scene", None)
+    return provenance.collect(argv=getattr(args, "argv", None),
+                              scene_path=provenance.scene_file(scene) if scene else None,
+                              overrides=getattr(args, "set", []))
+
+
 def cmd_solve(args: argparse.Namespace) -> int:
     from .io import write_json
 
@@ -125,7 +143,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
     if args.json:
         model = None if args.solver == "montecarlo" else args.model
         write_json(args.json, solution_record(scene, args.solver, model, result,
-                                              joint=args.joint))
+                                              joint=args.joint, provenance=_provenance(args)))
         print(f"wrote {args.json}", file=sys.stderr)
     else:
         print(_summary(result))
@@ -145,16 +163,21 @@ def _apply_mc_options(scene: Scene, args: argparse.Namespace) -> Scene:
 
 
 def cmd_check(args: argparse.Namespace) -> int:
+    from . import outdir
     from .check import cross_check
-    from .report import write_report
+    from .provenance import folder_name
+    from .report import REPORT_FILES, write_report
 
     scene = _apply_mc_options(concrete_scene(args.scene, args.set), args)
     if scene.system.f == 0.0:
         raise SolverFailure("f = 0: there is no noise, so no stationary density exists; "
                             "nothing to cross-check")
-    out = args.out or f"out/{scene.name}"
-    result = cross_check(scene, quiet=args.quiet)
-    files = write_report(result, out)
+    prov = _provenance(args)
+    out = args.out or f"out/{folder_name(scene.name)}"
+    # hold the folder from the start: a second run into it is refused before any work
+    with outdir.hold(out, run_id=prov["run_id"], allowed=REPORT_FILES):
+        result = cross_check(scene, quiet=args.quiet)
+        files = write_report(result, out, prov=prov)
     for v in result.verdicts:
         print(v)
     for w in result.warnings:
@@ -187,7 +210,7 @@ def cmd_bifurcation(args: argparse.Namespace) -> int:
               f" -- {chk['words']}")
     print(f"paper claims: {res['paper_claim']}")
     if args.json:
-        write_json(args.json, res)
+        write_json(args.json, dict(res, provenance=_provenance(args)))
     return 0
 
 
@@ -196,21 +219,21 @@ def cmd_figures(args: argparse.Namespace) -> int:
 
     overrides = _mc_overrides(args)
     table = draw_figures(args.out, numbers=tuple(args.figure or (2, 3, 4, 5, 6)),
-                         overrides=overrides, quiet=args.quiet)
+                         overrides=overrides, quiet=args.quiet, prov=_provenance(args))
     print(render_table(table), end="")
     print(f"figures: {args.out}/paper-fig*.png")
     return 0
 
 
 def cmd_workprecision(args: argparse.Namespace) -> int:
-    import json
     from pathlib import Path
 
-    from .io import jsonable, write_atomic
+    from .io import write_atomic, write_json
+    from .provenance import folder_name
     from .workprecision import log_stderr, plot, run_workprecision, table_markdown
 
     scene = _apply_mc_options(concrete_scene(args.scene, args.set), args)
-    out = Path(args.out or f"out/{scene.name}-workprecision")
+    out = Path(args.out or f"out/{folder_name(scene.name)}-workprecision")
     out.mkdir(parents=True, exist_ok=True)
     data = run_workprecision(scene, quick=args.quick, repeats=args.repeats,
                              log=None if args.quiet else log_stderr)
@@ -219,7 +242,7 @@ def cmd_workprecision(args: argparse.Namespace) -> int:
     tmp.replace(out / "workprecision.png")
     table = table_markdown(data)
     write_atomic(out / "workprecision.md", table)
-    write_atomic(out / "workprecision.json", json.dumps(jsonable(data), indent=1) + "\n")
+    write_json(out / "workprecision.json", dict(data, provenance=_provenance(args)))
     print(table, end="")
     print(f"diagram: {out / 'workprecision.png'}")
     return 0
@@ -337,6 +360,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help(sys.stderr)
         return EXIT_BAD_INPUT
     args = parser.parse_args(argv)
+    args.argv = ["vifpk", *(sys.argv[1:] if argv is None else argv)]
     try:
         return int(args.func(args))
     except SceneError as exc:

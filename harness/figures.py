@@ -10,7 +10,6 @@ density depends on energy alone. ``figures.json`` / ``figures.md`` hold the L1 d
 
 from __future__ import annotations
 
-import json
 import sys
 from dataclasses import replace
 from pathlib import Path
@@ -20,7 +19,7 @@ import numpy as np
 
 from .check import mc_edges
 from .compare import compare
-from .io import jsonable, write_atomic
+from .io import write_atomic, write_json
 from .run import montecarlo_solution
 from .scene import Scene, load_scene
 
@@ -115,9 +114,10 @@ def _plot_joint(fig_no: int, scene: Scene, runs: list[dict[str, Any]], path: Pat
 
 
 def draw_figures(out_dir: str | Path, *, numbers: tuple[int, ...] = (2, 3, 4, 5, 6),
-                 overrides: dict[str, Any] | None = None, quiet: bool = False
-                 ) -> dict[str, Any]:
-    """Draw the figures into out_dir; return (and write) the table of L1 distances."""
+                 overrides: dict[str, Any] | None = None, quiet: bool = False,
+                 prov: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Draw the figures into out_dir; return (and write) the table of L1 distances.
+    figures.json holds the table and, under ``provenance``, the run's provenance block."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     table: dict[str, Any] = {}
@@ -142,7 +142,11 @@ def draw_figures(out_dir: str | Path, *, numbers: tuple[int, ...] = (2, 3, 4, 5,
                          for r in runs],
             "stuck_fraction": [r["mc"].info["events"]["stuck_fraction"]["value"] for r in runs],
         }
-    write_atomic(out / "figures.json", json.dumps(jsonable(table), indent=1) + "\n")
+    if prov is None:
+        from .provenance import collect
+
+        prov = collect()
+    write_json(out / "figures.json", dict(table, provenance=prov))
     write_atomic(out / "figures.md", render_table(table))
     return table
 

@@ -1,6 +1,9 @@
 """Atomic output: write to a temporary file beside the target, then rename.
 
-A run interrupted half-way leaves the previous file (or none), never a truncated one.
+A run interrupted half-way leaves the previous file (or none), never a truncated one. The
+temporary file is created with mode 0666 minus the umask (like any ``open``), not with
+``tempfile``'s 0600, so the file that lands has the mode every other output has.
+Whole folders (the check report) are written as a unit by :mod:`harness.outdir`.
 """
 
 from __future__ import annotations
@@ -8,7 +11,9 @@ from __future__ import annotations
 import json
 import math
 import os
-import tempfile
+import secrets
+import struct
+import zlib
 from pathlib import Path
 from typing import Any
 
@@ -35,7 +40,13 @@ def write_atomic(path: str | Path, data: bytes | str) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     raw = data.encode("utf-8") if isinstance(data, str) else data
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    while True:
+        tmp = path.parent / f".{path.name}.{secrets.token_hex(4)}.tmp"
+        try:
+            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)  # umask applies
+            break
+        except FileExistsError:
+            continue
     try:
         with os.fdopen(fd, "wb") as fh:
             fh.write(raw)
@@ -48,5 +59,24 @@ def write_atomic(path: str | Path, data: bytes | str) -> Path:
     return path
 
 
+def dumps(obj: Any) -> str:
+    """The JSON text of every vifpk output: plain types, indent 1, no NaN, newline at the end.
+    Deterministic for equal input (dict order as built, floats in shortest repr)."""
+    return json.dumps(jsonable(obj), indent=1, allow_nan=False) + "\n"
+
+
 def write_json(path: str | Path, obj: Any) -> Path:
-    return write_atomic(path, json.dumps(jsonable(obj), indent=1, allow_nan=False) + "\n")
+    return write_atomic(path, dumps(obj))
+
+
+def png_with_text(png: bytes, text: dict[str, str]) -> bytes:
+    """A PNG with ``tEXt`` chunks (keyword, Latin-1 text) inserted after its header chunk, so an
+    image carries the run id of the report it belongs to (PNG spec, section 11.3.4.3)."""
+    if png[:8] != b"\x89PNG\r\n\x1a\n":
+        raise ValueError("not a PNG")
+    end = 8 + 12 + struct.unpack(">I", png[8:12])[0]  # signature + IHDR (length, type, crc)
+    chunks = b""
+    for key, value in text.items():
+        body = b"tEXt" + key.encode("latin-1") + b"\0" + value.encode("latin-1", "replace")
+        chunks += struct.pack(">I", len(body) - 4) + body + struct.pack(">I", zlib.crc32(body))
+    return png[:end] + chunks + png[end:]

@@ -111,3 +111,48 @@ def collect(*, argv: Sequence[str] | None = None, scene_path: str | Path | None 
         "scene": scene,
         "overrides": list(overrides),
     }
+
+
+def scene_file(path: str | Path) -> Path | None:
+    """The scene file a path or shipped-scene name resolves to (as ``load_scene`` does)."""
+    p = Path(path)
+    if p.is_file():
+        return p
+    shipped = Path(__file__).resolve().parent.parent / "scenes"
+    c = shipped / (f"{p}.toml" if p.suffix == "" else p.name)
+    return c if c.is_file() else None
+
+
+def overridden_name(name: str, overrides: Sequence[str]) -> str:
+    """The name of a scene run with ``--set`` overrides: the base name plus each override as
+    given, ``paper-base+system.mu=0.5+noise.D=0.02``, so its title and default output folder
+    are never the base scene's."""
+    return "+".join([name, *("".join(o.split()) for o in overrides)])
+
+
+def folder_name(name: str) -> str:
+    """A scene name made safe as one folder name (path separators, spaces, quotes -> ``_``)."""
+    safe = "".join(c if c.isalnum() or c in "._=+,-" else "_" for c in name).lstrip(".")
+    return safe or "scene"
+
+
+def rows(prov: Mapping[str, Any]) -> list[tuple[str, str]]:
+    """The provenance block as (field, value) text rows for a report table."""
+    git = prov.get("git")
+    out = [("run id", prov["run_id"]), ("created (UTC)", prov["created"]),
+           ("vifpk version", prov["vifpk"]),
+           ("git commit", (git["commit"] + (" (with uncommitted changes)" if git["dirty"] else ""))
+            if git else "not run from a git checkout"),
+           ("command", prov["command"])]
+    sc = prov.get("scene")
+    out.append(("scene file", f"{sc['path']} (sha256 {sc['sha256']})" if sc else "none"))
+    out.append(("overrides", ", ".join(prov.get("overrides") or []) or "none"))
+    out.append(("versions", ", ".join(f"{k} {v}" for k, v in prov["versions"].items())))
+    return out
+
+
+def summary(prov: Mapping[str, Any]) -> str:
+    """One line naming the run: ``run 2026...-3fa9c1, 2026-11-23T11:35:12Z, vifpk 0.1.0``."""
+    git = prov.get("git")
+    tail = f" (git {git['commit'][:10]}{'+dirty' if git['dirty'] else ''})" if git else ""
+    return f"run {prov['run_id']}, {prov['created']}, vifpk {prov['vifpk']}{tail}"

@@ -1,26 +1,25 @@
 """The generated error report of a cross-check: report.html (self-contained, figures
 embedded), report.md (+ figures/*.png), metrics.json (a contract scripts read), arrays.npz.
 
-Everything is first written into a temporary directory inside DIR, then moved into place
-file by file with os.replace, metrics.json last; an interrupted run leaves the previous
-report (or nothing), never a half-written file.
+The folder is written as a unit (harness/outdir.py): the whole new set is built beside DIR and
+swapped in with one atomic exchange, under a lock that refuses a second run into DIR. Every
+file carries the run's provenance (harness/provenance.py): metrics.json ``provenance``, a
+block in report.html and report.md, ``run_id`` in arrays.npz and a text chunk in each PNG.
 """
 
 from __future__ import annotations
 
 import base64
+import dataclasses
 import html
 import io
-import json
 import math
-import os
-import shutil
-import tempfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from . import outdir, provenance
 from .check import (
     INDISTINGUISHABLE_FACTOR,
     LARGE_L1,
@@ -29,7 +28,7 @@ from .check import (
     SMALL_L1,
     CheckResult,
 )
-from .io import jsonable
+from .io import dumps, png_with_text
 
 LABELS = {"A": "amplitude A", "x1": "displacement x1", "x2": "velocity x2"}
 KINDS = ("discretisation_error", "sampling_error", "averaging_error")
@@ -251,9 +250,12 @@ def _mc_rows(res: CheckResult) -> list[list[str]]:
 
 
 def render_markdown(res: CheckResult, figures: dict[str, str]) -> str:
-    out = [f"# Error report: {res.scene.name}", "", res.scene.description, "",
-           "## Verdict: is each averaged model usable here?", "",
-           "| " + " | ".join(VERDICT_HEAD) + " |", "|" + "---|" * len(VERDICT_HEAD)]
+    out = [f"# Error report: {res.scene.name}", ""]
+    if res.provenance:
+        out += [f"*{provenance.summary(res.provenance)}*", ""]
+    out += [res.scene.description, "",
+            "## Verdict: is each averaged model usable here?", "",
+            "| " + " | ".join(VERDICT_HEAD) + " |", "|" + "---|" * len(VERDICT_HEAD)]
     out += ["| " + " | ".join(r) + " |" for r in verdict_rows(res)]
     out += ["", "L1 = ∫|p - q| runs from 0 (identical) to 2 (disjoint). Classes: "
             + "; ".join(_class_legend()) + ".", ""]
@@ -275,6 +277,10 @@ def render_markdown(res: CheckResult, figures: dict[str, str]) -> str:
     out += ["", "Metrics against a Monte Carlo histogram carry its noise floor (the distance "
             "sampling noise alone produces) and an error bar, both from a parametric bootstrap "
             "of the batch errors. A distance near its floor cannot be told from zero.", ""]
+    if res.provenance:
+        out += ["## Provenance", "", "| field | value |", "|---|---|"]
+        out += [f"| {a} | `{b}` |" for a, b in provenance.rows(res.provenance)]
+        out.append("")
     return "\n".join(out)
 
 
@@ -299,7 +305,10 @@ def render_html(res: CheckResult, pngs: dict[str, bytes]) -> str:
         "table.verdict td{text-align:left}.cls{font-weight:bold}.indistinguishable{background:#cfc}"
         ".small{background:#dfd}.moderate{background:#ffd}.large{background:#fcc}"
         ".not-an-estimate{background:#ddd}</style></head><body>",
-        f"<h1>Error report: {e(res.scene.name)}</h1>", f"<p>{e(res.scene.description)}</p>",
+        f"<h1>Error report: {e(res.scene.name)}</h1>",
+        *([f'<p class="run">{e(provenance.summary(res.provenance))}</p>']
+          if res.provenance else []),
+        f"<p>{e(res.scene.description)}</p>",
         "<h2>Verdict: is each averaged model usable here?</h2>",
     ]
     vh = "".join(f"<th>{e(c)}</th>" for c in VERDICT_HEAD)
@@ -327,7 +336,11 @@ def render_html(res: CheckResult, pngs: dict[str, bytes]) -> str:
               "<h2>Monte Carlo of the original system</h2>",
               table(["setting", "value"], _mc_rows(res)),
               "<p>Metrics against a Monte Carlo histogram carry its noise floor and an error bar, "
-              "both from a parametric bootstrap of the batch errors.</p>", "</body></html>"]
+              "both from a parametric bootstrap of the batch errors.</p>"]
+    if res.provenance:
+        parts += ["<h2>Provenance</h2>",
+                  table(["field", "value"], [list(r) for r in provenance.rows(res.provenance)])]
+    parts.append("</body></html>")
     return "\n".join(parts)
 
 
@@ -341,29 +354,43 @@ def arrays(res: CheckResult) -> dict[str, np.ndarray]:
     return out
 
 
-def write_report(res: CheckResult, out_dir: str | Path) -> dict[str, Path]:
-    """Write the report files into out_dir (atomically, metrics.json last)."""
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=".partial-", dir=out))
-    try:
+REPORT_FILES = ("report.html", "report.md", "metrics.json", "arrays.npz", "figures")
+
+
+def write_report(res: CheckResult, out_dir: str | Path, *,
+                 prov: dict[str, Any] | None = None) -> dict[str, Path]:
+    """Write the report folder out_dir as a unit (harness/outdir.py), every file stamped with
+    the run's provenance ``prov`` (default: :func:`provenance.collect` for this process)."""
+    if prov is None:
+        prov = provenance.collect(scene_path=provenance.scene_file(res.scene.source)
+                                  if res.scene.source else None)
+    res = dataclasses.replace(res, provenance=prov)
+    run_id = prov["run_id"]
+
+    def fill(tmp: Path) -> None:
         pngs = {"densities": _figure_densities(res), "decomposition": _figure_decomposition(res)}
+        pngs = {k: png_with_text(b, {"vifpk run id": run_id, "Software": f"vifpk {prov['vifpk']}"})
+                for k, b in pngs.items()}
         (tmp / "figures").mkdir()
         figs = {}
         for k, b in pngs.items():
             (tmp / "figures" / f"{k}.png").write_bytes(b)
             figs[k] = f"figures/{k}.png"
+        outdir._hook("fill")
         (tmp / "report.md").write_text(render_markdown(res, figs), encoding="utf-8")
         (tmp / "report.html").write_text(render_html(res, pngs), encoding="utf-8")
-        np.savez_compressed(tmp / "arrays.npz", **arrays(res))
-        doc = dict(res.metrics, scene=res.scene.to_dict())
-        (tmp / "metrics.json").write_text(json.dumps(jsonable(doc), indent=1, allow_nan=False)
-                                          + "\n", encoding="utf-8")
-        (out / "figures").mkdir(exist_ok=True)
-        order = ["figures/densities.png", "figures/decomposition.png", "arrays.npz",
-                 "report.md", "report.html", "metrics.json"]
-        for rel in order:
-            os.replace(tmp / rel, out / rel)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+        np.savez_compressed(tmp / "arrays.npz", run_id=np.array(run_id), **arrays(res))
+        (tmp / "metrics.json").write_text(dumps(metrics_document(res, prov)), encoding="utf-8")
+
+    out = outdir.write_folder(out_dir, fill, run_id=run_id, allowed=REPORT_FILES)
     return {k: out / k for k in ("report.html", "report.md", "metrics.json", "arrays.npz")}
+
+
+def metrics_document(res: CheckResult, prov: dict[str, Any]) -> dict[str, Any]:
+    """metrics.json: the results (a function of scene, settings and seed only), then
+    ``timings`` and ``provenance``, the only two keys that differ between identical runs."""
+    doc = {k: v for k, v in res.metrics.items() if k != "timings"}
+    doc["scene"] = res.scene.to_dict()
+    doc["timings"] = res.metrics.get("timings", {})
+    doc["provenance"] = prov
+    return doc

@@ -104,11 +104,14 @@ def montecarlo_solution(scene: Any, *, progress: bool = True, **edges: Any) -> S
 
 
 def solution_record(scene: Any, solver: str, model: str | None, result: Any, *,
-                    joint: bool = False) -> dict[str, Any]:
+                    joint: bool = False, provenance: dict[str, Any] | None = None
+                    ) -> dict[str, Any]:
     """The public JSON contract of ``vifpk solve``::
 
         {"scene": {...}, "solver": ..., "model": ..., "pdf": {"A": {"x", "p"[, "edges", "err"]},
-         "x1": {...}, "x2": {...}[, "E", "joint"]}, "info": {...}}
+         "x1": {...}, "x2": {...}[, "E", "joint"]}, "info": {..., "provenance": {...}}}
+
+    ``provenance``: the run's block (harness/provenance.py), stored as ``info.provenance``.
     """
     pdf = {k: v for k, v in result.data.items() if k in ("A", "E", "x1", "x2")
            or (joint and k == "joint")}
@@ -116,5 +119,5 @@ def solution_record(scene: Any, solver: str, model: str | None, result: Any, *,
     if model is not None:
         rec["model"] = model
     rec["pdf"] = pdf
-    rec["info"] = result.info
+    rec["info"] = result.info if provenance is None else dict(result.info, provenance=provenance)
     return rec

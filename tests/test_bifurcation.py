@@ -54,6 +54,7 @@ def test_bifurcation_command_json(tmp_path: Path, capsys):
                  "--no-mc", "--json", str(out), "--quiet"]) == 0
     d = json.loads(out.read_text())
     assert d["vary"] == "r" and set(d["critical"]) == {"paper", "exact"}
+    assert d["provenance"]["command"].startswith("vifpk bifurcation")  # issue 13.2
     assert 0.96 < d["critical"]["paper"] < 0.975
     assert "critical r" in capsys.readouterr().out
 

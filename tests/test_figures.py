@@ -15,4 +15,5 @@ def test_figures_command(tmp_path: Path):
     assert (out / "paper-fig6.png").stat().st_size > 10_000
     table = json.loads((out / "figures.json").read_text())
     assert table["figure6"]["values"] == [0.96, 0.968, 0.975]
+    assert table["provenance"]["command"].startswith("vifpk figures")  # issue 13.2
     assert "| 6 | r = 0.968 |" in (out / "figures.md").read_text()

@@ -36,6 +36,7 @@ def test_small_ladder_end_to_end(tmp_path: Path):
                  "--quiet"]) == 0
     d = json.loads((out / "workprecision.json").read_text())
     assert (out / "workprecision.png").stat().st_size > 10_000
+    assert d["provenance"]["scene"]["path"].endswith("paper-base.toml")  # issue 13.2
     for name, pts in d["solvers"].items():
         for p in pts:
             assert {"setting", "seconds", "error"} <= set(p), name
