@@ -26,6 +26,8 @@ from .scene import Scene, load_scene
 FIGURES = {2: "paper-fig2", 3: "paper-fig3", 4: "paper-fig4", 5: "paper-fig5", 6: "paper-fig6"}
 JOINT = {5, 6}
 COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple")
+AXIS = {"A": "amplitude A (dimensionless)", "x1": "displacement x1 (dimensionless)",
+        "x2": "velocity x2 (dimensionless)"}
 ROOT = Path(__file__).resolve().parent.parent
 
 
@@ -48,7 +50,7 @@ def _plot_pdfs(fig_no: int, scene: Scene, runs: list[dict[str, Any]], path: Path
     import matplotlib.pyplot as plt
 
     sw = scene.sweep
-    fig, axes = plt.subplots(1, 3, figsize=(13, 3.9))
+    fig, axes = plt.subplots(1, 3, figsize=(13, 4.6))
     for k, (val, run) in enumerate(zip(sw.values, runs, strict=True)):
         col = COLORS[k % len(COLORS)]
         for ax, o in zip(axes, ("A", "x1", "x2"), strict=True):
@@ -61,12 +63,13 @@ def _plot_pdfs(fig_no: int, scene: Scene, runs: list[dict[str, Any]], path: Path
                         color=col, elinewidth=0.6, label=f"{sw.key} = {val:g}, MC"
                         if o == "A" else None)
     for ax, o in zip(axes, ("A", "x1", "x2"), strict=True):
-        ax.set_xlabel({"A": "amplitude A", "x1": "displacement x1", "x2": "velocity x2"}[o])
-        ax.set_ylabel("density")
-    axes[0].legend(fontsize=6.5, ncol=1)
+        ax.set_xlabel(AXIS[o])
+        ax.set_ylabel(f"density p({o}) (dimensionless)")
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=len(runs), fontsize=7, frameon=False)
     fig.suptitle(f"Figure {fig_no} redrawn: dashed = paper model, solid = exact-orbit model, "
                  "markers = Monte Carlo of the original system (±2 s.e.)", fontsize=9)
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.16, 1, 1))
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
@@ -79,7 +82,8 @@ def _plot_joint(fig_no: int, scene: Scene, runs: list[dict[str, Any]], path: Pat
 
     sw = scene.sweep
     n = len(runs)
-    fig, axes = plt.subplots(n, 4, figsize=(15, 3.3 * n), squeeze=False)
+    fig, axes = plt.subplots(n, 4, figsize=(16, 3.4 * n), squeeze=False,
+                             layout="constrained")
     for i, (val, run) in enumerate(zip(sw.values, runs, strict=True)):
         panels = [("paper model", run["closed"]["paper"].data["joint"]),
                   ("exact model", run["closed"]["exact"].data["joint"]),
@@ -92,23 +96,27 @@ def _plot_joint(fig_no: int, scene: Scene, runs: list[dict[str, Any]], path: Pat
             ax.set_xlim(*xl)
             ax.set_ylim(-vl, vl)
             ax.set_facecolor(plt.get_cmap("viridis")(0.0))  # beyond a grid the density is 0
-            ax.pcolormesh(d["x1"], d["x2"], np.asarray(d["p"]).T, shading="auto", vmin=0,
-                          vmax=top, cmap="viridis")
+            mesh = ax.pcolormesh(d["x1"], d["x2"], np.asarray(d["p"]).T, shading="auto",
+                                 vmin=0, vmax=top, cmap="viridis")
             ax.set_title(f"{title}, {sw.key} = {val:g}", fontsize=8)
-            ax.set_xlabel("x1")
-            ax.set_ylabel("x2")
+            ax.set_xlabel(AXIS["x1"], fontsize=8)
+            ax.set_ylabel(AXIS["x2"], fontsize=8)
+        # one colour scale per row (the three panels share vmin, vmax)
+        fig.colorbar(mesh, ax=axes[i, :3], label="p(x1, x2)", shrink=0.9, pad=0.01)
         ax = axes[i, 3]
-        for (title, d), ls in zip(panels[:2], ("--", "-"), strict=True):
-            ax.plot(d["x2"], np.asarray(d["p"])[0], ls, label=title)
+        for (title, d), ls, col in zip(panels[:2], ("--", "-"), ("tab:red", "tab:blue"),
+                                       strict=True):
+            ax.plot(d["x2"], np.asarray(d["p"])[0], ls, color=col, label=title)
         mc = run["mc"].data["joint"]
         ax.errorbar(mc["x2"], np.asarray(mc["p"])[0], yerr=2 * np.asarray(mc["err"])[0], fmt="o",
                     ms=2, color="k", elinewidth=0.5, label="Monte Carlo (first x1 bin)")
         ax.set_title(f"section x1 = 0, {sw.key} = {val:g}", fontsize=8)
-        ax.set_xlabel("x2")
-        ax.legend(fontsize=6)
+        ax.set_xlabel(AXIS["x2"], fontsize=8)
+        ax.set_ylabel("p(0, x2)", fontsize=8)
+    handles, labels = axes[0, 3].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncol=3, fontsize=8, frameon=False)
     fig.suptitle(f"Figure {fig_no} redrawn: joint PDF p(x1, x2) and its section at x1 = 0",
                  fontsize=10)
-    fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)
 
