@@ -33,6 +33,8 @@ PAPER_CLAIMS = {
           "so 0.0038 may be meant)",
     "r": "r near 0.968 at mu = 0.001 (section 5.2)",
 }
+# the parameter each claim holds fixed, and at which value
+PAPER_CLAIM_FIXED = {"mu": {"r": 0.975}, "r": {"mu": 0.001}}
 
 
 def with_param(scene: Any, vary: str, value: float) -> Any:
@@ -104,11 +106,27 @@ def bifurcation(scene: Any, vary: str, *, lo: float | None = None, hi: float | N
     out["fixed"] = {other: getattr(scene.system, other),
                     **{k: getattr(scene.system, k) for k in ("c1", "c2", "alpha", "omega0", "f")},
                     "D": scene.noise.D, "alpha1": scene.noise.alpha1, "noise": scene.noise.kind}
+    claim_at = PAPER_CLAIM_FIXED[vary]
+    out["paper_claim_fixed"] = claim_at
+    differs = {k: v for k, v in claim_at.items() if not math.isclose(out["fixed"][k], v)}
+    out["paper_claim_comparable"] = not differs
+    if differs:
+        out["paper_claim_note"] = (
+            "the paper's claim holds " + ", ".join(f"{k} = {v:g}" for k, v in differs.items())
+            + ", this run holds " + ", ".join(f"{k} = {out['fixed'][k]:g}" for k in differs)
+            + ": the two critical values answer different questions (compare with --set "
+            + " ".join(f"system.{k}={v:g}" for k, v in differs.items()) + ")")
     for m in models:
         out["critical"][m] = critical_value(scene, m, vary, lo, hi)
     if mc:
         out["mc_check"] = [_mc_check(scene, vary, v, models) for v in
                            check_points(list(out["critical"].values()), lo, hi, offset)]
+        bad = [c for c in out["mc_check"] if not all(c["agrees"].values())]
+        if bad:
+            out["mc_disagreement"] = (
+                "the Monte Carlo of the original system DISAGREES with a model's side at "
+                + "; ".join(_disagreement(vary, c) for c in bad)
+                + ": that model's critical value is not confirmed")
     return out
 
 
@@ -139,3 +157,9 @@ def _mc_check(scene: Any, vary: str, v: float, models: tuple[str, ...]) -> dict[
                  + (f"; it agrees with the {' and '.join(agree)} model" if agree else ""))
     return {"value": v, "predicted": pred, "monte_carlo": shape, "agrees": {
         k: k in agree for k in models}, "words": words}
+
+
+def _disagreement(vary: str, chk: dict[str, Any]) -> str:
+    wrong = [k for k, ok in chk["agrees"].items() if not ok]
+    preds = ", ".join(f"{k} model predicts a {chk['predicted'][k]}" for k in wrong)
+    return f"{vary} = {chk['value']:.4g} ({preds}; the MC shows a {chk['monte_carlo']['shape']})"

@@ -208,7 +208,11 @@ def cmd_bifurcation(args: argparse.Namespace) -> int:
               f"original system (MC): {chk['monte_carlo']['shape']} "
               f"(largest rise of log p(y, y') {chk['monte_carlo']['max_rise_in_se']:.1f} s.e.)"
               f" -- {chk['words']}")
+    if res.get("mc_disagreement"):
+        print(f"FLAG: {res['mc_disagreement']}")
     print(f"paper claims: {res['paper_claim']}")
+    if res.get("paper_claim_note"):
+        print(f"  NOTE: {res['paper_claim_note']}")
     if args.json:
         write_json(args.json, dict(res, provenance=_provenance(args)))
     return 0

@@ -85,3 +85,17 @@ def test_bifurcation_names_fixed_parameters_and_flags_disagreement(base, monkeyp
     assert below and all(c["predicted"]["paper"] == "single peak" for c in below)
     assert all(c["agrees"]["paper"] is False and "DISAGREES with the paper model" in c["words"]
                for c in below)
+    assert "DISAGREES" in res["mc_disagreement"] and "paper model predicts a single peak" in \
+        res["mc_disagreement"]
+
+
+def test_bifurcation_says_when_the_paper_claim_holds_other_parameters(base):
+    """The paper's critical mu is at r = 0.975; the base scene holds r = 0.96: said in words."""
+    import harness.bifurcation as B
+
+    res = B.bifurcation(base, "mu", models=("paper",), mc=False)
+    assert res["paper_claim_fixed"] == {"r": 0.975}
+    assert res["paper_claim_comparable"] is (base.system.r == 0.975)
+    if base.system.r != 0.975:
+        assert f"this run holds r = {base.system.r:g}" in res["paper_claim_note"]
+        assert "--set system.r=0.975" in res["paper_claim_note"]
