@@ -10,7 +10,14 @@ import numpy as np
 import pytest
 
 from harness.cli import main
-from harness.workprecision import seconds_to_reach, timed
+from harness.workprecision import (
+    DT_LADDER,
+    TARGETS,
+    reference_floor,
+    run_error,
+    seconds_to_reach,
+    timed,
+)
 
 
 def test_timed_records_nan_on_failure():
@@ -30,7 +37,7 @@ def test_seconds_to_reach_takes_the_cheapest_run():
     assert row["0.01"] == 0.5 and row["0.001"] == 2.0 and math.isnan(row["0.0001"])
 
 
-def test_small_ladder_end_to_end(tmp_path: Path):
+def test_small_ladder_end_to_end(tmp_path: Path, capsys):
     out = tmp_path / "wp"
     assert main(["workprecision", "paper-base", "--quick", "--repeats", "1", "--out", str(out),
                  "--quiet"]) == 0
@@ -51,6 +58,24 @@ def test_small_ladder_end_to_end(tmp_path: Path):
         a, b = pts[0], pts[-1]
         assert b["error"] <= a["error"] + 2 * a["error_floor"], (name, pts)
     assert "best_dt_for_budget" in d["mc_bias_variance"]
+    # the seconds-to-reach table and the split table count the same runs the same way
+    reach = d["seconds_to_reach"][DT_LADDER]
+    for r in d["mc_bias_variance"]["ladder"]:
+        for t in TARGETS:
+            if r["error"] <= t:
+                assert reach[f"{t:g}"] <= r["seconds"], (r, reach)
+    printed = capsys.readouterr()
+    table = (out / "workprecision.md").read_text()
+    assert (printed.out + printed.err).count(table.splitlines()[0]) == 1  # printed once
+
+
+def test_run_error_removes_the_reference_noise_only():
+    # sum sqrt(2/pi) se w over 4 bins of width 0.5 with se = 0.01: 0.02 sqrt(2/pi)
+    ref = {"edges": np.linspace(0, 2, 5), "err": np.full(4, 0.01), "p": np.ones(4), "x": 0}
+    assert reference_floor(ref) == pytest.approx(0.02 * math.sqrt(2 / math.pi), rel=1e-12)
+    assert reference_floor({"x": np.zeros(3), "p": np.zeros(3)}) == 0.0
+    assert run_error(0.005, 0.003) == pytest.approx(0.004, rel=1e-12)
+    assert run_error(0.002, 0.003) == 0.0
 
 
 @pytest.mark.slow
