@@ -15,12 +15,13 @@ from typing import Any, NamedTuple
 import numpy as np
 import scipy
 
+from .corrected import CorrectedModel
 from .exact import ExactModel
 from .paper import PaperModel
 from .phase import phase_densities
 from .stationary import NoStationaryDensity, amplitude_density, describe
 
-MODELS = ("paper", "exact")
+MODELS = ("paper", "exact", "corrected")
 
 
 class Result(NamedTuple):
@@ -28,12 +29,15 @@ class Result(NamedTuple):
     info: dict[str, Any]
 
 
-def build_model(scene: Any, model: str = "paper", **options: Any) -> PaperModel | ExactModel:
+def build_model(scene: Any, model: str = "paper", **options: Any
+                ) -> PaperModel | ExactModel | CorrectedModel:
     """The averaged model named ``model`` for the scene (options: see each model)."""
     if model == "paper":
         return PaperModel.from_scene(scene, **options)
     if model == "exact":
         return ExactModel.from_scene(scene, **options)
+    if model == "corrected":
+        return CorrectedModel.from_scene(scene, **options)
     raise ValueError(f"model must be one of {MODELS}, not {model!r}")
 
 

@@ -1,6 +1,6 @@
 """The three-way cross-check of one scene: how wrong is each averaged model, and why.
 
-For each averaged model M (``paper``, ``exact``) on the observables A, x1, x2:
+For each averaged model M (``paper``, ``exact``, ``corrected``) on the observables A, x1, x2:
 
     discretisation_error  FPK(M) against the closed form of M         (numerics of the FPK)
     sampling_error        MC of M's averaged SDE against M's closed form (MC noise + bias)
@@ -24,7 +24,7 @@ import numpy as np
 from .compare import compare
 from .run import fpk_solution, montecarlo_solution
 
-MODELS = ("paper", "exact")
+MODELS = ("paper", "exact", "corrected")
 OBSERVABLES = ("A", "x1", "x2")
 
 

@@ -292,9 +292,10 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--solver", choices=SOLVERS, default="averaging",
                    help="averaging: closed form of an averaged model; fpk: its Fokker-Planck "
                         "equation; montecarlo: the original system (default: %(default)s)")
-    s.add_argument("--model", choices=("paper", "exact"), default="paper",
-                   help="averaged model for --solver averaging|fpk: the paper's printed one or "
-                        "the exact-orbit one (default: %(default)s)")
+    s.add_argument("--model", choices=("paper", "exact", "corrected"), default="paper",
+                   help="averaged model for --solver averaging|fpk: the paper's printed one, "
+                        "the exact-orbit one, or the exact one with discrete (compounded) "
+                        "impact losses (default: %(default)s)")
     s.add_argument("--json", metavar="OUT",
                    help="write the solution record to OUT (default: print a summary)")
     s.add_argument("--grid", type=int, metavar="N",

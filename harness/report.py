@@ -92,7 +92,7 @@ def _figure_decomposition(res: CheckResult) -> bytes:
     import matplotlib.pyplot as plt
     from matplotlib.patches import Rectangle
 
-    fig, axes = plt.subplots(1, len(MODELS), figsize=(11, 4.2), sharey=True)
+    fig, axes = plt.subplots(1, len(MODELS), figsize=(3.7 * len(MODELS), 4.2), sharey=True)
     width = 0.25
     smallest = min(max(res.metrics["models"][m][k][o]["L1"], 1e-12)
                    for m in MODELS for k in KINDS for o in OBSERVABLES)

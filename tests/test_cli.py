@@ -17,7 +17,7 @@ from .conftest import ROOT
 BASE = str(ROOT / "scenes" / "paper-base.toml")
 
 
-@pytest.mark.parametrize("model", ["paper", "exact"])
+@pytest.mark.parametrize("model", ["paper", "exact", "corrected"])
 def test_solve_json_contract(tmp_path: Path, model: str):
     out = tmp_path / "sol.json"
     assert main(["solve", BASE, "--solver", "averaging", "--model", model, "--json",

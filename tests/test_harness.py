@@ -100,13 +100,13 @@ def test_check_end_to_end(tmp_path: Path, capsys):
         assert (out / name).is_file(), name
     assert not list(out.glob(".partial-*"))
     m = json.loads((out / "metrics.json").read_text())
-    for model in ("paper", "exact"):
+    for model in ("paper", "exact", "corrected"):
         for kind in ("averaging_error", "discretisation_error", "sampling_error"):
             for obs in ("A", "x1", "x2"):
                 e = m["models"][model][kind][obs]
                 for key in ("L1", "L1_floor", "hellinger", "ks"):
                     assert math.isfinite(e[key]), (model, kind, obs, key)
-    assert m["scene"]["name"] == "tiny" and len(m["verdicts"]) == 2
+    assert m["scene"]["name"] == "tiny" and len(m["verdicts"]) == 3
     parser = _Collect()
     parser.feed((out / "report.html").read_text())
     assert "table" in parser.tags and len(parser.imgs) == 2
