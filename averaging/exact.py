@@ -21,10 +21,13 @@ the microcanonical measure T(E) dE. Hence, with no derivative::
 
     p(E) = C T(E) exp( int_0^E 2 m_d / sigma_E^2 dE' )
 
-For the OU spectrum S = D / (pi (w^2 + alpha1^2)) the series is summed with Parseval,
-sum_{n>=1} Y_n^2 = (<Y^2> - Y_0^2) / 2, so that the truncated remainder decays as n^-6:
-sigma_E^2 = 4 D f^2 [ (<Y^2> - Y_0^2)/2 - alpha1^2 sum_n Y_n^2 / (n^2 Omega^2 + alpha1^2) ].
-White noise (S = D / pi): sigma_E^2 = 2 D f^2 <v^2> whatever s is.
+S(w) comes from averaging.noise (its one home). For the OU spectrum, whose identity
+w^2 S(w) = c - a2 S(w) (c = D / pi, a2 = alpha1^2) is ``Spectrum.rational_parts``, the series
+is summed with Parseval, sum_{n>=1} Y_n^2 = (<Y^2> - Y_0^2) / 2, so that the truncated
+remainder decays as n^-6:
+sigma_E^2 = 4 pi f^2 [ c (<Y^2> - Y_0^2)/2 - a2 sum_n Y_n^2 S(n Omega) ].
+White noise (S constant): by Parseval sum_n n^2 Omega^2 Y_n^2 = <v^2>/2, so
+sigma_E^2 = 2 pi f^2 S <v^2> = 2 D f^2 <v^2> whatever s is.
 The amplitude form follows by Ito's rule with A = U^{-1}(E), dA/dE = 1/g(A):
 m_A = m_E / g - g' sigma_E^2 / (2 g^3), sigma_A^2 = sigma_E^2 / g^2.
 """
@@ -45,6 +48,7 @@ from .geometry import (
     restoring_slope,
     time_of_theta,
 )
+from .noise import Spectrum
 
 NOISE_FORMS = ("sgn", "additive")
 IMPACT_LAWS = ("exact", "transformed")
@@ -62,14 +66,18 @@ class ExactModel:
     r: float
     f: float
     barrier: bool
-    noise_kind: str
-    D: float
-    alpha1: float
+    spectrum: Spectrum
     noise: str = "sgn"
     impact: str = "exact"
     theta_nodes: int = 64
     harmonics: int = 24
     name: str = "exact"
+
+    def __post_init__(self) -> None:
+        if self.noise not in NOISE_FORMS:
+            raise ValueError(f"noise must be one of {NOISE_FORMS}, not {self.noise!r}")
+        if self.impact not in IMPACT_LAWS:
+            raise ValueError(f"impact must be one of {IMPACT_LAWS}, not {self.impact!r}")
 
     @classmethod
     def from_scene(cls, scene: Any, *, noise: str = "sgn", impact: str = "exact",
@@ -78,10 +86,10 @@ class ExactModel:
             raise ValueError(f"noise must be one of {NOISE_FORMS}, not {noise!r}")
         if impact not in IMPACT_LAWS:
             raise ValueError(f"impact must be one of {IMPACT_LAWS}, not {impact!r}")
-        s, n = scene.system, scene.noise
+        s = scene.system
         st = getattr(scene, "averaging", None)
         return cls(c1=s.c1, c2=s.c2, omega0=s.omega0, alpha=s.alpha, mu=s.mu, r=s.r, f=s.f,
-                   barrier=s.barrier, noise_kind=n.kind, D=n.D, alpha1=n.alpha1,
+                   barrier=s.barrier, spectrum=Spectrum.from_scene(scene),
                    noise=noise if s.barrier else "additive", impact=impact,
                    theta_nodes=theta_nodes or getattr(st, "theta_nodes", 64),
                    harmonics=harmonics or getattr(st, "harmonics", 24))
@@ -126,28 +134,32 @@ class ExactModel:
         A = np.asarray(A, dtype=float)
         o = self.orbit(A) if orbit is None else orbit
         f2 = self.f**2
-        if self.noise_kind == "white":
-            return 2.0 * self.D * f2 * o["v2"]
+        S = self.spectrum
+        if S.kind == "white":
+            return 2.0 * np.pi * f2 * S(0.0) * o["v2"]
+        c, a2 = S.rational_parts()  # raises for a kind without it: no silent fallback
         Y0, n, Yn = self.harmonics_of_Y(A, o["T"])
         Omega = 2 * np.pi / o["T"]
-        rest = np.sum(Yn**2 / ((n * Omega[..., None]) ** 2 + self.alpha1**2), axis=-1)
+        rest = np.sum(Yn**2 * S(n * Omega[..., None]), axis=-1)
         if self.noise == "sgn":
             rest = rest + self._kink_tail(o, Omega, n[-1])
-        total = 0.5 * (o["y2"] - Y0**2) - self.alpha1**2 * rest
-        return 4.0 * self.D * f2 * np.maximum(total, 0.0)
+        total = c * 0.5 * (o["y2"] - Y0**2) - a2 * rest
+        return 4.0 * np.pi * f2 * np.maximum(total, 0.0)
 
     def _kink_tail(self, o: dict[str, Array], Omega: Array, n_last: float) -> Array:
         """Harmonics beyond the computed ones for Y = |y|, from its asymptotics.
 
         |y| has slope jumps of 2 v0 (v0 = sqrt(2E), the impact speed) at t = T/4 and 3T/4, so
         integrating by parts twice, Y_n -> 4 v0 / (T n^2 Omega^2) for even n. The next 400
-        harmonics are summed, the rest by the integral of n^-6 (relative remainder < 1e-15).
+        harmonics are summed, the rest by the integral of n^-6 with S(w) ~ c / w^2
+        (relative remainder < 1e-15). Returns sum Y_n^2 S(n Omega) over those harmonics.
         """
+        c, _ = self.spectrum.rational_parts()
         c2 = (4.0 * np.sqrt(2.0 * o["E"]) / (o["T"] * Omega**2)) ** 2
         n = n_last + 2.0 * np.arange(1, 401)
         W = Omega[..., None]
-        part = np.sum(1.0 / (n**4 * ((n * W) ** 2 + self.alpha1**2)), axis=-1)
-        beyond = 0.5 / (5.0 * Omega**2 * (n[-1] + 1.0) ** 5)
+        part = np.sum(self.spectrum(n * W) / n**4, axis=-1)
+        beyond = c * 0.5 / (5.0 * Omega**2 * (n[-1] + 1.0) ** 5)
         return c2 * (part + beyond)
 
     def energy_terms(self, A: Array) -> dict[str, Array]:
@@ -159,8 +171,10 @@ class ExactModel:
             loss = np.zeros_like(A)
         elif self.impact == "exact":
             loss = -(2.0 / T) * (1.0 - self.r**2) * E
-        else:
+        elif self.impact == "transformed":
             loss = -(2.0 / T) * 2.0 * (1.0 - self.r) * E
+        else:
+            raise ValueError(f"impact must be one of {IMPACT_LAWS}, not {self.impact!r}")
         return {
             "damping": self.c1 * o["v2"] - self.c2 * o["x2v2"],
             "impact": loss,
@@ -221,3 +235,20 @@ class ExactModel:
             log_pre = np.log(et["T"]) + np.log(g)
         return q, log_pre, np.zeros_like(A)
 
+
+
+def energy_rates(scene: Any, A: float) -> dict[str, float]:
+    """Magnitudes of the energy rates of each effect on the exact orbit of amplitude ``A``
+    (plain numbers, for the harness's assumption checks): period ``T``, energy ``E``,
+    ``linear damping`` |c1| <v^2>, ``cubic damping`` c2 <x^2 v^2>, ``impacts`` and ``friction``
+    (|m_d| terms of ExactModel.energy_terms) and the noise's ``sigma2_E``."""
+    model = ExactModel.from_scene(scene)
+    a = np.array([float(A)])
+    et = model.energy_terms(a)
+    o = model.orbit(a)
+    return {"T": float(et["T"][0]), "E": float(et["E"][0]),
+            "linear damping": abs(scene.system.c1) * float(o["v2"][0]),
+            "cubic damping": scene.system.c2 * float(o["x2v2"][0]),
+            "impacts": abs(float(et["impact"][0])),
+            "friction": abs(float(et["friction"][0])),
+            "sigma2_E": float(et["sigma2"][0])}

@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from .geometry import Array, w1_eta
+from .noise import Spectrum
 
 B6_COEFFICIENTS = {"printed": 3.0 / 64.0, "taylor": 1.0 / 64.0}
 HARMONICS = np.array([1.0, 3.0, 5.0, 7.0])
@@ -68,13 +69,17 @@ class PaperModel:
     b6: str = "printed"
     name: str = "paper"
 
+    def __post_init__(self) -> None:
+        if self.b6 not in B6_COEFFICIENTS:
+            raise ValueError(f"b6 must be one of {sorted(B6_COEFFICIENTS)}, not {self.b6!r}")
+
     @classmethod
     def from_scene(cls, scene: Any, *, b6: str = "printed") -> PaperModel:
         if b6 not in B6_COEFFICIENTS:
             raise ValueError(f"b6 must be one of {sorted(B6_COEFFICIENTS)}, not {b6!r}")
         s = scene.system
         return cls(c1=s.c1, c2=s.c2, omega0=s.omega0, alpha=s.alpha, mu=s.mu, r=s.r, f=s.f,
-                   barrier=s.barrier, spectrum=scene.noise.spectrum, b6=b6)
+                   barrier=s.barrier, spectrum=Spectrum.from_scene(scene), b6=b6)
 
     # ------------------------------------------------------------------ series
     def b(self, A: Array) -> Array:

@@ -5,7 +5,7 @@
 - ``"bdf"`` (default): py-pde's ``scipy`` solver with ``method="BDF"`` and the exact constant
   sparse Jacobian M (the equation is linear); numpy backend, nothing to compile.
 - ``"explicit"``: py-pde's adaptive explicit Runge-Kutta with the numba backend (compiled on
-  first use; the compile time is reported apart).
+  first use in each process; the first run's ``seconds`` include that compile time).
 
 py-pde's ``implicit`` and ``crank-nicolson`` solvers iterate to a fixed point rather than
 solving with Newton and fail on stiff fine grids, so they are not offered.

@@ -27,6 +27,8 @@ from typing import Any
 import numpy as np
 from scipy.optimize import brentq
 
+from .run import amplitude_density, montecarlo_solution, orbit_period, restoring_force
+
 VARIABLES = {"mu": ("system", "mu", (0.0, 0.05)), "r": ("system", "r", (0.9, 1.0))}
 PAPER_CLAIMS = {
     "mu": "mu near 0.038 at r = 0.975 (section 5.2; its own Figure 5 spans mu = 0.001-0.008, "
@@ -44,11 +46,7 @@ def with_param(scene: Any, vary: str, value: float) -> Any:
 
 def shape_index(scene: Any, model: str) -> float:
     """F = max over the support of h'(A) (finite differences of h on the model's grid)."""
-    import averaging
-    from averaging.stationary import amplitude_density
-
-    m = averaging.build_model(scene, model)
-    amp = amplitude_density(m, points=scene.averaging.points, tail=scene.averaging.tail)
+    amp = amplitude_density(scene, model)
     slope = np.diff(amp.log_h) / np.diff(amp.A)
     return float(np.max(slope[np.isfinite(slope)]))
 
@@ -67,18 +65,14 @@ def critical_value(scene: Any, model: str, vary: str, lo: float, hi: float, *,
 
 def mc_shape(scene: Any, *, z: float = 3.0) -> dict[str, Any]:
     """The section's shape in the Monte Carlo of the original system (from p_A)."""
-    from averaging.geometry import period, restoring
-
-    from .run import montecarlo_solution
-
     sc = replace(scene, observables=replace(scene.observables, A=True, x1=False, x2=False,
                                             joint=False, moments=False, events=True))
     res = montecarlo_solution(sc, progress=False)
     d = res.data["A"]
     A, p, err = d["x"], d["p"], d["err"]
     ok = (p > 5 * err) & (A > 0)
-    g = restoring(A[ok], scene.system.omega0, scene.system.alpha)
-    T = period(A[ok], scene.system.omega0, scene.system.alpha)
+    g = restoring_force(A[ok], scene.system.omega0, scene.system.alpha)
+    T = orbit_period(A[ok], scene.system.omega0, scene.system.alpha)
     h = np.log(p[ok] / (g * T))
     se = err[ok] / p[ok]
     # the largest significant rise h_j - h_i (i < j), in units of the combined error

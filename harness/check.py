@@ -22,7 +22,13 @@ from typing import Any
 import numpy as np
 
 from .compare import compare
-from .run import fpk_solution, montecarlo_solution
+from .run import (
+    averaged_sde_solution,
+    closed_form,
+    energy_rates,
+    fpk_solution,
+    montecarlo_solution,
+)
 
 MODELS = ("paper", "exact", "corrected")
 OBSERVABLES = ("A", "x1", "x2")
@@ -86,24 +92,15 @@ def assumption_warnings(scene: Any, closed: dict[str, Any], mc_info: dict[str, A
     correlation time short against the relaxation of the amplitude (wide-band noise), and
     (iii) motion that oscillates rather than sticks.
     """
-    from averaging.exact import ExactModel
-
     n = scene.noise
     out = []
     A = closed["exact"].info["summary"]["mean"] if "exact" in closed else 1.0
-    model = ExactModel.from_scene(scene)
-    et = model.energy_terms(np.array([A]))
-    orbit = model.orbit(np.array([A]))
-    T, E = float(et["T"][0]), float(et["E"][0])
+    rates = energy_rates(scene, A)
+    T, E = rates["T"], rates["E"]
     w = 2 * math.pi / T
     # the energy rate of each effect in magnitude: on a limit cycle the linear feed and the
     # cubic damping cancel on average, yet each changes the energy within the cycle
-    parts = {
-        "linear damping": abs(scene.system.c1) * float(orbit["v2"][0]),
-        "cubic damping": scene.system.c2 * float(orbit["x2v2"][0]),
-        "impacts": abs(float(et["impact"][0])),
-        "friction": abs(float(et["friction"][0])),
-    }
+    parts = {k: rates[k] for k in ("linear damping", "cubic damping", "impacts", "friction")}
     rate = sum(parts.values()) / E
     if rate * T > 0.5:
         main = max(parts, key=lambda k: parts[k])
@@ -119,8 +116,7 @@ def assumption_warnings(scene: Any, closed: dict[str, Any], mc_info: dict[str, A
         out.append(f"sticking-dominated motion: the mass is stuck {100 * stuck:.0f}% of the time "
                    "in the simulation; averaging over free oscillations does not describe it")
     if A > 0:
-        s2E = float(model.sigma2_energy(np.array([A]))[0])
-        ratio = s2E * T / E**2
+        ratio = rates["sigma2_E"] * T / E**2
         if ratio > 0.5:
             out.append(f"strong noise: over one period the noise changes the energy by "
                        f"{100 * math.sqrt(ratio):.0f}% (rms) at the mean amplitude; averaging "
@@ -130,15 +126,12 @@ def assumption_warnings(scene: Any, closed: dict[str, Any], mc_info: dict[str, A
 
 def cross_check(scene: Any, *, quiet: bool = False) -> CheckResult:
     """Run every solver on a concrete scene and compute the error decomposition."""
-    import averaging
-    from montecarlo.averaged_sde import simulate_sde
-
     stages = _Stages(3 + 2 * len(MODELS), quiet)
     sol: dict[str, Any] = {}
     closed = {}
     stages("averaged models (closed forms)")
     for m in MODELS:
-        closed[m] = averaging.solve(scene, model=m)
+        closed[m] = closed_form(scene, model=m)
         sol[f"closed:{m}"] = closed[m]
     for m in MODELS:
         stages(f"FPK of the {m} model")
@@ -158,15 +151,10 @@ def cross_check(scene: Any, *, quiet: bool = False) -> CheckResult:
         st = mc.info["settings"]
         for i, m in enumerate(MODELS):
             stages(f"Monte Carlo of the {m} averaged SDE")
-            model = averaging.build_model(scene, m)
-            sol[f"mc:{m}"] = simulate_sde(
-                model.drift, model.diffusion, edges=edges["edges_A"], paths=st["paths"],
-                blocks=st["blocks"], dt=st["dt"], time_=st["time"],
-                burn_in=run_scene.montecarlo.burn_in, sample_every=st["sample_every"],
-                seed=scene.montecarlo.seed + 1 + i,
-                phase={"omega0": scene.system.omega0, "alpha": scene.system.alpha,
-                       "barrier": scene.system.barrier, "edges_x": edges["edges_x"],
-                       "edges_v": edges["edges_v"]})
+            sol[f"mc:{m}"] = averaged_sde_solution(
+                scene, m, edges=edges, seed=scene.montecarlo.seed + 1 + i, phase=True,
+                paths=st["paths"], blocks=st["blocks"], dt=st["dt"], time=st["time"],
+                burn_in=run_scene.montecarlo.burn_in, sample_every=st["sample_every"])
         sampling = {m: compare(closed[m].data["A"], sol[f"mc:{m}"].data["A"]) for m in MODELS}
         bad = _evidence(mc.info.get("convergence", {}), sampling)
         spent = time.perf_counter() - t_mc

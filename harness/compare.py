@@ -44,7 +44,7 @@ def bin_average(smooth: dict[str, Any], edges: np.ndarray) -> np.ndarray:
 
 
 def _binned_metrics(p: np.ndarray, q: np.ndarray, w: np.ndarray, outside: float) -> np.ndarray:
-    """(L1, Hellinger, KS, mean diff, std diff) for bin densities on widths w; shape (..., 5)."""
+    """(L1, Hellinger, KS) for bin densities on widths w; shape (..., 3)."""
     qc = np.maximum(q, 0.0)
     l1 = np.sum(np.abs(p - q) * w, axis=-1) + outside
     bc = np.sum(np.sqrt(np.maximum(p, 0.0) * qc) * w, axis=-1)

@@ -20,7 +20,7 @@ import numpy as np
 from .check import mc_edges
 from .compare import compare
 from .io import write_atomic, write_json
-from .run import montecarlo_solution
+from .run import closed_form, montecarlo_solution
 from .scene import Scene, load_scene
 
 FIGURES = {2: "paper-fig2", 3: "paper-fig3", 4: "paper-fig4", 5: "paper-fig5", 6: "paper-fig6"}
@@ -28,13 +28,10 @@ JOINT = {5, 6}
 COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple")
 AXIS = {"A": "amplitude A (dimensionless)", "x1": "displacement x1 (dimensionless)",
         "x2": "velocity x2 (dimensionless)"}
-ROOT = Path(__file__).resolve().parent.parent
 
 
 def _run_variant(scene: Scene, joint: bool) -> dict[str, Any]:
-    import averaging
-
-    closed = {m: averaging.solve(scene, model=m) for m in ("paper", "exact")}
+    closed = {m: closed_form(scene, model=m) for m in ("paper", "exact")}
     edges = mc_edges(closed, scene.montecarlo.bins)
     obs = replace(scene.observables, joint=joint, events=True)
     mc = montecarlo_solution(replace(scene, observables=obs), progress=False, **edges)
@@ -130,7 +127,7 @@ def draw_figures(out_dir: str | Path, *, numbers: tuple[int, ...] = (2, 3, 4, 5,
     out.mkdir(parents=True, exist_ok=True)
     table: dict[str, Any] = {}
     for no in numbers:
-        scene = load_scene(ROOT / "scenes" / f"{FIGURES[no]}.toml")
+        scene = load_scene(FIGURES[no])  # a shipped scene (package data)
         if overrides:
             scene = scene.with_values(overrides)
         runs = []

@@ -1,4 +1,10 @@
-"""Run the solvers a scene asks for. The only place that knows every solver package."""
+"""Run the solvers a scene asks for: the one door between the harness and the solvers.
+
+This is the only harness module that imports ``averaging``, ``fpk`` or ``montecarlo``
+(enforced by tests/test_architecture.py); check, bifurcation, figures, workprecision, testing
+and the CLI reach every solver through the functions below. The solvers never import the
+harness or each other: data flows one way, scene -> solver -> record -> comparison.
+"""
 
 from __future__ import annotations
 
@@ -34,6 +40,66 @@ def run_solver(scene: Any, solver: str, *, model: str = "paper", grid: int | Non
     except (averaging.NoStationaryDensity, fpk.FPKFailure) as exc:
         raise SolverFailure(str(exc)) from None
     raise ValueError(f"solver must be one of {SOLVERS}, not {solver!r}")
+
+
+# ----------------------------------------------------------------------- averaged models
+def closed_form(scene: Any, *, model: str, **options: Any) -> Any:
+    """The averaged model's closed-form stationary densities (``averaging.solve``); a scene
+    with none raises SolverFailure."""
+    import averaging
+
+    try:
+        return averaging.solve(scene, model=model, **options)
+    except averaging.NoStationaryDensity as exc:
+        raise SolverFailure(str(exc)) from None
+
+
+def averaged_model(scene: Any, model: str, **options: Any) -> Any:
+    """The averaged model named ``model``: an object with drift(A), diffusion(A), period(A)."""
+    import averaging
+
+    return averaging.build_model(scene, model, **options)
+
+
+def amplitude_density(scene: Any, model: Any, **options: Any) -> Any:
+    """p(A) alone (``averaging.stationary.amplitude_density``: fields A, p, log_h) of the model
+    named ``model`` (or a model object), on the scene's [averaging] grid settings."""
+    from averaging.stationary import amplitude_density as density
+
+    m = averaged_model(scene, model, **options) if isinstance(model, str) else model
+    return density(m, points=scene.averaging.points, tail=scene.averaging.tail)
+
+
+def orbit_period(A: Any, omega0: float, alpha: float) -> Any:
+    """T(A) of the exact Duffing orbit of amplitude A (``averaging.geometry.period``)."""
+    from averaging.geometry import period
+
+    return period(A, omega0, alpha)
+
+
+def restoring_force(A: Any, omega0: float, alpha: float) -> Any:
+    """g(A) = omega0^2 A + alpha A^3 (``averaging.geometry.restoring``)."""
+    from averaging.geometry import restoring
+
+    return restoring(A, omega0, alpha)
+
+
+def energy_rates(scene: Any, A: float) -> dict[str, float]:
+    """The exact orbit's energy rates by effect at amplitude A (``averaging.exact``)."""
+    from averaging.exact import energy_rates as rates
+
+    return rates(scene, A)
+
+
+# ----------------------------------------------------------------------------- FPK
+def fpk_stationary(drift: Any, diffusion: Any, **options: Any) -> Any:
+    """``fpk.stationary`` on any drift m(A) and diffusion sigma^2(A) (cells, method, ...)."""
+    import fpk
+
+    try:
+        return fpk.stationary(drift, diffusion, **options)
+    except fpk.FPKFailure as exc:
+        raise SolverFailure(str(exc)) from None
 
 
 def fpk_solution(scene: Any, *, model: str, cells: int, method: str = "stepping",
@@ -101,6 +167,33 @@ def montecarlo_solution(scene: Any, *, progress: bool = True, **edges: Any) -> S
     if mom is not None:
         info["summary"] = {"mean": mom["value"], "mean_err": mom["err"]}
     return Solution(data=res.data, info=info)
+
+
+def averaged_sde_solution(scene: Any, model: Any, *, edges: dict[str, Any], seed: int,
+                          phase: bool = False, **settings: Any) -> Any:
+    """Monte Carlo of the averaged amplitude SDE of ``model`` (a name or a model object).
+
+    The run settings (paths, blocks, dt, time, burn_in, sample_every) are the scene's
+    [montecarlo] ones unless given in ``settings`` (e.g. the resolved dt of a run of the
+    original system). ``edges``: ``edges_A`` (and ``edges_x``, ``edges_v`` with ``phase``,
+    which also records x1, x2 from time-uniform points of each sampled orbit).
+    """
+    from montecarlo.averaged_sde import simulate_sde
+
+    mc = scene.montecarlo
+    keys = ("paths", "blocks", "dt", "time", "burn_in", "sample_every")
+    unknown = set(settings) - set(keys)
+    if unknown:
+        raise ValueError(f"unknown averaged-SDE settings {sorted(unknown)}; allowed: {keys}")
+    kw = {k: settings.get(k, getattr(mc, k)) for k in keys}
+    m = averaged_model(scene, model) if isinstance(model, str) else model
+    s = scene.system
+    extra = ({"omega0": s.omega0, "alpha": s.alpha, "barrier": s.barrier,
+              "edges_x": edges["edges_x"], "edges_v": edges["edges_v"]} if phase else None)
+    return simulate_sde(m.drift, m.diffusion, edges=edges["edges_A"], paths=kw["paths"],
+                        blocks=kw["blocks"], dt=kw["dt"], time_=kw["time"],
+                        burn_in=kw["burn_in"], sample_every=kw["sample_every"], seed=seed,
+                        phase=extra)
 
 
 def solution_record(scene: Any, solver: str, model: str | None, result: Any, *,

@@ -21,6 +21,8 @@ import math
 import tomllib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, fields, replace
+from importlib import resources
+from importlib.resources.abc import Traversable
 from pathlib import Path
 from typing import Any
 
@@ -108,18 +110,6 @@ class Noise:
     D: float = field(default=0.01, metadata=_meta(_positive, "intensity: E[W W] = 2 D delta"))
     alpha1: float = field(default=2.0, metadata=_meta(_positive, "OU bandwidth"))
 
-    def spectrum(self, omega: Any) -> Any:
-        """Two-sided spectral density of xi, S(w) = (1/pi) int_0^inf R(t) cos(w t) dt.
-
-        OU: S(w) = D / (pi (w^2 + alpha1^2)) (paper eq. 18); white: S(w) = D / pi.
-        """
-        import numpy as np
-
-        omega = np.asarray(omega, dtype=float)
-        if self.kind == "white":
-            return np.full_like(omega, self.D / math.pi)
-        return self.D / (math.pi * (omega**2 + self.alpha1**2))
-
 
 @dataclass(frozen=True, kw_only=True)
 class AveragingSettings:
@@ -142,7 +132,7 @@ class MonteCarloSettings:
         _auto_or(_positive), 'time step, or "auto": from the target floor'))
     time: float = field(default=2000.0, metadata=_meta(_positive, "sampled time per path"))
     burn_in: float | str = field(default="auto", metadata=_meta(
-        _auto_or(_nonneg), 'time before sampling, or "auto": 8 x the measured relaxation time'))
+        _auto_or(_nonneg), 'time before sampling, or "auto": 6 x the measured relaxation time'))
     sample_every: float = field(default=0.5, metadata=_meta(_positive, "sampling interval"))
     seed: int = field(default=20190101, metadata=_meta(_int_at_least(0), "root seed"))
     blocks: int = field(default=32, metadata=_meta(_int_at_least(2), "batches of paths"))
@@ -318,12 +308,31 @@ def scene_from_dict(raw: Mapping[str, Any], *, source: str = "<dict>") -> Scene:
     return Scene(name=name, description=description, sweep=sweep, source=source, **parts)
 
 
-def load_scene(path: str | Path) -> Scene:
-    """Read a scene file. Raises :class:`SceneError` (one line) on any problem."""
-    p = Path(path)
+def shipped_scenes() -> Traversable:
+    """The shipped scenes: package data ``harness.scenes`` (the repository's top-level
+    ``scenes/``, mapped into the wheel by pyproject.toml), read with importlib.resources. In a
+    source checkout on ``sys.path`` that is not installed, the ``scenes/`` beside ``harness/``."""
+    try:
+        return resources.files("harness.scenes")
+    except ModuleNotFoundError:
+        return Path(__file__).resolve().parent.parent / "scenes"
+
+
+def load_scene(path: str | Path | Traversable) -> Scene:
+    """Read a scene file, or a shipped scene by name ("paper-base", "hard/r-low") or by the
+    file name of one ("scenes/paper-base.toml" from any directory). Raises
+    :class:`SceneError` (one line) on any problem."""
+    p: Path | Traversable = path if isinstance(path, Traversable) else Path(path)
     if not p.is_file():
-        shipped = Path(__file__).resolve().parent.parent / "scenes"
-        candidates = [shipped / f"{p}.toml"] if p.suffix == "" else [shipped / p.name]
+        shipped = shipped_scenes()
+        rel = str(path) if isinstance(path, str | Path) else p.name
+        if Path(rel).suffix == "":
+            where = shipped
+            for part in f"{rel}.toml".split("/"):  # one part at a time: a namespace
+                where = where / part               # package's MultiplexedPath takes one
+            candidates = [where]
+        else:
+            candidates = [shipped / Path(rel).name]
         found = [c for c in candidates if c.is_file()]
         if not found:
             raise SceneError(f"{path}: no such scene file")

@@ -181,25 +181,21 @@ def mc_reference(scene: Any, **montecarlo: Any) -> Reference:
 def model_densities(scene: Scene, model: Any) -> dict[str, dict[str, Any]]:
     """p(A), p(x1), p(x2) of an averaged model: closed form for "paper"/"exact", else the
     FPK direct solve of the user's m and sigma^2 mapped to phase space."""
-    import averaging
-    import fpk
-    from averaging.geometry import period
-
-    from .run import phase_solution
+    from .run import closed_form, fpk_stationary, orbit_period, phase_solution
 
     if isinstance(model, str):
-        return averaging.solve(scene, model=model).data
+        return closed_form(scene, model=model).data
     for attr in ("drift", "diffusion"):
         if not callable(getattr(model, attr, None)):
             raise TypeError(f"model must be 'paper', 'exact' or provide {attr}(A) "
                             "(see harness.testing.AveragedModel)")
     s = scene.system
-    res = fpk.stationary(model.drift, model.diffusion, cells=800, method="direct")
+    res = fpk_stationary(model.drift, model.diffusion, cells=800, method="direct")
     if callable(getattr(model, "period", None)):
         T = model.period
     else:
         def T(A):
-            return period(A, s.omega0, s.alpha)
+            return orbit_period(A, s.omega0, s.alpha)
     return phase_solution(scene, res, T)[0]
 
 

@@ -80,13 +80,9 @@ def _ladders(quick: bool) -> dict[str, list[dict[str, Any]]]:
 
 def _amplitude_only(scene: Any, model: str) -> Any:
     """p(A) of an averaged model, and nothing else (the score is on p(A))."""
-    import averaging
-    from averaging.stationary import amplitude_density
+    from .run import amplitude_density
 
-    st = scene.averaging
-    opts = {} if model == "paper" else {"theta_nodes": st.theta_nodes, "harmonics": st.harmonics}
-    amp = amplitude_density(averaging.build_model(scene, model, **opts), points=st.points,
-                            tail=st.tail)
+    amp = amplitude_density(scene, model)
 
     class _R:
         data = {"A": {"x": amp.A, "p": amp.p}}
@@ -97,20 +93,22 @@ def _amplitude_only(scene: Any, model: str) -> Any:
 def run_workprecision(scene: Any, *, quick: bool = False, repeats: int = 3,
                       log: Callable[[str], None] | None = None) -> dict[str, Any]:
     """The work-precision data of every solver family (see module docstring)."""
-    import averaging
-    import fpk
-    from montecarlo.averaged_sde import simulate_sde
-
-    from .run import montecarlo_solution
+    from .run import (
+        averaged_model,
+        averaged_sde_solution,
+        closed_form,
+        fpk_stationary,
+        montecarlo_solution,
+    )
 
     say = log or (lambda s: None)
     fine = 2049 if quick else 12801
     say("references (closed forms on fine grids)")
-    ref_paper = averaging.solve(_with(scene, averaging={"points": fine}), model="paper")
-    ref_exact = averaging.solve(_with(scene, averaging={"points": 801 if quick else 3201,
-                                                        "theta_nodes": 128, "harmonics": 48}),
-                                model="exact")
-    model = averaging.build_model(scene, "paper")
+    ref_paper = closed_form(_with(scene, averaging={"points": fine}), model="paper")
+    ref_exact = closed_form(_with(scene, averaging={"points": 801 if quick else 3201,
+                                                    "theta_nodes": 128, "harmonics": 48}),
+                            model="exact")
+    model = averaged_model(scene, "paper")
     lo, hi = 0.0, float(ref_paper.data["A"]["x"][-1])
     edges = {"edges_A": np.linspace(0.0, 1.1 * hi, scene.montecarlo.bins + 1),
              "edges_x": np.linspace(0.0, 1.1 * hi, scene.montecarlo.bins + 1),
@@ -144,14 +142,14 @@ def run_workprecision(scene: Any, *, quick: bool = False, repeats: int = 3,
                 ref = ref_paper if which == "paper" else ref_exact
             elif name.startswith("FPK direct"):
                 def fn(st=st):
-                    return fpk.stationary(model.drift, model.diffusion, cells=st["cells"],
+                    return fpk_stationary(model.drift, model.diffusion, cells=st["cells"],
                                           method="direct", lo=lo, hi=hi)
                 ref = ref_paper
             elif name.startswith("FPK py-pde"):
                 reps = 1
 
                 def fn(st=st):
-                    return fpk.stationary(model.drift, model.diffusion, cells=st["cells"],
+                    return fpk_stationary(model.drift, model.diffusion, cells=st["cells"],
                                           method="stepping", lo=lo, hi=hi, rtol=st["rtol"],
                                           steady=st.get("steady", 1e-9))
                 ref = ref_paper
@@ -159,10 +157,9 @@ def run_workprecision(scene: Any, *, quick: bool = False, repeats: int = 3,
                 reps = 1
 
                 def fn(st=st):
-                    mc = scene.montecarlo
-                    return simulate_sde(model.drift, model.diffusion, edges=edges["edges_A"],
-                                        paths=st["paths"], blocks=16, dt=mc.dt,
-                                        time_=st["time"], burn_in=mc.burn_in, seed=mc.seed + 1)
+                    return averaged_sde_solution(scene, model, edges=edges,
+                                                 seed=scene.montecarlo.seed + 1,
+                                                 paths=st["paths"], blocks=16, time=st["time"])
                 ref = ref_paper
             else:
                 continue

@@ -178,7 +178,9 @@ def test_exact_sigma2_against_fft_of_simulated_orbit(base, noise, kind):
         G = sc.system.f * (np.sign(y) * v if noise == "sgn" else v)
         Gn = np.fft.fft(G) / G.size
         w = np.fft.fftfreq(G.size, d=T / G.size) * 2 * math.pi
-        ref = 2 * math.pi * np.sum(np.abs(Gn) ** 2 * sc.noise.spectrum(w))
+        n = sc.noise  # S(w) of paper eq. 18 written out here, independently of averaging.noise
+        S = n.D / math.pi / (w**2 + n.alpha1**2) if kind == "ou" else n.D / math.pi + 0 * w
+        ref = 2 * math.pi * np.sum(np.abs(Gn) ** 2 * S)
         assert m.sigma2_energy(np.array([A]))[0] == pytest.approx(ref, rel=2e-8)
 
 

@@ -1,0 +1,137 @@
+"""The rooms and the one-way flow (docs/architecture.md), checked on the source by an AST scan:
+
+- ``harness/run.py`` is the only harness module that imports a solver package (``averaging``,
+  ``fpk``, ``montecarlo``): every workflow reaches the solvers through it;
+- a solver package imports neither ``harness`` nor another solver package.
+
+Imports anywhere in a module count (inside functions too), so a lazy import cannot hide.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+from .conftest import ROOT
+
+SOLVERS = ("averaging", "fpk", "montecarlo")
+DOOR = Path("harness") / "run.py"
+
+
+def imported_packages(path: Path) -> set[str]:
+    """Top-level vifpk packages a module imports (absolute imports; relative ones stay in
+    their own package)."""
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    found: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            found.update(a.name.split(".")[0] for a in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            found.add(node.module.split(".")[0])
+        elif (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
+              and node.func.attr == "import_module" and node.args
+              and isinstance(node.args[0], ast.Constant) and isinstance(node.args[0].value, str)):
+            found.add(node.args[0].value.split(".")[0])
+    return found & {*SOLVERS, "harness"}
+
+
+def modules(package: str) -> list[Path]:
+    return sorted((ROOT / package).rglob("*.py"))
+
+
+def test_the_scan_sees_imports(tmp_path: Path):
+    """The scanner itself: plain, from-, nested and importlib imports are all found."""
+    src = tmp_path / "m.py"
+    src.write_text("import fpk.scheme\nfrom . import x\n"
+                   "def f():\n    from montecarlo.kernels import k\n"
+                   "    import importlib\n    importlib.import_module('averaging.exact')\n")
+    assert imported_packages(src) == {"fpk", "montecarlo", "averaging"}
+
+
+@pytest.mark.parametrize("path", modules("harness"), ids=lambda p: p.name)
+def test_only_run_py_imports_the_solvers(path: Path):
+    rel = path.relative_to(ROOT)
+    solvers = imported_packages(path) & set(SOLVERS)
+    if rel == DOOR:
+        assert solvers == set(SOLVERS)  # the door knows every solver
+    else:
+        assert not solvers, f"{rel} imports {sorted(solvers)}: go through harness/run.py"
+
+
+@pytest.mark.parametrize("package", SOLVERS)
+def test_solvers_import_neither_the_harness_nor_each_other(package: str):
+    bad = {str(p.relative_to(ROOT)): sorted(imported_packages(p) - {package})
+           for p in modules(package)}
+    bad = {k: v for k, v in bad.items() if v}
+    assert not bad, bad
+
+
+# ------------------------------------------------- unknown kinds raise: no silent fallbacks
+def _pink(base):
+    from dataclasses import replace
+    from types import SimpleNamespace
+
+    noise = SimpleNamespace(kind="pink", D=base.noise.D, alpha1=base.noise.alpha1)
+    return replace(base, noise=noise)
+
+
+@pytest.mark.parametrize("model", ["paper", "exact"])
+def test_averaging_rejects_an_unknown_noise_kind(base, model):
+    import averaging
+
+    with pytest.raises(ValueError, match="noise kind must be one of .* not 'pink'"):
+        averaging.solve(_pink(base), model=model)
+
+
+def test_averaging_rejects_unknown_options(base):
+    import averaging
+    from averaging.exact import ExactModel
+
+    with pytest.raises(ValueError, match="model must be one of"):
+        averaging.solve(base, model="corrected-by-magic")
+    with pytest.raises(ValueError, match="impact must be one of"):
+        averaging.solve(base, model="exact", impact="plastic")
+    with pytest.raises(ValueError, match="noise must be one of"):
+        averaging.solve(base, model="exact", noise="multiplicative")
+    with pytest.raises(ValueError, match="b6 must be one of"):
+        averaging.solve(base, model="paper", b6="guessed")
+    good = ExactModel.from_scene(base)
+    with pytest.raises(ValueError, match="impact must be one of"):
+        type(good)(**{**good.__dict__, "impact": "plastic"})
+
+
+def test_fpk_rejects_unknown_methods_and_steppers():
+    import numpy as np
+
+    import fpk
+
+    def m(A):
+        return 1.0 / A - A
+
+    def s2(A):
+        return 2.0 + 0.0 * A
+
+    with pytest.raises(ValueError, match="method must be"):
+        fpk.stationary(m, s2, cells=50, method="guess", lo=0.0, hi=4.0)
+    with pytest.raises(ValueError, match="stepper must be one of"):
+        fpk.stationary(m, s2, cells=50, method="stepping", stepper="euler", lo=0.0, hi=4.0)
+    assert np.isfinite(fpk.stationary(m, s2, cells=50, method="direct", lo=0.0,
+                                      hi=4.0).data["A"]["p"]).all()
+
+
+def test_montecarlo_rejects_an_unknown_noise_kind(base):
+    """(The Monte Carlo's own test is tests/test_montecarlo.py::test_unknown_noise_kind_raises;
+    here through the door, as every workflow calls it.)"""
+    from harness.run import run_solver
+
+    with pytest.raises(ValueError, match="noise kind must be one of"):
+        run_solver(_pink(base), "montecarlo")
+
+
+def test_run_rejects_an_unknown_solver(base):
+    from harness.run import run_solver
+
+    with pytest.raises(ValueError, match="solver must be one of"):
+        run_solver(base, "oracle")
