@@ -13,6 +13,7 @@ dE = m_E dt + sigma_E dB with (derivation in docs/averaging.md)::
     m_E = m_d + (1 / (2 T)) d(T sigma_E^2)/dE            (noise-induced drift)
     m_d = c1 <v^2> - c2 <x^2 v^2> - mu <|v|> - impact loss rate
     impact loss rate = (2/T) (1 - r^2) E   ("exact" law)   or   (2/T) 2 (1 - r) E   ("transformed")
+                       or (2/T) (-ln r^2) E   ("compounded": the corrected model, corrected.py)
 
 where Y_n = (1/T) int_0^T Y cos(n Omega t) dt (Y is even in t). Y = y has odd harmonics only;
 Y = |y| has period T/2: even harmonics only. The noise-induced drift follows because the noise
@@ -51,7 +52,7 @@ from .geometry import (
 from .noise import Spectrum
 
 NOISE_FORMS = ("sgn", "additive")
-IMPACT_LAWS = ("exact", "transformed")
+IMPACT_LAWS = ("exact", "transformed", "compounded")  # a new law: here and energy_terms
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -173,6 +174,8 @@ class ExactModel:
             loss = -(2.0 / T) * (1.0 - self.r**2) * E
         elif self.impact == "transformed":
             loss = -(2.0 / T) * 2.0 * (1.0 - self.r) * E
+        elif self.impact == "compounded":
+            loss = -(2.0 / T) * (-2.0 * np.log(self.r)) * E
         else:
             raise ValueError(f"impact must be one of {IMPACT_LAWS}, not {self.impact!r}")
         return {
