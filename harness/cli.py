@@ -219,11 +219,16 @@ def cmd_bifurcation(args: argparse.Namespace) -> int:
 
 
 def cmd_figures(args: argparse.Namespace) -> int:
+    from . import outdir
     from .figures import draw_figures, render_table
 
     overrides = _mc_overrides(args)
-    table = draw_figures(args.out, numbers=tuple(args.figure or (2, 3, 4, 5, 6)),
-                         overrides=overrides, quiet=args.quiet, prov=_provenance(args))
+    prov = _provenance(args)
+    # figures are replaced one by one (--figure redraws some of them), each atomically; the
+    # lock keeps two runs from interleaving in one folder
+    with outdir.hold(args.out, run_id=prov["run_id"]):
+        table = draw_figures(args.out, numbers=tuple(args.figure or (2, 3, 4, 5, 6)),
+                             overrides=overrides, quiet=args.quiet, prov=prov)
     print(render_table(table), end="")
     print(f"figures: {args.out}/paper-fig*.png")
     return 0
@@ -232,21 +237,28 @@ def cmd_figures(args: argparse.Namespace) -> int:
 def cmd_workprecision(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from .io import write_atomic, write_json
+    from . import outdir
+    from .io import dumps
     from .provenance import folder_name
     from .workprecision import log_stderr, plot, run_workprecision, table_markdown
 
     scene = _apply_mc_options(concrete_scene(args.scene, args.set), args)
     out = Path(args.out or f"out/{folder_name(scene.name)}-workprecision")
-    out.mkdir(parents=True, exist_ok=True)
-    data = run_workprecision(scene, quick=args.quick, repeats=args.repeats,
-                             log=None if args.quiet else log_stderr)
-    tmp = out / ".workprecision.tmp.png"
-    plot(data, tmp)
-    tmp.replace(out / "workprecision.png")
-    table = table_markdown(data)
-    write_atomic(out / "workprecision.md", table)
-    write_json(out / "workprecision.json", dict(data, provenance=_provenance(args)))
+    prov = _provenance(args)
+    files = ("workprecision.png", "workprecision.md", "workprecision.json")
+    # the folder is held from the start and written as a unit, like a check report
+    with outdir.hold(out, run_id=prov["run_id"], allowed=files):
+        data = run_workprecision(scene, quick=args.quick, repeats=args.repeats,
+                                 log=None if args.quiet else log_stderr)
+        table = table_markdown(data)
+
+        def fill(tmp: Path) -> None:
+            plot(data, tmp / "workprecision.png")
+            (tmp / "workprecision.md").write_text(table, encoding="utf-8")
+            (tmp / "workprecision.json").write_text(dumps(dict(data, provenance=prov)),
+                                                    encoding="utf-8")
+
+        outdir.write_folder(out, fill, run_id=prov["run_id"], allowed=files)
     print(table, end="")
     print(f"diagram: {out / 'workprecision.png'}")
     return 0
