@@ -149,7 +149,12 @@ def run_paths(rng, state, n_steps, step0, n_burn, stride, h,
     v == 0 exactly (the mass at rest: stuck, or resting on the wall) is the atom of p(x2) at 0
     and is counted in EV_ATOM, not in the x2 (or joint) bins.
 
-    energy[b] columns (time integrals over the sampled time, Strang sub-flow by sub-flow):
+    ``moments[b, p]`` and ``energy[b, p]`` are per path: each path's float sums are taken in
+    step order whatever the cut into calls, so they too are bit-identical (per-block sums,
+    interleaving the paths of a block call by call, were not: issue 11.5). The caller sums
+    over paths.
+
+    energy[b, p] columns (time integrals over the sampled time, Strang sub-flow by sub-flow):
     EN_INPUT the work of the noise (OU: f xi v, trapezoid over B; white: the kick's exact
     change of v^2/2), EN_DAMP (c2 x^2 - c1) v^2, EN_FRICTION mu |v| (trapezoid over B),
     EN_IMPACT the kinetic energy lost at impacts, (1 - r^2) v^2 / 2 each, and v^2 / 2 when
@@ -213,20 +218,20 @@ def run_paths(rng, state, n_steps, step0, n_burn, stride, h,
                 events[b, EV_TIME] += h
                 if energy is not None:
                     if alpha1 is not None:
-                        energy[b, EN_INPUT] += f * xi_used * h * 0.5 * (vb + ve)
-                        energy[b, EN_DAMP] += k * h * 0.5 * (vb * vb + ve * ve)
+                        energy[b, p, EN_INPUT] += f * xi_used * h * 0.5 * (vb + ve)
+                        energy[b, p, EN_DAMP] += k * h * 0.5 * (vb * vb + ve * ve)
                         if mu is not None:
-                            energy[b, EN_FRICTION] += mu * h * 0.5 * (abs(vb) + abs(ve))
+                            energy[b, p, EN_FRICTION] += mu * h * 0.5 * (abs(vb) + abs(ve))
                     else:
-                        energy[b, EN_INPUT] += 0.5 * (vk * vk - vc * vc)
-                        energy[b, EN_DAMP] += k * half * 0.5 * (vb * vb + vc * vc
+                        energy[b, p, EN_INPUT] += 0.5 * (vk * vk - vc * vc)
+                        energy[b, p, EN_DAMP] += k * half * 0.5 * (vb * vb + vc * vc
                                                                 + vk * vk + vd * vd)
                         if mu is not None:
-                            energy[b, EN_FRICTION] += mu * half * 0.5 * (
+                            energy[b, p, EN_FRICTION] += mu * half * 0.5 * (
                                 abs(vb) + abs(vc) + abs(vk) + abs(vd))
                     if r is not None:
-                        energy[b, EN_IMPACT] += impact_loss(va, imp1, ch1, r)
-                        energy[b, EN_IMPACT] += impact_loss(ve, imp2, ch2, r)
+                        energy[b, p, EN_IMPACT] += impact_loss(va, imp1, ch1, r)
+                        energy[b, p, EN_IMPACT] += impact_loss(ve, imp2, ch2, r)
                 if (n - n_burn + 1) % stride != 0:
                     continue
                 events[b, EV_SAMPLES] += 1.0
@@ -264,15 +269,15 @@ def run_paths(rng, state, n_steps, step0, n_burn, stride, h,
                     if 0 <= ix < hist_joint.shape[1] and 0 <= iv < hist_joint.shape[2]:
                         hist_joint[b, ix, iv] += 1.0
                 if moments is not None:
-                    moments[b, MO_A] += A
-                    moments[b, MO_A2] += A * A
-                    moments[b, MO_X] += x
-                    moments[b, MO_X2] += x * x
-                    moments[b, MO_V] += v
-                    moments[b, MO_V2] += v * v
-                    moments[b, MO_MAXA] = max(moments[b, MO_MAXA], A)
-                    moments[b, MO_MAXX] = max(moments[b, MO_MAXX], abs(x))
-                    moments[b, MO_MAXV] = max(moments[b, MO_MAXV], abs(v))
+                    moments[b, p, MO_A] += A
+                    moments[b, p, MO_A2] += A * A
+                    moments[b, p, MO_X] += x
+                    moments[b, p, MO_X2] += x * x
+                    moments[b, p, MO_V] += v
+                    moments[b, p, MO_V2] += v * v
+                    moments[b, p, MO_MAXA] = max(moments[b, p, MO_MAXA], A)
+                    moments[b, p, MO_MAXX] = max(moments[b, p, MO_MAXX], abs(x))
+                    moments[b, p, MO_MAXV] = max(moments[b, p, MO_MAXV], abs(v))
             rng[b, p, 0], rng[b, p, 1], rng[b, p, 2], rng[b, p, 3] = s0, s1, s2, s3
             state[b, p, 0] = x
             state[b, p, 1] = v

@@ -181,11 +181,25 @@ class _Stepper:
 
 def _arrays(rng: np.ndarray, state: np.ndarray, edges: dict[str, np.ndarray],
             obs: tuple[str, ...]) -> _Arrays:
-    blocks = state.shape[0]
+    blocks, paths = state.shape[0], state.shape[1]
+    # moments and energy per path (summed over paths afterwards, _per_block): each path's
+    # float sums are then in step order however the run is cut into kernel calls
     return _Arrays(rng=rng, state=state, hist=_hists(blocks, edges, obs),
-                   moments=np.zeros((blocks, K.N_MOMENTS)) if "moments" in obs else None,
+                   moments=np.zeros((blocks, paths, K.N_MOMENTS)) if "moments" in obs else None,
                    events=np.zeros((blocks, K.N_EVENTS)),
-                   energy=np.zeros((blocks, K.N_ENERGY)) if "energy" in obs else None)
+                   energy=np.zeros((blocks, paths, K.N_ENERGY)) if "energy" in obs else None)
+
+
+def _per_block(per_path: np.ndarray, max_columns: tuple[int, ...] = ()) -> np.ndarray:
+    """[block, path, column] -> [block, column]: sums over the paths (in a fixed order), the
+    maximum for ``max_columns``."""
+    out = per_path.sum(axis=1)
+    for c in max_columns:
+        out[:, c] = per_path[:, :, c].max(axis=1)
+    return out
+
+
+_MAX_COLUMNS = (K.MO_MAXA, K.MO_MAXX, K.MO_MAXV)
 
 
 def _starts(amplitudes: np.ndarray, phys: dict[str, Any], gen: np.random.Generator
@@ -223,7 +237,7 @@ def _pilot_scale(phys: dict[str, Any], h: float, seed: int, step: _Stepper,
     n_burn = int(round(200.0 / h))
     stride = max(int(round(0.5 / h)), 1)
     step.run(arr, n_burn + 2000 * stride, 0, n_burn, stride)
-    amax = 1.25 * float(np.max(arr.moments[:, K.MO_MAXA]))
+    amax = 1.25 * float(np.max(arr.moments[..., K.MO_MAXA]))
     if not math.isfinite(amax):
         raise _diverged(h, "non-finite amplitude in the pilot run")
     return amax if amax > 0 else a_hint
@@ -447,7 +461,7 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
         info["relaxation"] = relax
     conv: dict[str, Any] = {}
     if windows is not None and run_to >= 1 and arr.moments is not None:
-        m = arr.moments
+        m = _per_block(arr.moments, _MAX_COLUMNS)
         var_A = float(np.sum(m[:, K.MO_A2]) / samples.sum()
                       - (np.sum(m[:, K.MO_A]) / samples.sum()) ** 2)
         conv = certificate(windows, spw, var_A, win_steps * h)
@@ -469,9 +483,9 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
     if "events" in obs:
         info["events"] = _events(ev, ev[:, K.EV_TIME], samples, h)
     if "moments" in obs:
-        info["moments"] = _moments(arr.moments, samples)
+        info["moments"] = _moments(_per_block(arr.moments, _MAX_COLUMNS), samples)
     if arr.energy is not None:
-        info["energy"] = _energy(arr.energy, ev[:, K.EV_TIME], phys)
+        info["energy"] = _energy(_per_block(arr.energy), ev[:, K.EV_TIME], phys)
     if "x2" in data:
         info["atoms"] = {"x2": {"at": 0.0, "weight": data["x2"]["atom_weight"],
                                 "err": data["x2"]["atom_err"]}}

@@ -7,6 +7,7 @@ alarm once in ~16000 runs; the seeds are fixed, so a run either passes or fails 
 
 from __future__ import annotations
 
+import json
 import math
 import subprocess
 import sys
@@ -420,12 +421,18 @@ def test_runs_cut_into_any_chunks_are_bit_identical(base, monkeypatch):
     import sys as _sys
 
     sim = _sys.modules["montecarlo.simulate"]
-    kw = dict(paths=32, blocks=16, time=200, burn_in=50.0, edges=FIXED, seed=5)
+    kw = dict(paths=32, blocks=16, time=200, burn_in=50.0, edges=FIXED, seed=5,
+              observables=("A", "x1", "x2", "moments", "events", "energy"))
     one = run(base, **kw)
     monkeypatch.setattr(sim, "CHUNK_SECONDS", 1e-4)  # hundreds of tiny kernel calls
     many = run(base, **kw)
     for key in ("A", "x1", "x2"):
         assert np.array_equal(one.data[key]["p"], many.data[key]["p"])
+    # the float sums too (moments, energy, the certificate's ESS): metrics.json is compared
+    # byte for byte between runs (issue 11.5)
+    for key in ("moments", "energy", "events", "convergence"):
+        a, b = (json.dumps(r.info[key], sort_keys=True, default=str) for r in (one, many))
+        assert a == b, key
 
 
 def test_floor_is_reached_and_is_the_real_noise(base):
