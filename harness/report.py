@@ -315,7 +315,9 @@ def render_markdown(res: CheckResult, figures: dict[str, str]) -> str:
             "of the batch errors. A distance near its floor cannot be told from zero.", ""]
     if res.provenance:
         out += ["## Provenance", "", "| field | value |", "|---|---|"]
-        out += [f"| {a} | `{b}` |" for a, b in provenance.rows(res.provenance)]
+        # a pipe escaped as \| stays a pipe inside a GFM table cell, code span included
+        out += [f"| {a} | `{b.replace('|', chr(92) + '|')}` |"
+                for a, b in provenance.rows(res.provenance)]
         out.append("")
     return "\n".join(out)
 
