@@ -1,4 +1,4 @@
-"""README and docs/report.md numbers: written by docs/scripts/numbers.py from a recorded run
+"""README and docs/report.md numbers: written by docs/scripts/doc_numbers.py from a recorded run
 (docs/numbers.json), and that run agrees with a fresh small run within the stated noise."""
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ ROOT = Path(__file__).resolve().parent.parent
 
 def _script():
     spec = importlib.util.spec_from_file_location("numbers_script",
-                                                  ROOT / "docs" / "scripts" / "numbers.py")
+                                                  ROOT / "docs" / "scripts" / "doc_numbers.py")
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod

@@ -1,10 +1,14 @@
 """The headline numbers of README.md and docs/report.md, regenerated from a fresh run.
 
-    python docs/scripts/numbers.py            # run `vifpk check scenes/paper-base.toml`, write
+    python docs/scripts/doc_numbers.py            # run `vifpk check scenes/paper-base.toml`, write
                                               # docs/numbers.json, rewrite the marked blocks
-    python docs/scripts/numbers.py --from DIR --seconds S   # reuse a report folder of that run
-    python docs/scripts/numbers.py --check    # exit 1 if a marked block differs from what
+    python docs/scripts/doc_numbers.py --from DIR --seconds S   # reuse a report folder of that run
+    python docs/scripts/doc_numbers.py --render   # rewrite the blocks from the recorded files
+    python docs/scripts/doc_numbers.py --check    # exit 1 if a marked block differs from what
                                               # docs/numbers.json renders (no run)
+
+The L1 table of docs/paper.md is the block ``figures``, rendered from docs/img/figures.json,
+which `vifpk figures --out docs/img` writes (run it first; it takes minutes).
 
 A marked block is the text between ``<!-- numbers:NAME -->`` and ``<!-- /numbers:NAME -->``;
 it is written by this script only, so a number in it cannot drift from the run recorded in
@@ -28,7 +32,8 @@ from typing import Any
 
 ROOT = Path(__file__).resolve().parents[2]
 NUMBERS = ROOT / "docs" / "numbers.json"
-FILES = (ROOT / "README.md", ROOT / "docs" / "report.md")
+FILES = (ROOT / "README.md", ROOT / "docs" / "report.md", ROOT / "docs" / "paper.md")
+FIGURES = ROOT / "docs" / "img" / "figures.json"  # written by `vifpk figures --out docs/img`
 SCENE = "scenes/paper-base.toml"
 BLOCK = re.compile(
     r"(<!-- numbers:(?P<name>[\w-]+) -->\n)(?P<body>.*?)(<!-- /numbers:(?P=name) -->)", re.S)
@@ -68,14 +73,14 @@ def render(n: dict[str, Any]) -> dict[str, str]:
     run = (f"{n['seconds']:.0f} s wall" + (f" ({cpu:.0f} s CPU)" if cpu is not None else "")
            + f" on {n['cpus']} cores"
            + (f" (load average {load:.1f} at its end)" if load is not None else ""))
-    return {
+    blocks = {
         "finding": (
             f"First finding (docs/montecarlo.md): at the paper's base scene the printed averaged "
             f"model is\noff by L1 = {p['L1']:.2f} in p(A) against the simulated original system "
             f"(noise floor {p['L1_floor']:.3f}),\nalmost all of it because it drops the sgn(y) "
             f"factor of the transformed excitation; the same\naveraging done on the exact orbit "
             f"with that factor kept is off by {e['L1']:.2f} (`vifpk check`, {n['date']}).\n"),
-        "check-time": (f"The main job below took {run} (docs/scripts/numbers.py).\n"),
+        "check-time": (f"The main job below took {run} (docs/scripts/doc_numbers.py).\n"),
         "verdicts": f"\n{v}\n\n",
         "base": (
             f"The base scene ({n['date']}, default settings, `{n['command']}`, {run}):\n\n{v}\n\n"
@@ -84,6 +89,16 @@ def render(n: dict[str, Any]) -> dict[str, str]:
             f"{n['sampling_L1'][0]:.3f}–{n['sampling_L1'][1]:.3f}, at most "
             f"{n['sampling_over_floor_max']:.2f} × their noise floors.\n"),
     }
+    if FIGURES.exists():  # the L1 table of `vifpk figures`, as that command wrote it
+        from harness.figures import render_table
+
+        doc = json.loads(FIGURES.read_text())
+        table = {k: v for k, v in doc.items() if k.startswith("figure")}
+        prov = doc.get("provenance") or {}
+        head = (f"Measured {prov['created'][:10]} by `{prov.get('command', 'vifpk figures')}` "
+                f"(run {prov.get('run_id', '?')}).\n\n" if prov.get("created") else "")
+        blocks["figures"] = head + render_table(table)
+    return blocks
 
 
 def rewrite(text: str, blocks: dict[str, str]) -> str:
@@ -123,6 +138,9 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--check", action="store_true",
                     help="only check that the marked blocks match docs/numbers.json")
+    ap.add_argument("--render", action="store_true",
+                    help="rewrite the marked blocks from docs/numbers.json and "
+                         "docs/img/figures.json, without a run")
     ap.add_argument("--from", dest="src", metavar="DIR",
                     help="read DIR/metrics.json of a `vifpk check` of the base scene instead "
                          "of running it (default: run it)")
@@ -132,8 +150,13 @@ def main(argv: list[str] | None = None) -> int:
     if args.check:
         bad = stale(json.loads(NUMBERS.read_text()))
         for f in bad:
-            print(f"{f}: numbers differ from docs/numbers.json; run docs/scripts/numbers.py")
+            print(f"{f}: numbers differ from docs/numbers.json; run docs/scripts/doc_numbers.py")
         return 1 if bad else 0
+    if args.render:
+        blocks = render(json.loads(NUMBERS.read_text()))
+        for f in FILES:
+            f.write_text(rewrite(f.read_text(encoding="utf-8"), blocks), encoding="utf-8")
+        return 0
     if args.src:
         if args.seconds is None:
             ap.error("--from needs --seconds")
