@@ -264,6 +264,29 @@ def cmd_workprecision(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_sweep(args: argparse.Namespace) -> int:
+    from .sweep import WorkerLost, load_sweep, parse_executor, require_output_libraries, run_sweep
+
+    sweep = load_sweep(args.sweep)
+    spec = parse_executor(args.executor)
+    require_output_libraries()
+    out = args.out or f"out/{sweep.name}"
+    try:
+        res = run_sweep(sweep, out, executor=spec, quiet=args.quiet)
+    except (KeyboardInterrupt, WorkerLost) as exc:
+        why = "interrupted" if isinstance(exc, KeyboardInterrupt) else str(exc)
+        print(f"vifpk: {why}; the finished points are kept in {out}/points: run the same "
+              "command again to compute the rest", file=sys.stderr)
+        return 130 if isinstance(exc, KeyboardInterrupt) else EXIT_SOLVER
+    print(f"{res.total} points: {len(res.computed)} computed, {res.skipped} done before, "
+          f"{len(res.failed)} failed; " + ", ".join(str(f) for f in res.files.values()))
+    if res.failed:
+        print(f"vifpk: {len(res.failed)} of {res.total} points failed; their messages are in "
+              "sweep.nc (variables failed, message)", file=sys.stderr)
+        return EXIT_SOLVER
+    return 0
+
+
 def _add_mc_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--paths", type=int, metavar="N",
                    help="Monte Carlo: number of paths (default: the scene's montecarlo.paths)")
@@ -367,6 +390,14 @@ def build_parser() -> argparse.ArgumentParser:
     w.add_argument("--quiet", action="store_true", help=QUIET_HELP)
     _add_mc_options(w)
     w.set_defaults(func=cmd_workprecision)
+    sw = sub.add_parser("sweep", help="run a workflow over a parameter grid (serial, process "
+                                      "pool or dask) and write sweep.nc and maps")
+    sw.add_argument("sweep", help="sweep TOML file (or the name of a shipped sweep)")
+    sw.add_argument("--executor", default="serial", metavar="E",
+                    help="serial | processes:N | dask:N | tcp://HOST:PORT (default serial)")
+    sw.add_argument("--out", metavar="DIR", help="output directory (default out/<sweep name>)")
+    sw.add_argument("--quiet", action="store_true")
+    sw.set_defaults(func=cmd_sweep)
     return p
 
 

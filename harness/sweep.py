@@ -1,0 +1,856 @@
+"""Sweeps: one workflow run at every point of a parameter grid, on any executor.
+
+A sweep file (TOML, issue 14; docs/maps.md) names a base scene, the workflow, fixed overrides and
+the varied parameters::
+
+    scene = "paper-base"          # a shipped scene name or a path (relative to the sweep file)
+    workflow = "check"            # "check" | "averaging" (closed forms only) | "bifurcation"
+    mode = "product"              # or "zip"
+    seed = 7                      # optional; default the base scene's montecarlo.seed
+    [vary]
+    "system.r" = [0.95, 0.96, 0.97, 0.98]
+    "system.mu" = {start = 0.0, stop = 0.004, num = 5}
+    [set]                         # the same for every point
+    "montecarlo.floor" = 0.01
+    [bifurcation]                 # only for workflow = "bifurcation"
+    find = "mu"                   # the critical parameter found at every point: "mu" or "r"
+    range = [0.0, 0.05]           # optional search interval
+    mc = true                     # Monte Carlo check on both sides of each critical value
+
+Everything is validated before any computation: every point's scene is built and checked like
+a scene file, so a value out of range at any one point is reported (one line, exit 2).
+
+A point is a pure function of (scene, settings, seed): its Monte Carlo seed is
+
+    seed_point = SeedSequence([seed_sweep, *words(sha256(params))]).generate_state(1, uint64) >> 2
+
+(params: the point's varied values, by name, as exact hexadecimal floats), so it depends on the
+parameters and not on the point's position in the grid or on the executor. Its record is written
+atomically to ``DIR/points/<key>.json`` with ``key = sha256(params)[:16]``; a record whose
+fingerprint (sha256 of the workflow and the point's whole scene, seed included) matches is a
+finished point, and a sweep started again skips it. Sweeps run the Monte Carlo without a
+wall-clock budget (``montecarlo.budget = 0``): a budget would make a point depend on the
+machine's speed.
+
+Executors: ``serial``; ``processes:N`` (concurrent.futures, numba threads per worker =
+cores // N); ``dask:N`` (a dask.distributed LocalCluster of N workers); ``tcp://HOST:PORT``
+(a running dask scheduler). dask's futures carry the points, and dask reschedules a point whose
+worker died; the records are written by the process that runs the sweep, once per point.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import sys
+import time
+import tomllib
+from collections.abc import Callable, Iterator, Mapping
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any
+
+from .scene import SECTIONS, Scene, SceneError, load_scene
+
+WORKFLOWS = ("check", "averaging", "bifurcation")
+MODES = ("product", "zip")
+TOP_KEYS = ("scene", "workflow", "mode", "seed", "name", "description", "vary", "set",
+            "bifurcation")
+BIFURCATION_KEYS = ("find", "range", "mc")
+FIND = {"mu": "system.mu", "r": "system.r"}
+#: keys a sweep may not vary or set: the seed comes from the sweep's seed; a wall-clock
+#: budget would make a point depend on the machine's speed
+RESERVED = {"montecarlo.seed": "set the sweep's seed with the top-level key `seed`",
+            "montecarlo.budget": "sweeps run without a wall-clock budget (a budget makes a "
+                                 "point depend on the machine's speed); use montecarlo.floor"}
+#: warnings of the cross-check as flags: variable name -> words that start the warning
+WARNING_FLAGS = {"warn_narrow_band": "narrow-band", "warn_sticking": "sticking",
+                 "warn_strong_damping": "strong damping", "warn_strong_noise": "strong noise"}
+EXTRA_HINT = "pip install 'vifpk[cluster]'"
+
+
+class SweepError(SceneError):
+    """A sweep file or executor that cannot be used; one line naming the key (exit 2)."""
+
+
+class WorkerLost(RuntimeError):
+    """The executor lost points (not a numerical failure): the finished records are kept and
+    the same command resumes the sweep."""
+
+
+# --------------------------------------------------------------------------------------------
+@dataclass(frozen=True, kw_only=True)
+class Point:
+    """One point: its varied values (in the sweep file's order), seed, key and scene."""
+
+    params: tuple[tuple[str, float], ...]
+    seed: int
+    key: str
+    scene: Scene
+    fingerprint: str
+
+    def label(self) -> str:
+        return " ".join(f"{k}={v:g}" for k, v in self.params)
+
+
+@dataclass(frozen=True, kw_only=True)
+class Sweep:
+    """A validated sweep file."""
+
+    path: str
+    text: str
+    name: str
+    workflow: str
+    mode: str
+    seed: int
+    vary: tuple[tuple[str, tuple[float, ...]], ...]
+    fixed: Mapping[str, Any]
+    bifurcation: Mapping[str, Any]
+    base: Scene
+    points: tuple[Point, ...] = field(repr=False)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(k for k, _ in self.vary)
+
+
+def canonical(params: tuple[tuple[str, float], ...]) -> str:
+    """The parameters as text, exactly: names sorted, values as hexadecimal floats."""
+    return json.dumps(sorted((k, float(v).hex()) for k, v in params))
+
+
+def point_key(params: tuple[tuple[str, float], ...]) -> str:
+    """The record name of a point: 16 hex digits of sha256 of its canonical parameters."""
+    return hashlib.sha256(canonical(params).encode()).hexdigest()[:16]
+
+
+def point_seed(seed: int, params: tuple[tuple[str, float], ...]) -> int:
+    """A point's Monte Carlo seed from the sweep's seed and the point's parameters (< 2^62)."""
+    import numpy as np
+
+    digest = hashlib.sha256(canonical(params).encode()).digest()
+    words = [int.from_bytes(digest[i:i + 4], "little") for i in range(0, 32, 4)]
+    state = np.random.SeedSequence([int(seed), *words]).generate_state(1, dtype=np.uint64)
+    return int(state[0]) >> 2
+
+
+def fingerprint(workflow: str, scene: Scene, bifurcation: Mapping[str, Any]) -> str:
+    """sha256 of everything a point's result depends on (the scene includes the seed)."""
+    d = scene.to_dict()
+    d.pop("name", None)
+    d.pop("description", None)
+    blob = json.dumps({"workflow": workflow, "scene": d, "bifurcation": dict(bifurcation)},
+                      sort_keys=True)
+    return hashlib.sha256(blob.encode()).hexdigest()
+
+
+# --------------------------------------------------------------------------------------------
+def _field_of(where: str, path: str) -> Any:
+    """The dataclass field named by ``section.key``, or a SweepError naming it."""
+    import difflib
+
+    section, _, key = path.partition(".")
+    if section not in SECTIONS or not key:
+        raise SweepError(f"{where} {path!r}: unknown key; use section.key with a section in "
+                         f"{sorted(SECTIONS)}")
+    known = {f.name: f for f in fields(SECTIONS[section])}
+    if key not in known:
+        close = difflib.get_close_matches(key, list(known), n=1, cutoff=0.5)
+        hint = f"did you mean '{section}.{close[0]}'?" if close else \
+            "allowed: " + ", ".join(f"{section}.{k}" for k in known)
+        raise SweepError(f"{where} {path!r}: unknown key; {hint}")
+    if path in RESERVED:
+        raise SweepError(f"{where} {path!r}: not allowed in a sweep; {RESERVED[path]}")
+    return known[key]
+
+
+def _number(v: Any) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool)
+
+
+def _values(where: str, spec: Any) -> tuple[float, ...]:
+    """A list of numbers or {start, stop, num} (num values from start to stop inclusive)."""
+    import numpy as np
+
+    if isinstance(spec, list):
+        if not spec:
+            raise SweepError(f"{where}: empty grid (no values)")
+        bad = [v for v in spec if not _number(v) or not math.isfinite(v)]
+        if bad:
+            raise SweepError(f"{where}: {bad[0]!r} is not a finite number")
+        vals = tuple(float(v) for v in spec)
+    elif isinstance(spec, Mapping):
+        extra = sorted(set(spec) - {"start", "stop", "num"})
+        if extra:
+            raise SweepError(f"{where}.{extra[0]}: unknown key; allowed: start, stop, num")
+        missing = [k for k in ("start", "stop", "num") if k not in spec]
+        if missing:
+            raise SweepError(f"{where}: missing {missing[0]}; a range is "
+                             "{start = ..., stop = ..., num = ...}")
+        num = spec["num"]
+        if not isinstance(num, int) or isinstance(num, bool) or num < 0:
+            raise SweepError(f"{where}.num = {num!r}: must be a whole number >= 1")
+        if num == 0:
+            raise SweepError(f"{where}: empty grid (num = 0)")
+        for k in ("start", "stop"):
+            if not _number(spec[k]) or not math.isfinite(spec[k]):
+                raise SweepError(f"{where}.{k} = {spec[k]!r}: must be a finite number")
+        vals = tuple(float(v) for v in np.linspace(spec["start"], spec["stop"], num))
+    else:
+        raise SweepError(f"{where}: must be a list of numbers or {{start, stop, num}}")
+    if len(set(vals)) != len(vals):
+        raise SweepError(f"{where}: a value appears twice")
+    return vals
+
+
+def _resolve_scene(name: Any, sweep_path: Path) -> Scene:
+    if not isinstance(name, str) or not name:
+        raise SweepError(f"{sweep_path.name}: scene must be a shipped scene name or a path")
+    for rel in (sweep_path.parent / name, sweep_path.parent / f"{name}.toml"):
+        if rel.is_file():
+            return load_scene(rel)
+    return load_scene(name)
+
+
+def load_sweep(path: str | Path) -> Sweep:
+    """Read and validate a sweep file, building every point's scene (SweepError on any
+    problem, one line naming the key)."""
+    p = Path(path)
+    if not p.is_file():
+        shipped = Path(__file__).resolve().parent.parent / "scenes" / "sweeps"
+        cand = shipped / (p.name if p.suffix else f"{p}.toml")
+        if not cand.is_file():
+            raise SweepError(f"{path}: no such sweep file")
+        p = cand
+    try:
+        text = p.read_text(encoding="utf-8")
+        raw = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SweepError(f"{p.name}: not valid TOML: {exc}") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SweepError(f"{p.name}: cannot read: {exc}") from None
+    src = p.name
+    for key in raw:
+        if key not in TOP_KEYS:
+            import difflib
+
+            close = difflib.get_close_matches(key, TOP_KEYS, n=1, cutoff=0.5)
+            hint = f"did you mean '{close[0]}'?" if close else "allowed: " + ", ".join(TOP_KEYS)
+            raise SweepError(f"{src}: unknown key '{key}'; {hint}")
+    if "scene" not in raw:
+        raise SweepError(f"{src}: scene: missing (a shipped scene name or a path)")
+    try:
+        base = _resolve_scene(raw["scene"], p)
+    except SweepError:
+        raise
+    except SceneError as exc:
+        raise SweepError(f"{src}: scene: {exc}") from None
+    workflow = raw.get("workflow", "check")
+    if workflow not in WORKFLOWS:
+        raise SweepError(f"{src}: workflow = {workflow!r}: unknown workflow; allowed: "
+                         + ", ".join(WORKFLOWS))
+    mode = raw.get("mode", "product")
+    if mode not in MODES:
+        raise SweepError(f"{src}: mode = {mode!r}: allowed: " + ", ".join(MODES))
+    seed = raw.get("seed", base.montecarlo.seed)
+    if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
+        raise SweepError(f"{src}: seed = {seed!r}: must be a whole number >= 0")
+    name = raw.get("name", p.stem)
+    description = raw.get("description", "")
+    if not isinstance(name, str) or not name or not isinstance(description, str):
+        raise SweepError(f"{src}: name and description must be strings")
+
+    vary_raw = raw.get("vary")
+    if not isinstance(vary_raw, Mapping) or not vary_raw:
+        raise SweepError(f"{src}: [vary]: empty grid (name at least one parameter to vary)")
+    vary = []
+    for key, spec in vary_raw.items():
+        f = _field_of(f"{src}: [vary]", key)
+        if f.type not in ("float", "float | str"):
+            raise SweepError(f"{src}: [vary] {key!r}: only numeric parameters can vary")
+        vary.append((key, _values(f"{src}: [vary] {key!r}", spec)))
+    if mode == "zip" and len({len(v) for _, v in vary}) > 1:
+        lens = ", ".join(f"{k}: {len(v)}" for k, v in vary)
+        raise SweepError(f"{src}: mode = 'zip' needs lists of one length ({lens})")
+    fixed_raw = raw.get("set", {})
+    if not isinstance(fixed_raw, Mapping):
+        raise SweepError(f"{src}: [set] must be a table of section.key = value")
+    for key in fixed_raw:
+        _field_of(f"{src}: [set]", key)
+        if key in vary_raw:
+            raise SweepError(f"{src}: [set] {key!r}: also in [vary]; keep one")
+
+    bif = dict(raw.get("bifurcation", {}))
+    if workflow != "bifurcation" and bif:
+        raise SweepError(f"{src}: [bifurcation]: only for workflow = 'bifurcation'")
+    if workflow == "bifurcation":
+        for key in bif:
+            if key not in BIFURCATION_KEYS:
+                raise SweepError(f"{src}: [bifurcation] {key}: unknown key; allowed: "
+                                 + ", ".join(BIFURCATION_KEYS))
+        find = bif.get("find")
+        if find not in FIND:
+            raise SweepError(f"{src}: [bifurcation] find = {find!r}: allowed: 'mu', 'r'")
+        if FIND[find] in vary_raw or FIND[find] in fixed_raw:
+            raise SweepError(f"{src}: [bifurcation] find = {find!r}: {FIND[find]} is searched "
+                             "at every point, so it cannot also be varied or set")
+        rng = bif.get("range")
+        if rng is not None:
+            from .bifurcation import VARIABLES
+
+            ok = (isinstance(rng, list) and len(rng) == 2 and all(_number(v) for v in rng)
+                  and rng[0] < rng[1])
+            _, _, (d_lo, d_hi) = VARIABLES[find]
+            if not ok:
+                raise SweepError(f"{src}: [bifurcation] range = {rng!r}: must be [lo, hi] "
+                                 "with lo < hi")
+            bif["range"] = [float(rng[0]), float(rng[1])]
+            lo_ok = rng[0] >= 0 if find == "mu" else 0 < rng[0]
+            if not lo_ok or (find == "r" and rng[1] > 1):
+                raise SweepError(f"{src}: [bifurcation] range = {rng!r}: out of range; "
+                                 f"allowed: {'0 <= lo' if find == 'mu' else '0 < lo < hi <= 1'}")
+            del d_lo, d_hi
+        mc = bif.get("mc", True)
+        if not isinstance(mc, bool):
+            raise SweepError(f"{src}: [bifurcation] mc = {mc!r}: true or false")
+        bif = {"find": find, "range": bif.get("range"), "mc": mc}
+
+    if mode == "product":
+        import itertools
+
+        combos = [tuple(zip([k for k, _ in vary], c, strict=True))
+                  for c in itertools.product(*(v for _, v in vary))]
+    else:
+        combos = [tuple((k, v[i]) for k, v in vary) for i in range(len(vary[0][1]))]
+    if mode == "zip" and len({canonical(c) for c in combos}) != len(combos):
+        raise SweepError(f"{src}: [vary]: two zipped points have the same values")
+    points = []
+    fixed = dict(fixed_raw)
+    # a budget of 0 means no wall-clock limit (see RESERVED)
+    common = {**fixed, "montecarlo.budget": 0.0}
+    for params in combos:
+        s = point_seed(seed, params)
+        values = {**common, **dict(params), "montecarlo.seed": s}
+        try:
+            scene = base.with_values(values)
+        except SceneError as exc:
+            at = ", ".join(f"{k} = {v:g}" for k, v in params)
+            msg = str(exc).split(": ", 1)[-1] if ": " in str(exc) else str(exc)
+            raise SweepError(f"{src}: at the point {at}: {msg}") from None
+        if scene.sweep is not None:
+            raise SweepError(f"{src}: scene: {scene.sweep.path} varies in the base scene; set "
+                             "it in [set] or vary it in [vary]")
+        scene = _named(scene, f"{base.name}[{', '.join(f'{k}={v:g}' for k, v in params)}]")
+        points.append(Point(params=params, seed=s, key=point_key(params), scene=scene,
+                            fingerprint=fingerprint(workflow, scene, bif)))
+    return Sweep(path=str(p), text=text, name=name, workflow=workflow, mode=mode, seed=seed,
+                 vary=tuple(vary), fixed=fixed, bifurcation=bif, base=base,
+                 points=tuple(points))
+
+
+def _named(scene: Scene, name: str) -> Scene:
+    from dataclasses import replace
+
+    return replace(scene, name=name)
+
+
+# --------------------------------------------------------------------------------------------
+# the point function: runs anywhere (this process, a process pool, a dask worker)
+@dataclass(frozen=True, kw_only=True)
+class Job:
+    """What a worker needs to compute one point (picklable)."""
+
+    key: str
+    fingerprint: str
+    params: tuple[tuple[str, float], ...]
+    seed: int
+    workflow: str
+    scene: Scene
+    bifurcation: Mapping[str, Any]
+
+
+def run_point(job: Job) -> dict[str, Any]:
+    """Compute one point; a failure is returned as a record with status "failed"."""
+    t0 = time.perf_counter()
+    rec: dict[str, Any] = {"key": job.key, "params": dict(job.params), "seed": job.seed,
+                           "fingerprint": job.fingerprint, "workflow": job.workflow}
+    try:
+        result = WORKFLOW_FUNCTIONS[job.workflow](job)
+    except Exception as exc:  # noqa: BLE001 - recorded with its message; the sweep goes on
+        from .run import SolverFailure
+
+        kind = "numerical" if isinstance(exc, SolverFailure | ArithmeticError) else "error"
+        text = str(exc).splitlines()[0] if str(exc) else ""
+        rec.update(status="failed", failure=kind,
+                   message=f"{type(exc).__name__}: {text}" if kind == "error" else text)
+    else:
+        rec.update(status="ok", message="", result=result)
+    rec["seconds"] = time.perf_counter() - t0
+    return rec
+
+
+def _flags(warnings: list[str]) -> dict[str, bool]:
+    return {k: any(w.lower().startswith(v) for w in warnings) for k, v in WARNING_FLAGS.items()}
+
+
+def _check_point(job: Job) -> dict[str, Any]:
+    """The cross-check without the FPK: the averaging error of p(A) of each model."""
+    from .check import MODELS, cross_check
+
+    res = cross_check(job.scene, quiet=True, fpk=False)
+    mc = res.solutions["mc:original"]
+    conv = res.metrics["monte_carlo"]["convergence"]
+    models = {}
+    for m in MODELS:
+        e = res.metrics["models"][m]["averaging_error"]["A"]
+        models[m] = {"averaging_error_A": e["L1"], "averaging_error_A_err": e["L1_err"],
+                     "L1_floor_A": e["L1_floor"],
+                     "mean_A": res.solutions[f"closed:{m}"].info["summary"]["mean"],
+                     "sampling_ok": bool(res.metrics["models"][m]["sampling_ok"])}
+    mean = mc.info["moments"]["A"]["mean"]
+    converged = conv.get("equilibrated") is not False and all(
+        v["sampling_ok"] for v in models.values())
+    return {"models": models, "mean_A_simulation": mean["value"],
+            "mean_A_simulation_err": mean["err"], "converged": converged,
+            "extensions": conv.get("extensions", 0),
+            "flags": {**_flags(res.warnings), "warn_not_converged": not converged},
+            "warnings": res.warnings, "verdicts": res.verdicts}
+
+
+def _averaging_point(job: Job) -> dict[str, Any]:
+    """Closed forms of each model (computed once), the L1 between them, the assumption
+    warnings that need no simulation (strong damping, narrow band, strong noise)."""
+    from .check import MODELS, assumption_warnings
+    from .compare import compare
+    from .run import run_solver
+
+    closed = {m: run_solver(job.scene, "averaging", model=m) for m in MODELS}
+    warnings = assumption_warnings(job.scene, closed, {})
+    flags = _flags(warnings)
+    flags.pop("warn_sticking")  # needs the simulation
+    out: dict[str, Any] = {"models": {m: {"mean_A": r.info["summary"]["mean"]}
+                                      for m, r in closed.items()},
+                           "flags": flags, "warnings": warnings}
+    if "paper" in closed and "exact" in closed:
+        out["L1_paper_exact_A"] = compare(closed["paper"].data["A"],
+                                          closed["exact"].data["A"])["L1"]
+    return out
+
+
+def _bifurcation_point(job: Job) -> dict[str, Any]:
+    """Critical mu or r of each model at this point, with the Monte Carlo checks."""
+    from .bifurcation import bifurcation
+
+    b = job.bifurcation
+    lo, hi = b["range"] if b.get("range") else (None, None)
+    res = bifurcation(job.scene, b["find"], lo=lo, hi=hi, mc=b["mc"])
+    checks = [{"value": c["value"], "crater": c["monte_carlo"]["shape"] == "crater",
+               "agrees": c["agrees"]} for c in res.get("mc_check", [])]
+    return {"models": {m: {"critical": c} for m, c in res["critical"].items()},
+            "range": res["range"], "mc_check": checks}
+
+
+WORKFLOW_FUNCTIONS: dict[str, Callable[[Job], dict[str, Any]]] = {
+    "check": _check_point, "averaging": _averaging_point, "bifurcation": _bifurcation_point}
+
+
+# --------------------------------------------------------------------------------------------
+# executors
+@dataclass(frozen=True, kw_only=True)
+class ExecutorSpec:
+    kind: str  # serial | processes | dask | tcp
+    workers: int = 1
+    address: str = ""
+
+    def __str__(self) -> str:
+        return {"serial": "serial", "processes": f"processes:{self.workers}",
+                "dask": f"dask:{self.workers}"}.get(self.kind, self.address)
+
+
+def parse_executor(text: str) -> ExecutorSpec:
+    """``serial`` | ``processes:N`` | ``dask:N`` | ``tcp://HOST:PORT`` (SweepError if not)."""
+    allowed = "allowed: serial, processes:N, dask:N, tcp://HOST:PORT"
+    if text == "serial":
+        return ExecutorSpec(kind="serial")
+    kind, sep, rest = text.partition(":")
+    if kind in ("processes", "dask") and sep:
+        if not rest.isdigit() or int(rest) < 1:
+            raise SweepError(f"--executor {text}: N must be a whole number >= 1; {allowed}")
+        spec = ExecutorSpec(kind=kind, workers=int(rest))
+    elif kind == "tcp" and rest.startswith("//") and ":" in rest[2:]:
+        host, _, port = rest[2:].rpartition(":")
+        if not host or not port.isdigit():
+            raise SweepError(f"--executor {text}: expected tcp://HOST:PORT")
+        spec = ExecutorSpec(kind="tcp", address=text)
+    else:
+        raise SweepError(f"--executor {text}: unknown executor; {allowed}")
+    if spec.kind in ("dask", "tcp"):
+        try:
+            import distributed  # noqa: F401
+        except ImportError:
+            raise SweepError(f"--executor {text}: dask.distributed is not installed; install "
+                             f"the 'cluster' extra: {EXTRA_HINT}") from None
+    return spec
+
+
+def require_output_libraries() -> None:
+    """sweep.nc needs xarray and netCDF4 (the `sweep` extra): say so before any work."""
+    try:
+        import netCDF4  # noqa: F401
+        import xarray  # noqa: F401
+    except ImportError as exc:
+        raise SweepError(f"sweep.nc needs xarray and netCDF4 ({exc.name} is missing); install "
+                         "the 'sweep' extra: pip install 'vifpk[sweep]'") from None
+
+
+def threads_per_worker(workers: int) -> int:
+    """numba threads for each of ``workers`` local workers: cores // workers (at least 1)."""
+    return max((os.cpu_count() or 1) // workers, 1)
+
+
+def _init_worker(threads: int) -> None:
+    """Process-pool initializer: numba threads per worker (before numba is imported)."""
+    os.environ["NUMBA_NUM_THREADS"] = str(threads)
+    if "numba" in sys.modules:
+        import numba
+
+        numba.config.NUMBA_NUM_THREADS = threads
+        numba.set_num_threads(threads)
+
+
+class Runner:
+    """An open executor: ``completed(jobs)`` yields records as points finish."""
+
+    def __init__(self, spec: ExecutorSpec, *, connect_timeout: float = 10.0):
+        self.spec = spec
+        self.client: Any = None
+        self.cluster: Any = None
+        self.pool: Any = None
+        if spec.kind == "processes":
+            import multiprocessing
+            from concurrent.futures import ProcessPoolExecutor
+
+            self.pool = ProcessPoolExecutor(
+                max_workers=spec.workers, mp_context=multiprocessing.get_context("spawn"),
+                initializer=_init_worker, initargs=(threads_per_worker(spec.workers),))
+        elif spec.kind == "dask":
+            from distributed import Client, LocalCluster
+
+            threads = threads_per_worker(spec.workers)
+            import logging
+
+            self.cluster = LocalCluster(
+                n_workers=spec.workers, threads_per_worker=1, processes=True,
+                dashboard_address=None, host="127.0.0.1", silence_logs=logging.ERROR,
+                env={"NUMBA_NUM_THREADS": str(threads)})
+            self.client = Client(self.cluster)
+        elif spec.kind == "tcp":
+            from distributed import Client
+
+            try:
+                self.client = Client(spec.address, timeout=connect_timeout)
+            except (OSError, TimeoutError) as exc:
+                raise SweepError(f"--executor {spec.address}: no dask scheduler answers there "
+                                 f"({type(exc).__name__}); start one with `dask scheduler` "
+                                 "and workers with `dask worker ADDRESS`") from None
+
+    @property
+    def workers(self) -> int:
+        if self.client is not None:
+            return max(len(self.client.scheduler_info().get("workers", {})), 1)
+        return self.spec.workers
+
+    def completed(self, jobs: list[Job], *, retries: int = 2) -> Iterator[dict[str, Any]]:
+        """Records in the order the points finish. A worker that dies takes no point with it:
+        dask reschedules the point elsewhere; a broken process pool raises WorkerLost."""
+        if self.spec.kind == "serial":
+            for job in jobs:
+                yield run_point(job)
+        elif self.pool is not None:
+            from concurrent.futures import as_completed
+            from concurrent.futures.process import BrokenProcessPool
+
+            futs = [self.pool.submit(run_point, job) for job in jobs]
+            try:
+                for f in as_completed(futs):
+                    yield f.result()
+            except BrokenProcessPool as exc:
+                raise WorkerLost(f"a worker process died ({exc})") from None
+            finally:
+                for f in futs:
+                    f.cancel()
+        else:
+            from distributed import as_completed
+
+            # one dask key per point and fingerprint: dask never runs a key twice at once,
+            # reschedules it when its worker dies, and retries it on an exception
+            futs = [self.client.submit(run_point, job, key=f"vifpk-{job.key}-"
+                                       f"{job.fingerprint[:12]}", retries=retries, pure=False)
+                    for job in jobs]
+            from distributed import KilledWorker
+
+            try:
+                for f in as_completed(futs):
+                    yield f.result()
+            except KilledWorker as exc:
+                raise WorkerLost(f"dask gave up on a point whose workers kept dying ({exc})"
+                                 ) from None
+            finally:
+                self.client.cancel([f for f in futs if not f.done()])
+
+    def close(self) -> None:
+        if self.pool is not None:
+            self.pool.shutdown(wait=True, cancel_futures=True)
+        if self.client is not None:
+            self.client.close()
+        if self.cluster is not None:
+            self.cluster.close()
+
+
+# --------------------------------------------------------------------------------------------
+def load_record(path: Path) -> dict[str, Any] | None:
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+
+
+def finished(sweep: Sweep, out: Path) -> dict[str, dict[str, Any]]:
+    """Records of this sweep's points already on disk (matching fingerprints), by key."""
+    done = {}
+    for pt in sweep.points:
+        rec = load_record(out / "points" / f"{pt.key}.json")
+        if rec and rec.get("fingerprint") == pt.fingerprint and rec.get("status") in (
+                "ok", "failed"):
+            done[pt.key] = rec
+    return done
+
+
+def _job(sweep: Sweep, pt: Point) -> Job:
+    return Job(key=pt.key, fingerprint=pt.fingerprint, params=pt.params, seed=pt.seed,
+               workflow=sweep.workflow, scene=pt.scene, bifurcation=sweep.bifurcation)
+
+
+@dataclass(frozen=True, kw_only=True)
+class SweepRun:
+    """What a run of a sweep did: the keys it computed (in order), skipped and failed."""
+
+    total: int
+    computed: tuple[str, ...]
+    skipped: int
+    failed: tuple[str, ...]
+    seconds: float
+    files: Mapping[str, Path]
+
+
+def _log(quiet: bool, text: str) -> None:
+    if not quiet:
+        print(text, file=sys.stderr, flush=True)
+
+
+def run_sweep(sweep: Sweep, out: str | Path, *, executor: str | ExecutorSpec = "serial",
+              quiet: bool = False, report: bool = True,
+              provenance: Mapping[str, Any] | None = None) -> SweepRun:
+    """Compute every unfinished point on the executor, then write sweep.nc (and the maps).
+
+    Raises SweepError (bad executor, unreachable scheduler) before anything is computed or
+    written. Ctrl-C keeps every record written so far.
+    """
+    from .io import write_json
+
+    spec = parse_executor(executor) if isinstance(executor, str) else executor
+    require_output_libraries()
+    out = Path(out)
+    done = finished(sweep, out)
+    todo = [pt for pt in sweep.points if pt.key not in done]
+    total = len(sweep.points)
+    runner = Runner(spec) if todo else None  # connects (or fails) before anything is written
+    t0 = time.perf_counter()
+    computed: list[str] = []
+    failed = [k for k, r in done.items() if r["status"] == "failed"]
+    by_key = {pt.key: pt for pt in sweep.points}
+    _log(quiet, f"sweep {sweep.name}: {total} points ({len(done)} done before, {len(todo)} to "
+                f"compute) on {spec}, workflow {sweep.workflow}")
+    try:
+        if runner is not None:
+            (out / "points").mkdir(parents=True, exist_ok=True)
+            for rec in runner.completed([_job(sweep, pt) for pt in todo]):
+                write_json(out / "points" / f"{rec['key']}.json", rec)
+                computed.append(rec["key"])
+                if rec["status"] == "failed":
+                    failed.append(rec["key"])
+                n = len(computed)
+                elapsed = time.perf_counter() - t0
+                eta = elapsed / n * (len(todo) - n)
+                what = "ok" if rec["status"] == "ok" else f"FAILED: {rec['message']}"
+                _log(quiet, f"[{len(done) + n}/{total}] {by_key[rec['key']].label()}: {what} "
+                            f"({rec['seconds']:.1f} s); failures {len(failed)}; "
+                            f"ETA {_duration(eta)}")
+    finally:
+        if runner is not None:
+            runner.close()
+    files = write_results(sweep, out, executor=str(spec), report=report, provenance=provenance)
+    return SweepRun(total=total, computed=tuple(computed), skipped=len(done),
+                    failed=tuple(failed), seconds=time.perf_counter() - t0, files=files)
+
+
+def _duration(s: float) -> str:
+    if s < 90:
+        return f"{s:.0f} s"
+    if s < 5400:
+        return f"{s / 60:.1f} min"
+    return f"{s / 3600:.1f} h"
+
+
+# --------------------------------------------------------------------------------------------
+def dataset(sweep: Sweep, records: Mapping[str, dict[str, Any]], *,
+            provenance: Mapping[str, Any] | None = None) -> Any:
+    """The labelled result (xarray.Dataset) from the points' records."""
+    import numpy as np
+    import xarray as xr
+
+    if sweep.mode == "product":
+        dims = list(sweep.names)
+        shape = tuple(len(v) for _, v in sweep.vary)
+        coords: dict[str, Any] = {k: (k, np.array(v)) for k, v in sweep.vary}
+
+        def index(pt: Point) -> tuple[int, ...]:
+            return tuple(vals.index(v) for (_, vals), (_, v) in zip(sweep.vary, pt.params,
+                                                                    strict=True))
+    else:
+        dims = ["point"]
+        shape = (len(sweep.points),)
+        coords = {k: ("point", np.array(v)) for k, v in sweep.vary}
+        order = {pt.key: i for i, pt in enumerate(sweep.points)}
+
+        def index(pt: Point) -> tuple[int, ...]:
+            return (order[pt.key],)
+
+    recs = [(pt, records.get(pt.key)) for pt in sweep.points]
+    models: list[str] = []
+    for _, r in recs:
+        for m in (r or {}).get("result", {}).get("models", {}):
+            if m not in models:
+                models.append(m)
+    data: dict[str, Any] = {}
+
+    def put(name: str, value: Any, pt: Point, model: str | None = None,
+            dtype: Any = float, fill: Any = np.nan) -> None:
+        if name not in data:
+            s = shape + ((len(models),) if model is not None else ())
+            data[name] = (dims + (["model"] if model is not None else []),
+                          np.full(s, fill, dtype=dtype))
+        idx = index(pt) + ((models.index(model),) if model is not None else ())
+        data[name][1][idx] = fill if value is None else value
+
+    status = np.full(shape, "missing", dtype=object)
+    message = np.full(shape, "", dtype=object)
+    keys = np.full(shape, "", dtype=object)
+    seeds = np.zeros(shape, dtype=np.int64)
+    for pt, r in recs:
+        i = index(pt)
+        keys[i], seeds[i] = pt.key, pt.seed
+        if r is None:
+            continue
+        status[i], message[i] = r["status"], r.get("message", "")
+        res = r.get("result")
+        if res is None:
+            continue
+        for m, vals in res.get("models", {}).items():
+            for k, v in vals.items():
+                if isinstance(v, bool):
+                    put(k, int(v), pt, m, dtype=np.int8, fill=-1)
+                else:
+                    put(k, v, pt, m)
+        for k in ("mean_A_simulation", "mean_A_simulation_err", "L1_paper_exact_A",
+                  "extensions"):
+            if k in res:
+                put(k, res[k], pt)
+        if "converged" in res:
+            put("converged", int(res["converged"]), pt, dtype=np.int8, fill=-1)
+        for k, v in res.get("flags", {}).items():
+            put(k, int(v), pt, dtype=np.int8, fill=-1)
+    if sweep.workflow == "bifurcation":
+        width = max([len((r or {}).get("result", {}).get("mc_check", [])) for _, r in recs]
+                    + [0])
+        vals = np.full(shape + (width,), np.nan)
+        crater = np.full(shape + (width,), -1, dtype=np.int8)
+        agrees = np.full(shape + (width, len(models)), -1, dtype=np.int8)
+        for pt, r in recs:
+            for j, c in enumerate((r or {}).get("result", {}).get("mc_check", [])):
+                vals[index(pt) + (j,)] = c["value"]
+                crater[index(pt) + (j,)] = int(c["crater"])
+                for mi, m in enumerate(models):
+                    agrees[index(pt) + (j, mi)] = int(c["agrees"].get(m, False))
+        data["mc_check_value"] = (dims + ["check"], vals)
+        data["mc_check_crater"] = (dims + ["check"], crater)
+        data["mc_check_agrees"] = (dims + ["check", "model"], agrees)
+    data["failed"] = (dims, (status == "failed").astype(np.int8))
+    data["status"] = (dims, status.astype(str))
+    data["message"] = (dims, message.astype(str))
+    data["key"] = (dims, keys.astype(str))
+    data["seed"] = (dims, seeds)
+    if models:
+        coords["model"] = ("model", np.array(models))
+    ds = xr.Dataset(data, coords=coords)
+    for k in WARNING_FLAGS:
+        if k in ds:
+            ds[k].attrs["flag_values"] = "1: the warning applies, 0: it does not, -1: no value"
+    ds.attrs.update({
+        "title": f"vifpk sweep {sweep.name}",
+        "workflow": sweep.workflow, "mode": sweep.mode, "seed": sweep.seed,
+        "varied": json.dumps(list(sweep.names)),
+        "sweep_file": sweep.text, "sweep_path": sweep.path,
+        "base_scene": json.dumps(sweep.base.to_dict()),
+        "seed_scheme": "montecarlo.seed of a point = SeedSequence([seed, *le32 words of "
+                       "sha256(canonical params)]).generate_state(1, uint64)[0] >> 2",
+    })
+    if sweep.workflow == "bifurcation":
+        ds.attrs["bifurcation"] = json.dumps(dict(sweep.bifurcation))
+    if sweep.workflow == "check":
+        ds.attrs["within_noise"] = ("a model is within the Monte Carlo noise where "
+                                    "averaging_error_A < 2 L1_floor_A (the check's verdict)")
+    if provenance is not None:
+        ds.attrs["provenance"] = json.dumps(dict(provenance))
+        ds.attrs["versions"] = json.dumps(provenance.get("versions", {}))
+        ds.attrs["vifpk_version"] = str(provenance.get("vifpk", ""))
+    return ds
+
+
+def write_netcdf(ds: Any, path: Path) -> Path:
+    """Write a Dataset atomically (temporary file beside it, then rename)."""
+    import tempfile
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    try:
+        ds.to_netcdf(tmp, engine="netcdf4")
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def write_results(sweep: Sweep, out: Path, *, executor: str = "", report: bool = True,
+                  provenance: Mapping[str, Any] | None = None) -> dict[str, Path]:
+    """DIR/sweep.nc (and DIR/report.html) from the records on disk."""
+    from . import provenance as prov
+
+    records = {}
+    for pt in sweep.points:
+        rec = load_record(out / "points" / f"{pt.key}.json")
+        if rec and rec.get("fingerprint") == pt.fingerprint:
+            records[pt.key] = rec
+    if provenance is None:
+        provenance = prov.collect(scene_path=sweep.path)
+    ds = dataset(sweep, records, provenance={**provenance, "executor": executor})
+    files = {"sweep.nc": write_netcdf(ds, out / "sweep.nc")}
+    if report:
+        from .sweepmaps import write_maps
+
+        files["report.html"] = write_maps(sweep, ds, out)
+    return files

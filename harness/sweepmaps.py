@@ -1,0 +1,236 @@
+"""Maps of a sweep: ``DIR/report.html``, one self-contained page (PNG figures inlined).
+
+check sweep over two parameters: for each model the averaging error L1 of p(A) as a colour map
+(one colour scale and colour bar for all models, the paper and the exact model side by side),
+the contour averaging_error_A = 2 L1_floor_A (inside it the model cannot be told from the
+original system at the Monte Carlo's noise floor: averaging holds; the check's verdict uses the
+same factor), hatching on points with an assumption warning or without convergence, a cross on
+failed points. Over one parameter (or zipped points) the same numbers as curves.
+averaging sweep: the mean amplitude of each model and the L1 distance between the models.
+bifurcation sweep: the critical value of each model against the varied parameter, with the
+Monte Carlo checks on both sides (filled: crater, open: single peak; red: a model disagrees).
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+WITHIN_NOISE = 2.0  # averaging_error_A < 2 L1_floor_A: indistinguishable (check.verdict)
+FLAG_VARS = ("warn_narrow_band", "warn_sticking", "warn_strong_damping", "warn_strong_noise",
+             "warn_not_converged")
+
+
+def _png(fig: Any) -> str:
+    import matplotlib.pyplot as plt
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    return base64.b64encode(buf.getvalue()).decode()
+
+
+def _axis(ds: Any, name: str) -> tuple[np.ndarray, str]:
+    """Plot coordinate and label: system.r is shown as the impact loss 1 - r."""
+    v = np.asarray(ds[name].values, float)
+    if name == "system.r":
+        return 1.0 - v, "1 - r  (system.r)"
+    return v, name
+
+
+def _edges(c: np.ndarray) -> np.ndarray:
+    if c.size == 1:
+        return np.array([c[0] - 0.5, c[0] + 0.5]) if c[0] == 0 else c[0] * np.array([0.9, 1.1])
+    mid = 0.5 * (c[1:] + c[:-1])
+    return np.concatenate([[2 * c[0] - mid[0]], mid, [2 * c[-1] - mid[-1]]])
+
+
+def _flagged(ds: Any) -> np.ndarray:
+    names = [k for k in FLAG_VARS if k in ds]
+    if not names:
+        return np.zeros(ds["failed"].shape, bool)
+    return np.any([np.asarray(ds[k].values) == 1 for k in names], axis=0)
+
+
+def _map_figure(ds: Any, var: str, title: str, *, contour: bool) -> str:
+    """Colour maps of ``var`` (dims: two parameters and model), models side by side."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.patches import Rectangle
+
+    px, py = [d for d in ds[var].dims if d != "model"]
+    x, xl = _axis(ds, px)
+    y, yl = _axis(ds, py)
+    models = list(ds["model"].values) if "model" in ds[var].dims else [None]
+    vals = np.asarray(ds[var].transpose(py, px, ...).values, float)
+    finite = vals[np.isfinite(vals)]
+    vmin, vmax = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
+    fig, axes = plt.subplots(1, len(models), figsize=(4.6 * len(models) + 1, 4), squeeze=False,
+                             constrained_layout=True)
+    flags = _flagged(ds.transpose(py, px, ...)) if "failed" in ds else None
+    failed = np.asarray(ds["failed"].transpose(py, px).values) == 1
+    xe, ye = _edges(x), _edges(y)
+    mesh = None
+    for ax, m in zip(axes[0], models, strict=True):
+        z = vals[..., models.index(m)] if m is not None else vals
+        mesh = ax.pcolormesh(xe, ye, np.ma.masked_invalid(z), vmin=vmin, vmax=vmax,
+                             cmap="viridis", shading="flat")
+        if contour and "L1_floor_A" in ds and min(x.size, y.size) >= 2:
+            fl = np.asarray(ds["L1_floor_A"].sel(model=m).transpose(py, px).values, float)
+            ratio = z / fl
+            if np.isfinite(ratio).any() and np.nanmin(ratio) < WITHIN_NOISE < np.nanmax(ratio):
+                cs = ax.contour(x, y, ratio, levels=[WITHIN_NOISE], colors="white",
+                                linewidths=2)
+                ax.clabel(cs, fmt={WITHIN_NOISE: "2 x floor"}, fontsize=8)
+            inside = ratio < WITHIN_NOISE
+            gx, gy = np.meshgrid(x, y)
+            ax.plot(gx[inside], gy[inside], "o", mfc="none", mec="white", ms=5, ls="none")
+        if flags is not None:
+            for j, i in zip(*np.nonzero(flags), strict=True):
+                ax.add_patch(Rectangle((xe[i], ye[j]), xe[i + 1] - xe[i], ye[j + 1] - ye[j],
+                                       fill=False, hatch="///", edgecolor="0.85", lw=0))
+        for j, i in zip(*np.nonzero(failed), strict=True):
+            ax.plot(x[i], y[j], "x", color="red", ms=9, mew=2)
+        ax.set_xlabel(xl)
+        ax.set_ylabel(yl)
+        ax.set_title(f"{m} model" if m is not None else title)
+    fig.colorbar(mesh, ax=axes[0].tolist(), label=title)
+    return _png(fig)
+
+
+def _curve_figure(ds: Any, var: str, err: str | None, title: str) -> str:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    dims = [d for d in ds[var].dims if d != "model"]
+    fig, ax = plt.subplots(figsize=(6, 3.8), constrained_layout=True)
+    if dims == ["point"]:
+        x, xl = np.arange(ds.sizes["point"]), "point"
+    else:
+        x, xl = _axis(ds, dims[0])
+    models = list(ds["model"].values) if "model" in ds[var].dims else [None]
+    for m in models:
+        sel = ds[var].sel(model=m) if m is not None else ds[var]
+        e = ds[err].sel(model=m).values if err and m is not None else None
+        ax.errorbar(x, sel.values, yerr=e, marker="o", capsize=3, label=m or var)
+        if m is not None and "L1_floor_A" in ds and var == "averaging_error_A":
+            ax.plot(x, WITHIN_NOISE * ds["L1_floor_A"].sel(model=m).values, ":", color="0.5")
+    if var == "averaging_error_A":
+        ax.plot([], [], ":", color="0.5", label="2 x MC noise floor")
+    ax.set_xlabel(xl)
+    ax.set_ylabel(title)
+    ax.legend()
+    return _png(fig)
+
+
+def _bifurcation_figure(ds: Any) -> str:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    dims = [d for d in ds["critical"].dims if d != "model"]
+    fig, ax = plt.subplots(figsize=(6.4, 4.2), constrained_layout=True)
+    x, xl = (np.arange(ds.sizes["point"]), "point") if dims == ["point"] else _axis(ds, dims[0])
+    for m in ds["model"].values:
+        ax.plot(x, ds["critical"].sel(model=m).values, "-o", label=f"{m} model: critical")
+    if "mc_check_value" in ds and ds.sizes.get("check", 0):
+        v = np.asarray(ds["mc_check_value"].values, float)
+        crater = np.asarray(ds["mc_check_crater"].values)
+        agree = np.all(np.asarray(ds["mc_check_agrees"].values) == 1, axis=-1)
+        xx = np.broadcast_to(x[:, None], v.shape)
+        for cr, fill in ((1, True), (0, False)):
+            for ok, colour in ((True, "black"), (False, "red")):
+                sel = (crater == cr) & (agree == ok) & np.isfinite(v)
+                if sel.any():
+                    ax.plot(xx[sel], v[sel], "s", ms=7, mec=colour,
+                            mfc=colour if fill else "none", ls="none",
+                            label=f"MC: {'crater' if cr else 'single peak'}"
+                                  + ("" if ok else " (a model disagrees)"))
+    ax.set_xlabel(xl)
+    ax.set_ylabel(f"critical {json.loads(ds.attrs.get('bifurcation', '{}')).get('find', '')}")
+    ax.legend(fontsize=8)
+    return _png(fig)
+
+
+def figures(ds: Any) -> list[tuple[str, str]]:
+    """(caption, base64 PNG) for the sweep's workflow and shape."""
+    wf = ds.attrs.get("workflow")
+    params = json.loads(ds.attrs.get("varied", "[]"))
+    two = ds.attrs.get("mode") == "product" and len(params) == 2
+    out = []
+    if wf == "check" and "averaging_error_A" in ds:
+        if two:
+            out.append(("Averaging error L1 of p(A) against the simulated original system. "
+                        "White contour and circles: within the Monte Carlo noise (L1 < 2 x "
+                        "noise floor), averaging holds. Hatched: an assumption warning or no "
+                        "convergence. Red cross: failed point.",
+                        _map_figure(ds, "averaging_error_A", "L1 of p(A)", contour=True)))
+        elif len(params) == 1 or ds.attrs.get("mode") == "zip":
+            out.append(("Averaging error L1 of p(A) with its error bar; dotted: 2 x noise "
+                        "floor.", _curve_figure(ds, "averaging_error_A",
+                                                "averaging_error_A_err", "L1 of p(A)")))
+    if wf == "averaging" and "mean_A" in ds:
+        if two:
+            out.append(("Mean amplitude of each averaged model (closed forms).",
+                        _map_figure(ds, "mean_A", "mean A", contour=False)))
+            if "L1_paper_exact_A" in ds:
+                out.append(("L1 between the paper and the exact model's p(A).",
+                            _map_figure(ds, "L1_paper_exact_A", "L1(paper, exact)",
+                                        contour=False)))
+        else:
+            out.append(("Mean amplitude of each averaged model.",
+                        _curve_figure(ds, "mean_A", None, "mean A")))
+    if wf == "bifurcation" and "critical" in ds and len(params) == 1:
+        out.append(("Critical value of each model along the varied parameter, with the Monte "
+                    "Carlo checks of the original system on both sides of it.",
+                    _bifurcation_figure(ds)))
+    return out
+
+
+def render(sweep: Any, ds: Any) -> str:
+    e = html.escape
+    parts = ["<!doctype html><html><head><meta charset='utf-8'>",
+             f"<title>vifpk sweep: {e(sweep.name)}</title>",
+             "<style>body{font-family:sans-serif;max-width:1100px;margin:2em auto;}"
+             "table{border-collapse:collapse;font-size:90%}td,th{border:1px solid #ccc;"
+             "padding:2px 6px;text-align:right}pre{background:#f6f6f6;padding:8px}</style>",
+             "</head><body>", f"<h1>Sweep {e(sweep.name)}: workflow {e(sweep.workflow)}</h1>"]
+    n = int(ds["failed"].size)
+    bad = int((ds["failed"] == 1).sum())
+    missing = int((ds["status"] == "missing").sum())
+    parts.append(f"<p>{n} points, {bad} failed, {missing} missing; seed {sweep.seed}.</p>")
+    for cap, img in figures(ds):
+        parts.append(f"<figure><img src='data:image/png;base64,{img}' style='max-width:100%'>"
+                     f"<figcaption>{e(cap)}</figcaption></figure>")
+    parts.append("<h2>Points</h2><table><tr>" + "".join(
+        f"<th>{e(k)}</th>" for k in (*sweep.names, "status", "message")) + "</tr>")
+    for pt in sweep.points:
+        flat = ds["key"].values == pt.key
+        st = str(ds["status"].values[flat][0])
+        msg = str(ds["message"].values[flat][0])
+        cells = [f"{v:g}" for _, v in pt.params] + [st, msg]
+        parts.append("<tr>" + "".join(f"<td>{e(c)}</td>" for c in cells) + "</tr>")
+    parts.append("</table><h2>Sweep file</h2><pre>" + e(sweep.text) + "</pre>")
+    prov = ds.attrs.get("provenance")
+    if prov:
+        parts.append("<h2>Provenance</h2><pre>" + e(json.dumps(json.loads(prov), indent=1))
+                     + "</pre>")
+    parts.append("</body></html>")
+    return "\n".join(parts)
+
+
+def write_maps(sweep: Any, ds: Any, out: Path) -> Path:
+    from .io import write_atomic
+
+    return write_atomic(Path(out) / "report.html", render(sweep, ds))

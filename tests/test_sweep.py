@@ -1,0 +1,214 @@
+"""Sweeps (issue 14): validation up front, seeds from parameters, resume, executors bit for bit,
+a lost dask worker, failed points recorded."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+from harness.cli import main
+from harness.sweep import load_sweep, point_key, point_seed, run_sweep
+
+from .conftest import ROOT
+
+DATA = ROOT / "tests" / "data"
+CHECK = DATA / "sweep-check.toml"
+AVERAGING = DATA / "sweep-averaging.toml"
+
+
+def _write(tmp_path: Path, text: str, name: str = "s.toml") -> Path:
+    (tmp_path / "tiny.toml").write_text((DATA / "tiny.toml").read_text())
+    p = tmp_path / name
+    p.write_text(text)
+    return p
+
+
+def _values(path: Path):
+    """The data of a sweep.nc without its attributes (provenance differs run to run)."""
+    import xarray as xr
+
+    with xr.open_dataset(path, engine="netcdf4") as ds:
+        ds.load()
+        ds.attrs = {}
+        return ds
+
+
+GOOD = 'scene = "tiny"\nworkflow = "averaging"\n[vary]\n"system.r" = [0.95, 0.97]\n'
+BAD = {
+    "unknown top key": ('scene = "tiny"\nworkflw = "check"\n[vary]\n"system.r" = [0.95]\n',
+                        "workflw"),
+    "unknown varied key": ('scene = "tiny"\n[vary]\n"system.rr" = [0.95]\n', "system.rr"),
+    "unknown set key": (GOOD + '[set]\n"montecarlo.flor" = 0.01\n', "montecarlo.flor"),
+    "empty grid (list)": ('scene = "tiny"\n[vary]\n"system.r" = []\n', "empty grid"),
+    "empty grid (range)": ('scene = "tiny"\n[vary]\n"system.mu" = {start = 0, stop = 1, '
+                           'num = 0}\n', "empty grid"),
+    "no [vary]": ('scene = "tiny"\n', "[vary]"),
+    "out of range at one point": ('scene = "tiny"\n[vary]\n"system.r" = [0.95, 1.2]\n'
+                                  '"system.mu" = [0.0, 0.001]\n', "system.r = 1.2"),
+    "out of range in [set]": (GOOD + '[set]\n"noise.D" = -1.0\n', "noise.D"),
+    "unknown workflow": ('scene = "tiny"\nworkflow = "chek"\n[vary]\n"system.r" = [0.95]\n',
+                         "workflow"),
+    "unknown mode": ('scene = "tiny"\nmode = "outer"\n[vary]\n"system.r" = [0.95]\n', "mode"),
+    "zip of unequal lengths": ('scene = "tiny"\nmode = "zip"\n[vary]\n"system.r" = [0.95]\n'
+                               '"system.mu" = [0.0, 0.001]\n', "zip"),
+    "seed set per point": (GOOD + '[set]\n"montecarlo.seed" = 3\n', "montecarlo.seed"),
+    "wall-clock budget": (GOOD + '[set]\n"montecarlo.budget" = 10.0\n', "montecarlo.budget"),
+    "unknown scene": ('scene = "nope"\n[vary]\n"system.r" = [0.95]\n', "nope"),
+    "bifurcation without find": ('scene = "tiny"\nworkflow = "bifurcation"\n[vary]\n'
+                                 '"system.r" = [0.95]\n', "find"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD))
+def test_bad_sweep_file_exit_2_one_line_nothing_written(case, tmp_path, capsys):
+    text, word = BAD[case]
+    path = _write(tmp_path, text)
+    out = tmp_path / "out"
+    assert main(["sweep", str(path), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and word in err, err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("executor,word", [("threads:2", "unknown executor"),
+                                           ("processes:0", "N must be"),
+                                           ("tcp://127.0.0.1:1", "no dask scheduler")])
+def test_bad_executor_exit_2_one_line_nothing_written(executor, word, tmp_path, capsys):
+    """tcp://127.0.0.1:1: nothing listens on port 1 (the connection is refused)."""
+    path = _write(tmp_path, GOOD)
+    out = tmp_path / "out"
+    assert main(["sweep", str(path), "--out", str(out), "--executor", executor]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and word in err, err
+    assert not out.exists()
+
+
+def test_dask_without_the_cluster_extra_names_it(tmp_path, capsys, monkeypatch):
+    monkeypatch.setitem(sys.modules, "distributed", None)  # import fails as if not installed
+    path = _write(tmp_path, GOOD)
+    assert main(["sweep", str(path), "--out", str(tmp_path / "o"), "--executor", "dask:2"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "vifpk[cluster]" in err, err
+
+
+def test_seeds_and_keys_follow_parameters_not_positions(tmp_path):
+    """The same parameters give the same key and seed whatever the grid around them; another
+    sweep seed gives other seeds."""
+    a = load_sweep(_write(tmp_path, GOOD, "a.toml"))
+    b = load_sweep(_write(tmp_path, GOOD.replace("[0.95, 0.97]", "[0.97, 0.96, 0.95]")
+                          + '"system.mu" = [0.001]\n', "b.toml"))
+    c = load_sweep(_write(tmp_path, "seed = 5\n" + GOOD, "c.toml"))
+    pa = {p.params: (p.key, p.seed) for p in a.points}
+    pb = {p.params[:1]: p.seed for p in b.points}
+    assert pa[(("system.r", 0.95),)][1] == point_seed(a.seed, (("system.r", 0.95),))
+    assert pa[(("system.r", 0.95),)][0] == point_key((("system.r", 0.95),))
+    assert pb[(("system.r", 0.95),)] != pa[(("system.r", 0.95),)][1]  # mu is a parameter too
+    assert {p.seed for p in c.points}.isdisjoint({p.seed for p in a.points})
+    assert [p.scene.montecarlo.seed for p in a.points] == [p.seed for p in a.points]
+    again = load_sweep(_write(tmp_path, GOOD.replace("[0.95, 0.97]", "[0.97, 0.95]"), "d.toml"))
+    assert {p.params: (p.key, p.seed) for p in again.points} == pa
+
+
+@pytest.fixture(scope="module")
+def serial_check(tmp_path_factory):
+    out = tmp_path_factory.mktemp("serial")
+    res = run_sweep(load_sweep(CHECK), out, executor="serial", quiet=True, report=False)
+    assert len(res.computed) == 4 and not res.failed
+    return out
+
+
+def test_local_cluster_equals_serial_bit_for_bit(serial_check, tmp_path):
+    """A real LocalCluster on loopback (2 worker processes, 1 numba thread each) against the
+    serial run: every variable identical, NaN for NaN (the check workflow: Monte Carlo with
+    seeds from the parameters)."""
+    res = run_sweep(load_sweep(CHECK), tmp_path, executor="dask:2", quiet=True, report=False)
+    assert len(res.computed) == 4
+    a, b = _values(serial_check / "sweep.nc"), _values(tmp_path / "sweep.nc")
+    assert {"averaging_error_A", "averaging_error_A_err", "L1_floor_A", "mean_A",
+            "mean_A_simulation", "converged", "warn_narrow_band", "warn_sticking",
+            "warn_strong_damping", "warn_strong_noise", "warn_not_converged"} <= set(a)
+    assert a.sizes == {"system.r": 2, "system.mu": 2, "model": 2}
+    assert (a["status"] == "ok").all()
+    a.identical(b) or pytest.fail(f"sweep.nc differ:\n{a}\n{b}")
+
+
+def test_interrupted_sweep_resumes_with_only_the_rest(tmp_path):
+    """Ctrl-C (SIGINT) after two points: exit 130, no sweep.nc; the second run computes only
+    the points without a record and leaves the kept records untouched."""
+    out = tmp_path / "out"
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "NUMBA_NUM_THREADS": "1"}
+    proc = subprocess.Popen([sys.executable, "-m", "harness", "sweep", str(AVERAGING),
+                             "--out", str(out), "--quiet"], env=env, cwd=tmp_path,
+                            stderr=subprocess.PIPE, text=True)
+    t0 = time.monotonic()
+    while len(list((out / "points").glob("*.json"))) < 2 and time.monotonic() - t0 < 120:
+        time.sleep(0.02)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert "run the same command again" in err
+    assert not (out / "sweep.nc").exists()
+    kept = {p.stem: p.stat().st_mtime_ns for p in (out / "points").glob("*.json")}
+    sweep = load_sweep(AVERAGING)
+    assert 2 <= len(kept) < len(sweep.points), "the sweep ended before it was interrupted"
+    res = run_sweep(sweep, out, quiet=True, report=False)
+    assert res.skipped == len(kept)
+    assert sorted(res.computed) == sorted({p.key for p in sweep.points} - set(kept))
+    assert {k: (out / "points" / f"{k}.json").stat().st_mtime_ns for k in kept} == kept
+    assert (_values(out / "sweep.nc")["status"] == "ok").all()
+    again = run_sweep(sweep, out, quiet=True, report=False)
+    assert again.computed == () and again.skipped == len(sweep.points)
+
+
+def test_killed_dask_worker_loses_and_duplicates_no_point(tmp_path):
+    """SIGKILL one of two workers while it runs a point: dask reschedules it; every point is
+    computed and recorded exactly once."""
+    from distributed import Client, LocalCluster
+
+    sweep = load_sweep(AVERAGING)
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                      dashboard_address=None) as cluster, Client(cluster) as client:
+        result = {}
+        th = threading.Thread(target=lambda: result.update(run=run_sweep(
+            sweep, tmp_path, executor=cluster.scheduler_address, quiet=True, report=False)))
+        th.start()
+        killed = None
+        t0 = time.monotonic()
+        while killed is None and time.monotonic() - t0 < 120:
+            busy = [w for w, keys in client.processing().items()
+                    if any(str(k).startswith("vifpk-") for k in keys)]
+            if busy and list((tmp_path / "points").glob("*.json")):
+                pid = client.run(os.getpid, workers=[busy[0]])[busy[0]]
+                os.kill(pid, signal.SIGKILL)
+                killed = busy[0]
+            time.sleep(0.05)
+        th.join(timeout=300)
+    assert killed is not None, "no worker was busy with a point"
+    run = result["run"]
+    keys = [p.key for p in sweep.points]
+    assert sorted(run.computed) == sorted(keys)  # each exactly once
+    assert sorted(p.stem for p in (tmp_path / "points").glob("*.json")) == sorted(keys)
+    assert (_values(tmp_path / "sweep.nc")["status"] == "ok").all()
+
+
+def test_failed_point_is_recorded_and_the_sweep_goes_on(tmp_path, capsys):
+    """f = 0 has no stationary density: that point fails with its message, the other is
+    computed, sweep.nc flags it, and the exit code is 3 (never 0 with a missing value)."""
+    path = _write(tmp_path, 'scene = "tiny"\nworkflow = "averaging"\n[vary]\n'
+                            '"system.f" = [0.0, 1.0]\n')
+    out = tmp_path / "out"
+    assert main(["sweep", str(path), "--out", str(out), "--quiet"]) == 3
+    ds = _values(out / "sweep.nc")
+    assert ds["failed"].values.tolist() == [1, 0]
+    assert "f = 0" in str(ds["message"].values[0])
+    assert ds["mean_A"].isnull().values[0].all() and ds["mean_A"].notnull().values[1].all()
+    assert "1 of 2 points failed" in capsys.readouterr().err
+    page = (out / "report.html").read_text()
+    assert "data:image/png;base64," in page and "src='http" not in page
