@@ -274,7 +274,8 @@ def verdict_class(entry: dict[str, Any], warnings: list[str], *,
         names = [w.split(":")[0] for w in warnings]
         return "not an estimate", "failing averaging assumptions (" + ", ".join(names) + ")"
     l1, floor = e["L1"], e["L1_floor"]
-    disc = entry["discretisation_error"]["A"]["L1"]
+    # a sweep point runs no FPK (cross_check(fpk=False)): no discretisation part then
+    disc = entry["discretisation_error"]["A"]["L1"] if "discretisation_error" in entry else 0.0
     samp = entry["sampling_error"]["A"]
     noise = max(samp["L1"], samp["L1_floor"], floor)
     if l1 < INDISTINGUISHABLE_FACTOR * floor:

@@ -408,7 +408,8 @@ def _check_point(job: Job) -> dict[str, Any]:
         models[m] = {"averaging_error_A": e["L1"], "averaging_error_A_err": e["L1_err"],
                      "L1_floor_A": e["L1_floor"],
                      "mean_A": res.solutions[f"closed:{m}"].info["summary"]["mean"],
-                     "sampling_ok": bool(res.metrics["models"][m]["sampling_ok"])}
+                     "sampling_ok": bool(res.metrics["models"][m]["sampling_ok"]),
+                     "verdict_class": str(res.metrics["models"][m].get("verdict_class", ""))}
     mean = mc.info["moments"]["A"]["mean"]
     converged = conv.get("equilibrated") is not False and all(
         v["sampling_ok"] for v in models.values())
@@ -762,6 +763,8 @@ def dataset(sweep: Sweep, records: Mapping[str, dict[str, Any]], *,
             for k, v in vals.items():
                 if isinstance(v, bool):
                     put(k, int(v), pt, m, dtype=np.int8, fill=-1)
+                elif isinstance(v, str):
+                    put(k, v, pt, m, dtype=object, fill="")
                 else:
                     put(k, v, pt, m)
         for k in ("mean_A_simulation", "mean_A_simulation_err", "L1_paper_exact_A",
@@ -787,6 +790,9 @@ def dataset(sweep: Sweep, records: Mapping[str, dict[str, Any]], *,
         data["mc_check_value"] = (dims + ["check"], vals)
         data["mc_check_crater"] = (dims + ["check"], crater)
         data["mc_check_agrees"] = (dims + ["check", "model"], agrees)
+    for k, (d, arr) in list(data.items()):
+        if arr.dtype == object:
+            data[k] = (d, arr.astype(str))
     data["failed"] = (dims, (status == "failed").astype(np.int8))
     data["status"] = (dims, status.astype(str))
     data["message"] = (dims, message.astype(str))

@@ -22,7 +22,8 @@ from typing import Any
 
 import numpy as np
 
-WITHIN_NOISE = 2.0  # averaging_error_A < 2 L1_floor_A: indistinguishable (check.verdict)
+from .check import INDISTINGUISHABLE_FACTOR as WITHIN_NOISE  # the check's "indistinguishable"
+
 FLAG_VARS = ("warn_narrow_band", "warn_sticking", "warn_strong_damping", "warn_strong_noise",
              "warn_not_converged")
 
