@@ -619,12 +619,16 @@ def load_record(path: Path) -> dict[str, Any] | None:
 
 
 def finished(sweep: Sweep, out: Path) -> dict[str, dict[str, Any]]:
-    """Records of this sweep's points already on disk (matching fingerprints), by key."""
+    """Records of this sweep's points already on disk (matching fingerprints), by key.
+
+    A numerical failure is a result (the same point fails the same way again) and counts as
+    finished; a point that failed with any other error (a bug, a missing library) is retried.
+    """
     done = {}
     for pt in sweep.points:
         rec = load_record(out / "points" / f"{pt.key}.json")
-        if rec and rec.get("fingerprint") == pt.fingerprint and rec.get("status") in (
-                "ok", "failed"):
+        if rec and rec.get("fingerprint") == pt.fingerprint and (
+                rec.get("status") == "ok" or rec.get("failure") == "numerical"):
             done[pt.key] = rec
     return done
 

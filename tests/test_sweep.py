@@ -210,5 +210,7 @@ def test_failed_point_is_recorded_and_the_sweep_goes_on(tmp_path, capsys):
     assert "f = 0" in str(ds["message"].values[0])
     assert ds["mean_A"].isnull().values[0].all() and ds["mean_A"].notnull().values[1].all()
     assert "1 of 2 points failed" in capsys.readouterr().err
+    again = run_sweep(load_sweep(path), out, quiet=True, report=False)
+    assert again.computed == () and len(again.failed) == 1  # a numerical failure is a result
     page = (out / "report.html").read_text()
     assert "data:image/png;base64," in page and "src='http" not in page
