@@ -771,10 +771,11 @@ def dataset(sweep: Sweep, records: Mapping[str, dict[str, Any]], *,
                     put(k, v, pt, m, dtype=object, fill="")
                 else:
                     put(k, v, pt, m)
-        for k in ("mean_A_simulation", "mean_A_simulation_err", "L1_paper_exact_A",
-                  "extensions"):
+        for k in ("mean_A_simulation", "mean_A_simulation_err", "L1_paper_exact_A"):
             if k in res:
                 put(k, res[k], pt)
+        if "extensions" in res:
+            put("extensions", res["extensions"], pt, dtype=np.int16, fill=-1)
         if "converged" in res:
             put("converged", int(res["converged"]), pt, dtype=np.int8, fill=-1)
         for k, v in res.get("flags", {}).items():

@@ -80,17 +80,22 @@ def _map_figure(ds: Any, var: str, title: str, *, contour: bool) -> str:
     failed = np.asarray(ds["failed"].transpose(py, px).values) == 1
     xe, ye = _edges(x), _edges(y)
     mesh = None
+    # one scale for every model; logarithmic when the values span more than a decade (the
+    # paper and the exact model differ by about that much at the base scene)
+    from matplotlib.colors import LogNorm, Normalize
+
+    norm = LogNorm(vmin, vmax) if vmin > 0 and vmax > 10 * vmin else Normalize(vmin, vmax)
     for ax, m in zip(axes[0], models, strict=True):
         z = vals[..., models.index(m)] if m is not None else vals
-        mesh = ax.pcolormesh(xe, ye, np.ma.masked_invalid(z), vmin=vmin, vmax=vmax,
-                             cmap="viridis", shading="flat")
+        mesh = ax.pcolormesh(xe, ye, np.ma.masked_invalid(z), norm=norm, cmap="viridis",
+                             shading="flat")
         if contour and "L1_floor_A" in ds and min(x.size, y.size) >= 2:
             fl = np.asarray(ds["L1_floor_A"].sel(model=m).transpose(py, px).values, float)
             ratio = z / fl
             if np.isfinite(ratio).any() and np.nanmin(ratio) < WITHIN_NOISE < np.nanmax(ratio):
                 cs = ax.contour(x, y, ratio, levels=[WITHIN_NOISE], colors="white",
                                 linewidths=2)
-                ax.clabel(cs, fmt={WITHIN_NOISE: "2 x floor"}, fontsize=8)
+                ax.clabel(cs, fmt={WITHIN_NOISE: f"{WITHIN_NOISE:g} x floor"}, fontsize=8)
             inside = ratio < WITHIN_NOISE
             gx, gy = np.meshgrid(x, y)
             ax.plot(gx[inside], gy[inside], "o", mfc="none", mec="white", ms=5, ls="none")
