@@ -140,8 +140,8 @@ def test_local_cluster_equals_serial_bit_for_bit(serial_check, tmp_path):
 
 
 def test_interrupted_sweep_resumes_with_only_the_rest(tmp_path):
-    """Ctrl-C (SIGINT) after two points: exit 130, no sweep.nc; the second run computes only
-    the points without a record and leaves the kept records untouched."""
+    """Ctrl-C (SIGINT) after two points: exit 130, no sweep.nc; the second run (on a process
+    pool) computes only the points without a record and leaves the kept records untouched."""
     out = tmp_path / "out"
     env = {**os.environ, "PYTHONPATH": str(ROOT), "NUMBA_NUM_THREADS": "1"}
     proc = subprocess.Popen([sys.executable, "-m", "harness", "sweep", str(AVERAGING),
@@ -158,7 +158,7 @@ def test_interrupted_sweep_resumes_with_only_the_rest(tmp_path):
     kept = {p.stem: p.stat().st_mtime_ns for p in (out / "points").glob("*.json")}
     sweep = load_sweep(AVERAGING)
     assert 2 <= len(kept) < len(sweep.points), "the sweep ended before it was interrupted"
-    res = run_sweep(sweep, out, quiet=True, report=False)
+    res = run_sweep(sweep, out, executor="processes:2", quiet=True, report=False)
     assert res.skipped == len(kept)
     assert sorted(res.computed) == sorted({p.key for p in sweep.points} - set(kept))
     assert {k: (out / "points" / f"{k}.json").stat().st_mtime_ns for k in kept} == kept
