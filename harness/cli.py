@@ -396,7 +396,8 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("--executor", default="serial", metavar="E",
                     help="serial | processes:N | dask:N | tcp://HOST:PORT (default serial)")
     sw.add_argument("--out", metavar="DIR", help="output directory (default out/<sweep name>)")
-    sw.add_argument("--quiet", action="store_true")
+    sw.add_argument("--quiet", action="store_true",
+                    help="no progress lines on the terminal (default: one line a point)")
     sw.set_defaults(func=cmd_sweep)
     return p
 
