@@ -13,6 +13,7 @@ from pathlib import Path
 
 import pytest
 
+from harness.check import MODELS
 from harness.cli import main
 from harness.sweep import load_sweep, point_key, point_seed, run_sweep
 
@@ -134,7 +135,7 @@ def test_local_cluster_equals_serial_bit_for_bit(serial_check, tmp_path):
     assert {"averaging_error_A", "averaging_error_A_err", "L1_floor_A", "mean_A",
             "mean_A_simulation", "converged", "warn_narrow_band", "warn_sticking",
             "warn_strong_damping", "warn_strong_noise", "warn_not_converged"} <= set(a)
-    assert a.sizes == {"system.r": 2, "system.mu": 2, "model": 2}
+    assert a.sizes == {"system.r": 2, "system.mu": 2, "model": len(MODELS)}
     assert (a["status"] == "ok").all()
     a.identical(b) or pytest.fail(f"sweep.nc differ:\n{a}\n{b}")
 

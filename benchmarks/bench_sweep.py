@@ -1,0 +1,157 @@
+"""What a sweep point costs, and what the executors add: points per minute with ``serial``,
+``processes:2`` and ``dask:2`` on one small check sweep of the paper's base scene, the dask
+overhead per point, and the extrapolated cost of a 40 x 40 map at floor 0.01.
+
+    python benchmarks/bench_sweep.py [--floor F] [--quick]   # writes benchmarks/results/sweep.json
+
+1. The same sweep (paper-base, workflow "check", 3 x 2 points in (r, mu), target floor F,
+   dt "auto") on each executor, from a cold start of the executor (pool or cluster start-up
+   included, numba's on-disk cache warm), into a fresh directory: wall seconds, points per
+   minute, and the overhead per point = (wall x workers - sum of the points' own seconds) /
+   points (start-up, scheduling, serialisation and the idle tail). The three sweep.nc must be
+   identical (checked).
+2. dask's own overhead per point: 200 no-op tasks through the same submit / as_completed path
+   on a LocalCluster of 2 workers (round trip per task), and the cluster's start-up time.
+3. The cost of one point at floor 0.01 (two points of scenes/sweeps/r-mu.toml, serially), and
+   the 40 x 40 map extrapolated from it: 1600 x seconds per point / workers.
+
+The machine is shared (the load average is recorded): the numbers are upper bounds.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import shutil
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+os.environ["PYTHONPATH"] = os.pathsep.join(  # worker processes import this checkout
+    [str(ROOT), *filter(None, [os.environ.get("PYTHONPATH")])])
+
+from harness.sweep import (  # noqa: E402
+    Runner,
+    load_sweep,
+    parse_executor,
+    run_sweep,
+)
+
+SWEEP = """scene = "paper-base"
+workflow = "check"
+seed = 1
+[vary]
+"system.r" = [0.95, 0.97, 0.99]
+"system.mu" = [0.0, 0.002]
+[set]
+"montecarlo.floor" = {floor}
+"montecarlo.dt" = "auto"
+"""
+
+
+def _noop(x: int) -> int:
+    return x
+
+
+def executor_rows(floor: float, work: Path) -> dict:
+    path = work / "bench.toml"
+    path.write_text(SWEEP.format(floor=floor))
+    sweep = load_sweep(path)
+    rows = {}
+    data = {}
+    for ex in ("serial", "processes:2", "dask:2"):
+        out = work / ex.replace(":", "-")
+        shutil.rmtree(out, ignore_errors=True)
+        t0 = time.perf_counter()
+        res = run_sweep(sweep, out, executor=ex, quiet=False, report=False)
+        wall = time.perf_counter() - t0
+        recs = [json.loads((out / "points" / f"{k}.json").read_text()) for k in res.computed]
+        own = sum(r["seconds"] for r in recs)
+        workers = 1 if ex == "serial" else 2
+        n = len(res.computed)
+        rows[ex] = {"points": n, "wall_seconds": wall, "points_per_minute": 60 * n / wall,
+                    "point_seconds_mean": own / n,
+                    "overhead_per_point_seconds": (wall * workers - own) / n}
+        import xarray as xr
+
+        with xr.open_dataset(out / "sweep.nc") as ds:
+            ds.load()
+            ds.attrs = {}
+            data[ex] = ds
+        print(ex, rows[ex], file=sys.stderr, flush=True)
+    rows["identical_sweep_nc"] = all(data["serial"].identical(d) for d in data.values())
+    ref = data["serial"]
+    rows["differing_variables"] = {ex: sorted(k for k in ref.data_vars
+                                              if not ref[k].identical(d[k]))
+                                   for ex, d in data.items() if ex != "serial"}
+    return rows
+
+
+def dask_overhead(tasks: int = 200) -> dict:
+    from distributed import as_completed
+
+    t0 = time.perf_counter()
+    runner = Runner(parse_executor("dask:2"))
+    start = time.perf_counter() - t0
+    try:
+        client = runner.client
+        list(as_completed([client.submit(_noop, i, pure=False) for i in range(10)]))  # warm
+        t1 = time.perf_counter()
+        futs = [client.submit(_noop, i, pure=False) for i in range(tasks)]
+        for f in as_completed(futs):
+            f.result()
+        per = (time.perf_counter() - t1) / tasks
+    finally:
+        runner.close()
+    return {"cluster_start_seconds": start, "round_trip_per_task_seconds": per,
+            "tasks": tasks}
+
+
+def floor_point_cost(work: Path, points: int) -> dict:
+    sweep = load_sweep(ROOT / "scenes" / "sweeps" / "r-mu.toml")
+    pick = [sweep.points[i] for i in (6, 18)][:points]  # interior points of the 5 x 5 grid
+    from dataclasses import replace
+
+    sub = replace(sweep, points=tuple(pick))
+    out = work / "floor001"
+    t0 = time.perf_counter()
+    run_sweep(sub, out, executor="serial", quiet=False, report=False)
+    wall = time.perf_counter() - t0
+    recs = [json.loads((out / "points" / f"{p.key}.json").read_text()) for p in pick]
+    per = sum(r["seconds"] for r in recs) / len(recs)
+    return {"points": [dict(p.params) for p in pick], "wall_seconds": wall,
+            "seconds_per_point": per,
+            "map_40x40_hours": {f"{w} workers": 1600 * per / w / 3600
+                                for w in (1, 2, 8, 32, 128)}}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--floor", type=float, default=0.03,
+                    help="target floor of the executor comparison (default 0.03)")
+    ap.add_argument("--quick", action="store_true", help="skip the floor-0.01 point cost")
+    args = ap.parse_args()
+    work = Path(tempfile.mkdtemp(prefix="vifpk-bench-sweep-"))
+    load0 = os.getloadavg()
+    res = {"machine": {"cpus": os.cpu_count(), "python": platform.python_version(),
+                       "load_average_start": load0,
+                       "note": "2 cores shared with other jobs: upper bounds"},
+           "floor": args.floor,
+           "executors": executor_rows(args.floor, work),
+           "dask": dask_overhead()}
+    if not args.quick:
+        res["floor_0.01"] = floor_point_cost(work, 2)
+    res["machine"]["load_average_end"] = os.getloadavg()
+    out = ROOT / "benchmarks" / "results" / "sweep.json"
+    out.write_text(json.dumps(res, indent=1) + "\n")
+    print(json.dumps(res, indent=1))
+    shutil.rmtree(work, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    main()
