@@ -205,22 +205,24 @@ def _values(where: str, spec: Any) -> tuple[float, ...]:
     return vals
 
 
-def _resolve_scene(name: Any, sweep_path: Path) -> Scene:
+def _resolve_scene(name: Any, sweep_path: Any) -> Scene:
     if not isinstance(name, str) or not name:
         raise SweepError(f"{sweep_path.name}: scene must be a shipped scene name or a path")
-    for rel in (sweep_path.parent / name, sweep_path.parent / f"{name}.toml"):
-        if rel.is_file():
-            return load_scene(rel)
+    if isinstance(sweep_path, Path):  # a sweep file on disk: paths relative to it
+        for rel in (sweep_path.parent / name, sweep_path.parent / f"{name}.toml"):
+            if rel.is_file():
+                return load_scene(rel)
     return load_scene(name)
 
 
 def load_sweep(path: str | Path) -> Sweep:
     """Read and validate a sweep file, building every point's scene (SweepError on any
     problem, one line naming the key)."""
-    p = Path(path)
-    if not p.is_file():
-        shipped = Path(__file__).resolve().parent.parent / "scenes" / "sweeps"
-        cand = shipped / (p.name if p.suffix else f"{p}.toml")
+    from .scene import shipped_scenes
+
+    p: Any = Path(path)
+    if not p.is_file():  # a shipped sweep by name: scenes/sweeps/NAME.toml (package data)
+        cand = shipped_scenes() / "sweeps" / (p.name if p.suffix else f"{p}.toml")
         if not cand.is_file():
             raise SweepError(f"{path}: no such sweep file")
         p = cand
@@ -257,7 +259,7 @@ def load_sweep(path: str | Path) -> Sweep:
     seed = raw.get("seed", base.montecarlo.seed)
     if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
         raise SweepError(f"{src}: seed = {seed!r}: must be a whole number >= 0")
-    name = raw.get("name", p.stem)
+    name = raw.get("name", Path(p.name).stem)
     description = raw.get("description", "")
     if not isinstance(name, str) or not name or not isinstance(description, str):
         raise SweepError(f"{src}: name and description must be strings")
