@@ -49,4 +49,27 @@ def vary(scene: Scene, **kw: float | str | bool) -> Scene:
     return replace(scene, **parts)
 
 
+def phase_mass_gap(scene: Scene, result, model: str) -> float:
+    """Largest relative gap between the phase-space masses an averaged solution had BEFORE its
+    normalisation and their exact value.
+
+    The phase densities are p(y, y') = p_A / (g T_model) (paper eq. 15-16). The orbit of
+    amplitude A fills dy dy' = dE dt = g dA dt over its true period T, so their mass is
+    int p_A T / T_model dA, computed here with the independent period quadrature of
+    averaging.geometry (1 for the exact model; for the paper model T_model = 2 pi / b0). A
+    wrong fold, Jacobian or period in the mapping shows up here; after normalisation it would
+    not.
+    """
+    from averaging import build_model
+    from averaging.geometry import period
+
+    s = scene.system
+    A, p = np.asarray(result.data["A"]["x"]), np.asarray(result.data["A"]["p"])
+    Ai = np.maximum(A, 1e-12)  # T and T_model are regular at A = 0
+    ratio = period(Ai, s.omega0, s.alpha) / build_model(scene, model).period(Ai)
+    expect = float(np.trapezoid(p * ratio, A))
+    raw = result.info["diagnostics"]["phase_mass_before_normalisation"]
+    return max(abs(raw[k] / expect - 1.0) for k in ("x1", "x2", "joint"))
+
+
 pytest_plugins = ["pytester"]

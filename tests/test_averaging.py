@@ -20,7 +20,7 @@ from averaging.exact import ExactModel
 from averaging.geometry import nu_exact, period, potential, restoring, w1_eta
 from averaging.paper import PaperModel
 
-from .conftest import vary
+from .conftest import phase_mass_gap, vary
 
 A_TEST = np.array([0.1, 0.7, 1.5, 3.0])
 
@@ -253,17 +253,23 @@ def test_gibbs_density_for_linear_damping_white_noise(base):
 
 # ----------------------------------------------------------------------------- densities
 @pytest.mark.parametrize("model", ["paper", "exact"])
-def test_densities_normalised_positive_and_hold_the_mass(base, model):
+def test_phase_space_mass_before_normalisation_and_p_A_at_the_origin(base, model):
+    """The densities are normalised by the code, so their mass says nothing; the mass the
+    phase mapping produced before that does (conftest.phase_mass_gap: it must equal
+    int p_A T / T_model dA, which is 1.000284 for the paper model here, 1 for the exact one)."""
     r = solve(base, model=model)
     for key in ("A", "E", "x1", "x2"):
         d = r.data[key]
         assert np.all(np.isfinite(d["p"])) and np.min(d["p"]) >= 0
-        assert np.trapezoid(d["p"], d["x"]) == pytest.approx(1.0, abs=1e-10)
-    j = r.data["joint"]
-    mass = np.trapezoid(np.trapezoid(j["p"], j["x2"], axis=1), j["x1"])
-    assert mass == pytest.approx(1.0, abs=1e-10)
+    # measured 1.6e-6 (paper), 2.3e-6 (exact): the trapezoid error of the 201-point phase grid
+    # (falls 4x a doubling); 1e-5 is 4x that, 30x below the paper model's period effect
+    assert phase_mass_gap(base, r, model) < 1e-5
     assert r.info["diagnostics"]["tail_mass"] < 1e-8
-    assert r.data["A"]["p"][0] == 0.0  # p(A) ~ A at the origin
+    # p_A = C T g exp(int_0^A q) = C (2 pi / w0) w0^2 A (1 + O(A)): p(A)/A tends to a finite,
+    # non-zero limit. Over the first three nodes (A < 0.006) it varies by 0.24% (paper) and
+    # 0.41% (exact), the O(q(0) A) term; p ~ const or p ~ A^2 would vary by O(1)
+    A, p = r.data["A"]["x"][1:4], r.data["A"]["p"][1:4]
+    assert np.ptp(p / A) < 0.01 * (p[0] / A[0])
 
 
 @pytest.mark.parametrize("model", ["paper", "exact"])
@@ -277,8 +283,10 @@ def test_joint_integrates_to_marginals(base, model):
         px1 = np.trapezoid(j["p"], j["x2"], axis=1)
         gaps.append(np.trapezoid(np.abs(px1 - r.data["x1"]["p"]), j["x1"]))
     assert gaps[1] < 2e-6
+    # declared: third order (the trapezoid over x2 of a joint with a sqrt edge at the support's
+    # border); measured 2.956, 2.975 (and 2.988 at 801 points: the next term is O(h^4))
     order = math.log2(gaps[0] / gaps[1]), math.log2(gaps[1] / gaps[2])
-    assert min(order) > 2.0, gaps
+    assert order == pytest.approx((3.0, 3.0), abs=0.1), gaps
 
 
 @pytest.mark.parametrize("model", ["paper", "exact"])
@@ -297,13 +305,20 @@ def test_p_A_and_p_E_agree_under_change_of_variables(base, model):
 @pytest.mark.parametrize("params", [dict(D=1e-5), dict(D=1e-5, c1=0.1), dict(D=1.0),
                                     dict(alpha1=50.0), dict(alpha=10.0), dict(r=1.0),
                                     dict(mu=0.1), dict(kind="white"), dict(barrier=False)])
-def test_hard_scenes_finite_and_normalised(base, model, params):
-    r = solve(vary(base, **params), model=model)
-    assert r.info["status"]["ok"]
+def test_hard_scenes_finite_and_phase_mass_right(base, model, params):
+    sc = vary(base, **params)
+    if params == dict(D=1e-5, c1=0.1):
+        # a ring of width ~0.012 around the limit cycle A = 2.18: the default 201-point phase
+        # grid (spacing 0.011) does not resolve it, and the marginals are off by up to 13%
+        # before normalisation (measured; 1.5e-13 at 3201 points). Resolve it here.
+        sc = vary(sc, phase_points=3201)
+    r = solve(sc, model=model)
     for key in ("A", "x1", "x2"):
         d = r.data[key]
         assert np.all(np.isfinite(d["p"])) and np.min(d["p"]) >= 0
-        assert np.trapezoid(d["p"], d["x"]) == pytest.approx(1.0, abs=1e-10)
+    # measured at most 4.3e-4 (D = 1e-5, alpha1 = 50, mu = 0.1: narrow densities on the
+    # 201-point phase grid); the paper model's period effect is up to 3.7e-3 (D = 1)
+    assert phase_mass_gap(sc, r, model) < 1e-3
     assert r.info["diagnostics"]["tail_mass"] < 1e-8
 
 
