@@ -4,9 +4,9 @@ Generic in the drift m(A) and diffusion sigma^2(A); imports no other vifpk packa
 ``stationary(m, sigma2, ...)`` and ``transient(...)`` return ``Result(data, info)``.
 """
 
-from .scheme import ORDER, Discretisation, discretise
+from .scheme import ORDER, CoefficientError, Discretisation, discretise
 from .solve import Result, choose_domain, stationary, transient
 from .stepper import STEPPERS, FPKFailure
 
-__all__ = ["ORDER", "STEPPERS", "Discretisation", "FPKFailure", "Result", "choose_domain",
-           "discretise", "stationary", "transient"]
+__all__ = ["ORDER", "STEPPERS", "CoefficientError", "Discretisation", "FPKFailure", "Result",
+           "choose_domain", "discretise", "stationary", "transient"]

@@ -100,6 +100,11 @@ class Discretisation:
         return math.inf if lam >= 0 else 1.0 / abs(lam)
 
 
+class CoefficientError(ArithmeticError):
+    """m or sigma^2 not finite (or sigma^2 not positive) on the grid: a numerical failure of
+    the coefficients, not a bad argument (stepper.FPKFailure is raised for it)."""
+
+
 def discretise(drift: Callable[[Array], Array], diffusion: Callable[[Array], Array], *,
                lo: float, hi: float, cells: int) -> Discretisation:
     """Build the SG operator for m = drift(A), sigma^2 = diffusion(A) on [lo, hi]."""
@@ -114,7 +119,7 @@ def discretise(drift: Callable[[Array], Array], diffusion: Callable[[Array], Arr
     v = 2.0 * np.asarray(drift(nodes), dtype=float) / np.asarray(diffusion(nodes), dtype=float)
     b = 0.5 * h * (v.reshape(-1, 3) @ gw)
     if not (np.all(np.isfinite(D)) and np.all(D > 0) and np.all(np.isfinite(b))):
-        raise ValueError("drift or diffusion is not finite and positive on the grid")
+        raise CoefficientError("drift or diffusion is not finite and positive on the grid")
     Bm, Bp = bernoulli(-b), bernoulli(b)
     # dp_i/dt = -(J_{i+1/2} - J_{i-1/2}) / h
     s = 1.0 / h**2

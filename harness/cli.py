@@ -8,10 +8,12 @@ file); 3 the solver could not produce a result (one line saying why); 130 interr
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from collections.abc import Sequence
 from typing import Any
 
+from . import validate
 from .run import SOLVERS, SolverFailure, run_solver, solution_record
 from .scene import Scene, SceneError, load_scene
 
@@ -48,6 +50,7 @@ def concrete_scene(path: str, overrides: Sequence[str]) -> Scene:
 
     from .provenance import overridden_name
 
+    validate.duplicate_overrides(overrides)
     scene = load_scene(path)
     if overrides:
         scene = scene.with_values(dict(_parse_override(o) for o in overrides))
@@ -132,22 +135,68 @@ def _provenance(args: argparse.Namespace) -> dict[str, Any]:
                               overrides=getattr(args, "set", []))
 
 
+def _mc_given(args: argparse.Namespace) -> list[str]:
+    """The Monte Carlo options given on the command line (names without dashes)."""
+    return [k for k in validate.MC_OPTIONS if getattr(args, k, None) is not None]
+
+
+def _checked_scene(args: argparse.Namespace, *, mc: bool) -> Scene:
+    """The concrete scene with the options applied, every check done (validate.py)."""
+    scene = _apply_mc_options(concrete_scene(args.scene, args.set), args)
+    validate.scene_magnitudes(scene)
+    if mc:
+        validate.montecarlo_settings(scene, {k: f"--{k}" for k in _mc_given(args)})
+    return scene
+
+
 def cmd_solve(args: argparse.Namespace) -> int:
     from .io import write_json
 
-    scene = _apply_mc_options(concrete_scene(args.scene, args.set), args)
+    if args.solver == "montecarlo":
+        validate.refuse_options([k for k in ("grid", "model") if getattr(args, k) is not None],
+                                "to --solver montecarlo (it simulates the original system)")
+    else:
+        validate.refuse_options(_mc_given(args), f"to --solver {args.solver} (Monte Carlo "
+                                "options apply to --solver montecarlo)")
+        if args.solver == "averaging" and args.grid is not None:
+            validate.refuse_options(["grid"], "to --solver averaging (its grid is "
+                                    "averaging.points; --grid sets the FPK's cells)")
+    if args.joint and not args.json:
+        validate.refuse_options(["joint"], "without --json (the summary has no joint density)")
+    if args.grid is not None and args.grid < 4:
+        raise validate.InputError(f"--grid {args.grid}: out of range; allowed: a whole number "
+                                  ">= 4 (cells of the FPK)")
+    validate.output_file(args.json, "--json")
+    scene = _checked_scene(args, mc=args.solver == "montecarlo")
+    model = args.model or "paper"
+    if args.solver == "montecarlo" and args.joint and not scene.observables.joint:
+        scene = scene.with_values({"observables.joint": True})
+    validate.refuse_costly(validate.solve_seconds(scene, args.solver, model, args.grid),
+                           "this solve", args.yes)
     if args.solver == "montecarlo":
         result = run_solver(scene, "montecarlo")
     else:
-        result = run_solver(scene, args.solver, model=args.model, grid=args.grid)
+        result = run_solver(scene, args.solver, model=model, grid=args.grid)
+    _finite_or_fail(result, scene)
     if args.json:
-        model = None if args.solver == "montecarlo" else args.model
+        model = None if args.solver == "montecarlo" else model
         write_json(args.json, solution_record(scene, args.solver, model, result,
                                               joint=args.joint, provenance=_provenance(args)))
         print(f"wrote {args.json}", file=sys.stderr)
     else:
         print(_summary(result))
     return 0 if result.info["status"]["ok"] else EXIT_SOLVER
+
+
+def _finite_or_fail(result: Any, scene: Scene) -> None:
+    """Never exit 0 with NaN: every density of a result must be finite."""
+    import numpy as np
+
+    for key, d in result.data.items():
+        p = d.get("p") if isinstance(d, dict) else None
+        if p is not None and not np.all(np.isfinite(np.asarray(p, dtype=float))):
+            raise SolverFailure(f"the density of {key} is not finite: the solver failed "
+                                f"numerically; likely cause: {validate.most_extreme(scene)}")
 
 
 def _mc_overrides(args: argparse.Namespace) -> dict[str, Any]:
@@ -168,12 +217,16 @@ def cmd_check(args: argparse.Namespace) -> int:
     from .provenance import folder_name
     from .report import REPORT_FILES, write_report
 
-    scene = _apply_mc_options(concrete_scene(args.scene, args.set), args)
+    validate.output_folder(args.out, "--out")
+    scene = _checked_scene(args, mc=True)
     if scene.system.f == 0.0:
         raise SolverFailure("f = 0: there is no noise, so no stationary density exists; "
                             "nothing to cross-check")
-    prov = _provenance(args)
     out = args.out or f"out/{folder_name(scene.name)}"
+    if args.out is None:
+        validate.output_folder(out, "--out (default)")
+    validate.refuse_costly(validate.check_seconds(scene), "this check", args.yes)
+    prov = _provenance(args)
     # hold the folder from the start: a second run into it is refused before any work
     with outdir.hold(out, run_id=prov["run_id"], allowed=REPORT_FILES):
         result = cross_check(scene, quiet=args.quiet)
@@ -187,11 +240,20 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 
 def cmd_bifurcation(args: argparse.Namespace) -> int:
-    from .bifurcation import bifurcation
+    from .bifurcation import VARIABLES, bifurcation
     from .io import write_json
 
-    scene = _apply_mc_options(concrete_scene(args.scene, args.set), args)
+    if args.no_mc:
+        validate.refuse_options(_mc_given(args), "with --no-mc (no Monte Carlo is run)")
+    validate.output_file(args.json, "--json")
+    scene = _checked_scene(args, mc=not args.no_mc)
     lo, hi = args.range if args.range else (None, None)
+    section, key, (d_lo, d_hi) = VARIABLES[args.vary]
+    validate.search_range(args.vary, d_lo if lo is None else lo, d_hi if hi is None else hi,
+                          validate.fields_of(section)[key])
+    if not args.no_mc:
+        validate.refuse_costly(4 * validate.montecarlo_seconds(scene), "this bifurcation "
+                               "search (Monte Carlo at up to 4 points)", args.yes)
     if not args.quiet:
         print(f"searching the critical {args.vary} (shape criterion on each averaged model)"
               + ("; then Monte Carlo on both sides" if not args.no_mc else "") + " ...",
@@ -220,9 +282,19 @@ def cmd_bifurcation(args: argparse.Namespace) -> int:
 
 def cmd_figures(args: argparse.Namespace) -> int:
     from . import outdir
-    from .figures import draw_figures, render_table
+    from .figures import FIGURES, ROOT, draw_figures, render_table
 
+    validate.output_folder(args.out, "--out")
     overrides = _mc_overrides(args)
+    options = {k: f"--{k}" for k in _mc_given(args)}
+    seconds = 0.0
+    for no in args.figure or (2, 3, 4, 5, 6):
+        sweep = load_scene(ROOT / "scenes" / f"{FIGURES[no]}.toml")
+        for scene in (sweep.with_values(overrides) if overrides else sweep).variants():
+            validate.scene_magnitudes(scene)
+            validate.montecarlo_settings(scene, options)
+            seconds += validate.montecarlo_seconds(scene)
+    validate.refuse_costly(seconds, "these figures", args.yes)
     prov = _provenance(args)
     # figures are replaced one by one (--figure redraws some of them), each atomically; the
     # lock keeps two runs from interleaving in one folder
@@ -242,8 +314,23 @@ def cmd_workprecision(args: argparse.Namespace) -> int:
     from .provenance import folder_name
     from .workprecision import log_stderr, plot, run_workprecision, table_markdown
 
-    scene = _apply_mc_options(concrete_scene(args.scene, args.set), args)
+    validate.refuse_options([k for k in ("paths", "time", "floor", "budget")
+                             if getattr(args, k) is not None],
+                            "to workprecision (its ladders set the paths and the time)")
+    if args.dt == "auto":
+        raise validate.InputError("--dt auto: does not apply to workprecision (it times a "
+                                  "ladder of fixed steps); give a number")
+    validate.at_least("--repeats", args.repeats, 1)
+    validate.output_folder(args.out, "--out")
+    scene = _checked_scene(args, mc=True)
+    if scene.montecarlo.dt == "auto":
+        raise validate.InputError("montecarlo.dt = 'auto': workprecision times a ladder of "
+                                  "fixed steps; give a number with --dt")
     out = Path(args.out or f"out/{folder_name(scene.name)}-workprecision")
+    if args.out is None:
+        validate.output_folder(str(out), "--out (default)")
+    validate.refuse_costly(validate.workprecision_seconds(scene, args.quick),
+                           "this work-precision run", args.yes)
     prov = _provenance(args)
     files = ("workprecision.png", "workprecision.md", "workprecision.json")
     # the folder is held from the start and written as a unit, like a check report
@@ -288,15 +375,16 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
 
 def _add_mc_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--paths", type=int, metavar="N",
-                   help="Monte Carlo: number of paths (default: the scene's montecarlo.paths)")
+    p.add_argument("--paths", type=_whole_number, metavar="N",
+                   help="Monte Carlo: number of paths, a whole multiple of montecarlo.blocks "
+                        "(default: the scene's montecarlo.paths)")
     p.add_argument("--dt", type=_dt_value, metavar="H|auto",
                    help='Monte Carlo: time step, or "auto" (the largest with bias below half '
                         "the target floor) (default: the scene's montecarlo.dt)")
     p.add_argument("--time", type=float, metavar="T",
                    help="Monte Carlo: simulated time sampled per path after the burn-in "
                         "(default: the scene's montecarlo.time)")
-    p.add_argument("--seed", type=int, metavar="S",
+    p.add_argument("--seed", type=_whole_number, metavar="S",
                    help="Monte Carlo: root seed (default: the scene's montecarlo.seed)")
     p.add_argument("--floor", type=float, metavar="F",
                    help="Monte Carlo: simulate until the L1 noise floor of p(A) is at most F "
@@ -304,6 +392,23 @@ def _add_mc_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--budget", type=float, metavar="SECONDS",
                    help="Monte Carlo: wall seconds allowed to reach the floor, 0: no limit "
                         "(default: the scene's montecarlo.budget, 600 unless set)")
+    p.add_argument("--yes", action="store_true",
+                   help="run even when the estimated cost exceeds an hour (default: off)")
+
+
+def _whole_number(text: str) -> int:
+    """An option's whole number; "1e6" is accepted when it is whole (ranges: validate.py)."""
+    try:
+        return int(text)
+    except ValueError:
+        pass
+    try:
+        v = float(text)
+    except ValueError:
+        v = math.nan
+    if not (math.isfinite(v) and v == int(v)):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number")
+    return int(v)
 
 
 def _dt_value(text: str) -> float | str:
@@ -327,14 +432,14 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--solver", choices=SOLVERS, default="averaging",
                    help="averaging: closed form of an averaged model; fpk: its Fokker-Planck "
                         "equation; montecarlo: the original system (default: %(default)s)")
-    s.add_argument("--model", choices=("paper", "exact", "corrected"), default="paper",
+    s.add_argument("--model", choices=("paper", "exact", "corrected"),
                    help="averaged model for --solver averaging|fpk: the paper's printed one, "
                         "the exact-orbit one, or the exact one with discrete (compounded) "
-                        "impact losses (default: %(default)s)")
+                        "impact losses (default: paper)")
     s.add_argument("--json", metavar="OUT",
                    help="write the solution record to OUT (default: print a summary)")
-    s.add_argument("--grid", type=int, metavar="N",
-                   help="FPK: number of cells (default: 400)")
+    s.add_argument("--grid", type=_whole_number, metavar="N",
+                   help="FPK: number of cells, >= 4 (default: 400)")
     _add_mc_options(s)
     s.add_argument("--joint", action="store_true",
                    help="include the joint PDF in the JSON (default: off)")
@@ -383,8 +488,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "(default: out/<scene>-workprecision)")
     w.add_argument("--quick", action="store_true",
                    help="short ladders, a smoke test (default: the full ladders)")
-    w.add_argument("--repeats", type=int, default=3,
-                   help="timed repeats after the warm-up (default: %(default)s)")
+    w.add_argument("--repeats", type=_whole_number, default=3,
+                   help="timed repeats after the warm-up, >= 1 (default: %(default)s)")
     w.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
                    help=SET_HELP)
     w.add_argument("--quiet", action="store_true", help=QUIET_HELP)
@@ -402,25 +507,106 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+INTERRUPTED = "vifpk: interrupted; nothing was written"
+
+
+def _interrupt_watchdog(grace: float = 1.5) -> None:
+    """Ctrl-C within a second or two, even inside a long C or numba call: the signal's
+    wakeup byte reaches a watcher thread at once; the main thread gets ``grace`` seconds to
+    unwind (KeyboardInterrupt, temporary files removed), then the process exits with 130."""
+    import os
+    import signal
+    import socket
+    import threading
+    import time
+
+    r, w = socket.socketpair()
+    w.setblocking(False)
+    try:
+        signal.set_wakeup_fd(w.fileno(), warn_on_full_buffer=False)
+    except ValueError:  # not the main thread: no watchdog
+        return
+
+    def watch() -> None:
+        while True:
+            data = r.recv(16)
+            if signal.SIGINT in data:
+                time.sleep(grace)
+                if not _ANNOUNCED:
+                    os.write(2, (_fresh_line() + INTERRUPTED + "\n").encode())
+                os._exit(130)
+
+    _WAKEUP.extend((r, w))  # kept open for the life of the process
+    threading.Thread(target=watch, name="vifpk-interrupt", daemon=True).start()
+
+
+_ANNOUNCED = False
+_WAKEUP: list[Any] = []
+
+
+def _fresh_line() -> str:
+    """Start the message on its own line, after a progress bar that may be half-drawn:
+    clear the line on a terminal, else begin a new one."""
+    try:
+        return "\r\033[K" if sys.stderr.isatty() else "\n"
+    except (AttributeError, ValueError):
+        return "\n"
+
+
+def _first_warning(caught: list[Any]) -> str:
+    """' (numpy: overflow encountered in multiply, averaging/paper.py:165)' or ''."""
+    if not caught:
+        return ""
+    w = caught[0]
+    where = "/".join(str(w.filename).split("/")[-2:])
+    return f" (numpy: {w.message}, {where}:{w.lineno})"
+
+
 def main(argv: Sequence[str] | None = None) -> int:
+    """The ``vifpk`` command. Exit codes: 0, 2 bad input, 3 numerical failure, 130 Ctrl-C.
+
+    numpy RuntimeWarnings are caught (never printed): a run that then fails names the first
+    one in its one-line message; a run whose results are finite drops them."""
+    global _ANNOUNCED
+    import warnings
+
     parser = build_parser()
+    from_command_line = argv is None  # the console script: Ctrl-C watchdog (not in-process)
     argv = sys.argv[1:] if argv is None else list(argv)
     if not argv:  # `vifpk` alone: the usage and the commands, exit 2
         parser.print_help(sys.stderr)
         return EXIT_BAD_INPUT
     args = parser.parse_args(argv)
     args.argv = ["vifpk", *(sys.argv[1:] if argv is None else argv)]
+    if from_command_line:
+        _interrupt_watchdog()
+    caught: list[Any] = []
     try:
-        return int(args.func(args))
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", RuntimeWarning)
+            code = int(args.func(args))
+            sys.stdout.flush()  # a closed pipe shows here, not at exit
+            return code
     except SceneError as exc:
         print(f"vifpk: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except SolverFailure as exc:
-        print(f"vifpk: {exc}", file=sys.stderr)
+        print(f"vifpk: {exc}{_first_warning(caught)}", file=sys.stderr)
+        return EXIT_SOLVER
+    except (OverflowError, FloatingPointError, ZeroDivisionError) as exc:
+        print(f"vifpk: numerical failure: {exc}{_first_warning(caught)}; the scene's "
+              "magnitudes or the step are most likely too extreme", file=sys.stderr)
         return EXIT_SOLVER
     except KeyboardInterrupt:
-        print("vifpk: interrupted; no output was written", file=sys.stderr)
+        _ANNOUNCED = True
+        print(_fresh_line() + INTERRUPTED, file=sys.stderr)
         return 130
+    except BrokenPipeError:  # e.g. `vifpk solve ... | head -2`: the reader left
+        import os
+
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 141
 
 
 if __name__ == "__main__":

@@ -37,7 +37,7 @@ def run_solver(scene: Any, solver: str, *, model: str = "paper", grid: int | Non
             return fpk_solution(scene, model=model, cells=grid or 400, **options)
         if solver == "montecarlo":
             return montecarlo_solution(scene, **options)
-    except (averaging.NoStationaryDensity, fpk.FPKFailure) as exc:
+    except (averaging.NoStationaryDensity, fpk.FPKFailure, fpk.CoefficientError) as exc:
         raise SolverFailure(str(exc)) from None
     raise ValueError(f"solver must be one of {SOLVERS}, not {solver!r}")
 
@@ -169,31 +169,32 @@ def montecarlo_solution(scene: Any, *, progress: bool = True, **edges: Any) -> S
     return Solution(data=res.data, info=info)
 
 
-def averaged_sde_solution(scene: Any, model: Any, *, edges: dict[str, Any], seed: int,
-                          phase: bool = False, **settings: Any) -> Any:
-    """Monte Carlo of the averaged amplitude SDE of ``model`` (a name or a model object).
-
-    The run settings (paths, blocks, dt, time, burn_in, sample_every) are the scene's
-    [montecarlo] ones unless given in ``settings`` (e.g. the resolved dt of a run of the
-    original system). ``edges``: ``edges_A`` (and ``edges_x``, ``edges_v`` with ``phase``,
-    which also records x1, x2 from time-uniform points of each sampled orbit).
-    """
-    from montecarlo.averaged_sde import simulate_sde
+def montecarlo_plan(scene: Any) -> dict[str, Any]:
+    """What the Monte Carlo would do with the scene's settings, before running it: the time
+    step (``dt`` or the "auto" one), the sampling interval, the sampled time (whole windows of
+    whole samples: montecarlo.sampling_plan) and the nearest times it samples exactly."""
+    import montecarlo
+    from montecarlo.simulate import _params
 
     mc = scene.montecarlo
-    keys = ("paths", "blocks", "dt", "time", "burn_in", "sample_every")
-    unknown = set(settings) - set(keys)
-    if unknown:
-        raise ValueError(f"unknown averaged-SDE settings {sorted(unknown)}; allowed: {keys}")
-    kw = {k: settings.get(k, getattr(mc, k)) for k in keys}
-    m = averaged_model(scene, model) if isinstance(model, str) else model
-    s = scene.system
-    extra = ({"omega0": s.omega0, "alpha": s.alpha, "barrier": s.barrier,
-              "edges_x": edges["edges_x"], "edges_v": edges["edges_v"]} if phase else None)
-    return simulate_sde(m.drift, m.diffusion, edges=edges["edges_A"], paths=kw["paths"],
-                        blocks=kw["blocks"], dt=kw["dt"], time_=kw["time"],
-                        burn_in=kw["burn_in"], sample_every=kw["sample_every"], seed=seed,
-                        phase=extra)
+    target = float(mc.floor) if mc.floor else 0.0
+    h = montecarlo.step_size(mc.dt, target, _params(scene.system, scene.noise), mc.sample_every)
+    stride, spw, n_win = montecarlo.sampling_plan(mc.time, mc.sample_every, h, target)
+    interval = stride * h
+
+    def sampled(n: int) -> float:
+        s, w, k = montecarlo.sampling_plan(n * interval, mc.sample_every, h, 0.0)
+        return k * w * s * h
+
+    n = max(int(mc.time / interval), 1)
+    exact = sorted({m for m in range(max(n - 40, 1), n + 42) if
+                    abs(sampled(m) - m * interval) <= 1e-9 * m * interval}
+                   | {16 * (n // 16 + 1)} | ({16 * (n // 16)} if n >= 16 else set()))
+    below = [m for m in exact if m * interval <= mc.time]
+    above = [m for m in exact if m * interval > mc.time]
+    nearest = [m * interval for m in (below[-1:] + above[:1])]
+    return {"dt": h, "stride": stride, "sample_interval": interval,
+            "sampled_time": n_win * spw * interval, "nearest_times": nearest}
 
 
 def solution_record(scene: Any, solver: str, model: str | None, result: Any, *,

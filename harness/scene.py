@@ -323,6 +323,8 @@ def load_scene(path: str | Path | Traversable) -> Scene:
     file name of one ("scenes/paper-base.toml" from any directory). Raises
     :class:`SceneError` (one line) on any problem."""
     p: Path | Traversable = path if isinstance(path, Traversable) else Path(path)
+    if p.is_dir():
+        raise SceneError(f"{path}: is a folder; give a scene file (.toml)")
     if not p.is_file():
         shipped = shipped_scenes()
         rel = str(path) if isinstance(path, str | Path) else p.name
@@ -338,7 +340,7 @@ def load_scene(path: str | Path | Traversable) -> Scene:
             raise SceneError(f"{path}: no such scene file")
         p = found[0]
     try:
-        raw = tomllib.loads(p.read_text(encoding="utf-8"))
+        raw = tomllib.loads(p.read_text(encoding="utf-8-sig"))  # a UTF-8 BOM is fine
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(f"{p.name}: not valid TOML: {exc}") from None
     except (OSError, UnicodeDecodeError) as exc:

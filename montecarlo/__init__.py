@@ -9,8 +9,10 @@ from .simulate import (
                        SimulationDiverged,
                        block_seeds,
                        effects,
+                       sampling_plan,
                        simulate,
+                       step_size,
 )
 
 __all__ = ["OBSERVABLES", "Result", "Settings", "SimulationDiverged", "block_seeds", "effects",
-           "simulate"]
+           "sampling_plan", "simulate", "step_size"]

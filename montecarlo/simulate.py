@@ -14,8 +14,9 @@ sum_i sqrt(2/pi) se_i w_i (Gaussian bin errors).
 
 The run: a short pilot sets the histogram ranges and the amplitude scale; with
 ``burn_in = "auto"`` a second pilot measures the relaxation time (tuning.py); the paths start
-over-dispersed; after the burn-in the sampled time is 16 windows of ``time / 16`` (8 when a
-target floor is set, then extended window by window toward the floor, within the budget);
+over-dispersed; after the burn-in the sampled time is 16 to 32 windows of whole samples
+(sampling_plan; 8 windows of time / 16 when a target floor is set, then extended window by
+window toward the floor, within the budget);
 the certificate (certificate.py) reads the per-path window means.
 """
 
@@ -37,7 +38,7 @@ from .tuning import BURN_FACTOR, auto_dt, fit_relaxation
 
 OBSERVABLES = ("A", "x1", "x2", "joint", "moments", "events", "energy")
 NOISE_KINDS = ("ou", "white")
-WINDOWS = 16  # sampled windows of time / 16 (the certificate's draws along each path)
+WINDOWS = 16  # at least 16 sampled windows (the certificate's draws along each path)
 CHUNK_SECONDS = 0.4  # wall time of one kernel call: Ctrl-C is seen between calls
 START_LOW = 0.05  # lowest start amplitude, as a fraction of the pilot's largest
 
@@ -297,6 +298,39 @@ def _floor_A(arr: _Arrays) -> float:
                     np.diff(e))["L1_floor"]
 
 
+def step_size(dt: float | str, target: float, phys: dict[str, Any], sample_every: float
+              ) -> float:
+    """The time step: ``dt``, or for "auto" the largest whole fraction sample_every / k of
+    sample_every not above tuning.auto_dt (so that samples fall on steps exactly)."""
+    if dt != "auto":
+        return float(dt)
+    h = auto_dt(target, phys)
+    return sample_every / math.ceil(sample_every / h * (1 - 1e-12))
+
+
+def sampling_plan(time_: float, sample_every: float, h: float, target: float
+                  ) -> tuple[int, int, int]:
+    """(steps between samples, samples per window, windows) of a run.
+
+    The n = time_ / (stride h) samples of each path are cut into the fewest windows from
+    WINDOWS to 2 WINDOWS that divide n exactly (n windows of one sample below WINDOWS), so
+    the sampled time is exactly ``time_`` whenever n is whole and has such a divisor (every
+    multiple of 16 to 32 samples; harness.validate refuses the others, naming the nearest).
+    Failing that, WINDOWS windows of n // WINDOWS samples, and what is left is not sampled.
+    With a target floor the run starts with WINDOWS // 2 windows of n // WINDOWS samples."""
+    stride = max(int(round(sample_every / h)), 1)
+    n = max(int(time_ / (stride * h) * (1 + 1e-12)), 1)
+    if target > 0:
+        return stride, max(n // WINDOWS, 1), WINDOWS // 2
+    if n < WINDOWS:
+        return stride, 1, n
+    for n_win in range(WINDOWS, 2 * WINDOWS + 1):
+        if n % n_win == 0:
+            return stride, n // n_win, n_win
+    spw = n // WINDOWS
+    return stride, spw, n // spw
+
+
 def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> Result:
     """Monte Carlo of the original system for (duck-typed) scene.system and scene.noise.
 
@@ -308,14 +342,14 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
     if target > 0 and "A" not in obs:
         obs = ("A", *obs)
     phys = _params(system, noise)
-    h = auto_dt(target, phys) if st.dt == "auto" else float(st.dt)
+    h = step_size(st.dt, target, phys, st.sample_every)
     if not (math.isfinite(h) and h > 0 and st.paths >= st.blocks >= 2):
         raise ValueError("need dt > 0 and paths >= blocks >= 2")
     t_start = time.perf_counter()
     deadline = t_start + st.budget if st.budget and st.budget > 0 else math.inf
     threads = st.threads or numba.config.NUMBA_NUM_THREADS
     numba.set_num_threads(threads)
-    stride = max(int(round(st.sample_every / h)), 1)
+    stride, spw, n_win = sampling_plan(st.time, st.sample_every, h, target)
     per_block = st.paths // st.blocks
     blocks = st.blocks
 
@@ -350,10 +384,7 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
         pilot_s = time.perf_counter() - t1
 
         n_burn = int(round(burn_in / h))
-        n_samples_full = max(int(st.time / (stride * h)), 1)
-        spw = max(n_samples_full // WINDOWS, 1)
         win_steps = spw * stride
-        n_win = WINDOWS // 2 if target > 0 else max(n_samples_full // spw, 1)
         gen = np.random.default_rng(np.random.SeedSequence(st.seed, spawn_key=(1 << 24,)))
         frac = START_LOW + (1 - START_LOW) * (np.arange(per_block) + 0.5) / per_block
         amps = np.broadcast_to(a_hi * frac, (blocks, per_block)).copy()

@@ -1,0 +1,316 @@
+"""Every input checked before any work (issue 11): one pass over the scene, the command-line
+options and their combinations, and the output paths, run by the CLI before any computation.
+
+A problem raises :class:`InputError` (a :class:`~harness.scene.SceneError`): one line that
+names the option or field and the allowed range, or the nearest valid values where the code
+would otherwise round (paths to whole batches, time to whole samples). The CLI prints it and
+exits with code 2; nothing has been computed or written by then.
+
+The checks, and where each bound comes from:
+
+- options that do not apply to the chosen solver or command are refused, not ignored;
+- Monte Carlo (the arithmetic of ``montecarlo.simulate``, asked through ``run.montecarlo_plan``
+  so that it is never restated here): ``paths`` a whole multiple of ``blocks``; ``dt`` a whole
+  fraction of ``sample_every`` and below the splitting's linear stability limit
+  ``dt omega0 < 2`` (Stormer-Verlet on x'' = -omega0^2 x); ``burn_in`` and ``time`` whole
+  numbers of steps and of sampling windows;
+- scene magnitudes: a non-zero physical parameter must lie within ``[1e-100, 1e100]`` in
+  magnitude; products and squares of such numbers (the averaged coefficients are built from
+  them) stay inside double precision (1e-308 .. 1e308), outside it they over- or underflow;
+- search ranges inside the parameter's own valid box, finite, LO < HI; repeats >= 1;
+- output paths: a file option must not name a directory, a folder option must not name a
+  file, and the nearest existing folder must accept a new file (probed with a temporary file
+  that is removed at once, the way the atomic writers create theirs);
+- cost: a lower-bound estimate of the run's wall time from its size (measured rates); above
+  an hour the run is refused unless ``--yes``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from .scene import SECTIONS, Scene, SceneError
+
+HOUR = 3600.0
+MAGNITUDE = (1e-100, 1e100)  # allowed |value| of a non-zero physical parameter (module doc)
+PHYSICAL = {"system": ("c1", "c2", "omega0", "alpha", "mu", "f"), "noise": ("D", "alpha1")}
+REL = 1e-9  # relative slack of "a whole number" tests (far above rounding, far below any step)
+
+# measured rates for the cost estimate (lower bounds of the wall time)
+# (solve on the base scene, this machine, 2026-11-23: FPK 2.6 / 2.9 / 4.1 / 5.6 s at 400 / 800
+# / 1600 / 3200 cells; closed forms at 3201 points: paper 0.11 s, exact 2.6 s with 64 nodes x 24
+# harmonics); each rate below is faster than measured, so the estimate is a lower bound
+MC_STEPS_PER_CORE = 60e6  # docs/montecarlo.md "Speed": 46-54 M steps/s per core
+FPK_SECONDS_PER_CELL = 5e-4  # measured 1.7e-3 s per cell at 3200 cells
+AVG_SECONDS_PER_POINT = 1e-5  # paper model, measured 3.5e-5 s per point
+AVG_SECONDS_PER_NODE = 2e-7  # exact model, per point x theta node x harmonic, measured 5.2e-7
+
+# the Monte Carlo options of the CLI and the scene fields they set
+MC_OPTIONS = {"paths": "paths", "dt": "dt", "time": "time", "seed": "seed", "floor": "floor",
+              "budget": "budget"}
+
+
+class InputError(SceneError):
+    """Bad input found before any work: one line naming the option or field."""
+
+
+# --------------------------------------------------------------------------------------------
+# options that do not apply
+def refuse_options(given: Iterable[str], why: str) -> None:
+    """Raise naming the first of ``given`` (option names without dashes); ``why`` says when
+    they would apply."""
+    names = [g for g in given]
+    if names:
+        opts = ", ".join(f"--{n.replace('_', '-')}" for n in names)
+        raise InputError(f"{opts}: does not apply {why}")
+
+
+def duplicate_overrides(overrides: Sequence[str]) -> None:
+    """``--set`` given twice for the same key is refused (the last would silently win)."""
+    seen: dict[str, str] = {}
+    for text in overrides:
+        key = text.partition("=")[0].strip()
+        if key in seen:
+            raise InputError(f"--set {key}: given twice ({seen[key]!r} and {text!r}); give each "
+                             "key once")
+        seen[key] = text
+
+
+# --------------------------------------------------------------------------------------------
+# scene magnitudes
+def scene_magnitudes(scene: Scene) -> None:
+    """Non-zero physical parameters within MAGNITUDE (see the module docstring)."""
+    lo, hi = MAGNITUDE
+    for sec, keys in PHYSICAL.items():
+        obj = getattr(scene, sec)
+        for key in keys:
+            v = float(getattr(obj, key))
+            if v != 0.0 and not lo <= abs(v) <= hi:
+                raise InputError(f"{sec}.{key} = {v:g} is out of range; allowed: 0 or "
+                                 f"{lo:g} <= |{key}| <= {hi:g} (beyond, the model's "
+                                 "coefficients over- or underflow double precision)")
+
+
+def most_extreme(scene: Scene) -> str:
+    """'noise.D = 1e-90 (the scene's most extreme magnitude)': the field to look at first
+    when a run fails numerically (farthest from 1 in log10 among the non-zero parameters)."""
+    best, name, value = -1.0, "", 0.0
+    for sec, keys in PHYSICAL.items():
+        for key in keys:
+            v = float(getattr(getattr(scene, sec), key))
+            if v != 0.0 and abs(math.log10(abs(v))) > best:
+                best, name, value = abs(math.log10(abs(v))), f"{sec}.{key}", v
+    return f"{name} = {value:g} (the scene's most extreme magnitude)"
+
+
+# --------------------------------------------------------------------------------------------
+# Monte Carlo settings
+def _name(field: str, options: Mapping[str, str]) -> str:
+    """'--paths (montecarlo.paths)' when the value came from an option, else the field."""
+    opt = options.get(field)
+    return f"{opt} (montecarlo.{field})" if opt else f"montecarlo.{field}"
+
+
+def _whole(ratio: float) -> bool:
+    k = round(ratio)
+    return k >= 1 and abs(ratio - k) <= REL * max(ratio, 1.0)
+
+
+def _g(v: float) -> str:
+    return f"{v:.10g}"
+
+
+def montecarlo_settings(scene: Scene, options: Mapping[str, str] | None = None) -> None:
+    """The Monte Carlo settings the simulation would otherwise round or fail on.
+
+    ``options``: scene field -> the option that set it (for the message)."""
+    from .run import montecarlo_plan
+
+    options = options or {}
+    mc = scene.montecarlo
+    if mc.paths < mc.blocks or mc.paths % mc.blocks:
+        lo = max(mc.paths // mc.blocks, 1) * mc.blocks
+        near = sorted({lo, lo + mc.blocks} if mc.paths > mc.blocks else {mc.blocks})
+        raise InputError(f"{_name('paths', options)} = {mc.paths} must be a whole multiple of "
+                         f"montecarlo.blocks = {mc.blocks} (the batches of the error bars); "
+                         f"nearest valid: {' or '.join(str(n) for n in near)}")
+    plan = montecarlo_plan(scene)
+    h = plan["dt"]
+    w0 = scene.system.omega0
+    if h * w0 >= 2.0:
+        raise InputError(f"{_name('dt', options)} = {_g(h)} is too large for this scene; "
+                         f"allowed: dt < 2 / omega0 = {_g(2.0 / w0)} (the splitting's "
+                         "stability limit)")
+    ratio = mc.sample_every / h
+    if not _whole(ratio):
+        k = math.floor(ratio)
+        near = [mc.sample_every / n for n in (k + 1, k) if n >= 1]
+        raise InputError(f"{_name('dt', options)} = {_g(h)} must divide montecarlo."
+                         f"sample_every = {_g(mc.sample_every)} into whole steps; nearest valid: "
+                         + " or ".join(_g(v) for v in near))
+    if mc.burn_in != "auto":
+        b = float(mc.burn_in) / h
+        if b > 0 and not _whole(b):
+            k = math.floor(b)
+            raise InputError(f"montecarlo.burn_in = {_g(float(mc.burn_in))} is not a whole "
+                             f"number of steps of dt = {_g(h)}; nearest valid: "
+                             f"{_g(k * h)} or {_g((k + 1) * h)}")
+    step = plan["sample_interval"]
+    if mc.time < step * (1 - REL):
+        raise InputError(f"{_name('time', options)} = {_g(mc.time)} is shorter than one "
+                         f"sampling interval; allowed: time >= {_g(step)}")
+    if mc.floor <= 0 and abs(plan["sampled_time"] - mc.time) > REL * mc.time:
+        near = " or ".join(_g(v) for v in plan["nearest_times"])
+        raise InputError(f"{_name('time', options)} = {_g(mc.time)} would sample "
+                         f"{_g(plan['sampled_time'])} (whole windows of whole samples every "
+                         f"{_g(step)}); nearest valid: {near}")
+
+
+def search_range(vary: str, lo: float, hi: float, field: Any) -> None:
+    """``--range LO HI``: finite, LO < HI, both inside the parameter's valid box."""
+    check = field.metadata["check"]
+    for name, v in (("LO", lo), ("HI", hi)):
+        problem = check(v)
+        if problem is not None:
+            raise InputError(f"--range {_g(lo)} {_g(hi)}: {name} = {_g(v)} is outside the valid "
+                             f"values of system.{vary}; allowed: {problem}")
+    if not lo < hi:
+        raise InputError(f"--range {_g(lo)} {_g(hi)}: LO must be below HI")
+
+
+def at_least(option: str, value: int | float | None, lo: float) -> None:
+    if value is not None and not (math.isfinite(value) and value >= lo):
+        raise InputError(f"{option} {value}: out of range; allowed: a whole number >= {lo:g}")
+
+
+# --------------------------------------------------------------------------------------------
+# output paths
+def _nearest_existing(path: Path) -> Path:
+    p = path.absolute()
+    while not p.exists():
+        p = p.parent
+    return p
+
+
+def _probe(folder: Path, option: str, path: Path) -> None:
+    """A temporary file in ``folder``, removed at once: can the run write there?"""
+    if not folder.is_dir():
+        raise InputError(f"{option} {path}: {folder} is not a folder")
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=".vifpk-probe-", dir=folder)
+    except OSError as exc:
+        raise InputError(f"{option} {path}: cannot write in {folder} "
+                         f"({exc.strerror or exc})") from None
+    os.close(fd)
+    os.unlink(tmp)
+
+
+def output_file(path: str | None, option: str) -> None:
+    """A file the run will write (atomically, beside itself)."""
+    if path is None:
+        return
+    p = Path(path)
+    if p.is_dir():
+        raise InputError(f"{option} {path}: is a folder; give a file name")
+    if p.name in ("", ".", ".."):
+        raise InputError(f"{option} {path}: give a file name")
+    _probe(_nearest_existing(p.parent), option, p)
+
+
+def output_folder(path: str | None, option: str) -> None:
+    """A folder the run will write files into (created if missing)."""
+    if path is None:
+        return
+    p = Path(path)
+    if p.exists() and not p.is_dir():
+        raise InputError(f"{option} {path}: exists and is not a folder; give a folder")
+    _probe(_nearest_existing(p), option, p)
+
+
+# --------------------------------------------------------------------------------------------
+# cost
+def montecarlo_seconds(scene: Scene) -> float:
+    """Lower bound of the wall time of one Monte Carlo run of the original system: the
+    sampled path-steps plus the pilots' (burn-in "auto" counted at its minimum, 20 time
+    units, the relaxation pilot at 8 windows of 10), at MC_STEPS_PER_CORE on every core."""
+    from .run import montecarlo_plan
+
+    mc = scene.montecarlo
+    plan = montecarlo_plan(scene)
+    h = plan["dt"]
+    burn = 20.0 if mc.burn_in == "auto" else float(mc.burn_in)
+    pilots = 32 * 1200.0 + (256 * 80.0 if mc.burn_in == "auto" else 0.0)
+    sampled = mc.time / 2 if mc.floor > 0 else plan["sampled_time"]
+    steps = (mc.paths * (burn + sampled) + pilots) / h
+    cores = mc.threads or os.cpu_count() or 1
+    seconds = steps / (MC_STEPS_PER_CORE * cores)
+    if mc.floor > 0 and mc.budget > 0:
+        seconds = min(seconds, mc.budget)
+    return seconds
+
+
+def refuse_costly(seconds: float, what: str, yes: bool) -> None:
+    """Refuse a run estimated above an hour, unless ``--yes``."""
+    if seconds > HOUR and not yes:
+        raise InputError(f"{what}: estimated at least {_duration(seconds)} of computation; "
+                         "allowed without --yes: up to 1 hour (reduce the size, or add --yes)")
+
+
+def _duration(s: float) -> str:
+    if s < 2 * HOUR:
+        return f"{s / 60:.0f} minutes"
+    if s < 48 * HOUR:
+        return f"{s / HOUR:.0f} hours"
+    return f"{s / 86400:.3g} days"
+
+
+def fields_of(section: str) -> dict[str, Any]:
+    from dataclasses import fields
+
+    return {f.name: f for f in fields(SECTIONS[section])}
+
+
+def fpk_seconds(cells: int) -> float:
+    """Lower bound of one FPK stationary solve by stepping: FPK_SECONDS_PER_CELL x cells."""
+    return FPK_SECONDS_PER_CELL * cells
+
+
+def averaging_seconds(scene: Scene, model: str) -> float:
+    """Lower bound of one closed-form solve: AVG_SECONDS_PER_POINT per grid point (paper),
+    AVG_SECONDS_PER_NODE per point x theta node x harmonic (exact: the orbit quadrature)."""
+    av = scene.averaging
+    if model == "exact":
+        return AVG_SECONDS_PER_NODE * av.points * av.theta_nodes * av.harmonics
+    return AVG_SECONDS_PER_POINT * av.points
+
+
+def solve_seconds(scene: Scene, solver: str, model: str, grid: int | None) -> float:
+    """Lower bound of ``vifpk solve``."""
+    if solver == "montecarlo":
+        return montecarlo_seconds(scene)
+    base = averaging_seconds(scene, model)
+    return base + (fpk_seconds(grid or 400) if solver == "fpk" else 0.0)
+
+
+def check_seconds(scene: Scene) -> float:
+    """Lower bound of ``vifpk check``: the Monte Carlo of the original system, both closed
+    forms and both FPKs (the averaged SDEs are not counted)."""
+    return (montecarlo_seconds(scene) + sum(averaging_seconds(scene, m) for m in
+                                            ("paper", "exact")) + 2 * fpk_seconds(400))
+
+
+def workprecision_seconds(scene: Scene, quick: bool) -> float:
+    """Lower bound of ``vifpk workprecision``: its Monte Carlo reference run (256 paths x 400
+    time units with --quick, else 4096 x 4000, at dt / 2)."""
+    from dataclasses import replace
+
+    paths, time_ = (256, 400.0) if quick else (4096, 4000.0)
+    mc = scene.montecarlo
+    ref = replace(scene, montecarlo=replace(mc, paths=paths, time=time_, blocks=16,
+                                            dt=float(mc.dt) / 2, floor=0.0))
+    return montecarlo_seconds(ref)

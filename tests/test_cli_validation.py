@@ -1,0 +1,259 @@
+"""Issue 11: every input checked before any work (exit 2, one line naming the option or field,
+no traceback, nothing written, no computation), numerical failures exit 3, Ctrl-C exits 130,
+a closed pipe is quiet, numpy warnings never reach the terminal.
+
+Every case of the catalogue runs in-process with every solver entry point replaced by one that
+fails the test ("no computation started"; an uncaught exception would fail it too); one case of
+each kind (option range, combination, rounding, output path, scene, cost, search range, each
+command) also runs as a real `python -m harness` subprocess, two at a time, for the exit code
+and the terminal. Each subprocess costs ~1 s of interpreter start-up, hence the subset.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import pytest
+
+BASE = "paper-base"
+MC = ("--solver", "montecarlo")
+
+# (id, args, needle); "{tmp}" is the case's own folder, "{file}" an existing file in it,
+# "{scene:BODY}" a scene file with BODY in it
+CATALOGUE = [
+    ("paths-3", ["solve", BASE, *MC, "--paths", "3"], "nearest valid: 32"),
+    ("paths-16", ["solve", BASE, *MC, "--paths", "16"], "--paths (montecarlo.paths) = 16"),
+    ("paths-31", ["solve", BASE, *MC, "--paths", "31"], "whole multiple of montecarlo.blocks"),
+    ("paths-33", ["solve", BASE, *MC, "--paths", "33"], "nearest valid: 32 or 64"),
+    ("paths-8-in-file", ["solve", "{scene:[montecarlo]\npaths = 8\n}", *MC],
+     "montecarlo.paths = 8 must be"),
+    ("dt-10", ["solve", BASE, *MC, "--dt", "10"], "dt < 2 / omega0 = 2"),
+    ("dt-2", ["solve", BASE, *MC, "--dt", "2"], "dt < 2 / omega0"),
+    ("dt-1", ["solve", BASE, *MC, "--dt", "1"], "--dt (montecarlo.dt) = 1 must divide"),
+    ("dt-0.03", ["solve", BASE, *MC, "--dt", "0.03"], "nearest valid: 0.02941176471 or 0.03125"),
+    ("dt-omega0", ["solve", BASE, *MC, "--dt", "0.5", "--set", "system.omega0=5"],
+     "dt < 2 / omega0 = 0.4"),
+    ("time-0.001", ["solve", BASE, *MC, "--time", "0.001"], "allowed: time >= 0.5"),
+    ("time-prime", ["solve", BASE, *MC, "--time", "1001.5"],
+     "would sample 1000 (whole windows of whole samples every 0.5); nearest valid: 1001 or 1003"),
+    ("time-off-grid", ["solve", BASE, *MC, "--time", "100.3"], "nearest valid: 100 or 101.5"),
+    ("burn-in", ["solve", BASE, *MC, "--set", "montecarlo.burn_in=10.005"],
+     "montecarlo.burn_in = 10.005 is not a whole number of steps"),
+    ("grid-2", ["solve", BASE, "--solver", "fpk", "--grid", "2"], "--grid 2: out of range"),
+    ("grid-minus-3", ["solve", BASE, "--solver", "fpk", "--grid", "-3"], "allowed: a whole"),
+    ("grid-0", ["solve", BASE, "--solver", "fpk", "--grid", "0"], "--grid 0"),
+    ("grid-averaging", ["solve", BASE, "--grid", "50"], "--grid: does not apply to --solver "
+     "averaging"),
+    ("grid-montecarlo", ["solve", BASE, *MC, "--grid", "50"], "--grid: does not apply"),
+    ("model-montecarlo", ["solve", BASE, *MC, "--model", "exact"], "--model: does not apply"),
+    ("paths-fpk", ["solve", BASE, "--solver", "fpk", "--paths", "64"], "--paths: does not"),
+    ("joint-no-json", ["solve", BASE, "--joint"], "--joint: does not apply without --json"),
+    ("set-twice", ["solve", BASE, "--set", "system.r=0.9", "--set", "system.r=0.95"],
+     "--set system.r: given twice"),
+    ("json-folder", ["solve", BASE, "--json", "{tmp}"], "--json {tmp}: is a folder"),
+    ("json-proc", ["solve", BASE, "--json", "/proc/vifpk.json"], "cannot write in /proc"),
+    ("scene-folder", ["solve", "{tmp}"], "is a folder; give a scene file"),
+    ("alpha-1e308", ["solve", "{scene:[system]\nalpha = 1e308\n}"], "system.alpha = 1e+308"),
+    ("D-1e308", ["solve", "{scene:[noise]\nD = 1e308\n}"], "noise.D = 1e+308 is out of range"),
+    ("D-1e-320", ["solve", "{scene:[noise]\nD = 1e-320\n}"], "noise.D = 9.99989e-321"),
+    ("cost-dt", ["solve", BASE, *MC, "--dt", "1e-9"], "or add --yes"),
+    ("cost-paths", ["solve", BASE, *MC, "--paths", "1e12"], "estimated at least"),
+    ("cost-grid", ["solve", BASE, "--solver", "fpk", "--grid", "10000000"], "--yes"),
+    ("check-out-file", ["check", BASE, "--out", "{file}"], "exists and is not a folder"),
+    ("check-out-proc", ["check", BASE, "--out", "/proc/vifpk"], "cannot write in /proc"),
+    ("check-paths", ["check", BASE, "--paths", "33"], "nearest valid: 32 or 64"),
+    ("check-cost", ["check", BASE, "--paths", "1e9"], "this check: estimated"),
+    ("range-nan", ["bifurcation", BASE, "--vary", "mu", "--range", "nan", "1"],
+     "LO = nan is outside the valid values of system.mu"),
+    ("range-reversed", ["bifurcation", BASE, "--vary", "mu", "--range", "0.05", "0"],
+     "LO must be below HI"),
+    ("range-outside", ["bifurcation", BASE, "--vary", "r", "--range", "0.9", "1.2"],
+     "HI = 1.2 is outside the valid values of system.r; allowed: 0 < r <= 1"),
+    ("range-negative", ["bifurcation", BASE, "--vary", "mu", "--range", "-0.01", "0.05"],
+     "LO = -0.01"),
+    ("no-mc-paths", ["bifurcation", BASE, "--vary", "mu", "--no-mc", "--paths", "64"],
+     "--paths: does not apply with --no-mc"),
+    ("bifurcation-json-folder", ["bifurcation", BASE, "--vary", "mu", "--json", "{tmp}"],
+     "is a folder"),
+    ("figures-out-file", ["figures", "--out", "{file}"], "--out {file}: exists and is not"),
+    ("figures-time", ["figures", "--figure", "6", "--time", "1001.5"], "would sample 1000"),
+    ("wp-out-file", ["workprecision", BASE, "--out", "{file}"], "exists and is not a folder"),
+    ("wp-repeats-0", ["workprecision", BASE, "--repeats", "0"], "--repeats 0: out of range"),
+    ("wp-paths", ["workprecision", BASE, "--paths", "64"], "--paths: does not apply to "
+     "workprecision"),
+    ("wp-dt-auto", ["workprecision", BASE, "--dt", "auto"], "--dt auto: does not apply"),
+]
+IDS = [c[0] for c in CATALOGUE]
+SUBPROCESS = ["paths-33", "dt-10", "time-prime", "grid-averaging", "model-montecarlo", "set-twice",
+              "json-folder", "json-proc", "scene-folder", "D-1e-320", "cost-dt", "check-out-file",
+              "range-nan", "figures-out-file", "wp-repeats-0"]
+
+
+def _materialise(case: tuple, folder: Path) -> tuple[list[str], str]:
+    """The case's arguments and needle with {tmp}, {file} and {scene:...} filled in."""
+    _, args, needle = case
+    folder.mkdir(parents=True, exist_ok=True)
+    existing = folder / "existing.txt"
+    existing.write_text("keep me\n")
+    out = []
+    for a in args:
+        if a.startswith("{scene:"):
+            scene = folder / "scene.toml"
+            scene.write_text(a[len("{scene:"):-1])
+            a = str(scene)
+        out.append(a.replace("{tmp}", str(folder)).replace("{file}", str(existing)))
+    return out, needle.replace("{tmp}", str(folder)).replace("{file}", str(existing))
+
+
+def _snapshot(folder: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): p.read_bytes() if p.is_file() else b"<dir>"
+            for p in sorted(folder.rglob("*"))}
+
+
+def run_cli(*args: str, **kw) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "harness", *args], capture_output=True,
+                          text=True, timeout=120, **kw)
+
+
+@pytest.fixture(scope="module")
+def subprocess_results(tmp_path_factory):
+    """Every catalogue case in its own subprocess and folder, four at a time."""
+    root = tmp_path_factory.mktemp("catalogue")
+
+    def one(case):
+        folder = root / case[0]
+        args, needle = _materialise(case, folder)
+        before = _snapshot(folder)
+        res = run_cli(*args, cwd=folder)
+        return res, needle, before, _snapshot(folder)
+
+    cases = [c for c in CATALOGUE if c[0] in SUBPROCESS]
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        return dict(zip(SUBPROCESS, pool.map(one, cases), strict=True))
+
+
+@pytest.mark.parametrize("case_id", SUBPROCESS)
+def test_bad_input_exit_2_one_line_nothing_written(subprocess_results, case_id):
+    res, needle, before, after = subprocess_results[case_id]
+    lines = res.stderr.strip().splitlines()
+    assert res.returncode == 2, res.stderr
+    assert len(lines) == 1 and "Traceback" not in res.stderr, res.stderr
+    assert needle in lines[0], lines[0]
+    assert res.stdout == ""
+    assert after == before  # nothing written (the probe file is gone too)
+
+
+@pytest.fixture
+def no_computation(monkeypatch):
+    """Replace every entry point of real work by one that fails the test."""
+    import harness.bifurcation
+    import harness.check
+    import harness.cli
+    import harness.figures
+    import harness.run
+    import harness.workprecision
+
+    def forbidden(*a, **k):
+        raise AssertionError("computation started before the input was checked")
+
+    for mod, name in ((harness.cli, "run_solver"), (harness.run, "run_solver"),
+                      (harness.run, "montecarlo_solution"), (harness.run, "fpk_solution"),
+                      (harness.check, "cross_check"), (harness.bifurcation, "bifurcation"),
+                      (harness.figures, "draw_figures"),
+                      (harness.workprecision, "run_workprecision")):
+        monkeypatch.setattr(mod, name, forbidden)
+
+
+@pytest.mark.parametrize("case", CATALOGUE, ids=IDS)
+def test_bad_input_is_refused_before_any_computation(no_computation, tmp_path, capsys,
+                                                     monkeypatch, case):
+    from harness.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    args, needle = _materialise(case, tmp_path / "case")
+    before = _snapshot(tmp_path)
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and needle in err[0]
+    assert _snapshot(tmp_path) == before
+
+
+def test_values_on_the_grid_are_accepted_exactly(tmp_path):
+    """The nearest valid values named by the messages are accepted, and run exactly."""
+    import json
+
+    from harness.cli import main
+
+    out = tmp_path / "mc.json"
+    assert main(["solve", BASE, *MC, "--paths", "64", "--time", "48", "--dt", "0.03125",
+                 "--set", "montecarlo.burn_in=20", "--json", str(out)]) == 0
+    st = json.loads(out.read_text())["info"]["settings"]
+    assert st["paths"] == 64 and st["time"] == 48.0 and st["dt"] == 0.03125
+    assert st["sample_every"] == 0.5 and st["burn_in"] == 20.0
+
+
+def test_utf8_bom_scene_is_accepted(tmp_path, capsys):
+    from harness.cli import main
+
+    scene = tmp_path / "bom.toml"
+    scene.write_bytes(b"\xef\xbb\xbf[system]\nr = 0.9\n")
+    assert main(["solve", str(scene)]) == 0
+    assert "mass check: 1.0000000000" in capsys.readouterr().out
+
+
+def test_numerical_failure_exits_3_naming_the_field(tmp_path):
+    """An extreme but representable scene (D = 1e-90): numpy overflows inside the phase map;
+    the run exits 3 with one line naming the field, and no RuntimeWarning is printed."""
+    out = tmp_path / "o.json"
+    res = run_cli("solve", BASE, "--set", "noise.D=1e-90", "--json", str(out), cwd=tmp_path)
+    lines = res.stderr.strip().splitlines()
+    assert res.returncode == 3 and len(lines) == 1, res.stderr
+    assert "noise.D = 1e-90" in lines[0] and "RuntimeWarning" not in res.stderr
+    assert not out.exists()
+
+
+def test_closed_pipe_is_quiet(tmp_path):
+    """`vifpk solve ... | head -2`: the reader is gone before the summary is printed."""
+    r, w = os.pipe()
+    os.close(r)  # the reader has left: every write raises EPIPE
+    proc = subprocess.Popen([sys.executable, "-m", "harness", "solve", BASE], stdout=w,
+                            stderr=subprocess.PIPE, text=True, cwd=tmp_path)
+    os.close(w)
+    _, err = proc.communicate(timeout=120)
+    assert "Traceback" not in err and "BrokenPipe" not in err and err == ""
+    assert proc.returncode == 141
+
+
+def test_ctrl_c_stops_a_monte_carlo_within_seconds(tmp_path):
+    """SIGINT inside the Monte Carlo: exit 130 with the one message, nothing written. The
+    wait is bounded generously (10 s) against a shared machine; the kernel calls are ~0.4 s
+    and the watchdog exits 1.5 s after the signal at the latest."""
+    out = tmp_path / "mc.json"
+    proc = subprocess.Popen([sys.executable, "-m", "harness", "solve", BASE, *MC, "--paths",
+                             "4096", "--time", "4000", "--json", str(out)], cwd=tmp_path,
+                            stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
+                            env={**os.environ, "NUMBA_NUM_THREADS": "1"})
+    time.sleep(4.0)  # past start-up, inside the compile or the pilot runs
+    assert proc.poll() is None
+    proc.send_signal(signal.SIGINT)
+    t0 = time.monotonic()
+    _, err = proc.communicate(timeout=30)
+    waited = time.monotonic() - t0
+    assert proc.returncode == 130 and waited < 10.0
+    assert err.strip().splitlines()[-1] == "vifpk: interrupted; nothing was written"
+    assert "Traceback" not in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_yes_lets_a_costly_run_past_the_estimate(no_computation, tmp_path, capsys):
+    """--yes skips only the cost refusal: the (forbidden) computation is then reached."""
+    from harness.cli import main
+
+    with pytest.raises(AssertionError, match="computation started"):
+        main(["solve", BASE, *MC, "--dt", "1e-9", "--yes"])
