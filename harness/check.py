@@ -51,25 +51,34 @@ class _Stages:
         self.total, self.quiet, self.i = total, quiet, 0
         self.t = self.start = time.perf_counter()
         self.name = ""
+        self.label = ""
         self.seconds: dict[str, float] = {}  # stage -> wall seconds (metrics.json "timings")
+
+    def _end(self, now: float) -> None:
+        """The stage's time; on a terminal the label is written again from the line's start
+        ("\r"), since a progress bar drawn on the same line (the Monte Carlo's) erases it
+        when it closes."""
+        again = f"\r{self.label}" if sys.stderr.isatty() else ""
+        print(f"{again} {now - self.t:.1f} s", file=sys.stderr, flush=True)
 
     def __call__(self, name: str) -> None:
         now = time.perf_counter()
         if self.i:
             self.seconds[self.name] = self.seconds.get(self.name, 0.0) + now - self.t
             if not self.quiet:
-                print(f" {now - self.t:.1f} s", file=sys.stderr, flush=True)
+                self._end(now)
         self.i += 1
         self.t, self.name = now, name
+        self.label = f"[{self.i}/{self.total}] {name} ..."
         if not self.quiet:
-            print(f"[{self.i}/{self.total}] {name} ...", end="", file=sys.stderr, flush=True)
+            print(self.label, end="", file=sys.stderr, flush=True)
 
     def done(self) -> None:
         now = time.perf_counter()
         if self.i:
             self.seconds[self.name] = self.seconds.get(self.name, 0.0) + now - self.t
         if not self.quiet and self.i:
-            print(f" {now - self.t:.1f} s", file=sys.stderr, flush=True)
+            self._end(now)
 
 
 def mc_edges(closed: dict[str, Any], bins: int) -> dict[str, np.ndarray]:
