@@ -32,12 +32,13 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+import numba
 import numpy as np
 from numba import prange
 
 from ._jit import jit
 from .rng import normal, states_from_seed, uniform
-from .simulate import Result, _density, _mean_se
+from .simulate import CHUNK_SECONDS, Result, _density, _mean_se
 
 ORDER = 1
 BURN_FACTOR = 6.0  # as for the original system (tuning.py): burn-in = 6 x relaxation time
@@ -208,7 +209,20 @@ def simulate_sde(drift: Callable[[np.ndarray], np.ndarray],
          None if hv is None else np.zeros((1, ev.size - 1)))
     compile_s = time.perf_counter() - t0
     t1 = time.perf_counter()
-    call(states, per_block, n_burn, n_samples, stride, hist, sums, hx, hv)
+    # in calls of about CHUNK_SECONDS, so that Ctrl-C is seen between them: each call runs
+    # the next k paths of every block; a block's generator state carries over from call to
+    # call, so any cut gives the same numbers as one call
+    path_steps = blocks * (n_burn + n_samples * stride)
+    rate = 5e6 * numba.get_num_threads()  # steps per second: a first guess, then measured
+    done = 0
+    while done < per_block:
+        k = int(max(1, min(per_block - done, CHUNK_SECONDS * rate / max(path_steps, 1))))
+        t = time.perf_counter()
+        call(states, k, n_burn, n_samples, stride, hist, sums, hx, hv)
+        spent = time.perf_counter() - t
+        if spent > 0:
+            rate = k * path_steps / spent
+        done += k
     run_s = time.perf_counter() - t1
     d = _density(hist, sums[:, 2], np.diff(edges))
     steps = float(blocks * per_block * (n_burn + n_samples * stride))

@@ -21,6 +21,8 @@ from pathlib import Path
 
 import pytest
 
+from .conftest import ROOT
+
 BASE = "paper-base"
 MC = ("--solver", "montecarlo")
 
@@ -116,9 +118,15 @@ def _snapshot(folder: Path) -> dict[str, bytes]:
             for p in sorted(folder.rglob("*"))}
 
 
+# the subprocesses run in their own folders: put this checkout first on their path (an
+# editable install may point elsewhere)
+ENV = {**os.environ, "PYTHONPATH": os.pathsep.join(
+    [str(ROOT), *filter(None, [os.environ.get("PYTHONPATH")])])}
+
+
 def run_cli(*args: str, **kw) -> subprocess.CompletedProcess[str]:
     return subprocess.run([sys.executable, "-m", "harness", *args], capture_output=True,
-                          text=True, timeout=120, **kw)
+                          text=True, timeout=120, env=ENV, **kw)
 
 
 @pytest.fixture(scope="module")
@@ -223,7 +231,7 @@ def test_closed_pipe_is_quiet(tmp_path):
     r, w = os.pipe()
     os.close(r)  # the reader has left: every write raises EPIPE
     proc = subprocess.Popen([sys.executable, "-m", "harness", "solve", BASE], stdout=w,
-                            stderr=subprocess.PIPE, text=True, cwd=tmp_path)
+                            stderr=subprocess.PIPE, text=True, cwd=tmp_path, env=ENV)
     os.close(w)
     _, err = proc.communicate(timeout=120)
     assert "Traceback" not in err and "BrokenPipe" not in err and err == ""
@@ -238,7 +246,7 @@ def test_ctrl_c_stops_a_monte_carlo_within_seconds(tmp_path):
     proc = subprocess.Popen([sys.executable, "-m", "harness", "solve", BASE, *MC, "--paths",
                              "4096", "--time", "4000", "--json", str(out)], cwd=tmp_path,
                             stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
-                            env={**os.environ, "NUMBA_NUM_THREADS": "1"})
+                            env={**ENV, "NUMBA_NUM_THREADS": "1"})
     time.sleep(4.0)  # past start-up, inside the compile or the pilot runs
     assert proc.poll() is None
     proc.send_signal(signal.SIGINT)
