@@ -169,6 +169,33 @@ def montecarlo_solution(scene: Any, *, progress: bool = True, **edges: Any) -> S
     return Solution(data=res.data, info=info)
 
 
+def averaged_sde_solution(scene: Any, model: Any, *, edges: dict[str, Any], seed: int,
+                          phase: bool = False, **settings: Any) -> Any:
+    """Monte Carlo of the averaged amplitude SDE of ``model`` (a name or a model object).
+
+    The run settings (paths, blocks, dt, time, burn_in, sample_every) are the scene's
+    [montecarlo] ones unless given in ``settings`` (e.g. the resolved dt of a run of the
+    original system). ``edges``: ``edges_A`` (and ``edges_x``, ``edges_v`` with ``phase``,
+    which also records x1, x2 from time-uniform points of each sampled orbit).
+    """
+    from montecarlo.averaged_sde import simulate_sde
+
+    mc = scene.montecarlo
+    keys = ("paths", "blocks", "dt", "time", "burn_in", "sample_every")
+    unknown = set(settings) - set(keys)
+    if unknown:
+        raise ValueError(f"unknown averaged-SDE settings {sorted(unknown)}; allowed: {keys}")
+    kw = {k: settings.get(k, getattr(mc, k)) for k in keys}
+    m = averaged_model(scene, model) if isinstance(model, str) else model
+    s = scene.system
+    extra = ({"omega0": s.omega0, "alpha": s.alpha, "barrier": s.barrier,
+              "edges_x": edges["edges_x"], "edges_v": edges["edges_v"]} if phase else None)
+    return simulate_sde(m.drift, m.diffusion, edges=edges["edges_A"], paths=kw["paths"],
+                        blocks=kw["blocks"], dt=kw["dt"], time_=kw["time"],
+                        burn_in=kw["burn_in"], sample_every=kw["sample_every"], seed=seed,
+                        phase=extra)
+
+
 def montecarlo_plan(scene: Any) -> dict[str, Any]:
     """What the Monte Carlo would do with the scene's settings, before running it: the time
     step (``dt`` or the "auto" one), the sampling interval, the sampled time (whole windows of
