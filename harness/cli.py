@@ -282,14 +282,14 @@ def cmd_bifurcation(args: argparse.Namespace) -> int:
 
 def cmd_figures(args: argparse.Namespace) -> int:
     from . import outdir
-    from .figures import FIGURES, ROOT, draw_figures, render_table
+    from .figures import FIGURES, draw_figures, render_table
 
     validate.output_folder(args.out, "--out")
     overrides = _mc_overrides(args)
     options = {k: f"--{k}" for k in _mc_given(args)}
     seconds = 0.0
     for no in args.figure or (2, 3, 4, 5, 6):
-        sweep = load_scene(ROOT / "scenes" / f"{FIGURES[no]}.toml")
+        sweep = load_scene(FIGURES[no])  # a shipped scene, as draw_figures loads it
         for scene in (sweep.with_values(overrides) if overrides else sweep).variants():
             validate.scene_magnitudes(scene)
             validate.montecarlo_settings(scene, options)
