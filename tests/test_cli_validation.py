@@ -246,7 +246,9 @@ def test_ctrl_c_stops_a_monte_carlo_within_seconds(tmp_path):
     proc = subprocess.Popen([sys.executable, "-m", "harness", "solve", BASE, *MC, "--paths",
                              "4096", "--time", "4000", "--json", str(out)], cwd=tmp_path,
                             stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
-                            env={**ENV, "NUMBA_NUM_THREADS": "1"})
+                            env={**ENV, "NUMBA_NUM_THREADS": "1"},
+                            # a test run started in the background inherits SIGINT ignored
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     time.sleep(4.0)  # past start-up, inside the compile or the pilot runs
     assert proc.poll() is None
     proc.send_signal(signal.SIGINT)
