@@ -42,32 +42,50 @@ from .simulate import CHUNK_SECONDS, Result, _density, _mean_se
 
 ORDER = 1
 BURN_FACTOR = 6.0  # as for the original system (tuning.py): burn-in = 6 x relaxation time
+LOG_DEPTH = 60.0  # relaxation_time: cells where pi > e^-60 of its peak
 
 
 def relaxation_time(drift: Callable[[np.ndarray], np.ndarray],
                     diffusion: Callable[[np.ndarray], np.ndarray], top: float,
-                    cells: int = 400) -> float:
+                    cells: int = 400, depth: float = LOG_DEPTH) -> float:
     """Slowest relaxation time 1 / lambda_1 of THIS SDE, from its own generator
     L f = (1/pi) (pi sigma^2 / 2 f')' (pi the stationary density, reflecting ends), discretised
-    on ``cells`` cells of [0, top] and symmetrised by sqrt(pi): a tridiagonal eigenproblem.
+    on ``cells`` cells and symmetrised by sqrt(pi): a tridiagonal eigenproblem.
     Used for ``burn_in = "auto"``: a 1-D SDE's relaxation time is a property of the SDE
-    itself, so no pilot run is needed."""
+    itself, so no pilot run is needed.
+
+    The cells cover the part of [0, top] where log pi is within ``depth`` of its maximum
+    (found on a 4x finer grid), with reflecting ends there. Beyond it the density is below
+    e^-depth of its peak and the inward drift is steep, so the region relaxes fast and holds
+    no slow mode; kept in, it would give the matrix a dynamic range (e^(g h / 2) per cell)
+    that drowns lambda_1 in round-off. The matrix is built from neighbour differences of
+    log pi only, never from pi: a floor on log pi (as once here) turned the far tail into a
+    flat, driftless region whose slow diffusion posed as the slowest mode (tau grew ~100x
+    with the table's top; tests/test_montecarlo.py measures it against the CIR closed form)."""
     from scipy.linalg import eigh_tridiagonal
 
-    h = top / cells
-    A = (np.arange(cells) + 0.5) * h
-    m, s2 = np.asarray(drift(A), float), np.maximum(np.asarray(diffusion(A), float), 1e-300)
-    g = 2 * m / s2
-    log_pi = np.concatenate([[0.0], np.cumsum(0.5 * (g[1:] + g[:-1]) * h)]) - np.log(s2)
-    log_pi = np.maximum(log_pi - log_pi.max(), -300.0)
-    log_c = log_pi + np.log(0.5 * s2)  # pi sigma^2 / 2 at the cells
-    c_face = np.exp(0.5 * (log_c[1:] + log_c[:-1]))  # at the interior faces
-    pi = np.exp(log_pi)
+    def log_pi(A: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
+        s2 = np.maximum(np.asarray(diffusion(A), float), 1e-300)
+        g = 2 * np.asarray(drift(A), float) / s2
+        d = 0.5 * (g[1:] + g[:-1]) * h - np.diff(np.log(s2))  # log pi_{i+1} - log pi_i
+        return np.concatenate([[0.0], np.cumsum(d)]), s2
+
+    fine = 4 * cells
+    hf = top / fine
+    lp, _ = log_pi((np.arange(fine) + 0.5) * hf, hf)
+    keep = np.flatnonzero(lp >= lp.max() - depth)
+    lo, hi = keep[0] * hf, (keep[-1] + 1) * hf
+    h = (hi - lo) / cells
+    lp, s2 = log_pi(lo + (np.arange(cells) + 0.5) * h, h)
+    d = np.diff(lp)
+    # c = pi sigma^2 / 2 and c at a face sqrt(c_i c_{i+1}) give, with s = sqrt(s2_i s2_i+1)/2:
+    #   c_face / pi_i = s e^{+d/2},  c_face / pi_{i+1} = s e^{-d/2},  c_face / sqrt(pi_i pi_i+1) = s
+    s_face = 0.5 * np.sqrt(s2[1:] * s2[:-1])
     diag = np.zeros(cells)
-    diag[:-1] += c_face
-    diag[1:] += c_face
-    diag /= pi * h * h
-    off = -c_face / (h * h * np.sqrt(pi[1:] * pi[:-1]))
+    diag[:-1] += s_face * np.exp(0.5 * d)
+    diag[1:] += s_face * np.exp(-0.5 * d)
+    diag /= h * h
+    off = -s_face / (h * h)
     lam = eigh_tridiagonal(diag, off, select="i", select_range=(0, 1),
                            eigvals_only=True)
     return float(1.0 / lam[1]) if lam[1] > 0 else math.inf
