@@ -21,7 +21,6 @@ which is why metrics.json keeps this block apart (issue 11: byte-identical metri
 from __future__ import annotations
 
 import hashlib
-import importlib
 import os
 import platform
 import secrets
@@ -71,16 +70,19 @@ def git_state() -> dict[str, Any] | None:
 
 
 def versions() -> dict[str, str]:
-    """Versions of python and of the numerical libraries that are importable."""
+    """Versions of python and of the numerical libraries that are installed: the imported
+    module's ``__version__`` when it is loaded, else the installed distribution's metadata
+    (no import: a solve that needs no numba should not pay for loading it)."""
     out = {"python": platform.python_version()}
     for name, module in _MODULES.items():
         mod = sys.modules.get(module)
-        if mod is None:
-            try:
-                mod = importlib.import_module(module)
-            except ImportError:
-                continue
-        out[name] = str(getattr(mod, "__version__", "unknown"))
+        if mod is not None:
+            out[name] = str(getattr(mod, "__version__", "unknown"))
+            continue
+        try:
+            out[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            continue
     return out
 
 

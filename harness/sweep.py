@@ -558,9 +558,17 @@ class Runner:
                 env={"NUMBA_NUM_THREADS": str(threads)})
             self.client = Client(self.cluster)
         elif spec.kind == "tcp":
+            import socket
+            from urllib.parse import urlsplit
+
             from distributed import Client
 
             try:
+                # a plain TCP probe first: a refused connection is known at once, whereas
+                # dask's Client retries it until its timeout runs out
+                where = urlsplit(spec.address)
+                socket.create_connection((where.hostname, where.port),
+                                         timeout=connect_timeout).close()
                 self.client = Client(spec.address, timeout=connect_timeout)
             except (OSError, TimeoutError) as exc:
                 raise SweepError(f"--executor {spec.address}: no dask scheduler answers there "

@@ -1,5 +1,7 @@
-"""The hard scenes of scenes/hard/: bounded time, finite normalised densities, and the report
-says in words when an averaging assumption fails. The full-size checks are marked slow."""
+"""The hard scenes of scenes/hard/: finite normalised densities, and the report says in words
+when an averaging assumption fails. The cross-checks here run reduced Monte Carlo settings;
+the full default-size check of every hard scene (minutes each) is a validation run,
+benchmarks/validate_hard_scenes.py, whose results docs/report.md quotes."""
 
 from __future__ import annotations
 
@@ -73,11 +75,12 @@ def test_unconverged_simulation_is_reported():
     scene = load_scene(ROOT / "scenes" / "hard" / "D-tiny.toml").with_values(
         {"montecarlo.paths": 32, "montecarlo.blocks": 16, "montecarlo.time": 20.0,
          "montecarlo.burn_in": 10.0})
-    result = cross_check(scene, quiet=True)
+    # the FPK plays no part in the convergence evidence: skipped (fpk=False)
+    result = cross_check(scene, quiet=True, fpk=False)
     conv = result.metrics["monte_carlo"]["convergence"]
     assert conv["extensions"] >= 1
     assert conv["equilibrated"] or all("has not converged" in v for v in result.verdicts)
-    tight = cross_check(scene.with_values({"montecarlo.budget": 1e-3}), quiet=True)
+    tight = cross_check(scene.with_values({"montecarlo.budget": 1e-3}), quiet=True, fpk=False)
     conv = tight.metrics["monte_carlo"]["convergence"]
     assert conv["extensions"] == 0 and conv["equilibrated"] is False and conv["reason"]
     assert all("the simulation has not converged" in v for v in tight.verdicts)
@@ -118,11 +121,3 @@ def test_hard_scene_cross_check_small(name):
     result = cross_check(scene, quiet=True)
     _check_finite(result)
     assert result.warnings and all("NOT an estimate" in v for v in result.verdicts)
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("path", [p for p in HARD if p.stem != "no-noise"], ids=lambda p: p.stem)
-def test_hard_scene_cross_check_full(path):
-    """Every hard scene at the default (full) settings: ~12 s each on 2 cores."""
-    result = cross_check(load_scene(path), quiet=True)
-    _check_finite(result)

@@ -19,11 +19,18 @@ def collected(*args: str) -> set[str]:
 
 def test_ci_runs_every_test():
     """The pytest command of .ci/run selects the same tests as pytest with no marker filter
-    (addopts emptied), and so includes the slow tier (e.g. the wheel test)."""
+    (addopts emptied), and so includes the slow tier (e.g. the wheel test), and spreads them
+    over the cores."""
     lines = [ln for ln in (ROOT / ".ci" / "run").read_text().splitlines()
              if ln.strip().startswith("python -m pytest")]
     assert len(lines) == 1, lines
     ci_args = shlex.split(lines[0])[3:]
+    # xdist's options (-n N, --dist MODE) choose where tests run, not which
+    for opt in ("-n", "--dist"):
+        if opt in ci_args:
+            i = ci_args.index(opt)
+            del ci_args[i:i + 2]
     everything = collected("-o", "addopts=")
     assert collected(*ci_args) == everything
     assert any(t.startswith("tests/test_wheel.py::") for t in everything)
+    assert "-n" in shlex.split(lines[0]) and "loadgroup" in lines[0]

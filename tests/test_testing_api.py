@@ -54,11 +54,19 @@ def test_histogram_floor_is_added_automatically():
         assert_density_close(hist, gauss(0.3), atol=0.0)
 
 
+# The pass/fail line between the two models at the base scene: the full check measures
+# L1(A) = 0.076 +/- 0.002 (exact) and 0.484 +/- 0.002 (paper) against the original system
+# (README, docs/numbers.json). At SMALL settings (128 paths) the noise floor is 0.057 and a
+# run's L1 scatters by L1_err = 0.006 (measured: exact gives L1 = 0.057 +/- 0.006), so 0.2
+# lies > 20 L1_err above exact's and below paper's (noise adds to L1, never makes 0.48 small).
+BETWEEN_MODELS = 0.2
+
+
 def test_averaging_error_pass_fail_and_message():
-    m = assert_averaging_error("paper-base", "exact", below=0.2, **SMALL)
-    assert m["L1"] < 0.2
+    m = assert_averaging_error("paper-base", "exact", below=BETWEEN_MODELS, **SMALL)
+    assert m["L1"] < BETWEEN_MODELS
     with pytest.raises(AssertionError) as exc:
-        assert_averaging_error("paper-base", "paper", below=0.2, **SMALL)
+        assert_averaging_error("paper-base", "paper", below=BETWEEN_MODELS, **SMALL)
     msg = str(exc.value)
     assert "averaging error of paper on p(A): L1 = 0.4" in msg
     assert "+/-" in msg and "noise floor" in msg and "128 paths" in msg
@@ -81,8 +89,8 @@ def test_user_model_protocol():
         def diffusion(self, A):
             return self.m.diffusion(A)
 
-    a = assert_averaging_error(scene, Mine(), below=0.2, observable="x2", **SMALL)
-    b = assert_averaging_error(scene, "exact", below=0.2, observable="x2", **SMALL)
+    a = assert_averaging_error(scene, Mine(), below=BETWEEN_MODELS, observable="x2", **SMALL)
+    b = assert_averaging_error(scene, "exact", below=BETWEEN_MODELS, observable="x2", **SMALL)
     # |L1(a, ref) - L1(b, ref)| <= L1(a, b) (triangle inequality; bin-averaging only shrinks
     # L1), the FPK route's discretisation error on x2: measured 7.7e-5 at 800 cells
     assert a["L1"] == pytest.approx(b["L1"], abs=5e-4)

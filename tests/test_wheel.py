@@ -19,7 +19,8 @@ import pytest
 
 from .conftest import ROOT
 
-pytestmark = pytest.mark.slow
+# one wheel and venv for the module: under xdist the three tests stay on one worker
+pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("wheel")]
 
 
 @pytest.fixture(scope="module")

@@ -76,11 +76,3 @@ def test_run_error_removes_the_reference_noise_only():
     assert reference_floor({"x": np.zeros(3), "p": np.zeros(3)}) == 0.0
     assert run_error(0.005, 0.003) == pytest.approx(0.004, rel=1e-12)
     assert run_error(0.002, 0.003) == 0.0
-
-
-@pytest.mark.slow
-def test_full_ladder_reaches_the_targets(tmp_path: Path):
-    out = tmp_path / "wp"
-    assert main(["workprecision", "paper-base", "--out", str(out), "--quiet"]) == 0
-    d = json.loads((out / "workprecision.json").read_text())
-    assert math.isfinite(d["seconds_to_reach"]["FPK direct (paper)"]["0.0001"])

@@ -1,0 +1,106 @@
+"""Every hard scene (scenes/hard/) cross-checked at its full default settings: time, verdicts,
+warnings, and the same finite/normalised checks as tests/test_hard_scenes.py.
+
+    python benchmarks/validate_hard_scenes.py [NAME ...]   # writes results/hard_scenes.{json,md}
+
+This is a validation run, not a test: at default settings a hard scene takes from seconds to
+minutes (D-tiny's relaxation is long), far beyond the CI budget. The test suite runs the same
+code path on reduced Monte Carlo settings (test_hard_scene_cross_check_small) and every
+scene's closed forms and warnings (test_assumption_warnings); this script records what the full
+runs give, with the provenance of the run, so that docs/report.md can quote it. It exits 1 if
+any scene fails a check (the failures are listed in the JSON and on stderr).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from harness.check import MODELS, cross_check
+from harness.provenance import collect
+from harness.scene import load_scene
+
+ROOT = Path(__file__).resolve().parent.parent
+RESULTS = ROOT / "benchmarks" / "results"
+
+
+def problems(result: Any) -> list[str]:
+    """What is wrong with a cross-check's output: non-finite or negative densities, histogram
+    mass outside [0.99, 1] (the atom of p(x2) at rest counted), closed-form mass off 1 by more
+    than 1e-9, non-finite metrics."""
+    out = []
+    for name, sol in result.solutions.items():
+        for obs in ("A", "x1", "x2"):
+            d = sol.data[obs]
+            p = np.asarray(d["p"])
+            if not (np.all(np.isfinite(p)) and np.min(p) >= 0):
+                out.append(f"{name} {obs}: density not finite or negative")
+                continue
+            if "edges" in d:
+                mass = float(np.sum(p * np.diff(d["edges"]))) + float(d.get("atom_weight", 0))
+                if not 0.99 <= mass <= 1.0 + 1e-9:
+                    out.append(f"{name} {obs}: histogram mass {mass:.4f}")
+            elif abs(np.trapezoid(p, d["x"]) - 1) > 1e-9:
+                out.append(f"{name} {obs}: mass {np.trapezoid(p, d['x']):.12f}")
+    for m, entry in result.metrics["models"].items():
+        for kind in ("discretisation_error", "sampling_error", "averaging_error"):
+            for o, e in entry[kind].items():
+                if not all(math.isfinite(v) for v in e.values()):
+                    out.append(f"{m} {kind} {o}: not finite")
+    return out
+
+
+def main(names: list[str]) -> int:
+    paths = sorted((ROOT / "scenes" / "hard").glob("*.toml"))
+    paths = [p for p in paths if p.stem != "no-noise" and (not names or p.stem in names)]
+    rows = []
+    for path in paths:
+        t0, c0 = time.perf_counter(), time.process_time()
+        res = cross_check(load_scene(path), quiet=True)
+        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+        met = res.metrics
+        row = {"scene": path.stem, "wall_seconds": round(wall, 1), "cpu_seconds": round(cpu, 1),
+               "stages": {k: round(v, 1) for k, v in met["timings"]["stages"].items()},
+               "burn_in": met["monte_carlo"]["settings"]["burn_in"],
+               "extensions": met["monte_carlo"]["convergence"]["extensions"],
+               "equilibrated": met["monte_carlo"]["convergence"].get("equilibrated"),
+               "L1_A": {m: met["models"][m]["averaging_error"]["A"]["L1"] for m in MODELS},
+               "L1_floor_A": met["models"]["exact"]["averaging_error"]["A"]["L1_floor"],
+               "classes": {m: met["models"][m]["verdict_class"] for m in MODELS},
+               "warnings": [w.split(":")[0] for w in res.warnings],
+               "problems": problems(res)}
+        rows.append(row)
+        print(f"{row['scene']:14s} {wall:7.1f} s  " + "  ".join(
+            f"{m} {row['L1_A'][m]:.3f}" for m in MODELS) + f"  {row['warnings']}"
+            + (f"  PROBLEMS {row['problems']}" if row["problems"] else ""), flush=True)
+    out = {"provenance": collect(argv=sys.argv), "threads": os.cpu_count(),
+           "load_average_end": os.getloadavg()[0], "scenes": rows}
+    table = ["| scene | seconds (wall) | " + " | ".join(f"L1(A) {m}" for m in MODELS)
+             + " | floor | warnings |", "|---|---|" + "---|" * len(MODELS) + "---|---|"]
+    for r in rows:
+        table.append(f"| {r['scene']} | {r['wall_seconds']:.0f} | " + " | ".join(
+            f"{r['L1_A'][m]:.3f}" for m in MODELS) + f" | {r['L1_floor_A']:.3f} | "
+            + (", ".join(r["warnings"]) or "–") + " |")
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    for name, text in (("hard_scenes.json", json.dumps(out, indent=1) + "\n"),
+                       ("hard_scenes.md", "\n".join(table) + "\n")):
+        fd, tmp = tempfile.mkstemp(dir=RESULTS, prefix=f".{name}.")
+        with os.fdopen(fd, "w") as f:
+            f.write(text)
+        os.replace(tmp, RESULTS / name)
+    bad = [r["scene"] for r in rows if r["problems"]]
+    if bad:
+        print(f"checks failed on: {', '.join(bad)}", file=sys.stderr)
+    return 1 if bad else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
