@@ -92,6 +92,22 @@ def mc_edges(closed: dict[str, Any], bins: int) -> dict[str, np.ndarray]:
             "edges_v": np.linspace(-1.1 * v_max, 1.1 * v_max, bins + 1)}
 
 
+#: The kind of each warning check writes: the words its sentence starts with -> a code.
+#: Code that acts on warnings (the sweep's flags, the verdict's cause) asks warning_kind, so
+#: that a reworded sentence fails loudly here instead of silently clearing a flag elsewhere.
+WARNING_KINDS = {"strong damping:": "strong_damping", "narrow-band noise:": "narrow_band",
+                 "sticking-dominated motion:": "sticking", "strong noise:": "strong_noise",
+                 "the simulation of the original system puts": "outside_range"}
+
+
+def warning_kind(text: str) -> str:
+    """The code of one of check's warnings (WARNING_KINDS); ValueError for any other text."""
+    for start, kind in WARNING_KINDS.items():
+        if text.startswith(start):
+            return kind
+    raise ValueError(f"not a warning of harness.check: {text[:60]!r}")
+
+
 def assumption_warnings(scene: Any, closed: dict[str, Any], mc_info: dict[str, Any]
                         ) -> list[str]:
     """Sentences naming each averaging assumption that clearly fails for this scene.

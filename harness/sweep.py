@@ -65,9 +65,9 @@ FIND = {"mu": "system.mu", "r": "system.r"}
 RESERVED = {"montecarlo.seed": "set the sweep's seed with the top-level key `seed`",
             "montecarlo.budget": "sweeps run without a wall-clock budget (a budget makes a "
                                  "point depend on the machine's speed); use montecarlo.floor"}
-#: warnings of the cross-check as flags: variable name -> words that start the warning
-WARNING_FLAGS = {"warn_narrow_band": "narrow-band", "warn_sticking": "sticking",
-                 "warn_strong_damping": "strong damping", "warn_strong_noise": "strong noise"}
+#: warnings of the cross-check as flags: variable name -> the warning's kind (check.WARNING_KINDS)
+WARNING_FLAGS = {"warn_narrow_band": "narrow_band", "warn_sticking": "sticking",
+                 "warn_strong_damping": "strong_damping", "warn_strong_noise": "strong_noise"}
 EXTRA_HINT = "pip install 'vifpk[cluster]'"
 
 
@@ -394,7 +394,10 @@ def run_point(job: Job) -> dict[str, Any]:
 
 
 def _flags(warnings: list[str]) -> dict[str, bool]:
-    return {k: any(w.lower().startswith(v) for w in warnings) for k, v in WARNING_FLAGS.items()}
+    from .check import warning_kind
+
+    kinds = {warning_kind(w) for w in warnings}
+    return {k: v in kinds for k, v in WARNING_FLAGS.items()}
 
 
 def _check_point(job: Job) -> dict[str, Any]:
@@ -414,13 +417,12 @@ def _check_point(job: Job) -> dict[str, Any]:
                      "mean_A": res.solutions[f"closed:{m}"].info["summary"]["mean"],
                      "sampling_ok": bool(res.metrics["models"][m]["sampling_ok"]),
                      "verdict_class": str(res.metrics["models"][m].get("verdict_class", ""))}
-    # the simulation's mean amplitude from its histogram of A with an exactly rounded sum
-    # (the histogram is bit-identical for any thread count; the Monte Carlo's per-block moment
-    # sums are not always, in their last bits); its batch error from the moments, rounded to
-    # 3 significant digits for the same reason
+    # the simulation's mean amplitude from its histogram of A with an exactly rounded sum, its
+    # batch error from the moments (accumulated per path and summed in path order: the same
+    # bits for any thread count and executor, tests/test_sweep.py)
     d = mc.data["A"]
     mean = {"value": math.fsum((d["x"] * d["p"] * np.diff(d["edges"])).tolist()),
-            "err": float(f"{mc.info['moments']['A']['mean']['err']:.3g}")}
+            "err": float(mc.info["moments"]["A"]["mean"]["err"])}
     converged = conv.get("equilibrated") is not False and all(
         v["sampling_ok"] for v in models.values())
     return {"models": models, "mean_A_simulation": mean["value"],
@@ -554,7 +556,9 @@ class Runner:
 
             self.cluster = LocalCluster(
                 n_workers=spec.workers, threads_per_worker=1, processes=True,
-                dashboard_address=None, host="127.0.0.1", silence_logs=logging.ERROR,
+                # any free port for its HTTP server: two clusters on one machine do not
+                # collide on 8787 (and warn about it)
+                dashboard_address=":0", host="127.0.0.1", silence_logs=logging.ERROR,
                 env={"NUMBA_NUM_THREADS": str(threads)})
             self.client = Client(self.cluster)
         elif spec.kind == "tcp":

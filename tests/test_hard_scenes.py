@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from averaging import solve
-from harness.check import assumption_warnings, cross_check
+from harness.check import WARNING_KINDS, assumption_warnings, cross_check, warning_kind
 from harness.cli import main
 from harness.scene import load_scene
 
@@ -49,6 +49,7 @@ def test_assumption_warnings(name):
     scene = load_scene(ROOT / "scenes" / "hard" / f"{name}.toml")
     closed = {"exact": solve(scene, model="exact")}
     warnings = assumption_warnings(scene, closed, {})
+    assert {warning_kind(w) for w in warnings} <= set(WARNING_KINDS.values())  # each has a kind
     text = " ".join(warnings)
     for key in EXPECTED[name]:
         assert key in text, warnings
@@ -66,6 +67,9 @@ def test_sticking_is_reported_from_the_simulation():
     warnings = assumption_warnings(scene, {"exact": solve(scene, model="exact")},
                                    {"events": {"stuck_fraction": {"value": 0.5}}})
     assert any("sticking-dominated" in w for w in warnings)
+    assert "sticking" in {warning_kind(w) for w in warnings}
+    with pytest.raises(ValueError, match="not a warning"):
+        warning_kind("sticky motion: reworded")
 
 
 def test_unconverged_simulation_is_reported():

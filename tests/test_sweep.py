@@ -147,7 +147,9 @@ def test_interrupted_sweep_resumes_with_only_the_rest(tmp_path):
     env = {**os.environ, "PYTHONPATH": str(ROOT), "NUMBA_NUM_THREADS": "1"}
     proc = subprocess.Popen([sys.executable, "-m", "harness", "sweep", str(AVERAGING),
                              "--out", str(out), "--quiet"], env=env, cwd=tmp_path,
-                            stderr=subprocess.PIPE, text=True)
+                            stderr=subprocess.PIPE, text=True,
+                            # a test run started in the background inherits SIGINT ignored
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     t0 = time.monotonic()
     while len(list((out / "points").glob("*.json"))) < 2 and time.monotonic() - t0 < 120:
         time.sleep(0.02)
@@ -175,7 +177,7 @@ def test_killed_dask_worker_loses_and_duplicates_no_point(tmp_path):
 
     sweep = load_sweep(AVERAGING)
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                      dashboard_address=None) as cluster, Client(cluster) as client:
+                      dashboard_address=":0") as cluster, Client(cluster) as client:
         result = {}
         th = threading.Thread(target=lambda: result.update(run=run_sweep(
             sweep, tmp_path, executor=cluster.scheduler_address, quiet=True, report=False)))
