@@ -258,7 +258,8 @@ def cmd_bifurcation(args: argparse.Namespace) -> int:
         print(f"searching the critical {args.vary} (shape criterion on each averaged model)"
               + ("; then Monte Carlo on both sides" if not args.no_mc else "") + " ...",
               file=sys.stderr, flush=True)
-    res = bifurcation(scene, args.vary, lo=lo, hi=hi, mc=not args.no_mc)
+    models = tuple(dict.fromkeys(args.model)) if args.model else ("paper", "exact")
+    res = bifurcation(scene, args.vary, lo=lo, hi=hi, mc=not args.no_mc, models=models)
     fixed = ", ".join(f"{k} = {v:g}" if isinstance(v, float) else f"{k} = {v}"
                       for k, v in res["fixed"].items())
     print(f"varying {args.vary} with {fixed}")
@@ -463,6 +464,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "value, and the output names it)")
     b.add_argument("--range", nargs=2, type=float, metavar=("LO", "HI"),
                    help="search interval (default: mu 0 0.05, r 0.9 1)")
+    b.add_argument("--model", action="append", choices=("paper", "exact", "corrected"),
+                   help="an averaged model whose critical value to find (repeat for several; "
+                        "default: paper and exact)")
     b.add_argument("--json", metavar="OUT", help="write the result as JSON (default: none)")
     b.add_argument("--no-mc", action="store_true",
                    help="skip the Monte Carlo check (default: run it on both sides)")

@@ -59,6 +59,21 @@ def test_bifurcation_command_json(tmp_path: Path, capsys):
     assert "critical r" in capsys.readouterr().out
 
 
+def test_bifurcation_command_takes_the_corrected_model(tmp_path: Path, base):
+    """--model picks the models (issue 15: the corrected model too); its critical r is a sign
+    change of its own shape index F (checked 1e-3 either side of the root)."""
+    from harness.bifurcation import shape_index
+
+    out = tmp_path / "b.json"
+    assert main(["bifurcation", "paper-base", "--vary", "r", "--range", "0.96", "0.98",
+                 "--model", "corrected", "--no-mc", "--json", str(out), "--quiet"]) == 0
+    crit = json.loads(out.read_text())["critical"]
+    assert set(crit) == {"corrected"}
+    c = crit["corrected"]
+    assert shape_index(with_param(base, "r", c - 1e-3), "corrected") < 0
+    assert shape_index(with_param(base, "r", c + 1e-3), "corrected") > 0
+
+
 def test_mc_checks_sit_on_both_sides_of_each_critical_value_never_at_the_ends():
     from harness.bifurcation import check_points
 
