@@ -58,10 +58,31 @@ def problems(result: Any) -> list[str]:
     return out
 
 
+def write(rows: list[dict[str, Any]], provenance: dict[str, Any]) -> None:
+    """results/hard_scenes.json and .md with the scenes done so far (after every scene: an
+    interrupted run keeps what it measured)."""
+    out = {"provenance": provenance, "threads": os.cpu_count(),
+           "load_average_end": os.getloadavg()[0], "scenes": rows}
+    table = ["| scene | seconds (wall) | " + " | ".join(f"L1(A) {m}" for m in MODELS)
+             + " | floor | warnings |", "|---|---|" + "---|" * len(MODELS) + "---|---|"]
+    for r in rows:
+        table.append(f"| {r['scene']} | {r['wall_seconds']:.0f} | " + " | ".join(
+            f"{r['L1_A'][m]:.3f}" for m in MODELS) + f" | {r['L1_floor_A']:.3f} | "
+            + (", ".join(r["warnings"]) or "–") + " |")
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    for name, text in (("hard_scenes.json", json.dumps(out, indent=1) + "\n"),
+                       ("hard_scenes.md", "\n".join(table) + "\n")):
+        fd, tmp = tempfile.mkstemp(dir=RESULTS, prefix=f".{name}.")
+        with os.fdopen(fd, "w") as f:
+            f.write(text)
+        os.replace(tmp, RESULTS / name)
+
+
 def main(names: list[str]) -> int:
     paths = sorted((ROOT / "scenes" / "hard").glob("*.toml"))
     paths = [p for p in paths if p.stem != "no-noise" and (not names or p.stem in names)]
-    rows = []
+    rows: list[dict[str, Any]] = []
+    provenance = collect(argv=sys.argv)
     for path in paths:
         t0, c0 = time.perf_counter(), time.process_time()
         res = cross_check(load_scene(path), quiet=True)
@@ -81,21 +102,7 @@ def main(names: list[str]) -> int:
         print(f"{row['scene']:14s} {wall:7.1f} s  " + "  ".join(
             f"{m} {row['L1_A'][m]:.3f}" for m in MODELS) + f"  {row['warnings']}"
             + (f"  PROBLEMS {row['problems']}" if row["problems"] else ""), flush=True)
-    out = {"provenance": collect(argv=sys.argv), "threads": os.cpu_count(),
-           "load_average_end": os.getloadavg()[0], "scenes": rows}
-    table = ["| scene | seconds (wall) | " + " | ".join(f"L1(A) {m}" for m in MODELS)
-             + " | floor | warnings |", "|---|---|" + "---|" * len(MODELS) + "---|---|"]
-    for r in rows:
-        table.append(f"| {r['scene']} | {r['wall_seconds']:.0f} | " + " | ".join(
-            f"{r['L1_A'][m]:.3f}" for m in MODELS) + f" | {r['L1_floor_A']:.3f} | "
-            + (", ".join(r["warnings"]) or "–") + " |")
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    for name, text in (("hard_scenes.json", json.dumps(out, indent=1) + "\n"),
-                       ("hard_scenes.md", "\n".join(table) + "\n")):
-        fd, tmp = tempfile.mkstemp(dir=RESULTS, prefix=f".{name}.")
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-        os.replace(tmp, RESULTS / name)
+        write(rows, provenance)
     bad = [r["scene"] for r in rows if r["problems"]]
     if bad:
         print(f"checks failed on: {', '.join(bad)}", file=sys.stderr)
