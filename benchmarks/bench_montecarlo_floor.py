@@ -76,8 +76,8 @@ def main() -> None:
         "cpu_count": os.cpu_count(),
         "machine": platform.machine(), "python": platform.python_version(),
         "numba": numba.__version__,
-        "note": "measured while other jobs shared the 2 cores (load average printed below); "
-                "the lead re-runs this on a quiet machine",
+        "note": "the load average is recorded: above the core count, other jobs shared the "
+                "cores and the times are upper bounds",
         "load_average": os.getloadavg(),
         "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
     }

@@ -140,7 +140,8 @@ def main() -> None:
     load0 = os.getloadavg()
     res = {"machine": {"cpus": os.cpu_count(), "python": platform.python_version(),
                        "load_average_start": load0,
-                       "note": "2 cores shared with other jobs: upper bounds"},
+                       "note": "the load average is recorded: above the core count, other "
+                               "jobs shared the cores and the times are upper bounds"},
            "floor": args.floor,
            "executors": executor_rows(args.floor, work),
            "dask": dask_overhead()}

@@ -1,7 +1,8 @@
 """Every hard scene (scenes/hard/) cross-checked at its full default settings: time, verdicts,
 warnings, and the same finite/normalised checks as tests/test_hard_scenes.py.
 
-    python benchmarks/validate_hard_scenes.py [NAME ...]   # writes results/hard_scenes.{json,md}
+    python benchmarks/validate_hard_scenes.py          # writes results/hard_scenes.{json,md}
+    python benchmarks/validate_hard_scenes.py NAME ... # only those: results/hard_scenes-subset.*
 
 This is a validation run, not a test: at default settings a hard scene takes from seconds to
 minutes (D-tiny's relaxation is long), far beyond the CI budget. The test suite runs the same
@@ -17,7 +18,6 @@ import json
 import math
 import os
 import sys
-import tempfile
 import time
 from pathlib import Path
 from typing import Any
@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from harness.check import MODELS, cross_check
+from harness.io import write_atomic
 from harness.provenance import collect
 from harness.scene import load_scene
 
@@ -58,7 +59,7 @@ def problems(result: Any) -> list[str]:
     return out
 
 
-def write(rows: list[dict[str, Any]], provenance: dict[str, Any]) -> None:
+def write(rows: list[dict[str, Any]], provenance: dict[str, Any], stem: str) -> None:
     """results/hard_scenes.json and .md with the scenes done so far (after every scene: an
     interrupted run keeps what it measured)."""
     out = {"provenance": provenance, "threads": os.cpu_count(),
@@ -69,13 +70,8 @@ def write(rows: list[dict[str, Any]], provenance: dict[str, Any]) -> None:
         table.append(f"| {r['scene']} | {r['wall_seconds']:.0f} | " + " | ".join(
             f"{r['L1_A'][m]:.3f}" for m in MODELS) + f" | {r['L1_floor_A']:.3f} | "
             + (", ".join(r["warnings"]) or "–") + " |")
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    for name, text in (("hard_scenes.json", json.dumps(out, indent=1) + "\n"),
-                       ("hard_scenes.md", "\n".join(table) + "\n")):
-        fd, tmp = tempfile.mkstemp(dir=RESULTS, prefix=f".{name}.")
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-        os.replace(tmp, RESULTS / name)
+    write_atomic(RESULTS / f"{stem}.json", json.dumps(out, indent=1) + "\n")
+    write_atomic(RESULTS / f"{stem}.md", "\n".join(table) + "\n")
 
 
 def main(names: list[str]) -> int:
@@ -102,7 +98,7 @@ def main(names: list[str]) -> int:
         print(f"{row['scene']:14s} {wall:7.1f} s  " + "  ".join(
             f"{m} {row['L1_A'][m]:.3f}" for m in MODELS) + f"  {row['warnings']}"
             + (f"  PROBLEMS {row['problems']}" if row["problems"] else ""), flush=True)
-        write(rows, provenance)
+        write(rows, provenance, "hard_scenes-subset" if names else "hard_scenes")
     bad = [r["scene"] for r in rows if r["problems"]]
     if bad:
         print(f"checks failed on: {', '.join(bad)}", file=sys.stderr)

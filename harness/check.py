@@ -93,8 +93,8 @@ def mc_edges(closed: dict[str, Any], bins: int) -> dict[str, np.ndarray]:
 
 
 #: The kind of each warning check writes: the words its sentence starts with -> a code.
-#: Code that acts on warnings (the sweep's flags, the verdict's cause) asks warning_kind, so
-#: that a reworded sentence fails loudly here instead of silently clearing a flag elsewhere.
+#: Code that acts on a warning's kind (the sweep's flags) asks warning_kind, so that a
+#: reworded sentence fails loudly instead of silently clearing a flag elsewhere.
 WARNING_KINDS = {"strong damping:": "strong_damping", "narrow-band noise:": "narrow_band",
                  "sticking-dominated motion:": "sticking", "strong noise:": "strong_noise",
                  "the simulation of the original system puts": "outside_range"}

@@ -492,10 +492,18 @@ def parse_executor(text: str) -> ExecutorSpec:
         if not rest.isdigit() or int(rest) < 1:
             raise SweepError(f"--executor {text}: N must be a whole number >= 1; {allowed}")
         spec = ExecutorSpec(kind=kind, workers=int(rest))
-    elif kind == "tcp" and rest.startswith("//") and ":" in rest[2:]:
-        host, _, port = rest[2:].rpartition(":")
-        if not host or not port.isdigit():
-            raise SweepError(f"--executor {text}: expected tcp://HOST:PORT")
+    elif kind == "tcp" and rest.startswith("//"):
+        from urllib.parse import urlsplit
+
+        where = urlsplit(text)
+        try:
+            port = where.port
+        except ValueError:  # not a number, or out of range
+            port = None
+        if not where.hostname or port is None or not 1 <= port <= 65535 or where.path \
+                or where.query or where.fragment:
+            raise SweepError(f"--executor {text}: expected tcp://HOST:PORT with PORT in "
+                             "1-65535 (an IPv6 host in brackets: tcp://[::1]:8786)")
         spec = ExecutorSpec(kind="tcp", address=text)
     else:
         raise SweepError(f"--executor {text}: unknown executor; {allowed}")
@@ -574,7 +582,7 @@ class Runner:
                 socket.create_connection((where.hostname, where.port),
                                          timeout=connect_timeout).close()
                 self.client = Client(spec.address, timeout=connect_timeout)
-            except (OSError, TimeoutError) as exc:
+            except (OSError, TimeoutError, ValueError) as exc:
                 raise SweepError(f"--executor {spec.address}: no dask scheduler answers there "
                                  f"({type(exc).__name__}); start one with `dask scheduler` "
                                  "and workers with `dask worker ADDRESS`") from None
@@ -853,12 +861,19 @@ def dataset(sweep: Sweep, records: Mapping[str, dict[str, Any]], *,
 
 
 def write_netcdf(ds: Any, path: Path) -> Path:
-    """Write a Dataset atomically (temporary file beside it, then rename)."""
-    import tempfile
+    """Write a Dataset atomically (temporary file beside it, then rename). The temporary file
+    is created with mode 0666 minus the umask, as every other output (netCDF keeps the mode of
+    the file it overwrites; ``tempfile`` would give 0600)."""
+    import secrets
 
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
+    while True:
+        tmp = path.parent / f".{path.name}.{secrets.token_hex(4)}.tmp"
+        try:
+            os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+            break
+        except FileExistsError:
+            continue
     try:
         ds.to_netcdf(tmp, engine="netcdf4")
         os.replace(tmp, path)

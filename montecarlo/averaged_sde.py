@@ -60,8 +60,11 @@ def relaxation_time(drift: Callable[[np.ndarray], np.ndarray],
     no slow mode; kept in, it would give the matrix a dynamic range (e^(g h / 2) per cell)
     that drowns lambda_1 in round-off. The matrix is built from neighbour differences of
     log pi only, never from pi: a floor on log pi (as once here) turned the far tail into a
-    flat, driftless region whose slow diffusion posed as the slowest mode (tau grew ~100x
-    with the table's top; tests/test_montecarlo.py measures it against the CIR closed form)."""
+    flat, driftless region whose slow diffusion posed as the slowest mode (tau grew without
+    bound with the table's top: 1454 instead of 92 for the base scene's exact model at check's
+    table; tests/test_montecarlo.py measures it against the CIR closed form).
+    A diffusion that vanishes somewhere on the kept cells gives an infinite tau (the caller
+    then falls back to a fixed burn-in)."""
     from scipy.linalg import eigh_tridiagonal
 
     def log_pi(A: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
@@ -86,6 +89,8 @@ def relaxation_time(drift: Callable[[np.ndarray], np.ndarray],
     diag[1:] += s_face * np.exp(-0.5 * d)
     diag /= h * h
     off = -s_face / (h * h)
+    if not (np.all(np.isfinite(diag)) and np.all(np.isfinite(off))):
+        return math.inf  # sigma^2 -> 0 on a kept cell: no finite relaxation rate to compute
     lam = eigh_tridiagonal(diag, off, select="i", select_range=(0, 1),
                            eigvals_only=True)
     return float(1.0 / lam[1]) if lam[1] > 0 else math.inf

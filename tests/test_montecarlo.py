@@ -349,9 +349,10 @@ def test_averaged_sde_relaxation_time_is_the_cir_rate_whatever_the_table_top(top
     dZ = (2 s^2 - c Z) dt + 2 s sqrt(Z) dB, whose generator has eigenvalues -n c (Laguerre
     polynomials): tau = 1/c exactly. The table may reach far past the support (top in units
     of the scale s / sqrt(c)); tau must not depend on it (a floor on log pi once made it grow
-    without bound). Tolerance: at 400 cells the discretisation error is measured 1e-4 (second
-    order); 1e-3. At top = 3 the reflecting wall cuts the density (e^-4.5 beyond it), which
-    speeds relaxation up by 15% (tau c = 0.855 measured): that case only checks the direction."""
+    without bound). Tolerance: the discretisation error of tau c is measured 3e-5 to 2e-4 at
+    100 to 800 cells (8e-5 at the 400 used); 1e-3. At top = 3 the reflecting wall cuts the
+    density (e^-4.5 beyond it), which speeds relaxation up by 15% (tau c = 0.855 measured):
+    that case only checks the direction."""
     from montecarlo.averaged_sde import relaxation_time
 
     c, s = 0.2, 0.3

@@ -80,7 +80,10 @@ def test_bad_sweep_file_exit_2_one_line_nothing_written(case, tmp_path, capsys):
 
 @pytest.mark.parametrize("executor,word", [("threads:2", "unknown executor"),
                                            ("processes:0", "N must be"),
-                                           ("tcp://127.0.0.1:1", "no dask scheduler")])
+                                           ("tcp://127.0.0.1:1", "no dask scheduler"),
+                                           ("tcp://::1:8786", "PORT in 1-65535"),
+                                           ("tcp://localhost:99999", "PORT in 1-65535"),
+                                           ("tcp://host/p:8786", "PORT in 1-65535")])
 def test_bad_executor_exit_2_one_line_nothing_written(executor, word, tmp_path, capsys):
     """tcp://127.0.0.1:1: nothing listens on port 1 (the connection is refused)."""
     path = _write(tmp_path, GOOD)
@@ -138,6 +141,10 @@ def test_local_cluster_equals_serial_bit_for_bit(serial_check, tmp_path):
     assert a.sizes == {"system.r": 2, "system.mu": 2, "model": len(MODELS)}
     assert (a["status"] == "ok").all()
     a.identical(b) or pytest.fail(f"sweep.nc differ:\n{a}\n{b}")
+    umask = os.umask(0)
+    os.umask(umask)
+    for nc in (serial_check / "sweep.nc", tmp_path / "sweep.nc"):  # as every other output
+        assert nc.stat().st_mode & 0o777 == 0o666 & ~umask, oct(nc.stat().st_mode)
 
 
 def test_interrupted_sweep_resumes_with_only_the_rest(tmp_path):
