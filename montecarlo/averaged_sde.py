@@ -85,9 +85,10 @@ def relaxation_time(drift: Callable[[np.ndarray], np.ndarray],
     #   c_face / pi_i = s e^{+d/2},  c_face / pi_{i+1} = s e^{-d/2},  c_face / sqrt(pi_i pi_i+1) = s
     s_face = 0.5 * np.sqrt(s2[1:] * s2[:-1])
     diag = np.zeros(cells)
-    diag[:-1] += s_face * np.exp(0.5 * d)
-    diag[1:] += s_face * np.exp(-0.5 * d)
-    diag /= h * h
+    with np.errstate(over="ignore", invalid="ignore"):  # a vanishing sigma^2: checked below
+        diag[:-1] += s_face * np.exp(0.5 * d)
+        diag[1:] += s_face * np.exp(-0.5 * d)
+        diag /= h * h
     off = -s_face / (h * h)
     if not (np.all(np.isfinite(diag)) and np.all(np.isfinite(off))):
         return math.inf  # sigma^2 -> 0 on a kept cell: no finite relaxation rate to compute
