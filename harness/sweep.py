@@ -489,8 +489,13 @@ def parse_executor(text: str) -> ExecutorSpec:
         return ExecutorSpec(kind="serial")
     kind, sep, rest = text.partition(":")
     if kind in ("processes", "dask") and sep:
-        if not rest.isdigit() or int(rest) < 1:
-            raise SweepError(f"--executor {text}: N must be a whole number >= 1; {allowed}")
+        cores = os.cpu_count() or 1
+        if not rest.isdigit() or not 1 <= int(rest) <= cores:
+            # a local pool of more workers than cores only splits the same cores (each worker
+            # runs numba on cores // N threads, at least one)
+            raise SweepError(f"--executor {text}: N must be a whole number from 1 to the "
+                             f"{cores} cores of this machine (a larger cluster: tcp://HOST:PORT)"
+                             f"; {allowed}")
         spec = ExecutorSpec(kind=kind, workers=int(rest))
     elif kind == "tcp" and rest.startswith("//"):
         from urllib.parse import urlsplit

@@ -80,6 +80,7 @@ def test_bad_sweep_file_exit_2_one_line_nothing_written(case, tmp_path, capsys):
 
 @pytest.mark.parametrize("executor,word", [("threads:2", "unknown executor"),
                                            ("processes:0", "N must be"),
+                                           ("dask:100000", "cores of this machine"),
                                            ("tcp://127.0.0.1:1", "no dask scheduler"),
                                            ("tcp://::1:8786", "PORT in 1-65535"),
                                            ("tcp://localhost:99999", "PORT in 1-65535"),
