@@ -15,48 +15,19 @@ any scene fails a check (the failures are listed in the JSON and on stderr).
 from __future__ import annotations
 
 import json
-import math
 import os
 import sys
 import time
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from harness.check import MODELS, cross_check
+from harness.check import MODELS, cross_check, output_problems
 from harness.io import write_atomic
 from harness.provenance import collect
 from harness.scene import load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "benchmarks" / "results"
-
-
-def problems(result: Any) -> list[str]:
-    """What is wrong with a cross-check's output: non-finite or negative densities, histogram
-    mass outside [0.99, 1] (the atom of p(x2) at rest counted), closed-form mass off 1 by more
-    than 1e-9, non-finite metrics."""
-    out = []
-    for name, sol in result.solutions.items():
-        for obs in ("A", "x1", "x2"):
-            d = sol.data[obs]
-            p = np.asarray(d["p"])
-            if not (np.all(np.isfinite(p)) and np.min(p) >= 0):
-                out.append(f"{name} {obs}: density not finite or negative")
-                continue
-            if "edges" in d:
-                mass = float(np.sum(p * np.diff(d["edges"]))) + float(d.get("atom_weight", 0))
-                if not 0.99 <= mass <= 1.0 + 1e-9:
-                    out.append(f"{name} {obs}: histogram mass {mass:.4f}")
-            elif abs(np.trapezoid(p, d["x"]) - 1) > 1e-9:
-                out.append(f"{name} {obs}: mass {np.trapezoid(p, d['x']):.12f}")
-    for m, entry in result.metrics["models"].items():
-        for kind in ("discretisation_error", "sampling_error", "averaging_error"):
-            for o, e in entry[kind].items():
-                if not all(math.isfinite(v) for v in e.values()):
-                    out.append(f"{m} {kind} {o}: not finite")
-    return out
 
 
 def write(rows: list[dict[str, Any]], provenance: dict[str, Any], stem: str) -> None:
@@ -93,7 +64,7 @@ def main(names: list[str]) -> int:
                "L1_floor_A": met["models"]["exact"]["averaging_error"]["A"]["L1_floor"],
                "classes": {m: met["models"][m]["verdict_class"] for m in MODELS},
                "warnings": [w.split(":")[0] for w in res.warnings],
-               "problems": problems(res)}
+               "problems": output_problems(res)}
         rows.append(row)
         print(f"{row['scene']:14s} {wall:7.1f} s  " + "  ".join(
             f"{m} {row['L1_A'][m]:.3f}" for m in MODELS) + f"  {row['warnings']}"

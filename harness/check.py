@@ -248,6 +248,35 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True) -> CheckRe
                        verdicts=verdicts)
 
 
+def output_problems(result: CheckResult) -> list[str]:
+    """What is wrong with a cross-check's output, in words (empty: nothing): a non-finite or
+    negative density; a histogram whose mass (the atom of p(x2) at rest counted) is outside
+    [0.99, 1] (its mass is 1 minus the samples outside its edges; the report warns from 0.1%
+    outside, this bound is loose: its job is finite and normalised); a smooth density whose
+    trapezoid mass is off 1 by more than 1e-9; a non-finite metric. Used by
+    tests/test_hard_scenes.py and benchmarks/validate_hard_scenes.py."""
+    out = []
+    for name, sol in result.solutions.items():
+        for obs in ("A", "x1", "x2"):
+            d = sol.data[obs]
+            p = np.asarray(d["p"])
+            if not (np.all(np.isfinite(p)) and np.min(p) >= 0):
+                out.append(f"{name} {obs}: density not finite or negative")
+                continue
+            if "edges" in d:
+                mass = float(np.sum(p * np.diff(d["edges"]))) + float(d.get("atom_weight", 0))
+                if not 0.99 <= mass <= 1.0 + 1e-9:
+                    out.append(f"{name} {obs}: histogram mass {mass:.4f}")
+            elif abs(np.trapezoid(p, d["x"]) - 1) > 1e-9:
+                out.append(f"{name} {obs}: mass {np.trapezoid(p, d['x']):.12f}")
+    for m, entry in result.metrics["models"].items():
+        for kind in ("discretisation_error", "sampling_error", "averaging_error"):
+            for o, e in entry[kind].items():
+                if not all(math.isfinite(v) for v in e.values()):
+                    out.append(f"{m} {kind} {o}: not finite")
+    return out
+
+
 SAMPLING_FACTOR = 2.5
 
 

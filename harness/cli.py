@@ -258,8 +258,8 @@ def cmd_bifurcation(args: argparse.Namespace) -> int:
         print(f"searching the critical {args.vary} (shape criterion on each averaged model)"
               + ("; then Monte Carlo on both sides" if not args.no_mc else "") + " ...",
               file=sys.stderr, flush=True)
-    models = tuple(dict.fromkeys(args.model)) if args.model else ("paper", "exact")
-    res = bifurcation(scene, args.vary, lo=lo, hi=hi, mc=not args.no_mc, models=models)
+    chosen = {"models": tuple(dict.fromkeys(args.model))} if args.model else {}
+    res = bifurcation(scene, args.vary, lo=lo, hi=hi, mc=not args.no_mc, **chosen)
     fixed = ", ".join(f"{k} = {v:g}" if isinstance(v, float) else f"{k} = {v}"
                       for k, v in res["fixed"].items())
     print(f"varying {args.vary} with {fixed}")

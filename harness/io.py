@@ -35,18 +35,23 @@ def jsonable(obj: Any) -> Any:
     return obj
 
 
-def write_atomic(path: str | Path, data: bytes | str) -> Path:
-    """Write ``data`` to ``path`` atomically (same-directory temp file + os.replace)."""
-    path = Path(path)
+def temp_beside(path: Path) -> tuple[Path, int]:
+    """A new hidden temporary file beside ``path`` (its folder created), opened for writing:
+    (its path, the file descriptor). Mode 0666 minus the umask, as any ``open``."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    raw = data.encode("utf-8") if isinstance(data, str) else data
     while True:
         tmp = path.parent / f".{path.name}.{secrets.token_hex(4)}.tmp"
         try:
-            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)  # umask applies
-            break
+            return tmp, os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
         except FileExistsError:
             continue
+
+
+def write_atomic(path: str | Path, data: bytes | str) -> Path:
+    """Write ``data`` to ``path`` atomically (same-directory temp file + os.replace)."""
+    path = Path(path)
+    raw = data.encode("utf-8") if isinstance(data, str) else data
+    tmp, fd = temp_beside(path)
     try:
         with os.fdopen(fd, "wb") as fh:
             fh.write(raw)

@@ -869,16 +869,10 @@ def write_netcdf(ds: Any, path: Path) -> Path:
     """Write a Dataset atomically (temporary file beside it, then rename). The temporary file
     is created with mode 0666 minus the umask, as every other output (netCDF keeps the mode of
     the file it overwrites; ``tempfile`` would give 0600)."""
-    import secrets
+    from .io import temp_beside
 
-    path.parent.mkdir(parents=True, exist_ok=True)
-    while True:
-        tmp = path.parent / f".{path.name}.{secrets.token_hex(4)}.tmp"
-        try:
-            os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
-            break
-        except FileExistsError:
-            continue
+    tmp, fd = temp_beside(path)
+    os.close(fd)
     try:
         ds.to_netcdf(tmp, engine="netcdf4")
         os.replace(tmp, path)
