@@ -200,10 +200,14 @@ def _finite_or_fail(result: Any, scene: Scene) -> None:
 
 
 def _mc_overrides(args: argparse.Namespace) -> dict[str, Any]:
-    """{"montecarlo.<key>": value} for the --paths, --dt, --time, --seed given."""
-    return {f"montecarlo.{k}": getattr(args, k)
-            for k in ("paths", "dt", "time", "seed", "floor", "budget")
-            if getattr(args, k, None) is not None}
+    """{"montecarlo.<key>": value} for the --paths, --dt, --time, --seed, --floor, --budget
+    given, each checked against its field's range (SceneError naming the option)."""
+    from .scene import check_value
+
+    given = {k: getattr(args, k) for k in ("paths", "dt", "time", "seed", "floor", "budget")
+             if getattr(args, k, None) is not None}
+    return {f"montecarlo.{k}": check_value(f"--{k}", "montecarlo", k, v)
+            for k, v in given.items()}
 
 
 def _apply_mc_options(scene: Scene, args: argparse.Namespace) -> Scene:
@@ -252,8 +256,10 @@ def cmd_bifurcation(args: argparse.Namespace) -> int:
     validate.search_range(args.vary, d_lo if lo is None else lo, d_hi if hi is None else hi,
                           validate.fields_of(section)[key])
     if not args.no_mc:
-        validate.refuse_costly(4 * validate.montecarlo_seconds(scene), "this bifurcation "
-                               "search (Monte Carlo at up to 4 points)", args.yes)
+        # two Monte Carlo checks around each model's critical value (check_points)
+        points = 2 * len(set(args.model or ("paper", "exact")))
+        validate.refuse_costly(points * validate.montecarlo_seconds(scene), "this bifurcation "
+                               f"search (Monte Carlo at up to {points} points)", args.yes)
     if not args.quiet:
         print(f"searching the critical {args.vary} (shape criterion on each averaged model)"
               + ("; then Monte Carlo on both sides" if not args.no_mc else "") + " ...",
@@ -321,7 +327,8 @@ def cmd_workprecision(args: argparse.Namespace) -> int:
     if args.dt == "auto":
         raise validate.InputError("--dt auto: does not apply to workprecision (it times a "
                                   "ladder of fixed steps); give a number")
-    validate.at_least("--repeats", args.repeats, 1)
+    # each repeat times every run of the ladder again: 100 is past any useful minimum of times
+    validate.at_least("--repeats", args.repeats, 1, 100)
     validate.output_folder(args.out, "--out")
     scene = _checked_scene(args, mc=True)
     if scene.montecarlo.dt == "auto":
@@ -493,7 +500,7 @@ def build_parser() -> argparse.ArgumentParser:
     w.add_argument("--quick", action="store_true",
                    help="short ladders, a smoke test (default: the full ladders)")
     w.add_argument("--repeats", type=_whole_number, default=3,
-                   help="timed repeats after the warm-up, >= 1 (default: %(default)s)")
+                   help="timed repeats after the warm-up, 1-100 (default: %(default)s)")
     w.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
                    help=SET_HELP)
     w.add_argument("--quiet", action="store_true", help=QUIET_HELP)
@@ -597,9 +604,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     except SolverFailure as exc:
         print(f"vifpk: {exc}{_first_warning(caught)}", file=sys.stderr)
         return EXIT_SOLVER
-    except (OverflowError, FloatingPointError, ZeroDivisionError) as exc:
+    except ArithmeticError as exc:  # overflow, 0 division, numpy errors, FPK coefficients
         print(f"vifpk: numerical failure: {exc}{_first_warning(caught)}; the scene's "
               "magnitudes or the step are most likely too extreme", file=sys.stderr)
+        return EXIT_SOLVER
+    except MemoryError:
+        print("vifpk: out of memory: a grid, histogram or sample size is too large for this "
+              "machine; reduce it (e.g. averaging.phase_points, montecarlo.bins, --grid)",
+              file=sys.stderr)
         return EXIT_SOLVER
     except KeyboardInterrupt:
         _ANNOUNCED = True

@@ -183,9 +183,11 @@ def search_range(vary: str, lo: float, hi: float, field: Any) -> None:
         raise InputError(f"--range {_g(lo)} {_g(hi)}: LO must be below HI")
 
 
-def at_least(option: str, value: int | float | None, lo: float) -> None:
-    if value is not None and not (math.isfinite(value) and value >= lo):
-        raise InputError(f"{option} {value}: out of range; allowed: a whole number >= {lo:g}")
+def at_least(option: str, value: int | float | None, lo: float, hi: float = math.inf) -> None:
+    """A whole-number option in [lo, hi] (InputError naming it and the range)."""
+    if value is not None and not (math.isfinite(value) and lo <= value <= hi):
+        allowed = f">= {lo:g}" if hi == math.inf else f"from {lo:g} to {hi:g}"
+        raise InputError(f"{option} {value}: out of range; allowed: a whole number {allowed}")
 
 
 # --------------------------------------------------------------------------------------------
