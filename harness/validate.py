@@ -91,9 +91,11 @@ def scene_magnitudes(scene: Scene) -> None:
         for key in keys:
             v = float(getattr(obj, key))
             if v != 0.0 and not lo <= abs(v) <= hi:
-                raise InputError(f"{sec}.{key} = {v:g} is out of range; allowed: 0 or "
-                                 f"{lo:g} <= |{key}| <= {hi:g} (beyond, the model's "
-                                 "coefficients over- or underflow double precision)")
+                zero = fields_of(sec)[key].metadata["check"](0.0) is None  # 0 allowed there?
+                raise InputError(f"{sec}.{key} = {v:g} is out of range; allowed: "
+                                 f"{'0 or ' if zero else ''}{lo:g} <= |{key}| <= {hi:g} "
+                                 "(beyond, the model's coefficients over- or underflow double "
+                                 "precision)")
 
 
 def most_extreme(scene: Scene) -> str:
