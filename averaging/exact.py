@@ -116,16 +116,15 @@ class ExactModel:
         return avg
 
     def harmonics_of_Y(self, A: Array, T: Array) -> tuple[Array, Array, Array]:
-        """Y_0 and (n, Y_n) for the harmonics that Y = s(y) y carries (quarter-orbit GL).
-
-        cos(n Omega t) at the nodes by the Chebyshev recurrence in n (one cosine per node
-        instead of one per harmonic: 5x faster, the same numbers to ~1e-14 relative):
-        even n: c_{k+1} = 2 cos(2 Omega t) c_k - c_{k-1}; odd n the same over steps of 2."""
+        """Y_0 and (n, Y_n) for the harmonics that Y = s(y) y carries (quarter-orbit GL)."""
         A = np.asarray(A, dtype=float)
         th, w = gauss_quarter(self.theta_nodes)
         t = time_of_theta(A, th, self.omega0, self.alpha)  # (..., K)
         nu = nu_exact(A[..., None], th, self.omega0, self.alpha)
         base = (4.0 / T)[..., None] * (w * np.cos(th))[None, :] * A[..., None] / nu
+        # cos(n Omega t) at the nodes by the Chebyshev recurrence in n (one cosine per node
+        # instead of one per harmonic: 5x faster, the same numbers to ~1e-14 relative):
+        # even n: c_{k+1} = 2 cos(2 Omega t) c_k - c_{k-1}; odd n the same over steps of 2
         k = np.arange(1, self.harmonics + 1)
         sgn = self.noise == "sgn"
         n = 2 * k if sgn else 2 * k - 1
