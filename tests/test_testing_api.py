@@ -144,3 +144,26 @@ def test_reproduce_command_gives_the_same_reference(tmp_path):
     assert res.returncode == 0, res.stderr
     got = np.array(json.loads(out.read_text())["pdf"]["A"]["p"])
     assert np.array_equal(got, ref.data["A"]["p"])
+
+
+def test_reproduce_command_with_dt_auto_reproduces_the_run(tmp_path):
+    """Issue 19 bug 2: with ``dt = "auto"`` the command used to crash formatting dt with
+    ``:g`` (after the Monte Carlo had run); it must say ``--dt auto`` and rebuild the
+    reference bit for bit."""
+    import json
+    import shlex
+
+    from harness.cli import main
+
+    scene = testing._scene("paper-base").with_values(
+        {"noise.kind": "white", "montecarlo.paths": 32, "montecarlo.time": 20.0,
+         "montecarlo.blocks": 16, "montecarlo.dt": "auto"})
+    ref = testing.mc_reference(scene)
+    assert " --dt auto " in ref.info["command"]
+    out = tmp_path / "ref.json"
+    cmd = ref.info["command"].replace("reference.json", str(out))
+    assert main(shlex.split(cmd)[1:]) == 0
+    got = json.loads(out.read_text())
+    assert got["info"]["settings"]["dt"] == ref.info["settings"]["dt"]
+    for key in ("A", "x1", "x2"):
+        assert np.array_equal(np.array(got["pdf"][key]["p"]), ref.data[key]["p"])
