@@ -335,6 +335,26 @@ def shipped_scenes() -> Traversable:
         return Path(__file__).resolve().parent.parent / "scenes"
 
 
+def find_scene(path: str | Path | Traversable) -> Path | Traversable | None:
+    """The file a scene path or name stands for: the path itself when it is a file, else a
+    shipped scene by name ("paper-base", "hard/r-low") or by the file name of one
+    (:func:`shipped_scenes`); None when there is none."""
+    p: Path | Traversable = path if isinstance(path, Traversable) else Path(path)
+    if p.is_file():
+        return p
+    shipped = shipped_scenes()
+    rel = str(path) if isinstance(path, str | Path) else p.name
+    if Path(rel).suffix == "":
+        where = shipped
+        for part in f"{rel}.toml".split("/"):  # one part at a time: a namespace
+            where = where / part               # package's MultiplexedPath takes one
+        candidates = [where]
+    else:
+        candidates = [shipped / Path(rel).name]
+    found = [c for c in candidates if c.is_file()]
+    return found[0] if found else None
+
+
 def load_scene(path: str | Path | Traversable) -> Scene:
     """Read a scene file, or a shipped scene by name ("paper-base", "hard/r-low") or by the
     file name of one ("scenes/paper-base.toml" from any directory). Raises
@@ -342,20 +362,10 @@ def load_scene(path: str | Path | Traversable) -> Scene:
     p: Path | Traversable = path if isinstance(path, Traversable) else Path(path)
     if p.is_dir():
         raise SceneError(f"{path}: is a folder; give a scene file (.toml)")
-    if not p.is_file():
-        shipped = shipped_scenes()
-        rel = str(path) if isinstance(path, str | Path) else p.name
-        if Path(rel).suffix == "":
-            where = shipped
-            for part in f"{rel}.toml".split("/"):  # one part at a time: a namespace
-                where = where / part               # package's MultiplexedPath takes one
-            candidates = [where]
-        else:
-            candidates = [shipped / Path(rel).name]
-        found = [c for c in candidates if c.is_file()]
-        if not found:
-            raise SceneError(f"{path}: no such scene file")
-        p = found[0]
+    found = find_scene(path)
+    if found is None:
+        raise SceneError(f"{path}: no such scene file")
+    p = found
     try:
         raw = tomllib.loads(p.read_text(encoding="utf-8-sig"))  # a UTF-8 BOM is fine
     except tomllib.TOMLDecodeError as exc:
