@@ -117,9 +117,9 @@ def collect(*, argv: Sequence[str] | None = None, scene_path: str | Path | None 
 
 def scene_file(path: str | Path) -> Path | None:
     """The scene file a path or shipped-scene name resolves to, found where ``load_scene``
-    reads it (``harness.scene.find_scene``: a shipped scene is package data ``harness.scenes``,
+    reads it (``vifpk.core.scene.find_scene``: a shipped scene is package data ``harness.scenes``,
     in a wheel under site-packages/harness/scenes); None when there is none on disk."""
-    from . import scene
+    from vifpk.core import scene
 
     found = scene.find_scene(path)
     if found is None:

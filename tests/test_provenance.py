@@ -33,8 +33,8 @@ def test_scene_file_finds_shipped_scenes_where_load_scene_does(tmp_path, monkeyp
     """Issue 19 bug 3: a shipped scene's file is found where ``load_scene`` reads it (package
     data ``harness.scenes``, e.g. in a wheel install), not in a ``scenes/`` beside the
     package. Here the shipped scenes are moved to a folder only the loader knows."""
-    import harness.scene as scene_mod
-    from harness.scene import load_scene
+    import vifpk.core.scene as scene_mod
+    from vifpk.core.scene import load_scene
 
     (tmp_path / "hard").mkdir()
     body = b"name = 'only-here'\n"
