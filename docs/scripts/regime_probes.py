@@ -31,7 +31,7 @@ sys.path.insert(0, str(ROOT / "docs" / "scripts"))
 import averaging  # noqa: E402
 from harness.compare import compare  # noqa: E402
 from harness.run import montecarlo_solution  # noqa: E402
-from harness.scene import load_scene  # noqa: E402
+from vifpk.core.scene import load_scene  # noqa: E402
 
 # name -> overrides of the base scene. Regimes of issue 23 first, then the curves behind the
 # narrow-band threshold (alpha1 against Omega at omega0 = 0.7, 1, 1.5, 2).
