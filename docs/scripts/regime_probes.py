@@ -26,7 +26,6 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "docs" / "scripts"))
 
 import averaging  # noqa: E402
 from harness.compare import compare  # noqa: E402
@@ -94,27 +93,20 @@ def mc_histogram(scene, cache: Path, floor: float, dt: float, top: float):
 
 
 def model_densities(scene):
-    """name -> {"x", "p"} of p(A) for exact, corrected and the section-10.3 prototypes."""
-    import residual_study as rs
+    """name -> {"x", "p"} of p(A): the packaged models and, to switch the section-10.3 terms
+    off one by one, corrected without its observation map ("corrected:slow") and the
+    observation map on exact and on compounded ("exact+fast", "compounded+fast")."""
+    from averaging.corrected import observed_density
     from averaging.stationary import amplitude_density
 
-    out = {m: averaging.solve(scene, model=m).data["A"] for m in ("exact", "corrected")}
-    try:
-        import averaging.corrected as C
-        if hasattr(C, "observe"):  # the packaged terms, when present
-            for m in ("corrected-first",):
-                out[m] = averaging.solve(scene, model=m).data["A"]
-    except Exception:  # noqa: BLE001 - optional comparison only
-        pass
-    wo = rs.WithOffset.from_scene(scene)
-    amp = amplitude_density(wo, points=801)
-    out["+offset"] = {"x": amp.A, "p": amp.p}
-    x, p = rs.fast_fluctuation(wo, amp.A, amp.p)
-    out["+offset+fast"] = {"x": x, "p": p}
-    ex = averaging.build_model(scene, "exact")
-    A0, p0 = out["exact"]["x"], out["exact"]["p"]
-    x, p = rs.fast_fluctuation(ex, A0, p0)
-    out["exact+fast"] = {"x": x, "p": p}
+    out = {m: averaging.solve(scene, model=m).data["A"]
+           for m in ("exact", "compounded", "corrected")}
+    cm = averaging.build_model(scene, "corrected")
+    amp = amplitude_density(cm, points=801)
+    out["corrected:slow"] = {"x": amp.A, "p": amp.p}
+    for m in ("exact", "compounded"):
+        x, p = observed_density(cm, out[m]["x"], out[m]["p"])
+        out[f"{m}+fast"] = {"x": x, "p": p}
     return out
 
 
@@ -151,7 +143,7 @@ def main() -> None:
         if not args.shipped and name not in PROBES and not args.only:
             continue
         dens = model_densities(scene)
-        top = 1.1 * max(float(dens[m]["x"][-1]) for m in ("exact", "corrected"))
+        top = 1.1 * max(float(dens[m]["x"][-1]) for m in ("exact", "compounded"))
         h = mc_histogram(scene, cache, args.floor, args.dt, top)
         row = {"overrides": PROBES.get(name), "floor_target": args.floor,
                "dt": float(h["dt_used"]), "mc_mean_A": float(h["mean"]),

@@ -125,7 +125,8 @@ def wall_offset(m, A, n=200):
     m00, m01, m10, m11 = (Y[:, :, k] for k in (2, 3, 4, 5))
     phi_v = m10[:, :, None] * (-m01[:, None, :]) + m11[:, :, None] * m00[:, None, :]
     phi_x_end = m00[:, -1, None] * (-m01) + m01[:, -1, None] * m00
-    R = (m.spectrum.D / m.spectrum.alpha1) * np.exp(-m.spectrum.alpha1 * np.abs(t[:, :, None] - t[:, None, :]))
+    a1 = m.spectrum.alpha1
+    R = (m.spectrum.D / a1) * np.exp(-a1 * np.abs(t[:, :, None] - t[:, None, :]))
     w = np.ones(n + 1)
     w[0] = w[-1] = 0.5
     K = R * phi_v * np.tril(np.ones((n + 1, n + 1)))[None]
