@@ -48,10 +48,13 @@ def build_model(scene: Any, model: str = "paper", **options: Any
     raise ValueError(f"model must be one of {MODELS}, not {model!r}")
 
 
-def solve(scene: Any, *, model: str = "paper", **options: Any) -> Result:
+def solve(scene: Any, *, model: str = "paper", tail_mass: bool = True, **options: Any
+          ) -> Result:
     """Stationary densities of the averaged model for a (duck-typed) scene.
 
-    Raises NoStationaryDensity when the averaged FPK has none (e.g. f = 0).
+    ``tail_mass=False``: no measurement of the mass beyond the grid (diagnostics.tail_mass is
+    None; stationary.amplitude_density). Raises NoStationaryDensity when the averaged FPK has
+    none (e.g. f = 0).
     """
     t0 = time.perf_counter()
     sys_ = scene.system
@@ -61,7 +64,7 @@ def solve(scene: Any, *, model: str = "paper", **options: Any) -> Result:
             "f = 0: there is no noise, so the averaged FPK has no stationary density "
             "(the amplitude relaxes to a deterministic attractor)")
     m = build_model(scene, model, **options)
-    amp = amplitude_density(m, points=settings.points, tail=settings.tail)
+    amp = amplitude_density(m, points=settings.points, tail=settings.tail, tail_mass=tail_mass)
     A_obs, p_obs, log_h = amp.A, amp.p, amp.log_h
     if getattr(m, "observes", False):  # the observed (not the slow) energy: section 10.3 (b)
         A_obs, p_obs = observed_density(m, amp.A, amp.p)
@@ -88,7 +91,8 @@ def solve(scene: Any, *, model: str = "paper", **options: Any) -> Result:
         "grid": {"points": int(A_obs.size), "A_min": float(A_obs[0]), "A_max": float(A_obs[-1]),
                  "phase_points": int(settings.phase_points)},
         "diagnostics": {
-            "mass": summary["mass"], "min": summary["min"], "tail_mass": amp.tail_mass,
+            "mass": summary["mass"], "min": summary["min"],
+            "tail_mass": amp.tail_mass if tail_mass else None,
             "phase_mass_before_normalisation": ph.raw_mass, "scans": amp.scans,
         },
         "summary": {k: summary[k] for k in ("mean", "mode", "std")},
