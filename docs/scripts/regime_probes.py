@@ -93,20 +93,17 @@ def mc_histogram(scene, cache: Path, floor: float, dt: float, top: float):
 
 
 def model_densities(scene):
-    """name -> {"x", "p"} of p(A): the packaged models and, to switch the section-10.3 terms
-    off one by one, corrected without its observation map ("corrected:slow") and the
-    observation map on exact and on compounded ("exact+fast", "compounded+fast")."""
+    """name -> {"x", "p"} of p(A): the packaged models, and to switch the section-10.3 terms
+    on and off: corrected with the fast-fluctuation map ("corrected+fast") and the map on
+    exact ("exact+fast")."""
     from averaging.corrected import observed_density
-    from averaging.stationary import amplitude_density
 
     out = {m: averaging.solve(scene, model=m).data["A"]
            for m in ("exact", "compounded", "corrected")}
-    cm = averaging.build_model(scene, "corrected")
-    amp = amplitude_density(cm, points=801)
-    out["corrected:slow"] = {"x": amp.A, "p": amp.p}
-    for m in ("exact", "compounded"):
-        x, p = observed_density(cm, out[m]["x"], out[m]["p"])
-        out[f"{m}+fast"] = {"x": x, "p": p}
+    out["corrected+fast"] = averaging.solve(scene, model="corrected", fast=True).data["A"]
+    cm = averaging.build_model(scene, "corrected", fast=True)
+    x, p = observed_density(cm, out["exact"]["x"], out["exact"]["p"])
+    out["exact+fast"] = {"x": x, "p": p}
     return out
 
 
