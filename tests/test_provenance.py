@@ -42,10 +42,11 @@ def test_scene_file_finds_shipped_scenes_where_load_scene_does(tmp_path, monkeyp
     (tmp_path / "hard" / "deep.toml").write_bytes(body)
     monkeypatch.setattr(scene_mod, "shipped_scenes", lambda: tmp_path)
     monkeypatch.chdir(tmp_path / "hard")  # no only-here.toml in the working directory
-    for name in ("only-here", "hard/deep", "only-here.toml"):
+    for name in ("only-here", "hard/deep"):
         assert load_scene(name).name == "only-here"
         found = provenance.scene_file(name)
         assert found is not None, name
         assert provenance.collect(scene_path=found)["scene"]["sha256"] == \
             hashlib.sha256(body).hexdigest()
     assert provenance.scene_file("nowhere") is None
+    assert provenance.scene_file("only-here.toml") is None  # a path, and not here
