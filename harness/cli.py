@@ -571,6 +571,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"vifpk: numerical failure: {exc}{_first_warning(caught)}; the scene's "
               "magnitudes or the step are most likely too extreme", file=sys.stderr)
         return EXIT_SOLVER
+    except ValueError as exc:  # past validation: a run that could not go on, never a traceback
+        print(f"vifpk: {exc}{_first_warning(caught)}", file=sys.stderr)
+        return EXIT_SOLVER
     except MemoryError:
         print("vifpk: out of memory: a grid, histogram or sample size is too large for this "
               "machine; reduce it (e.g. averaging.phase_points, montecarlo.bins, --grid)",

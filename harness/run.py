@@ -176,7 +176,7 @@ def montecarlo_solution(scene: Any, *, progress: bool = True, **edges: Any) -> S
                                    edges=edges)
     try:
         res = montecarlo.simulate(scene.system, scene.noise, settings)
-    except montecarlo.SimulationDiverged as exc:
+    except (montecarlo.SimulationDiverged, montecarlo.BudgetExhausted) as exc:
         raise SolverFailure(str(exc)) from None
     info = dict(res.info)
     mom = info.get("moments", {}).get("A", {}).get("mean")

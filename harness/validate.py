@@ -171,6 +171,13 @@ def montecarlo_settings(scene: Scene, options: Mapping[str, str] | None = None) 
         raise InputError(f"{_name('time', options)} = {_g(mc.time)} would sample "
                          f"{_g(plan['sampled_time'])} (whole windows of whole samples every "
                          f"{_g(step)}); nearest valid: {near}")
+    if mc.floor > 0 and mc.budget > 0:
+        least = _montecarlo_least_seconds(scene)
+        if mc.budget < least:
+            raise InputError(f"{_name('budget', options)} = {_g(mc.budget)} s cannot cover the "
+                             "pilots, the burn-in and the first sampling windows (at least "
+                             f"{least:.2g} s here, a lower bound from their path-steps); "
+                             f"allowed: at least {least:.2g} s, or 0 for no limit")
 
 
 def search_range(vary: str, lo: float, hi: float, field: Any) -> None:
@@ -283,10 +290,11 @@ def output_folder(path: str | None, option: str, *, replaced: bool = False) -> N
 
 # --------------------------------------------------------------------------------------------
 # cost
-def montecarlo_seconds(scene: Scene) -> float:
-    """Lower bound of the wall time of one Monte Carlo run of the original system: the
-    sampled path-steps plus the pilots' (burn-in "auto" counted at its minimum, 20 time
-    units, the relaxation pilot at 8 windows of 10), at MC_STEPS_PER_CORE on every core."""
+def _montecarlo_least_seconds(scene: Scene) -> float:
+    """Lower bound of the wall time of the sampled path-steps plus the pilots' (burn-in
+    "auto" counted at its minimum, 20 time units, the relaxation pilot at 8 windows of 10),
+    at MC_STEPS_PER_CORE on every core; with a target floor, of the first sampled windows
+    only (half of ``time``: montecarlo.sampling_plan), the least such a run does."""
     from .run import montecarlo_plan
 
     mc = scene.montecarlo
@@ -297,7 +305,14 @@ def montecarlo_seconds(scene: Scene) -> float:
     sampled = mc.time / 2 if mc.floor > 0 else plan["sampled_time"]
     steps = (mc.paths * (burn + sampled) + pilots) / h
     cores = mc.threads or os.cpu_count() or 1
-    seconds = steps / (MC_STEPS_PER_CORE * cores)
+    return steps / (MC_STEPS_PER_CORE * cores)
+
+
+def montecarlo_seconds(scene: Scene) -> float:
+    """Lower bound of the wall time of one Monte Carlo run of the original system (see
+    :func:`_montecarlo_least_seconds`), capped by the budget of a run to a target floor."""
+    mc = scene.montecarlo
+    seconds = _montecarlo_least_seconds(scene)
     if mc.floor > 0 and mc.budget > 0:
         seconds = min(seconds, mc.budget)
     return seconds
