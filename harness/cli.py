@@ -238,6 +238,7 @@ def cmd_check(args: argparse.Namespace) -> int:
         files = write_report(result, out, prov=prov)
     for v in result.verdicts:
         print(v)
+    print(result.recommendation)
     for w in result.warnings:
         print(f"warning: {w}")
     print(f"report: {files['report.html']}")

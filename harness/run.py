@@ -91,6 +91,14 @@ def energy_rates(scene: Any, A: float) -> dict[str, float]:
     return rates(scene, A)
 
 
+def validity(scene: Any) -> dict[str, Any]:
+    """How far the scene is from the averaging limits over the bulk of p(E)
+    (``averaging.validity``: band alpha1 / Omega, wall delta / E, noise sigma_E^2 T / E^2)."""
+    from averaging.validity import validity as numbers
+
+    return numbers(scene)
+
+
 # ----------------------------------------------------------------------------- FPK
 def fpk_stationary(drift: Any, diffusion: Any, **options: Any) -> Any:
     """``fpk.stationary`` on any drift m(A) and diffusion sigma^2(A) (cells, method, ...)."""
