@@ -40,6 +40,8 @@ from typing import Any
 
 import numpy as np
 
+from vifpk.core.registry import IMPACT_LAWS
+
 from .geometry import (
     Array,
     gauss_quarter,
@@ -51,8 +53,9 @@ from .geometry import (
 )
 from .noise import Spectrum
 
+# IMPACT_LAWS (vifpk.core.registry): a new law there and in ExactModel.energy_terms
+
 NOISE_FORMS = ("sgn", "additive")
-IMPACT_LAWS = ("exact", "transformed", "compounded")  # a new law: here and energy_terms
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-NOISE_KINDS = ("ou", "white")
+from vifpk.core.registry import NOISE_KINDS
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -1,11 +1,15 @@
 """The three-way cross-check of one scene: how wrong is each averaged model, and why.
 
-For each averaged model M (``paper``, ``exact``, ``corrected``) on the observables A, x1, x2:
+For each averaged model M (by default ``paper``, ``exact``, ``corrected``: CHECK_MODELS in
+vifpk.core.defaults; any registered model by name) on the observables A, x1, x2:
 
     discretisation_error  FPK(M) against the closed form of M         (numerics of the FPK)
     sampling_error        MC of M's averaged SDE against M's closed form (MC noise + bias)
     averaging_error       MC of the ORIGINAL system against M's closed form (the answer)
 
+A model with no closed form (a plugin giving only drift and diffusion) has the FPK direct solve
+as its reference density (harness.run.closed_form), so its discretisation error is not
+computed (there is no independent closed form to measure the FPK against).
 Every metric against an MC histogram carries its noise floor and error bar (compare.py).
 All Monte Carlo runs share histogram edges (chosen from the closed forms' supports, so that
 the comparisons are bin by bin); the MC of the original system stays physically independent.
@@ -21,6 +25,8 @@ from typing import Any
 
 import numpy as np
 
+from vifpk.core.defaults import CHECK_MODELS, FPK_CELLS
+
 from .compare import compare
 from .run import (
     averaged_sde_solution,
@@ -30,7 +36,6 @@ from .run import (
     montecarlo_solution,
 )
 
-MODELS = ("paper", "exact", "corrected")
 OBSERVABLES = ("A", "x1", "x2")
 
 
@@ -42,6 +47,7 @@ class CheckResult:
     warnings: list[str]
     verdicts: list[str]
     provenance: dict[str, Any] | None = None  # harness.provenance.collect(); set by the writer
+    models: tuple[str, ...] = CHECK_MODELS  # the averaged models checked, in report order
 
 
 class _Stages:
@@ -119,7 +125,8 @@ def assumption_warnings(scene: Any, closed: dict[str, Any], mc_info: dict[str, A
     """
     n = scene.noise
     out = []
-    A = closed["exact"].info["summary"]["mean"] if "exact" in closed else 1.0
+    ref = closed.get("exact") or next(iter(closed.values()), None)
+    A = ref.info["summary"]["mean"] if ref is not None else 1.0
     rates = energy_rates(scene, A)
     T, E = rates["T"], rates["E"]
     w = 2 * math.pi / T
@@ -149,22 +156,29 @@ def assumption_warnings(scene: Any, closed: dict[str, Any], mc_info: dict[str, A
     return out
 
 
-def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True) -> CheckResult:
+def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True,
+                models: tuple[str, ...] = CHECK_MODELS) -> CheckResult:
     """Run every solver on a concrete scene and compute the error decomposition.
 
+    ``models``: registered averaged models (vifpk.core.registry), in report order; the Monte
+    Carlo of model i's averaged SDE is seeded with the scene's seed + 1 + i.
     ``fpk=False`` skips the FPK of each model (no ``discretisation_error``): a sweep point
     needs only the averaging error, and the FPK is the costliest part of a check.
     """
-    stages = _Stages(3 + (2 if fpk else 1) * len(MODELS), quiet)
+    names = tuple(dict.fromkeys(models))
+    stages = _Stages(3 + 2 * len(names), quiet)
     sol: dict[str, Any] = {}
     closed = {}
     stages("averaged models (closed forms)")
-    for m in MODELS:
+    for m in names:
         closed[m] = closed_form(scene, model=m)
         sol[f"closed:{m}"] = closed[m]
-    for m in MODELS if fpk else ():
+    # the FPK of a model measured against its closed form (none: nothing to measure against)
+    with_fpk = [m for m in names if fpk and closed[m].info.get("closed_form", True)]
+    stages.total -= len(names) - len(with_fpk)
+    for m in with_fpk:
         stages(f"FPK of the {m} model")
-        sol[f"fpk:{m}"] = fpk_solution(scene, model=m, cells=400)
+        sol[f"fpk:{m}"] = fpk_solution(scene, model=m, cells=FPK_CELLS)
     edges = mc_edges(closed, scene.montecarlo.bins)
     t_mc = time.perf_counter()
     budget = scene.montecarlo.budget or math.inf
@@ -178,13 +192,13 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True) -> CheckRe
             progress=not quiet, **edges)
         sol["mc:original"] = mc
         st = mc.info["settings"]
-        for i, m in enumerate(MODELS):
+        for i, m in enumerate(names):
             stages(f"Monte Carlo of the {m} averaged SDE")
             sol[f"mc:{m}"] = averaged_sde_solution(
                 scene, m, edges=edges, seed=scene.montecarlo.seed + 1 + i, phase=True,
                 paths=st["paths"], blocks=st["blocks"], dt=st["dt"], time=st["time"],
                 burn_in=run_scene.montecarlo.burn_in, sample_every=st["sample_every"])
-        sampling = {m: compare(closed[m].data["A"], sol[f"mc:{m}"].data["A"]) for m in MODELS}
+        sampling = {m: compare(closed[m].data["A"], sol[f"mc:{m}"].data["A"]) for m in names}
         bad = _evidence(mc.info.get("convergence", {}), sampling)
         spent = time.perf_counter() - t_mc
         # extend (twice the burn-in and the sampled time) while the evidence says the run is
@@ -192,14 +206,14 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True) -> CheckRe
         if not bad or extensions >= 3 or spent * 3 > budget - spent:
             break
         extensions += 1
-        stages.total += 1 + len(MODELS)
+        stages.total += 1 + len(names)
         mcs = run_scene.montecarlo
         run_scene = replace(run_scene, montecarlo=replace(
             mcs, time=2 * st["time"], burn_in=2 * st["burn_in"],
             dt=st["dt"], floor=0.0))
     stages("metrics")
     metrics: dict[str, Any] = {"models": {}}
-    for m in MODELS:
+    for m in names:
         cf = closed[m].data
         entry: dict[str, Any] = {}
         for kind, key in (("discretisation_error", f"fpk:{m}"), ("sampling_error", f"mc:{m}"),
@@ -207,6 +221,8 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True) -> CheckRe
             if key in sol:
                 entry[kind] = {o: compare(cf[o], sol[key].data[o]) for o in OBSERVABLES}
         entry["sampling_ok"] = _sampling_ok(entry["sampling_error"]["A"])
+        if not closed[m].info.get("closed_form", True):
+            entry["reference"] = closed[m].info["method"]
         metrics["models"][m] = entry
     conv = dict(mc.info.get("convergence", {}))
     conv["extensions"] = extensions
@@ -221,8 +237,8 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True) -> CheckRe
                         "samples outside the range where the averaged models hold their mass "
                         "(not converged, or a different state altogether); its densities there "
                         "are not shown and count in full toward L1")
-    verdicts = [verdict(m, metrics["models"][m], warnings, convergence=conv) for m in MODELS]
-    for m in MODELS:
+    verdicts = [verdict(m, metrics["models"][m], warnings, convergence=conv) for m in names]
+    for m in names:
         cls, cause = verdict_class(metrics["models"][m], warnings, convergence=conv)
         metrics["models"][m]["verdict_class"] = cls
         metrics["models"][m]["verdict_cause"] = cause
@@ -245,7 +261,7 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True) -> CheckRe
         "threads": mc.info.get("threads"),
     }
     return CheckResult(scene=scene, solutions=sol, metrics=metrics, warnings=warnings,
-                       verdicts=verdicts)
+                       verdicts=verdicts, models=names)
 
 
 def output_problems(result: CheckResult) -> list[str]:
@@ -271,7 +287,7 @@ def output_problems(result: CheckResult) -> list[str]:
                 out.append(f"{name} {obs}: mass {np.trapezoid(p, d['x']):.12f}")
     for m, entry in result.metrics["models"].items():
         for kind in ("discretisation_error", "sampling_error", "averaging_error"):
-            for o, e in entry[kind].items():
+            for o, e in entry.get(kind, {}).items():
                 if not all(math.isfinite(v) for v in e.values()):
                     out.append(f"{m} {kind} {o}: not finite")
     return out
@@ -306,7 +322,6 @@ def _evidence(conv: dict[str, Any], sampling: dict[str, dict[str, float]]) -> li
 INDISTINGUISHABLE_FACTOR = 2.0  # L1 < 2 x noise floor: cannot be told from zero
 SMALL_L1 = 0.1  # at most 5% of the probability mass misplaced
 LARGE_L1 = 0.3  # at least 15% of the probability mass misplaced
-CLASSES = ("indistinguishable", "small", "moderate", "large", "not an estimate")
 DOMINANCE = 3.0  # a cause dominates when it is 3 x every other part of the decomposition
 
 

@@ -23,7 +23,6 @@ from . import outdir, provenance
 from .check import (
     INDISTINGUISHABLE_FACTOR,
     LARGE_L1,
-    MODELS,
     OBSERVABLES,
     SMALL_L1,
     CheckResult,
@@ -54,15 +53,19 @@ def _figure_densities(res: CheckResult) -> bytes:
     sol = res.solutions
     fig, axes = plt.subplots(1, 3, figsize=(13, 4.4))
     for ax, o in zip(axes, OBSERVABLES, strict=True):
-        for k, m in enumerate(MODELS):
+        for k, m in enumerate(res.models):
             col = MODEL_COLORS[k % len(MODEL_COLORS)]
-            d = sol[f"closed:{m}"].data[o]
-            ax.plot(d["x"], d["p"], color=col, lw=1.6, label=f"{m} model: closed form")
-            f = sol[f"fpk:{m}"].data[o]
-            every = max(len(f["x"]) // 25, 1)
-            ax.plot(f["x"], f["p"], ls="none", marker="o", mfc="none", ms=5, mew=0.9,
-                    color=col, markevery=(k * every // 2, every),
-                    label=f"{m} model: FPK (400 cells)")
+            closed = sol[f"closed:{m}"]
+            d = closed.data[o]
+            ax.plot(d["x"], d["p"], color=col, lw=1.6,
+                    label=f"{m} model: " + ("closed form" if closed.info.get("closed_form", True)
+                                            else "FPK direct (no closed form)"))
+            if f"fpk:{m}" in sol:
+                f = sol[f"fpk:{m}"].data[o]
+                every = max(len(f["x"]) // 25, 1)
+                ax.plot(f["x"], f["p"], ls="none", marker="o", mfc="none", ms=5, mew=0.9,
+                        color=col, markevery=(k * every // 2, every),
+                        label=f"{m} model: FPK ({sol[f'fpk:{m}'].info['grid']['cells']} cells)")
             if f"mc:{m}" in sol and o in sol[f"mc:{m}"].data:
                 s = sol[f"mc:{m}"].data[o]
                 ax.plot(s["x"], s["p"], ls="--", lw=1.0, drawstyle="steps-mid", color=col,
@@ -74,7 +77,7 @@ def _figure_densities(res: CheckResult) -> bytes:
         ax.set_xlabel(LABELS[o])
         ax.set_ylabel(f"density p({o}) (dimensionless)")
     handles, labels = axes[0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="lower center", ncol=len(MODELS) + 1, fontsize=8,
+    fig.legend(handles, labels, loc="lower center", ncol=len(res.models) + 1, fontsize=8,
                frameon=False)
     fig.suptitle(f"{res.scene.name}: stationary densities of the averaged models against "
                  "the original system")
@@ -92,15 +95,19 @@ def _figure_decomposition(res: CheckResult) -> bytes:
     import matplotlib.pyplot as plt
     from matplotlib.patches import Rectangle
 
-    fig, axes = plt.subplots(1, len(MODELS), figsize=(3.7 * len(MODELS), 4.2), sharey=True)
+    models = res.models
+    fig, axes = plt.subplots(1, len(models), figsize=(3.7 * len(models), 4.2), sharey=True)
     width = 0.25
     smallest = min(max(res.metrics["models"][m][k][o]["L1"], 1e-12)
-                   for m in MODELS for k in KINDS for o in OBSERVABLES)
+                   for m in models for k in KINDS for o in OBSERVABLES
+                   if k in res.metrics["models"][m])
     bottom = 10.0 ** (np.floor(np.log10(smallest)) - 1)
     colors = ("tab:gray", "tab:cyan", "tab:olive")
-    for ax, m in zip(np.atleast_1d(axes), MODELS, strict=True):
+    for ax, m in zip(np.atleast_1d(axes), models, strict=True):
         entry = res.metrics["models"][m]
         for k, kind in enumerate(KINDS):
+            if kind not in entry:  # no closed form: no discretisation error
+                continue
             vals = [max(entry[kind][o]["L1"], bottom) for o in OBSERVABLES]
             errs = [entry[kind][o].get("L1_err", 0.0) for o in OBSERVABLES]
             xs = np.arange(3) + (k - 1) * width
@@ -210,9 +217,11 @@ def _tables(res: CheckResult) -> list[tuple[str, list[str], list[list[str]]]]:
     """Per model, the error decomposition: every metric with its noise floor; a value below
     its floor reads "< floor"; the FPK comparison is deterministic (no floor: "–")."""
     raws = []
-    for m in MODELS:
+    for m in res.models:
         raw = []
         for kind in KINDS:
+            if kind not in res.metrics["models"][m]:  # no closed form: no FPK measured
+                continue
             for o in OBSERVABLES:
                 e = res.metrics["models"][m][kind][o]
                 has = e.get("L1_floor", 0.0) > 0
@@ -226,7 +235,8 @@ def _tables(res: CheckResult) -> list[tuple[str, list[str], list[list[str]]]]:
         raws.append(raw)
     fmts = _column_formats(raws, _TABLE_SPEC)
     return [(f"{m} model: error decomposition", TABLE_HEAD,
-             _format_columns(raw, _TABLE_SPEC, fmts)) for m, raw in zip(MODELS, raws, strict=True)]
+             _format_columns(raw, _TABLE_SPEC, fmts))
+            for m, raw in zip(res.models, raws, strict=True)]
 
 
 CLASS_TEXT = {
@@ -245,7 +255,7 @@ def verdict_rows(res: CheckResult) -> list[list[str]]:
     """The ten-second verdict: per model, class, L1(A) +/- error bar, times the noise floor,
     share of the probability mass misplaced (L1 / 2, on L1's 0..2 scale), dominant cause."""
     rows = []
-    for m in MODELS:
+    for m in res.models:
         entry = res.metrics["models"][m]
         e = entry["averaging_error"]["A"]
         floor = e["L1_floor"]

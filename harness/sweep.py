@@ -7,6 +7,9 @@ the varied parameters::
     workflow = "check"            # "check" | "averaging" (closed forms only) | "bifurcation"
     mode = "product"              # or "zip"
     seed = 7                      # optional; default the base scene's montecarlo.seed
+    models = ["paper", "mine"]    # optional: registered averaged models (vifpk.core.registry);
+                                  # default: the workflow's own (check, averaging: CHECK_MODELS;
+                                  # bifurcation: BIFURCATION_MODELS, vifpk.core.defaults)
     [vary]
     "system.r" = [0.95, 0.96, 0.97, 0.98]
     "system.mu" = {start = 0.0, stop = 0.004, num = 5}
@@ -52,12 +55,13 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
+from vifpk.core.defaults import BIFURCATION_MODELS, CHECK_MODELS
 from vifpk.core.scene import SECTIONS, Scene, SceneError, load_scene
 
 WORKFLOWS = ("check", "averaging", "bifurcation")
 MODES = ("product", "zip")
 TOP_KEYS = ("scene", "workflow", "mode", "seed", "name", "description", "vary", "set",
-            "bifurcation")
+            "bifurcation", "models")
 BIFURCATION_KEYS = ("find", "range", "mc")
 FIND = {"mu": "system.mu", "r": "system.r"}
 #: keys a sweep may not vary or set: the seed comes from the sweep's seed; a wall-clock
@@ -110,6 +114,7 @@ class Sweep:
     bifurcation: Mapping[str, Any]
     base: Scene
     points: tuple[Point, ...] = field(repr=False)
+    models: tuple[str, ...] | None = None  # None: the workflow's default models
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -136,13 +141,17 @@ def point_seed(seed: int, params: tuple[tuple[str, float], ...]) -> int:
     return int(state[0]) >> 2
 
 
-def fingerprint(workflow: str, scene: Scene, bifurcation: Mapping[str, Any]) -> str:
-    """sha256 of everything a point's result depends on (the scene includes the seed)."""
+def fingerprint(workflow: str, scene: Scene, bifurcation: Mapping[str, Any],
+                models: tuple[str, ...] | None = None) -> str:
+    """sha256 of everything a point's result depends on (the scene includes the seed; the
+    models only when the sweep names them, so a sweep without ``models`` keeps its records)."""
     d = scene.to_dict()
     d.pop("name", None)
     d.pop("description", None)
-    blob = json.dumps({"workflow": workflow, "scene": d, "bifurcation": dict(bifurcation)},
-                      sort_keys=True)
+    what: dict[str, Any] = {"workflow": workflow, "scene": d, "bifurcation": dict(bifurcation)}
+    if models is not None:
+        what["models"] = list(models)
+    blob = json.dumps(what, sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()
 
 
@@ -259,6 +268,20 @@ def load_sweep(path: str | Path) -> Sweep:
     seed = raw.get("seed", base.montecarlo.seed)
     if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
         raise SweepError(f"{src}: seed = {seed!r}: must be a whole number >= 0")
+    models = raw.get("models")
+    if models is not None:
+        from vifpk.core.registry import model_names
+
+        known = model_names()
+        if (not isinstance(models, list) or not models
+                or not all(isinstance(m, str) for m in models)):
+            raise SweepError(f"{src}: models = {models!r}: a list of model names; registered: "
+                             + ", ".join(known))
+        for m in models:
+            if m not in known:
+                raise SweepError(f"{src}: models: {m!r} is not a registered model; "
+                                 "registered: " + ", ".join(known))
+        models = tuple(dict.fromkeys(models))
     name = raw.get("name", Path(p.name).stem)
     description = raw.get("description", "")
     if not isinstance(name, str) or not name or not isinstance(description, str):
@@ -346,10 +369,10 @@ def load_sweep(path: str | Path) -> Sweep:
                              "it in [set] or vary it in [vary]")
         scene = _named(scene, f"{base.name}[{', '.join(f'{k}={v:g}' for k, v in params)}]")
         points.append(Point(params=params, seed=s, key=point_key(params), scene=scene,
-                            fingerprint=fingerprint(workflow, scene, bif)))
+                            fingerprint=fingerprint(workflow, scene, bif, models)))
     return Sweep(path=str(p), text=text, name=name, workflow=workflow, mode=mode, seed=seed,
                  vary=tuple(vary), fixed=fixed, bifurcation=bif, base=base,
-                 points=tuple(points))
+                 points=tuple(points), models=models)
 
 
 def _named(scene: Scene, name: str) -> Scene:
@@ -371,6 +394,7 @@ class Job:
     workflow: str
     scene: Scene
     bifurcation: Mapping[str, Any]
+    models: tuple[str, ...] | None = None  # None: the workflow's default models
 
 
 def run_point(job: Job) -> dict[str, Any]:
@@ -393,6 +417,10 @@ def run_point(job: Job) -> dict[str, Any]:
     return rec
 
 
+def _models(job: Job, default: tuple[str, ...]) -> tuple[str, ...]:
+    return job.models if job.models is not None else default
+
+
 def _flags(warnings: list[str]) -> dict[str, bool]:
     from .check import warning_kind
 
@@ -404,13 +432,13 @@ def _check_point(job: Job) -> dict[str, Any]:
     """The cross-check without the FPK: the averaging error of p(A) of each model."""
     import numpy as np
 
-    from .check import MODELS, cross_check
+    from .check import cross_check
 
-    res = cross_check(job.scene, quiet=True, fpk=False)
+    res = cross_check(job.scene, quiet=True, fpk=False, models=_models(job, CHECK_MODELS))
     mc = res.solutions["mc:original"]
     conv = res.metrics["monte_carlo"]["convergence"]
     models = {}
-    for m in MODELS:
+    for m in res.models:
         e = res.metrics["models"][m]["averaging_error"]["A"]
         models[m] = {"averaging_error_A": e["L1"], "averaging_error_A_err": e["L1_err"],
                      "L1_floor_A": e["L1_floor"],
@@ -435,11 +463,12 @@ def _check_point(job: Job) -> dict[str, Any]:
 def _averaging_point(job: Job) -> dict[str, Any]:
     """Closed forms of each model (computed once), the L1 between them, the assumption
     warnings that need no simulation (strong damping, narrow band, strong noise)."""
-    from .check import MODELS, assumption_warnings
+    from .check import assumption_warnings
     from .compare import compare
     from .run import run_solver
 
-    closed = {m: run_solver(job.scene, "averaging", model=m) for m in MODELS}
+    closed = {m: run_solver(job.scene, "averaging", model=m)
+              for m in _models(job, CHECK_MODELS)}
     warnings = assumption_warnings(job.scene, closed, {})
     flags = _flags(warnings)
     flags.pop("warn_sticking")  # needs the simulation
@@ -458,7 +487,8 @@ def _bifurcation_point(job: Job) -> dict[str, Any]:
 
     b = job.bifurcation
     lo, hi = b["range"] if b.get("range") else (None, None)
-    res = bifurcation(job.scene, b["find"], lo=lo, hi=hi, mc=b["mc"])
+    res = bifurcation(job.scene, b["find"], lo=lo, hi=hi, mc=b["mc"],
+                      models=_models(job, BIFURCATION_MODELS))
     checks = [{"value": c["value"], "crater": c["monte_carlo"]["shape"] == "crater",
                "agrees": c["agrees"]} for c in res.get("mc_check", [])]
     return {"models": {m: {"critical": c} for m, c in res["critical"].items()},
@@ -670,7 +700,8 @@ def finished(sweep: Sweep, out: Path) -> dict[str, dict[str, Any]]:
 
 def _job(sweep: Sweep, pt: Point) -> Job:
     return Job(key=pt.key, fingerprint=pt.fingerprint, params=pt.params, seed=pt.seed,
-               workflow=sweep.workflow, scene=pt.scene, bifurcation=sweep.bifurcation)
+               workflow=sweep.workflow, scene=pt.scene, bifurcation=sweep.bifurcation,
+               models=sweep.models)
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -34,6 +34,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from vifpk.core.defaults import CHECK_MODELS, FPK_CELLS
 from vifpk.core.scene import SECTIONS, Scene, SceneError
 
 HOUR = 3600.0
@@ -299,15 +300,14 @@ def solve_seconds(scene: Scene, solver: str, model: str, grid: int | None) -> fl
     if solver == "montecarlo":
         return montecarlo_seconds(scene)
     base = averaging_seconds(scene, model)
-    return base + (fpk_seconds(grid or 400) if solver == "fpk" else 0.0)
+    return base + (fpk_seconds(grid or FPK_CELLS) if solver == "fpk" else 0.0)
 
 
-def check_seconds(scene: Scene) -> float:
+def check_seconds(scene: Scene, models: tuple[str, ...] = CHECK_MODELS) -> float:
     """Lower bound of ``vifpk check``: the Monte Carlo of the original system, the closed
-    forms and FPKs of the three models (the averaged SDEs are not counted)."""
-    models = ("paper", "exact", "corrected")
+    forms and FPKs of the models (the averaged SDEs are not counted)."""
     return (montecarlo_seconds(scene) + sum(averaging_seconds(scene, m) for m in models)
-            + len(models) * fpk_seconds(400))
+            + len(models) * fpk_seconds(FPK_CELLS))
 
 
 def workprecision_seconds(scene: Scene, quick: bool) -> float:

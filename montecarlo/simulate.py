@@ -32,20 +32,18 @@ from typing import Any, NamedTuple
 import numba
 import numpy as np
 
+from vifpk.core.defaults import BURN_FACTOR
+from vifpk.core.registry import NOISE_KINDS
+from vifpk.core.result import Result, Status
+
 from . import kernels as K
 from .certificate import certificate
-from .tuning import BURN_FACTOR, auto_dt, fit_relaxation
+from .tuning import auto_dt, fit_relaxation
 
 OBSERVABLES = ("A", "x1", "x2", "joint", "moments", "events", "energy")
-NOISE_KINDS = ("ou", "white")
 WINDOWS = 16  # at least 16 sampled windows (the certificate's draws along each path)
 CHUNK_SECONDS = 0.4  # wall time of one kernel call: Ctrl-C is seen between calls
 START_LOW = 0.05  # lowest start amplitude, as a fraction of the pilot's largest
-
-
-class Result(NamedTuple):
-    data: dict[str, dict[str, Any]]
-    info: dict[str, Any]
 
 
 class SimulationDiverged(RuntimeError):
@@ -523,7 +521,7 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
     ok = all(np.all(np.isfinite(d["p"])) for d in data.values())
     if not ok:
         raise _diverged(h, "non-finite histogram")
-    info["status"] = {"ok": True, "message": "simulated"}
+    info["status"] = Status.SIMULATED.record()
     return Result(data=data, info=info)
 
 

@@ -13,9 +13,9 @@ from pathlib import Path
 
 import pytest
 
-from harness.check import MODELS
 from harness.cli import main
 from harness.sweep import load_sweep, point_key, point_seed, run_sweep
+from vifpk.core.defaults import CHECK_MODELS as MODELS
 
 from .conftest import ROOT
 
