@@ -41,11 +41,14 @@ def has_closed_form(m: Any) -> bool:
     return all(callable(getattr(m, k, None)) for k in ("log_stationary_parts", "period"))
 
 
-def solve(scene: Any, *, model: Any = "paper", **options: Any) -> Result:
+def solve(scene: Any, *, model: Any = "paper", tail_mass: bool = True, **options: Any
+          ) -> Result:
     """Stationary densities of the averaged model (a registered name, or a model object with
     a closed form) for a (duck-typed) scene.
 
-    Raises NoStationaryDensity when the averaged FPK has none (e.g. f = 0).
+    ``tail_mass=False``: no measurement of the mass beyond the grid (diagnostics.tail_mass is
+    None; stationary.amplitude_density). Raises NoStationaryDensity when the averaged FPK has
+    none (e.g. f = 0).
     """
     t0 = time.perf_counter()
     sys_ = scene.system
@@ -58,7 +61,7 @@ def solve(scene: Any, *, model: Any = "paper", **options: Any) -> Result:
     if not has_closed_form(m):
         raise NoClosedForm(f"model {model!r} gives no log_stationary_parts(A) and period(A): "
                            "it has no closed form (its p(A) comes from the FPK)")
-    amp = amplitude_density(m, points=settings.points, tail=settings.tail)
+    amp = amplitude_density(m, points=settings.points, tail=settings.tail, tail_mass=tail_mass)
     t1 = time.perf_counter()
     log_T = np.log(m.period(amp.A))
     ph = phase_densities(amp.A, amp.log_h, log_T, omega0=sys_.omega0, alpha=sys_.alpha,
@@ -81,7 +84,8 @@ def solve(scene: Any, *, model: Any = "paper", **options: Any) -> Result:
         "grid": {"points": int(amp.A.size), "A_min": float(amp.A[0]), "A_max": float(amp.A[-1]),
                  "phase_points": int(settings.phase_points)},
         "diagnostics": {
-            "mass": summary["mass"], "min": summary["min"], "tail_mass": amp.tail_mass,
+            "mass": summary["mass"], "min": summary["min"],
+            "tail_mass": amp.tail_mass if tail_mass else None,
             "phase_mass_before_normalisation": ph.raw_mass, "scans": amp.scans,
         },
         "summary": {k: summary[k] for k in ("mean", "mode", "std")},

@@ -42,19 +42,19 @@ def run_solver(scene: Any, solver: str, *, model: str = "paper", grid: int | Non
 
 
 # ----------------------------------------------------------------------- averaged models
-def closed_form(scene: Any, *, model: Any, **options: Any) -> Any:
+def closed_form(scene: Any, *, model: Any, tail_mass: bool = True, **options: Any) -> Any:
     """The averaged model's stationary densities: its closed form (``averaging.solve``) when
     the model gives one (``log_stationary_parts`` and ``period``), else the FPK direct solve of
     its drift and diffusion on REFERENCE_CELLS cells, mapped to phase space
     (``info["closed_form"]`` is False and ``info["method"]`` says which). ``model``: a
-    registered name or a model object. A scene with no stationary density raises
-    SolverFailure."""
+    registered name or a model object; ``tail_mass=False`` skips the closed form's measurement
+    of the mass beyond its grid. A scene with no stationary density raises SolverFailure."""
     import averaging
 
     m = averaged_model(scene, model, **options)
     try:
         if averaging.has_closed_form(m):
-            res = averaging.solve(scene, model=m)
+            res = averaging.solve(scene, model=m, tail_mass=tail_mass)
             res.info.update(model=model_label(model), closed_form=True)
             return res
         res = fpk_solution(scene, model=m, cells=REFERENCE_CELLS, method="direct")

@@ -94,6 +94,7 @@ class Point:
     key: str
     scene: Scene
     fingerprint: str
+    sde: bool = False  # a check point that runs the averaged SDEs' Monte Carlo
 
     def label(self) -> str:
         return " ".join(f"{k}={v:g}" for k, v in self.params)
@@ -141,14 +142,17 @@ def point_seed(seed: int, params: tuple[tuple[str, float], ...]) -> int:
     return int(state[0]) >> 2
 
 
-def fingerprint(workflow: str, scene: Scene, bifurcation: Mapping[str, Any],
-                models: tuple[str, ...] | None = None) -> str:
-    """sha256 of everything a point's result depends on (the scene includes the seed; the
-    models only when the sweep names them, so a sweep without ``models`` keeps its records)."""
+def fingerprint(workflow: str, scene: Scene, bifurcation: Mapping[str, Any], *,
+                sde: bool = False, models: tuple[str, ...] | None = None) -> str:
+    """sha256 of everything a point's result depends on (the scene includes the seed; ``sde``:
+    the point runs the averaged SDEs' Monte Carlo, SDE_CHECK_EVERY; the models only when the
+    sweep names them, so a sweep without ``models`` keeps its records)."""
     d = scene.to_dict()
     d.pop("name", None)
     d.pop("description", None)
     what: dict[str, Any] = {"workflow": workflow, "scene": d, "bifurcation": dict(bifurcation)}
+    if workflow == "check":
+        what["sde_check"] = bool(sde)
     if models is not None:
         what["models"] = list(models)
     blob = json.dumps(what, sort_keys=True)
@@ -351,28 +355,52 @@ def load_sweep(path: str | Path) -> Sweep:
         combos = [tuple((k, v[i]) for k, v in vary) for i in range(len(vary[0][1]))]
     if mode == "zip" and len({canonical(c) for c in combos}) != len(combos):
         raise SweepError(f"{src}: [vary]: two zipped points have the same values")
-    points = []
     fixed = dict(fixed_raw)
-    # a budget of 0 means no wall-clock limit (see RESERVED)
-    common = {**fixed, "montecarlo.budget": 0.0}
-    for params in combos:
-        s = point_seed(seed, params)
-        values = {**common, **dict(params), "montecarlo.seed": s}
-        try:
-            scene = base.with_values(values)
-        except SceneError as exc:
-            at = ", ".join(f"{k} = {v:g}" for k, v in params)
-            msg = str(exc).split(": ", 1)[-1] if ": " in str(exc) else str(exc)
-            raise SweepError(f"{src}: at the point {at}: {msg}") from None
-        if scene.sweep is not None:
-            raise SweepError(f"{src}: scene: {scene.sweep.path} varies in the base scene; set "
-                             "it in [set] or vary it in [vary]")
-        scene = _named(scene, f"{base.name}[{', '.join(f'{k}={v:g}' for k, v in params)}]")
-        points.append(Point(params=params, seed=s, key=point_key(params), scene=scene,
-                            fingerprint=fingerprint(workflow, scene, bif, models)))
+    points = [make_point(base, fixed, seed=seed, workflow=workflow, bifurcation=bif,
+                         params=params, first=i == 0, where=src, models=models)
+              for i, params in enumerate(combos)]
     return Sweep(path=str(p), text=text, name=name, workflow=workflow, mode=mode, seed=seed,
                  vary=tuple(vary), fixed=fixed, bifurcation=bif, base=base,
                  points=tuple(points), models=models)
+
+
+#: a check sweep runs the Monte Carlo of each averaged SDE against its closed form (a check of
+#: the closed forms and the Monte Carlo machinery, not of the averaging error, which is what a
+#: map shows) only at sampled points: the sweep's first point and every point whose key,
+#: read as a number, is divisible by SDE_CHECK_EVERY (about 1 in 16, chosen by the point's
+#: parameters alone, so the choice does not depend on the executor or the order of points)
+SDE_CHECK_EVERY = 16
+
+
+def sde_check_at(key: str, *, first: bool) -> bool:
+    """Whether a check point runs the averaged SDEs' Monte Carlo (SDE_CHECK_EVERY)."""
+    return first or int(key, 16) % SDE_CHECK_EVERY == 0
+
+
+def make_point(base: Scene, fixed: Mapping[str, Any], *, seed: int, workflow: str,
+               bifurcation: Mapping[str, Any], params: tuple[tuple[str, float], ...],
+               first: bool = False, where: str = "sweep",
+               models: tuple[str, ...] | None = None) -> Point:
+    """The point of a sweep at ``params`` (varied values by name): its scene (the base scene
+    with ``fixed`` and ``params`` set, no wall-clock budget, its own seed), key and
+    fingerprint. SweepError (naming the point) when the scene is out of range there."""
+    s = point_seed(seed, params)
+    # a budget of 0 means no wall-clock limit (see RESERVED)
+    values = {**fixed, "montecarlo.budget": 0.0, **dict(params), "montecarlo.seed": s}
+    try:
+        scene = base.with_values(values)
+    except SceneError as exc:
+        at = ", ".join(f"{k} = {v:g}" for k, v in params)
+        msg = str(exc).split(": ", 1)[-1] if ": " in str(exc) else str(exc)
+        raise SweepError(f"{where}: at the point {at}: {msg}") from None
+    if scene.sweep is not None:
+        raise SweepError(f"{where}: scene: {scene.sweep.path} varies in the base scene; set "
+                         "it in [set] or vary it in [vary]")
+    scene = _named(scene, f"{base.name}[{', '.join(f'{k}={v:g}' for k, v in params)}]")
+    key = point_key(params)
+    sde = workflow == "check" and sde_check_at(key, first=first)
+    return Point(params=params, seed=s, key=key, scene=scene, sde=sde,
+                 fingerprint=fingerprint(workflow, scene, bifurcation, sde=sde, models=models))
 
 
 def _named(scene: Scene, name: str) -> Scene:
@@ -394,6 +422,7 @@ class Job:
     workflow: str
     scene: Scene
     bifurcation: Mapping[str, Any]
+    sde: bool = True  # check: run the averaged SDEs' Monte Carlo (Point.sde)
     models: tuple[str, ...] | None = None  # None: the workflow's default models
 
 
@@ -434,7 +463,8 @@ def _check_point(job: Job) -> dict[str, Any]:
 
     from .check import cross_check
 
-    res = cross_check(job.scene, quiet=True, fpk=False, models=_models(job, CHECK_MODELS))
+    res = cross_check(job.scene, quiet=True, fpk=False, sde=job.sde, tail_mass=False,
+                      models=_models(job, CHECK_MODELS))
     mc = res.solutions["mc:original"]
     conv = res.metrics["monte_carlo"]["convergence"]
     models = {}
@@ -443,8 +473,9 @@ def _check_point(job: Job) -> dict[str, Any]:
         models[m] = {"averaging_error_A": e["L1"], "averaging_error_A_err": e["L1_err"],
                      "L1_floor_A": e["L1_floor"],
                      "mean_A": res.solutions[f"closed:{m}"].info["summary"]["mean"],
-                     "sampling_ok": bool(res.metrics["models"][m]["sampling_ok"]),
                      "verdict_class": str(res.metrics["models"][m].get("verdict_class", ""))}
+        if job.sde:  # only where the averaged SDE ran (SDE_CHECK_EVERY); -1 elsewhere
+            models[m]["sampling_ok"] = bool(res.metrics["models"][m]["sampling_ok"])
     # the simulation's mean amplitude from its histogram of A with an exactly rounded sum, its
     # batch error from the moments (accumulated per path and summed in path order: the same
     # bits for any thread count and executor, tests/test_sweep.py)
@@ -452,7 +483,7 @@ def _check_point(job: Job) -> dict[str, Any]:
     mean = {"value": math.fsum((d["x"] * d["p"] * np.diff(d["edges"])).tolist()),
             "err": float(mc.info["moments"]["A"]["mean"]["err"])}
     converged = conv.get("equilibrated") is not False and all(
-        v["sampling_ok"] for v in models.values())
+        v.get("sampling_ok", True) for v in models.values())
     return {"models": models, "mean_A_simulation": mean["value"],
             "mean_A_simulation_err": mean["err"], "converged": converged,
             "extensions": conv.get("extensions", 0),
@@ -701,7 +732,7 @@ def finished(sweep: Sweep, out: Path) -> dict[str, dict[str, Any]]:
 def _job(sweep: Sweep, pt: Point) -> Job:
     return Job(key=pt.key, fingerprint=pt.fingerprint, params=pt.params, seed=pt.seed,
                workflow=sweep.workflow, scene=pt.scene, bifurcation=sweep.bifurcation,
-               models=sweep.models)
+               sde=pt.sde, models=sweep.models)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -875,6 +906,11 @@ def dataset(sweep: Sweep, records: Mapping[str, dict[str, Any]], *,
     for k in WARNING_FLAGS:
         if k in ds:
             ds[k].attrs["flag_values"] = "1: the warning applies, 0: it does not, -1: no value"
+    if "sampling_ok" in ds:
+        ds["sampling_ok"].attrs["flag_values"] = (
+            "1: the averaged SDE's Monte Carlo matches its closed form, 0: it does not, -1: not "
+            f"run at this point (it runs at the first point and where int(key, 16) % "
+            f"{SDE_CHECK_EVERY} == 0)")
     ds.attrs.update({
         "title": f"vifpk sweep {sweep.name}",
         "workflow": sweep.workflow, "mode": sweep.mode, "seed": sweep.seed,

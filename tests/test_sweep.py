@@ -148,6 +148,20 @@ def test_local_cluster_equals_serial_bit_for_bit(serial_check, tmp_path):
         assert nc.stat().st_mode & 0o777 == 0o666 & ~umask, oct(nc.stat().st_mode)
 
 
+def test_sde_check_only_at_sampled_points(serial_check):
+    """The averaged SDEs' Monte Carlo runs at the first point and where the key is divisible by
+    SDE_CHECK_EVERY (chosen by the parameters alone); sampling_ok is -1 elsewhere."""
+    from harness.sweep import SDE_CHECK_EVERY
+
+    sweep = load_sweep(CHECK)
+    ds = _values(serial_check / "sweep.nc")
+    assert sweep.points[0].sde
+    for pt in sweep.points:
+        assert pt.sde == (pt is sweep.points[0] or int(pt.key, 16) % SDE_CHECK_EVERY == 0)
+        ok = ds["sampling_ok"].sel(dict(pt.params)).values
+        assert (ok >= 0).all() if pt.sde else (ok == -1).all(), (pt.params, ok)
+
+
 def test_interrupted_sweep_resumes_with_only_the_rest(tmp_path):
     """Ctrl-C (SIGINT) after two points: exit 130, no sweep.nc; the second run (on a process
     pool) computes only the points without a record and leaves the kept records untouched."""
