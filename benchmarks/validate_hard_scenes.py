@@ -64,7 +64,7 @@ def main(names: list[str]) -> int:
                "L1_A": {m: met["models"][m]["averaging_error"]["A"]["L1"] for m in MODELS},
                "L1_floor_A": met["models"]["exact"]["averaging_error"]["A"]["L1_floor"],
                "classes": {m: met["models"][m]["verdict_class"] for m in MODELS},
-               "warnings": [w.split(":")[0] for w in res.warnings],
+               "warnings": [w.title for w in res.warnings],
                "problems": output_problems(res)}
         rows.append(row)
         print(f"{row['scene']:14s} {wall:7.1f} s  " + "  ".join(

@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from vifpk.core.defaults import CHECK_MODELS, FPK_CELLS
+from vifpk.core.result import WarningRecord
 
 from .compare import compare
 from .run import (
@@ -44,7 +45,7 @@ class CheckResult:
     scene: Any
     solutions: dict[str, Any]  # name -> Result(data, info)
     metrics: dict[str, Any]
-    warnings: list[str]
+    warnings: list[WarningRecord]
     verdicts: list[str]
     provenance: dict[str, Any] | None = None  # harness.provenance.collect(); set by the writer
     models: tuple[str, ...] = CHECK_MODELS  # the averaged models checked, in report order
@@ -98,25 +99,14 @@ def mc_edges(closed: dict[str, Any], bins: int) -> dict[str, np.ndarray]:
             "edges_v": np.linspace(-1.1 * v_max, 1.1 * v_max, bins + 1)}
 
 
-#: The kind of each warning check writes: the words its sentence starts with -> a code.
-#: Code that acts on a warning's kind (the sweep's flags) asks warning_kind, so that a
-#: reworded sentence fails loudly instead of silently clearing a flag elsewhere.
-WARNING_KINDS = {"strong damping:": "strong_damping", "narrow-band noise:": "narrow_band",
-                 "sticking-dominated motion:": "sticking", "strong noise:": "strong_noise",
-                 "the simulation of the original system puts": "outside_range"}
-
-
-def warning_kind(text: str) -> str:
-    """The code of one of check's warnings (WARNING_KINDS); ValueError for any other text."""
-    for start, kind in WARNING_KINDS.items():
-        if text.startswith(start):
-            return kind
-    raise ValueError(f"not a warning of harness.check: {text[:60]!r}")
+#: The kinds of warning check writes (WarningRecord.kind): code acts on these (the sweep's
+#: flags), people read the text.
+WARNING_KINDS = ("strong_damping", "narrow_band", "sticking", "strong_noise", "outside_range")
 
 
 def assumption_warnings(scene: Any, closed: dict[str, Any], mc_info: dict[str, Any]
-                        ) -> list[str]:
-    """Sentences naming each averaging assumption that clearly fails for this scene.
+                        ) -> list[WarningRecord]:
+    """Records (kind, sentence) naming each averaging assumption that clearly fails here.
 
     Stochastic averaging needs (i) weak damping and weak noise relative to the restoring
     force (quasi-conservative: the energy changes little over one period), (ii) a noise
@@ -136,23 +126,31 @@ def assumption_warnings(scene: Any, closed: dict[str, Any], mc_info: dict[str, A
     rate = sum(parts.values()) / E
     if rate * T > 0.5:
         main = max(parts, key=lambda k: parts[k])
-        out.append(f"strong damping: at the mean amplitude {A:.3g} the energy changes by "
-                   f"{rate * T:.2f} of itself per period (mostly {main}), so the energy is not "
-                   "nearly conserved over one cycle, which averaging assumes")
+        out.append(WarningRecord(
+            "strong_damping",
+            f"strong damping: at the mean amplitude {A:.3g} the energy changes by "
+            f"{rate * T:.2f} of itself per period (mostly {main}), so the energy is not "
+            "nearly conserved over one cycle, which averaging assumes"))
     if n.kind == "ou" and n.alpha1 < 0.5 * w:
-        out.append(f"narrow-band noise: bandwidth alpha1 = {n.alpha1:g} is below half the "
-                   f"oscillation frequency ({w:.3g}); the noise is not wide-band against the "
-                   "oscillation, which the Stratonovich-Khasminskii limit requires")
+        out.append(WarningRecord(
+            "narrow_band",
+            f"narrow-band noise: bandwidth alpha1 = {n.alpha1:g} is below half the "
+            f"oscillation frequency ({w:.3g}); the noise is not wide-band against the "
+            "oscillation, which the Stratonovich-Khasminskii limit requires"))
     stuck = mc_info.get("events", {}).get("stuck_fraction", {}).get("value", 0.0)
     if stuck > 0.1:
-        out.append(f"sticking-dominated motion: the mass is stuck {100 * stuck:.0f}% of the time "
-                   "in the simulation; averaging over free oscillations does not describe it")
+        out.append(WarningRecord(
+            "sticking",
+            f"sticking-dominated motion: the mass is stuck {100 * stuck:.0f}% of the time "
+            "in the simulation; averaging over free oscillations does not describe it"))
     if A > 0:
         ratio = rates["sigma2_E"] * T / E**2
         if ratio > 0.5:
-            out.append(f"strong noise: over one period the noise changes the energy by "
-                       f"{100 * math.sqrt(ratio):.0f}% (rms) at the mean amplitude; averaging "
-                       "assumes it changes little")
+            out.append(WarningRecord(
+                "strong_noise",
+                f"strong noise: over one period the noise changes the energy by "
+                f"{100 * math.sqrt(ratio):.0f}% (rms) at the mean amplitude; averaging "
+                "assumes it changes little"))
     return out
 
 
@@ -242,10 +240,12 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
     outside = mc.info.get("events", {}).get("outside_fraction", {})
     worst = max(outside.values(), default=0.0)
     if worst > 1e-3:
-        warnings.append(f"the simulation of the original system puts {100 * worst:.1f}% of its "
-                        "samples outside the range where the averaged models hold their mass "
-                        "(not converged, or a different state altogether); its densities there "
-                        "are not shown and count in full toward L1")
+        warnings.append(WarningRecord(
+            "outside_range",
+            f"the simulation of the original system puts {100 * worst:.1f}% of its "
+            "samples outside the range where the averaged models hold their mass "
+            "(not converged, or a different state altogether); its densities there "
+            "are not shown and count in full toward L1"))
     verdicts = [verdict(m, metrics["models"][m], warnings, convergence=conv) for m in names]
     for m in names:
         cls, cause = verdict_class(metrics["models"][m], warnings, convergence=conv)
@@ -253,7 +253,8 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
         metrics["models"][m]["verdict_cause"] = cause
     stages.done()
     metrics["verdicts"] = verdicts
-    metrics["warnings"] = warnings
+    metrics["warnings"] = [w.text for w in warnings]
+    metrics["warning_kinds"] = [w.kind for w in warnings]
     metrics["monte_carlo"] = {k: mc.info[k] for k in ("settings", "effects", "events", "L1_floor",
                                                      "seed", "atoms", "relaxation")
                               if k in mc.info}
@@ -334,7 +335,7 @@ LARGE_L1 = 0.3  # at least 15% of the probability mass misplaced
 DOMINANCE = 3.0  # a cause dominates when it is 3 x every other part of the decomposition
 
 
-def verdict_class(entry: dict[str, Any], warnings: list[str], *,
+def verdict_class(entry: dict[str, Any], warnings: list[WarningRecord], *,
                   convergence: dict[str, Any] | None = None) -> tuple[str, str]:
     """(class, dominant cause) of one model's averaging error of p(A).
 
@@ -349,7 +350,7 @@ def verdict_class(entry: dict[str, Any], warnings: list[str], *,
     if conv.get("equilibrated") is False or entry.get("sampling_ok") is False:
         return "not an estimate", "the Monte Carlo has not converged"
     if warnings:
-        names = [w.split(":")[0] for w in warnings]
+        names = [w.title for w in warnings]
         return "not an estimate", "failing averaging assumptions (" + ", ".join(names) + ")"
     l1, floor = e["L1"], e["L1_floor"]
     # a sweep point runs no FPK (cross_check(fpk=False)): no discretisation part then
@@ -373,7 +374,7 @@ def verdict_class(entry: dict[str, Any], warnings: list[str], *,
     return cls, cause
 
 
-def verdict(model: str, entry: dict[str, Any], warnings: list[str], *,
+def verdict(model: str, entry: dict[str, Any], warnings: list[WarningRecord], *,
             convergence: dict[str, Any] | None = None) -> str:
     """One line: the class, the averaging error of p(A) with its error bar, what it means
     against the noise floor and against the 0..2 scale of L1, and the dominant cause."""

@@ -12,7 +12,6 @@ from __future__ import annotations
 import base64
 import dataclasses
 import html
-import io
 import math
 from pathlib import Path
 from typing import Any
@@ -27,7 +26,7 @@ from .check import (
     SMALL_L1,
     CheckResult,
 )
-from .io import dumps, png_with_text
+from .io import dumps, png_bytes
 
 LABELS = {"A": "amplitude A (dimensionless)", "x1": "displacement x1 (dimensionless)",
           "x2": "velocity x2 (dimensionless)"}
@@ -40,15 +39,14 @@ KIND_TEXT = {"discretisation_error": "discretisation (FPK vs closed form)",
 MODEL_COLORS = ("tab:red", "tab:blue", "tab:green", "tab:purple", "tab:orange")
 
 
-def _figure_densities(res: CheckResult) -> bytes:
+def _figure_densities(res: CheckResult, text: dict[str, str] | None = None) -> bytes:
     """Every density of the check, each kind drawn its own way so none hides another:
     closed form (solid line), its FPK (open circles), the Monte Carlo of its averaged SDE
     (dashed steps), in one colour per model; the Monte Carlo of the original system in black
     with +/- 2 s.e. bars. One legend for all panels."""
-    import matplotlib
+    from .io import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     sol = res.solutions
     fig, axes = plt.subplots(1, 3, figsize=(13, 4.4))
@@ -82,17 +80,16 @@ def _figure_densities(res: CheckResult) -> bytes:
     fig.suptitle(f"{res.scene.name}: stationary densities of the averaged models against "
                  "the original system")
     fig.tight_layout(rect=(0, 0.13, 1, 1))
-    return _png(fig)
+    return _png(fig, text)
 
 
-def _figure_decomposition(res: CheckResult) -> bytes:
+def _figure_decomposition(res: CheckResult, text: dict[str, str] | None = None) -> bytes:
     """Bars: the L1 distance of each part of the decomposition, with +/- 1 s.e. error bars
     (black, capped). Grey hatched boxes: the Monte Carlo noise floor, from the bottom of the
     axis up to the floor (a bar inside its box is noise)."""
-    import matplotlib
+    from .io import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
     from matplotlib.patches import Rectangle
 
     models = res.models
@@ -132,16 +129,11 @@ def _figure_decomposition(res: CheckResult) -> bytes:
     labels.append("MC noise floor (hatched: below it, noise)")
     fig.legend(handles, labels, loc="lower center", ncol=2, fontsize=8, frameon=False)
     fig.tight_layout(rect=(0, 0.13, 1, 1))
-    return _png(fig)
+    return _png(fig, text)
 
 
-def _png(fig: Any) -> bytes:
-    import matplotlib.pyplot as plt
-
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110)
-    plt.close(fig)
-    return buf.getvalue()
+def _png(fig: Any, text: dict[str, str] | None) -> bytes:
+    return png_bytes(fig, text=text, dpi=110)
 
 
 def _column_format(values: list[float]) -> str:
@@ -308,7 +300,7 @@ def render_markdown(res: CheckResult, figures: dict[str, str]) -> str:
     out += [f"- {v}" for v in res.verdicts]
     if res.warnings:
         out += ["", "## Warnings: averaging assumptions that fail here", ""]
-        out += [f"- {w}" for w in res.warnings]
+        out += [f"- {w.text}" for w in res.warnings]
     out += ["", "## Densities", "", f"![densities]({figures['densities']})", "",
             "## Error decomposition", "", f"![decomposition]({figures['decomposition']})", ""]
     for title, head, rows in _tables(res):
@@ -374,7 +366,7 @@ def render_html(res: CheckResult, pngs: dict[str, bytes]) -> str:
     parts.append("</ul></details>")
     if res.warnings:
         parts.append("<h2>Warnings: averaging assumptions that fail here</h2><ul>")
-        parts += [f'<li class="warn">{e(w)}</li>' for w in res.warnings]
+        parts += [f'<li class="warn">{e(w.text)}</li>' for w in res.warnings]
         parts.append("</ul>")
     parts += ["<h2>Densities</h2>", img("densities"), "<h2>Error decomposition</h2>",
               img("decomposition")]
@@ -416,9 +408,9 @@ def write_report(res: CheckResult, out_dir: str | Path, *,
     run_id = prov["run_id"]
 
     def fill(tmp: Path) -> None:
-        pngs = {"densities": _figure_densities(res), "decomposition": _figure_decomposition(res)}
-        pngs = {k: png_with_text(b, {"vifpk run id": run_id, "Software": f"vifpk {prov['vifpk']}"})
-                for k, b in pngs.items()}
+        text = {"vifpk run id": run_id, "Software": f"vifpk {prov['vifpk']}"}
+        pngs = {"densities": _figure_densities(res, text),
+                "decomposition": _figure_decomposition(res, text)}
         (tmp / "figures").mkdir()
         figs = {}
         for k, b in pngs.items():

@@ -250,32 +250,13 @@ def averaged_sde_solution(scene: Any, model: Any, *, edges: dict[str, Any], seed
                         phase=extra)
 
 
-def montecarlo_plan(scene: Any) -> dict[str, Any]:
-    """What the Monte Carlo would do with the scene's settings, before running it: the time
-    step (``dt`` or the "auto" one), the sampling interval, the sampled time (whole windows of
-    whole samples: montecarlo.sampling_plan) and the nearest times it samples exactly."""
+def montecarlo_plan(scene: Any) -> Any:
+    """What the Monte Carlo would do with the scene's settings, before running it
+    (``montecarlo.plan``: the time step, the sampling interval, the sampled time, the nearest
+    times it samples exactly, the path-steps including the pilots'), as a ``montecarlo.Plan``."""
     import montecarlo
-    from montecarlo.simulate import _params
 
-    mc = scene.montecarlo
-    target = float(mc.floor) if mc.floor else 0.0
-    h = montecarlo.step_size(mc.dt, target, _params(scene.system, scene.noise), mc.sample_every)
-    stride, spw, n_win = montecarlo.sampling_plan(mc.time, mc.sample_every, h, target)
-    interval = stride * h
-
-    def sampled(n: int) -> float:
-        s, w, k = montecarlo.sampling_plan(n * interval, mc.sample_every, h, 0.0)
-        return k * w * s * h
-
-    n = max(int(mc.time / interval), 1)
-    exact = sorted({m for m in range(max(n - 40, 1), n + 42) if
-                    abs(sampled(m) - m * interval) <= 1e-9 * m * interval}
-                   | {16 * (n // 16 + 1)} | ({16 * (n // 16)} if n >= 16 else set()))
-    below = [m for m in exact if m * interval <= mc.time]
-    above = [m for m in exact if m * interval > mc.time]
-    nearest = [m * interval for m in (below[-1:] + above[:1])]
-    return {"dt": h, "stride": stride, "sample_interval": interval,
-            "sampled_time": n_win * spw * interval, "nearest_times": nearest}
+    return montecarlo.plan(scene.system, scene.noise, scene.montecarlo)
 
 
 def solution_record(scene: Any, solver: str, model: str | None, result: Any, *,

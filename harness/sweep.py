@@ -69,7 +69,7 @@ FIND = {"mu": "system.mu", "r": "system.r"}
 RESERVED = {"montecarlo.seed": "set the sweep's seed with the top-level key `seed`",
             "montecarlo.budget": "sweeps run without a wall-clock budget (a budget makes a "
                                  "point depend on the machine's speed); use montecarlo.floor"}
-#: warnings of the cross-check as flags: variable name -> the warning's kind (check.WARNING_KINDS)
+#: warnings of the cross-check as flags: variable name -> the warning's kind (WarningRecord.kind)
 WARNING_FLAGS = {"warn_narrow_band": "narrow_band", "warn_sticking": "sticking",
                  "warn_strong_damping": "strong_damping", "warn_strong_noise": "strong_noise"}
 EXTRA_HINT = "pip install 'vifpk[cluster]'"
@@ -450,10 +450,8 @@ def _models(job: Job, default: tuple[str, ...]) -> tuple[str, ...]:
     return job.models if job.models is not None else default
 
 
-def _flags(warnings: list[str]) -> dict[str, bool]:
-    from .check import warning_kind
-
-    kinds = {warning_kind(w) for w in warnings}
+def _flags(warnings: list[Any]) -> dict[str, bool]:
+    kinds = {w.kind for w in warnings}
     return {k: v in kinds for k, v in WARNING_FLAGS.items()}
 
 
@@ -488,7 +486,7 @@ def _check_point(job: Job) -> dict[str, Any]:
             "mean_A_simulation_err": mean["err"], "converged": converged,
             "extensions": conv.get("extensions", 0),
             "flags": {**_flags(res.warnings), "warn_not_converged": not converged},
-            "warnings": res.warnings, "verdicts": res.verdicts}
+            "warnings": [w.text for w in res.warnings], "verdicts": res.verdicts}
 
 
 def _averaging_point(job: Job) -> dict[str, Any]:
@@ -505,7 +503,7 @@ def _averaging_point(job: Job) -> dict[str, Any]:
     flags.pop("warn_sticking")  # needs the simulation
     out: dict[str, Any] = {"models": {m: {"mean_A": r.info["summary"]["mean"]}
                                       for m, r in closed.items()},
-                           "flags": flags, "warnings": warnings}
+                           "flags": flags, "warnings": [w.text for w in warnings]}
     if "paper" in closed and "exact" in closed:
         out["L1_paper_exact_A"] = compare(closed["paper"].data["A"],
                                           closed["exact"].data["A"])["L1"]
@@ -936,16 +934,10 @@ def write_netcdf(ds: Any, path: Path) -> Path:
     """Write a Dataset atomically (temporary file beside it, then rename). The temporary file
     is created with mode 0666 minus the umask, as every other output (netCDF keeps the mode of
     the file it overwrites; ``tempfile`` would give 0600)."""
-    from .io import temp_beside
+    from .io import atomic_path
 
-    tmp, fd = temp_beside(path)
-    os.close(fd)
-    try:
+    with atomic_path(path) as tmp:
         ds.to_netcdf(tmp, engine="netcdf4")
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
     return path
 
 

@@ -43,7 +43,7 @@ import numpy as np
 from vifpk.core.scene import Scene, load_scene
 
 from .compare import compare, is_histogram
-from .io import jsonable, write_atomic
+from .io import atomic_path, jsonable, write_atomic
 
 METRICS = ("L1", "hellinger", "ks")
 _STATE: dict[str, Any] = {"cache": None, "refresh": False, "stats": {"hits": 0, "misses": 0}}
@@ -173,9 +173,8 @@ def mc_reference(scene: Any, **montecarlo: Any) -> Reference:
     folder.mkdir(parents=True, exist_ok=True)
     arrays = {f"{o}__{k}": np.asarray(v) for o, rec in res.data.items() if o != "joint"
               for k, v in rec.items()}
-    tmp = folder / f".{key}.{os.getpid()}.npz"
-    np.savez(tmp, **arrays)
-    os.replace(tmp, npz)
+    with atomic_path(npz) as tmp:
+        np.savez(tmp, **arrays)
     info = {"settings": res.info["settings"], "seed": res.info["seed"]["root"],
             "scene": sc.to_dict(), "command": reproduce_command(sc), "key": key}
     write_atomic(meta, json.dumps(jsonable(info), indent=1))

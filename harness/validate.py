@@ -9,7 +9,7 @@ exits with code 2; nothing has been computed or written by then.
 The checks, and where each bound comes from:
 
 - options that do not apply to the chosen solver or command are refused, not ignored;
-- Monte Carlo (the arithmetic of ``montecarlo.simulate``, asked through ``run.montecarlo_plan``
+- Monte Carlo (the arithmetic of ``montecarlo.plan``, asked through ``run.montecarlo_plan``
   so that it is never restated here): ``paths`` a whole multiple of ``blocks``; ``dt`` a whole
   fraction of ``sample_every`` and below the splitting's linear stability limit
   ``dt omega0 < 2`` (Stormer-Verlet on x'' = -omega0^2 x); ``burn_in`` and ``time`` whole
@@ -143,7 +143,7 @@ def montecarlo_settings(scene: Scene, options: Mapping[str, str] | None = None) 
                          f"montecarlo.blocks = {mc.blocks} (the batches of the error bars); "
                          f"nearest valid: {' or '.join(str(n) for n in near)}")
     plan = montecarlo_plan(scene)
-    h = plan["dt"]
+    h = plan.dt
     w0 = scene.system.omega0
     if h * w0 >= 2.0:
         raise InputError(f"{_name('dt', options)} = {_g(h)} is too large for this scene; "
@@ -163,14 +163,14 @@ def montecarlo_settings(scene: Scene, options: Mapping[str, str] | None = None) 
             raise InputError(f"montecarlo.burn_in = {_g(float(mc.burn_in))} is not a whole "
                              f"number of steps of dt = {_g(h)}; nearest valid: "
                              f"{_g(k * h)} or {_g((k + 1) * h)}")
-    step = plan["sample_interval"]
+    step = plan.sample_interval
     if mc.time < step * (1 - REL):
         raise InputError(f"{_name('time', options)} = {_g(mc.time)} is shorter than one "
                          f"sampling interval; allowed: time >= {_g(step)}")
-    if mc.floor <= 0 and abs(plan["sampled_time"] - mc.time) > REL * mc.time:
-        near = " or ".join(_g(v) for v in plan["nearest_times"])
+    if mc.floor <= 0 and abs(plan.sampled_time - mc.time) > REL * mc.time:
+        near = " or ".join(_g(v) for v in plan.nearest_times)
         raise InputError(f"{_name('time', options)} = {_g(mc.time)} would sample "
-                         f"{_g(plan['sampled_time'])} (whole windows of whole samples every "
+                         f"{_g(plan.sampled_time)} (whole windows of whole samples every "
                          f"{_g(step)}); nearest valid: {near}")
 
 
@@ -240,18 +240,13 @@ def output_folder(path: str | None, option: str) -> None:
 # --------------------------------------------------------------------------------------------
 # cost
 def montecarlo_seconds(scene: Scene) -> float:
-    """Lower bound of the wall time of one Monte Carlo run of the original system: the
-    sampled path-steps plus the pilots' (burn-in "auto" counted at its minimum, 20 time
-    units, the relaxation pilot at 8 windows of 10), at MC_STEPS_PER_CORE on every core."""
+    """Lower bound of the wall time of one Monte Carlo run of the original system: the plan's
+    path-steps (montecarlo.plan: the sampled ones, the burn-in, the pilots') at
+    MC_STEPS_PER_CORE on every core; with a target floor, at most the budget."""
     from .run import montecarlo_plan
 
     mc = scene.montecarlo
-    plan = montecarlo_plan(scene)
-    h = plan["dt"]
-    burn = 20.0 if mc.burn_in == "auto" else float(mc.burn_in)
-    pilots = 32 * 1200.0 + (256 * 80.0 if mc.burn_in == "auto" else 0.0)
-    sampled = mc.time / 2 if mc.floor > 0 else plan["sampled_time"]
-    steps = (mc.paths * (burn + sampled) + pilots) / h
+    steps = montecarlo_plan(scene).path_steps
     cores = mc.threads or os.cpu_count() or 1
     seconds = steps / (MC_STEPS_PER_CORE * cores)
     if mc.floor > 0 and mc.budget > 0:
