@@ -16,6 +16,7 @@ from typing import Any
 from vifpk.core import registry
 from vifpk.core.defaults import BIFURCATION_MODELS, BURN_FACTOR, CHECK_MODELS, FPK_CELLS
 from vifpk.core.registry import SOLVERS
+from vifpk.core.result import BadInput
 from vifpk.core.scene import Scene, SceneError, load_scene
 
 from . import validate
@@ -638,7 +639,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             code = int(args.func(args))
             sys.stdout.flush()  # a closed pipe shows here, not at exit
             return code
-    except SceneError as exc:
+    except BadInput as exc:  # a scene field, an option, an output folder
         print(f"vifpk: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except SolverFailure as exc:

@@ -15,6 +15,11 @@ from enum import Enum
 from typing import Any, NamedTuple
 
 
+class BadInput(ValueError):
+    """Input that cannot be used (a scene field, an option, an output folder): the message is
+    one line naming it and what is allowed; the command line exits with code 2."""
+
+
 class Result(NamedTuple):
     """A solver's output: densities by observable, and what the run did (``info``)."""
 

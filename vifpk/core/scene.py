@@ -27,9 +27,10 @@ from pathlib import Path
 from typing import Any
 
 from .registry import NOISE_KINDS
+from .result import BadInput
 
 
-class SceneError(ValueError):
+class SceneError(BadInput):
     """A scene that cannot be used; the message is one line naming the field."""
 
 
