@@ -50,7 +50,7 @@ import os
 import sys
 import time
 import tomllib
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
@@ -59,9 +59,14 @@ from vifpk.core.defaults import BIFURCATION_MODELS, CHECK_MODELS
 from vifpk.core.scene import SECTIONS, Scene, SceneError, load_scene
 
 WORKFLOWS = ("check", "averaging", "bifurcation")
-MODES = ("product", "zip")
+MODES = ("product", "zip", "adaptive")
 TOP_KEYS = ("scene", "workflow", "mode", "seed", "name", "description", "vary", "set",
-            "bifurcation", "models")
+            "bifurcation", "adaptive", "models")
+ADAPTIVE_KEYS = ("points", "model", "batch", "resolution")
+#: points of an adaptive batch unless [adaptive] batch says otherwise: a property of the sweep
+#: file, not of the executor, so that the points do not depend on where they run
+ADAPTIVE_BATCH = 8
+ADAPTIVE_RESOLUTION = 40  # refine the boundary as finely as a 40 x 40 grid (adaptive.min_edge)
 BIFURCATION_KEYS = ("find", "range", "mc")
 FIND = {"mu": "system.mu", "r": "system.r"}
 #: keys a sweep may not vary or set: the seed comes from the sweep's seed; a wall-clock
@@ -95,6 +100,7 @@ class Point:
     scene: Scene
     fingerprint: str
     sde: bool = False  # a check point that runs the averaged SDEs' Monte Carlo
+    batch: int = 0  # adaptive sweeps: 0 for the initial lattice, then 1, 2, ...
 
     def label(self) -> str:
         return " ".join(f"{k}={v:g}" for k, v in self.params)
@@ -115,6 +121,9 @@ class Sweep:
     bifurcation: Mapping[str, Any]
     base: Scene
     points: tuple[Point, ...] = field(repr=False)
+    #: mode "adaptive": points, model, batch, resolution ([adaptive]); vary then holds the
+    #: ranges as (start, stop), and ``points`` the initial lattice (run_adaptive adds the rest)
+    adaptive: Mapping[str, Any] = field(default_factory=dict)
     models: tuple[str, ...] | None = None  # None: the workflow's default models
 
     @property
@@ -299,7 +308,9 @@ def load_sweep(path: str | Path) -> Sweep:
         f = _field_of(f"{src}: [vary]", key)
         if f.type not in ("float", "float | str"):
             raise SweepError(f"{src}: [vary] {key!r}: only numeric parameters can vary")
-        vary.append((key, _values(f"{src}: [vary] {key!r}", spec)))
+        vary.append((key, _range(f"{src}: [vary] {key!r}", spec) if mode == "adaptive"
+                     else _values(f"{src}: [vary] {key!r}", spec)))
+    adaptive = _adaptive_table(src, raw, mode, workflow, len(vary), models or CHECK_MODELS)
     if mode == "zip" and len({len(v) for _, v in vary}) > 1:
         lens = ", ".join(f"{k}: {len(v)}" for k, v in vary)
         raise SweepError(f"{src}: mode = 'zip' needs lists of one length ({lens})")
@@ -351,6 +362,13 @@ def load_sweep(path: str | Path) -> Sweep:
 
         combos = [tuple(zip([k for k, _ in vary], c, strict=True))
                   for c in itertools.product(*(v for _, v in vary))]
+    elif mode == "adaptive":
+        from .adaptive import initial_design
+
+        combos = [adaptive_params(vary, u) for u in initial_design(len(vary), adaptive["points"])]
+        if len(combos) > adaptive["points"]:
+            raise SweepError(f"{src}: [adaptive] points = {adaptive['points']}: at least "
+                             f"{len(combos)} (the initial lattice)")
     else:
         combos = [tuple((k, v[i]) for k, v in vary) for i in range(len(vary[0][1]))]
     if mode == "zip" and len({canonical(c) for c in combos}) != len(combos):
@@ -361,7 +379,64 @@ def load_sweep(path: str | Path) -> Sweep:
               for i, params in enumerate(combos)]
     return Sweep(path=str(p), text=text, name=name, workflow=workflow, mode=mode, seed=seed,
                  vary=tuple(vary), fixed=fixed, bifurcation=bif, base=base,
-                 points=tuple(points), models=models)
+                 points=tuple(points), adaptive=adaptive, models=models)
+
+
+def _range(where: str, spec: Any) -> tuple[float, float]:
+    """An adaptive sweep's range {start, stop} (start < stop, finite)."""
+    if not isinstance(spec, Mapping) or set(spec) != {"start", "stop"}:
+        raise SweepError(f"{where}: an adaptive sweep varies over a range "
+                         "{start = ..., stop = ...} (no num: the points are chosen as it runs)")
+    for k in ("start", "stop"):
+        if not _number(spec[k]) or not math.isfinite(spec[k]):
+            raise SweepError(f"{where}.{k} = {spec[k]!r}: must be a finite number")
+    if not spec["start"] < spec["stop"]:
+        raise SweepError(f"{where}: start must be below stop")
+    return float(spec["start"]), float(spec["stop"])
+
+
+def _adaptive_table(src: str, raw: Mapping[str, Any], mode: str, workflow: str, dims: int,
+                    models: tuple[str, ...] = CHECK_MODELS) -> dict[str, Any]:
+    """The validated [adaptive] table (empty unless mode = "adaptive")."""
+    table = raw.get("adaptive")
+    if mode != "adaptive":
+        if table is not None:
+            raise SweepError(f"{src}: [adaptive]: only for mode = 'adaptive'")
+        return {}
+    if workflow != "check":
+        raise SweepError(f"{src}: mode = 'adaptive' refines the check's verdict; it needs "
+                         f"workflow = 'check' (not {workflow!r})")
+    if dims not in (1, 2):
+        raise SweepError(f"{src}: [vary]: an adaptive sweep varies one or two parameters, "
+                         f"not {dims}")
+    if not isinstance(table, Mapping):
+        raise SweepError(f"{src}: [adaptive]: missing; give points = N and model = NAME")
+    for key in table:
+        if key not in ADAPTIVE_KEYS:
+            raise SweepError(f"{src}: [adaptive] {key}: unknown key; allowed: "
+                             + ", ".join(ADAPTIVE_KEYS))
+    def whole(key: str, lo: int, default: int | None = None) -> int:
+        v = table.get(key, default)
+        if v is None:
+            raise SweepError(f"{src}: [adaptive] {key}: missing (a whole number >= {lo})")
+        if not isinstance(v, int) or isinstance(v, bool) or v < lo:
+            raise SweepError(f"{src}: [adaptive] {key} = {v!r}: must be a whole number >= {lo}")
+        return v
+
+    model = table.get("model")
+    if model not in models:  # one of the models the sweep's checks run
+        raise SweepError(f"{src}: [adaptive] model = {model!r}: allowed: " + ", ".join(models))
+    return {"points": whole("points", 3), "model": model,
+            "batch": whole("batch", 1, ADAPTIVE_BATCH),
+            "resolution": whole("resolution", 3, ADAPTIVE_RESOLUTION)}
+
+
+def adaptive_params(vary: Sequence[tuple[str, tuple[float, float]]], unit: Sequence[float]
+                    ) -> tuple[tuple[str, float], ...]:
+    """The parameters at unit coordinates ``unit`` of an adaptive sweep's ranges (u = 0 is
+    start, u = 1 exactly stop)."""
+    return tuple((k, hi if u == 1.0 else lo + u * (hi - lo))
+                 for (k, (lo, hi)), u in zip(vary, unit, strict=True))
 
 
 #: a check sweep runs the Monte Carlo of each averaged SDE against its closed form (a check of
@@ -761,6 +836,9 @@ def run_sweep(sweep: Sweep, out: str | Path, *, executor: str | ExecutorSpec = "
     from .io import write_json
 
     spec = parse_executor(executor) if isinstance(executor, str) else executor
+    if sweep.mode == "adaptive":
+        return run_adaptive(sweep, out, executor=spec, quiet=quiet, report=report,
+                            provenance=provenance)
     require_output_libraries()
     out = Path(out)
     done = finished(sweep, out)
@@ -796,6 +874,127 @@ def run_sweep(sweep: Sweep, out: str | Path, *, executor: str | ExecutorSpec = "
                     failed=tuple(failed), seconds=time.perf_counter() - t0, files=files)
 
 
+def _reusable(rec: dict[str, Any] | None, pt: Point) -> bool:
+    """A record on disk is this point's finished result (see ``finished``)."""
+    return bool(rec and rec.get("fingerprint") == pt.fingerprint and (
+        rec.get("status") == "ok" or rec.get("failure") == "numerical"))
+
+
+def adaptive_value(rec: dict[str, Any], model: str) -> float:
+    """f = log(L1 / (2 floor)) of ``model`` at a finished point (NaN for a failed one)."""
+    from .adaptive import log_ratio
+
+    m = (rec.get("result") or {}).get("models", {}).get(model, {})
+    return log_ratio(m.get("averaging_error_A"), m.get("L1_floor_A"))
+
+
+def run_adaptive(sweep: Sweep, out: str | Path, *, executor: ExecutorSpec,
+                 quiet: bool = False, report: bool = True,
+                 provenance: Mapping[str, Any] | None = None) -> SweepRun:
+    """An adaptive sweep (mode = "adaptive"): the initial lattice, then batches of
+    ``[adaptive] batch`` points chosen by harness.adaptive from every finished point, until
+    ``[adaptive] points`` or the resolution is reached; then sweep.nc (a ``point`` dimension)
+    and the maps.
+
+    The batches are replayed from the records on disk: a point with a record is not computed
+    again, and since the choice of a batch depends only on the points before it and their
+    results, a sweep started again (after Ctrl-C, a lost machine) chooses the same points and
+    computes only those without a record. Progress and ETA on stderr, one line a point.
+    """
+    from dataclasses import replace
+
+    from .adaptive import next_batch
+    from .io import write_json
+
+    require_output_libraries()
+    out = Path(out)
+    ad = sweep.adaptive
+    budget, size, model = ad["points"], ad["batch"], ad["model"]
+    if executor.kind in ("processes", "dask") and executor.workers > size:
+        _log(quiet, f"note: {executor} has {executor.workers} workers but [adaptive] batch = "
+                    f"{size}; set batch >= the workers to keep them busy (the batch size "
+                    "chooses the points, the executor does not)")
+    runner = Runner(executor)  # connects (or fails) before anything is written
+    t0 = time.perf_counter()
+    order: list[Point] = []
+    units: list[tuple[float, ...]] = []
+    values: list[float] = []
+    computed: list[str] = []
+    failed: list[str] = []
+    skipped = 0
+    spent = 0.0  # seconds of the points computed in this run (for the ETA)
+    _log(quiet, f"sweep {sweep.name}: adaptive, up to {budget} points in batches of {size} on "
+                f"{executor}, refining the {model} model's verdict (L1 < 2 x floor)")
+    from .adaptive import initial_design
+
+    batch_units = initial_design(len(sweep.vary), budget)
+    batch_no = 0
+    try:
+        while batch_units:
+            pts = []
+            for u in batch_units:
+                if not order and not pts:  # the sweep's first point: as load_sweep built it
+                    pt = sweep.points[0]
+                else:
+                    pt = make_point(sweep.base, sweep.fixed, seed=sweep.seed,
+                                    workflow=sweep.workflow, bifurcation=sweep.bifurcation,
+                                    params=adaptive_params(sweep.vary, u), where=sweep.name,
+                                    models=sweep.models)
+                pts.append(replace(pt, batch=batch_no))
+            recs: dict[str, dict[str, Any]] = {}
+            todo = []
+            for pt in pts:
+                rec = load_record(out / "points" / f"{pt.key}.json")
+                if _reusable(rec, pt):
+                    recs[pt.key] = rec
+                    skipped += 1
+                    if rec["status"] == "failed":
+                        failed.append(pt.key)
+                else:
+                    todo.append(pt)
+            if todo:
+                (out / "points").mkdir(parents=True, exist_ok=True)
+                by_key = {pt.key: pt for pt in todo}
+                for rec in runner.completed([_job(sweep, pt) for pt in todo]):
+                    write_json(out / "points" / f"{rec['key']}.json", rec)
+                    recs[rec["key"]] = rec
+                    computed.append(rec["key"])
+                    spent = time.perf_counter() - t0
+                    if rec["status"] == "failed":
+                        failed.append(rec["key"])
+                    n = len(order) + len(recs)
+                    # every remaining point costs what the computed ones did on average
+                    eta = spent / len(computed) * max(budget - n, 0)
+                    what = "ok" if rec["status"] == "ok" else f"FAILED: {rec['message']}"
+                    f = adaptive_value(rec, model)
+                    verdict = "" if math.isnan(f) else (
+                        f"; {model} {'within' if f < 0 else 'outside'} the noise "
+                        f"(L1 / 2 floor = {math.exp(f):.2f})")
+                    _log(quiet, f"[{n}/{budget}] batch {batch_no}: {by_key[rec['key']].label()}"
+                                f": {what}{verdict} ({rec['seconds']:.1f} s); failures "
+                                f"{len(failed)}; ETA {_duration(eta)}")
+            for pt, u in zip(pts, batch_units, strict=True):
+                order.append(pt)
+                units.append(tuple(u))
+                values.append(adaptive_value(recs[pt.key], model))
+            if len(order) >= budget:
+                break
+            batch_no += 1
+            batch_units = next_batch(units, values, min(size, budget - len(order)),
+                                     resolution=ad["resolution"])
+            if not batch_units:
+                _log(quiet, f"every triangle is finer than the resolution "
+                            f"({ad['resolution']} x {ad['resolution']}): stopped at "
+                            f"{len(order)} points")
+    finally:
+        runner.close()
+    done = replace(sweep, points=tuple(order))
+    files = write_results(done, out, executor=str(executor), report=report,
+                          provenance=provenance)
+    return SweepRun(total=len(order), computed=tuple(computed), skipped=skipped,
+                    failed=tuple(failed), seconds=time.perf_counter() - t0, files=files)
+
+
 def _duration(s: float) -> str:
     if s < 90:
         return f"{s:.0f} s"
@@ -819,10 +1018,11 @@ def dataset(sweep: Sweep, records: Mapping[str, dict[str, Any]], *,
         def index(pt: Point) -> tuple[int, ...]:
             return tuple(vals.index(v) for (_, vals), (_, v) in zip(sweep.vary, pt.params,
                                                                     strict=True))
-    else:
+    else:  # zip and adaptive: the parameters as coordinates along a point dimension
         dims = ["point"]
         shape = (len(sweep.points),)
-        coords = {k: ("point", np.array(v)) for k, v in sweep.vary}
+        coords = {k: ("point", np.array([dict(pt.params)[k] for pt in sweep.points]))
+                  for k in sweep.names}
         order = {pt.key: i for i, pt in enumerate(sweep.points)}
 
         def index(pt: Point) -> tuple[int, ...]:
@@ -898,6 +1098,8 @@ def dataset(sweep: Sweep, records: Mapping[str, dict[str, Any]], *,
     data["message"] = (dims, message.astype(str))
     data["key"] = (dims, keys.astype(str))
     data["seed"] = (dims, seeds)
+    if sweep.mode == "adaptive":
+        data["batch"] = (dims, np.array([pt.batch for pt in sweep.points], dtype=np.int16))
     if models:
         coords["model"] = ("model", np.array(models))
     ds = xr.Dataset(data, coords=coords)
@@ -920,6 +1122,11 @@ def dataset(sweep: Sweep, records: Mapping[str, dict[str, Any]], *,
     })
     if sweep.workflow == "bifurcation":
         ds.attrs["bifurcation"] = json.dumps(dict(sweep.bifurcation))
+    if sweep.mode == "adaptive":
+        ds.attrs["adaptive"] = json.dumps({**sweep.adaptive, "ranges": {
+            k: list(v) for k, v in sweep.vary}})
+        ds["batch"].attrs["meaning"] = ("0: the initial lattice; n: the n-th refinement batch "
+                                        "(harness/adaptive.py)")
     if sweep.workflow == "check":
         ds.attrs["within_noise"] = ("a model is within the Monte Carlo noise where "
                                     "averaging_error_A < 2 L1_floor_A (the check's verdict)")
