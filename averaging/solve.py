@@ -4,8 +4,8 @@
 (``"joint"`` holds ``{"x1", "x2", "p"}``); ``info`` holds timings, grid sizes, diagnostics,
 versions and a status (``Status.record()``).
 
-The model is any registered averaged model (vifpk.core.registry: ``paper``, ``exact``,
-``corrected`` and every ``vifpk.models`` plugin) that has a closed form: a
+The model is any registered averaged model (vifpk.core.registry: vifpk's own in
+pyproject.toml, and every ``vifpk.models`` plugin) that has a closed form: a
 ``log_stationary_parts(A)`` and a ``period(A)`` (averaging/stationary.py).
 """
 
@@ -22,6 +22,7 @@ import scipy
 from vifpk.core import registry
 from vifpk.core.result import Result, Status
 
+from .corrected import observed_density, observed_log_h
 from .phase import phase_densities
 from .stationary import NoStationaryDensity, amplitude_density, describe
 
@@ -62,26 +63,30 @@ def solve(scene: Any, *, model: Any = "paper", tail_mass: bool = True, **options
         raise NoClosedForm(f"model {model!r} gives no log_stationary_parts(A) and period(A): "
                            "it has no closed form (its p(A) comes from the FPK)")
     amp = amplitude_density(m, points=settings.points, tail=settings.tail, tail_mass=tail_mass)
+    A_obs, p_obs, log_h = amp.A, amp.p, amp.log_h
+    if getattr(m, "observes", False):  # the observed (not the slow) energy: section 10.3 (b)
+        A_obs, p_obs = observed_density(m, amp.A, amp.p)
+        log_h = observed_log_h(m, A_obs, p_obs)
     t1 = time.perf_counter()
-    log_T = np.log(m.period(amp.A))
-    ph = phase_densities(amp.A, amp.log_h, log_T, omega0=sys_.omega0, alpha=sys_.alpha,
+    log_T = np.log(m.period(A_obs))
+    ph = phase_densities(A_obs, log_h, log_T, omega0=sys_.omega0, alpha=sys_.alpha,
                          barrier=sys_.barrier, points=settings.phase_points)
     t2 = time.perf_counter()
     data = {
-        "A": {"x": amp.A, "p": amp.p},
+        "A": {"x": A_obs, "p": p_obs},
         "E": {"x": ph.E, "p": ph.p_E},
         "x1": {"x": ph.x1, "p": ph.p_x1},
         "x2": {"x": ph.x2, "p": ph.p_x2},
         "joint": {"x1": ph.x1, "x2": ph.x2, "p": ph.joint},
     }
-    summary = describe(amp.A, amp.p)
+    summary = describe(A_obs, p_obs)
     ok = all(np.all(np.isfinite(d["p"])) and np.min(d["p"]) >= 0.0 for d in data.values())
     info = {
         "solver": "averaging",
         "model": model if isinstance(model, str) else type(model).__name__,
         "options": {k: v for k, v in m.__dict__.items()
                     if k in ("b6", "noise", "impact", "theta_nodes", "harmonics")},
-        "grid": {"points": int(amp.A.size), "A_min": float(amp.A[0]), "A_max": float(amp.A[-1]),
+        "grid": {"points": int(A_obs.size), "A_min": float(A_obs[0]), "A_max": float(A_obs[-1]),
                  "phase_points": int(settings.phase_points)},
         "diagnostics": {
             "mass": summary["mass"], "min": summary["min"],

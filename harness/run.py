@@ -165,6 +165,14 @@ def fpk_solution(scene: Any, *, model: Any, cells: int, method: str = "stepping"
             "f = 0: there is no noise, so the averaged FPK has no stationary density")
     m = averaged_model(scene, model, **options)
     res = fpk.stationary(m.drift, m.diffusion, cells=cells, method=method)
+    if getattr(m, "observes", False):  # the observed energy, as the closed form
+        from averaging.corrected import observed_density
+
+        obs = {}
+        for key in ("A", "A_cells"):
+            x, p = observed_density(m, res.data[key]["x"], res.data[key]["p"])
+            obs[key] = {"x": x, "p": p}
+        res = Result(data=dict(res.data, **obs), info=res.info)
     period, period_from = model_period(scene, m)
     data, raw_mass = phase_solution(scene, res, period)
     info = dict(res.info)
@@ -214,7 +222,7 @@ def montecarlo_solution(scene: Any, *, progress: bool = True, **edges: Any) -> R
                                    edges=edges)
     try:
         res = montecarlo.simulate(scene.system, scene.noise, settings)
-    except montecarlo.SimulationDiverged as exc:
+    except (montecarlo.SimulationDiverged, montecarlo.BudgetExhausted) as exc:
         raise SolverFailure(str(exc)) from None
     info = dict(res.info)
     mom = info.get("moments", {}).get("A", {}).get("mean")
@@ -244,10 +252,12 @@ def averaged_sde_solution(scene: Any, model: Any, *, edges: dict[str, Any], seed
     s = scene.system
     extra = ({"omega0": s.omega0, "alpha": s.alpha, "barrier": s.barrier,
               "edges_x": edges["edges_x"], "edges_v": edges["edges_v"]} if phase else None)
+    observe = ({"sd": m.observation_sd, "omega0": s.omega0, "alpha": s.alpha}
+               if getattr(m, "observes", False) else None)
     return simulate_sde(m.drift, m.diffusion, edges=edges["edges_A"], paths=kw["paths"],
                         blocks=kw["blocks"], dt=kw["dt"], time_=kw["time"],
                         burn_in=kw["burn_in"], sample_every=kw["sample_every"], seed=seed,
-                        phase=extra)
+                        phase=extra, observe=observe)
 
 
 def montecarlo_plan(scene: Any) -> Any:

@@ -51,6 +51,7 @@ import sys
 import time
 import tomllib
 from collections.abc import Callable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
@@ -228,31 +229,46 @@ def _values(where: str, spec: Any) -> tuple[float, ...]:
 
 
 def _resolve_scene(name: Any, sweep_path: Any) -> Scene:
+    """The sweep's base scene: a path (relative to the sweep file) must exist; a bare name
+    is a scene file ``NAME.toml`` beside the sweep file, else the shipped scene of that name."""
+    from vifpk.core.scene import shipped_name
+
     if not isinstance(name, str) or not name:
         raise SweepError(f"{sweep_path.name}: scene must be a shipped scene name or a path")
     if isinstance(sweep_path, Path):  # a sweep file on disk: paths relative to it
-        for rel in (sweep_path.parent / name, sweep_path.parent / f"{name}.toml"):
-            if rel.is_file():
-                return load_scene(rel)
+        if not shipped_name(name):
+            return load_scene(sweep_path.parent / Path(name).expanduser())
+        beside = sweep_path.parent / f"{name}.toml"
+        if beside.is_file():
+            return load_scene(beside)
     return load_scene(name)
 
 
 def load_sweep(path: str | Path) -> Sweep:
-    """Read and validate a sweep file, building every point's scene (SweepError on any
-    problem, one line naming the key)."""
-    from vifpk.core.scene import shipped_scenes
+    """Read and validate a sweep file (a path, or the bare name of a shipped sweep), building
+    every point's scene (SweepError on any problem, one line naming the key)."""
+    from vifpk.core.scene import shipped_name, shipped_scenes
 
     p: Any = Path(path)
-    if not p.is_file():  # a shipped sweep by name: scenes/sweeps/NAME.toml (package data)
-        cand = shipped_scenes() / "sweeps" / (p.name if p.suffix else f"{p}.toml")
-        if not cand.is_file():
+    try:
+        is_dir, is_file = p.is_dir(), p.is_file()
+    except OSError as exc:  # e.g. a name longer than the file system allows
+        raise SweepError(f"{str(path)[:80]}...: cannot read ({exc.strerror})") from None
+    if is_dir:
+        raise SweepError(f"{path}: is a folder; give a sweep file (.toml)")
+    if not is_file:  # a shipped sweep by its bare name: scenes/sweeps/NAME.toml (package data)
+        cand = shipped_scenes() / "sweeps" / f"{path}.toml"
+        if not shipped_name(str(path)) or "/" in str(path) or not cand.is_file():
             raise SweepError(f"{path}: no such sweep file")
         p = cand
     try:
-        text = p.read_text(encoding="utf-8")
+        text = p.read_text(encoding="utf-8-sig")  # a UTF-8 BOM is fine, as in scene files
         raw = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SweepError(f"{p.name}: not valid TOML: {exc}") from None
+    except RecursionError:
+        raise SweepError(f"{p.name}: not valid TOML: arrays or tables nested too deeply"
+                         ) from None
     except (OSError, UnicodeDecodeError) as exc:
         raise SweepError(f"{p.name}: cannot read: {exc}") from None
     src = p.name
@@ -670,8 +686,30 @@ def threads_per_worker(workers: int) -> int:
     return max((os.cpu_count() or 1) // workers, 1)
 
 
+def _die_with_parent() -> None:
+    """Linux: this process gets SIGKILL when the process that started it dies, however it
+    dies (SIGKILL included): no worker outlives its sweep (prctl PR_SET_PDEATHSIG)."""
+    if not sys.platform.startswith("linux"):
+        return
+    import ctypes
+    import signal
+
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL), 0, 0, 0)  # 1: SET_PDEATHSIG
+    except (OSError, AttributeError):
+        return
+    if os.getppid() == 1:  # the parent died before the call: follow it now
+        os._exit(1)
+
+
 def _init_worker(threads: int) -> None:
-    """Process-pool initializer: numba threads per worker (before numba is imported)."""
+    """Process-pool initializer: die with the sweep (:func:`_die_with_parent`); Ctrl-C on
+    the terminal's process group is the sweep's to handle (it stops the workers), so the
+    worker ignores SIGINT; numba threads per worker (before numba is imported)."""
+    import signal
+
+    _die_with_parent()
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     os.environ["NUMBA_NUM_THREADS"] = str(threads)
     if "numba" in sys.modules:
         import numba
@@ -680,11 +718,40 @@ def _init_worker(threads: int) -> None:
         numba.set_num_threads(threads)
 
 
+def dask_setup(worker: Any = None) -> None:
+    """dask preload of a local cluster's workers (``preload=["harness.sweep"]``): Ctrl-C on
+    the terminal's process group is the sweep's to handle; the worker ignores it."""
+    import signal
+    import threading
+
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+@contextmanager
+def _signals_blocked() -> Iterator[None]:
+    """SIGINT blocked in this thread while local workers are started: they inherit the mask
+    (fork and exec keep it), so Ctrl-C on the terminal's process group reaches only the
+    sweep, which stops them (:meth:`Runner.stop`); a Ctrl-C meanwhile waits, then arrives."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
 class Runner:
     """An open executor: ``completed(jobs)`` yields records as points finish."""
 
     def __init__(self, spec: ExecutorSpec, *, connect_timeout: float = 10.0):
         self.spec = spec
+        self.stopped = False
         self.client: Any = None
         self.cluster: Any = None
         self.pool: Any = None
@@ -701,12 +768,13 @@ class Runner:
             threads = threads_per_worker(spec.workers)
             import logging
 
-            self.cluster = LocalCluster(
-                n_workers=spec.workers, threads_per_worker=1, processes=True,
-                # any free port for its HTTP server: two clusters on one machine do not
-                # collide on 8787 (and warn about it)
-                dashboard_address=":0", host="127.0.0.1", silence_logs=logging.ERROR,
-                env={"NUMBA_NUM_THREADS": str(threads)})
+            with _signals_blocked():  # Ctrl-C is the sweep's to handle, not the workers'
+                self.cluster = LocalCluster(
+                    n_workers=spec.workers, threads_per_worker=1, processes=True,
+                    # any free port for its HTTP server: two clusters on one machine do not
+                    # collide on 8787 (and warn about it)
+                    dashboard_address=":0", host="127.0.0.1", silence_logs=logging.ERROR,
+                    env={"NUMBA_NUM_THREADS": str(threads)}, preload=["harness.sweep"])
             self.client = Client(self.cluster)
         elif spec.kind == "tcp":
             import socket
@@ -742,7 +810,8 @@ class Runner:
             from concurrent.futures import as_completed
             from concurrent.futures.process import BrokenProcessPool
 
-            futs = [self.pool.submit(run_point, job) for job in jobs]
+            with _signals_blocked():  # the pool starts its workers here
+                futs = [self.pool.submit(run_point, job) for job in jobs]
             try:
                 for f in as_completed(futs):
                     yield f.result()
@@ -770,9 +839,30 @@ class Runner:
             finally:
                 self.client.cancel([f for f in futs if not f.done()])
 
+    def stop(self) -> None:
+        """Stop at once (Ctrl-C, SIGTERM): cancel what is queued and end the pool's worker
+        processes (ProcessPoolExecutor.terminate_workers from Python 3.14, done the same way
+        before it); dask's workers are ended by :meth:`close` (and die with this process)."""
+        pool = self.pool
+        if pool is None:
+            return
+        self.stopped = True
+        procs = list((getattr(pool, "_processes", None) or {}).values())
+        pool.shutdown(wait=False, cancel_futures=True)
+        if hasattr(pool, "terminate_workers"):
+            pool.terminate_workers()
+        else:
+            for proc in procs:
+                try:
+                    proc.terminate()
+                except (OSError, ValueError, AttributeError):
+                    pass
+        for proc in procs:  # reap them: gone before this process says it stopped
+            proc.join(timeout=1.0)
+
     def close(self) -> None:
         if self.pool is not None:
-            self.pool.shutdown(wait=True, cancel_futures=True)
+            self.pool.shutdown(wait=not self.stopped, cancel_futures=True)
         if self.client is not None:
             self.client.close()
         if self.cluster is not None:
@@ -825,32 +915,93 @@ def _log(quiet: bool, text: str) -> None:
         print(text, file=sys.stderr, flush=True)
 
 
+#: what a sweep writes into its folder (outdir.KINDS["sweep"] tells such a folder apart)
+SWEEP_FILES = {"points": "folder", "sweep.nc": "file", "report.html": "file"}
+
+
+def check_sweep_folder(out: str | Path) -> Path:
+    """Refuse, before any work, an output folder a sweep cannot use: a file; a folder holding
+    another kind of output (a check report) or foreign files; ``points`` that is not a folder,
+    ``sweep.nc`` or ``report.html`` that are not files (SweepError naming them)."""
+    from . import outdir
+
+    target = outdir._resolve(out)
+    try:
+        outdir.check_replaceable(target, set(SWEEP_FILES), "sweep")
+    except SceneError as exc:
+        raise SweepError(f"--out {exc}") from None
+    for name, what in SWEEP_FILES.items():
+        p = target / name
+        if p.is_symlink() or (p.exists() and (p.is_dir() != (what == "folder"))):
+            raise SweepError(f"--out {out}: {name} exists and is not a {what}; a sweep writes "
+                             f"its {'point records' if what == 'folder' else name} there; "
+                             "move it away or choose another --out")
+    return target
+
+
+def _clear_temporaries(out: Path) -> None:
+    """Remove the temporary files of killed atomic writes (call with the folder held)."""
+    for folder in (out, out / "points"):
+        if folder.is_dir():
+            for p in folder.glob(".*.tmp"):
+                p.unlink(missing_ok=True)
+
+
+def _kept_message(out: Path, done: int, computed: list[str], todo: int) -> str:
+    n = done + len(computed)
+    if n == 0:
+        return "vifpk: interrupted; no point had finished, nothing was kept"
+    rest = todo - len(computed)
+    return (f"vifpk: interrupted; {n} finished point{'s' if n != 1 else ''} "
+            f"({len(computed)} from this run) kept in {out / 'points'}; no sweep.nc written; "
+            f"run the same command again to compute the other {rest}")
+
+
 def run_sweep(sweep: Sweep, out: str | Path, *, executor: str | ExecutorSpec = "serial",
               quiet: bool = False, report: bool = True,
               provenance: Mapping[str, Any] | None = None) -> SweepRun:
     """Compute every unfinished point on the executor, then write sweep.nc (and the maps).
 
-    Raises SweepError (bad executor, unreachable scheduler) before anything is computed or
-    written. Ctrl-C keeps every record written so far.
+    The folder is held for the whole run with the lock of every vifpk output folder
+    (harness/outdir.py): a second run into it is refused; a folder holding another kind of
+    output is refused (:func:`check_sweep_folder`). Raises SweepError (bad folder or executor,
+    unreachable scheduler) before anything is computed or written. Ctrl-C or SIGTERM stop the
+    workers and keep every record written so far (``signals.message()`` says how many).
     """
-    from .io import write_json
+    from . import outdir, signals
+    from .provenance import new_run_id
 
     spec = parse_executor(executor) if isinstance(executor, str) else executor
-    if sweep.mode == "adaptive":
-        return run_adaptive(sweep, out, executor=spec, quiet=quiet, report=report,
-                            provenance=provenance)
     require_output_libraries()
-    out = Path(out)
+    target = check_sweep_folder(out)
+    run_id = str((provenance or {}).get("run_id") or new_run_id())
+    with outdir.hold(target, run_id=run_id, allowed=set(SWEEP_FILES), kind="sweep"):
+        _clear_temporaries(target)
+        if sweep.mode == "adaptive":
+            return run_adaptive(sweep, out, executor=spec, quiet=quiet, report=report,
+                                provenance=provenance)
+        return _run_held(sweep, Path(out), spec, quiet=quiet, report=report,
+                         provenance=provenance, signals=signals)
+
+
+def _run_held(sweep: Sweep, out: Path, spec: ExecutorSpec, *, quiet: bool, report: bool,
+              provenance: Mapping[str, Any] | None, signals: Any) -> SweepRun:
+    from .io import write_json
+
     done = finished(sweep, out)
     todo = [pt for pt in sweep.points if pt.key not in done]
     total = len(sweep.points)
+    computed: list[str] = []
+    signals.set_message(lambda: _kept_message(out, len(done), computed, len(todo)))
     runner = Runner(spec) if todo else None  # connects (or fails) before anything is written
     t0 = time.perf_counter()
-    computed: list[str] = []
     failed = [k for k, r in done.items() if r["status"] == "failed"]
     by_key = {pt.key: pt for pt in sweep.points}
     _log(quiet, f"sweep {sweep.name}: {total} points ({len(done)} done before, {len(todo)} to "
                 f"compute) on {spec}, workflow {sweep.workflow}")
+    handle = signals.on_interrupt(runner.stop) if runner is not None else None
+    if spec.kind in ("dask", "tcp"):
+        signals.set_grace(20.0)  # closing a client or a local cluster takes seconds
     try:
         if runner is not None:
             (out / "points").mkdir(parents=True, exist_ok=True)
@@ -866,7 +1017,13 @@ def run_sweep(sweep: Sweep, out: str | Path, *, executor: str | ExecutorSpec = "
                 _log(quiet, f"[{len(done) + n}/{total}] {by_key[rec['key']].label()}: {what} "
                             f"({rec['seconds']:.1f} s); failures {len(failed)}; "
                             f"ETA {_duration(eta)}")
+    except KeyboardInterrupt:  # Ctrl-C or SIGTERM: the message says what was kept
+        if runner is not None:
+            runner.stop()  # no worker outlives the sweep
+        raise
     finally:
+        if handle is not None:
+            signals.forget(handle)
         if runner is not None:
             runner.close()
     files = write_results(sweep, out, executor=str(spec), report=report, provenance=provenance)
@@ -914,7 +1071,10 @@ def run_adaptive(sweep: Sweep, out: str | Path, *, executor: ExecutorSpec,
         _log(quiet, f"note: {executor} has {executor.workers} workers but [adaptive] batch = "
                     f"{size}; set batch >= the workers to keep them busy (the batch size "
                     "chooses the points, the executor does not)")
+    from . import signals
+
     runner = Runner(executor)  # connects (or fails) before anything is written
+    handle = signals.on_interrupt(runner.stop)
     t0 = time.perf_counter()
     order: list[Point] = []
     units: list[tuple[float, ...]] = []
@@ -929,6 +1089,7 @@ def run_adaptive(sweep: Sweep, out: str | Path, *, executor: ExecutorSpec,
 
     batch_units = initial_design(len(sweep.vary), budget)
     batch_no = 0
+    signals.set_message(lambda: _kept_message(out, skipped, computed, budget - skipped))
     try:
         while batch_units:
             pts = []
@@ -986,7 +1147,11 @@ def run_adaptive(sweep: Sweep, out: str | Path, *, executor: ExecutorSpec,
                 _log(quiet, f"every triangle is finer than the resolution "
                             f"({ad['resolution']} x {ad['resolution']}): stopped at "
                             f"{len(order)} points")
+    except KeyboardInterrupt:  # Ctrl-C or SIGTERM: stop the workers; the message says why
+        runner.stop()
+        raise
     finally:
+        signals.forget(handle)
         runner.close()
     done = replace(sweep, points=tuple(order))
     files = write_results(done, out, executor=str(executor), report=report,

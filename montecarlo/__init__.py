@@ -5,6 +5,7 @@ OU or white noise), and of an averaged 1-D amplitude SDE. Imports no other vifpk
 from .plan import Plan, physics, plan, sampling_plan, step_size
 from .simulate import (
                        OBSERVABLES,
+                       BudgetExhausted,
                        Settings,
                        SimulationDiverged,
                        block_seeds,
@@ -12,5 +13,5 @@ from .simulate import (
                        simulate,
 )
 
-__all__ = ["OBSERVABLES", "Plan", "Settings", "SimulationDiverged", "block_seeds", "effects",
-           "physics", "plan", "sampling_plan", "simulate", "step_size"]
+__all__ = ["OBSERVABLES", "BudgetExhausted", "Plan", "Settings", "SimulationDiverged",
+           "block_seeds", "effects", "physics", "plan", "sampling_plan", "simulate", "step_size"]

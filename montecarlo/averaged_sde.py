@@ -120,13 +120,18 @@ def orbit_point(A, w0sq, alpha, s0, s1, s2, s3):
 @jit(parallel=True)
 def run_sde_blocks(states, n_paths, n_burn, n_samples, stride, h, a_tab, b_tab, dA_tab,
                    z0, a_lo, a_inv, hist_A, sums, barrier, w0sq, alpha, x_lo, x_inv, hist_x,
-                   v_lo, v_inv, hist_v):
+                   v_lo, v_inv, hist_v, obs_tab, ow0sq, oalpha):
     """Per block: histogram of A and sums (A, A^2, samples, reflections) after burn-in.
     a_tab = 2 A m(A) - sigma^2(A), b_tab = sigma(A) on the grid A_j = j dA_tab.
     With hist_x / hist_v, each sample also records a time-uniform point of the orbit of
     amplitude A (x1 = |y|, x2 = y' sgn(y) with the barrier): the averaged model's own
-    phase-space density, p(y, y') = p(E) / T(E)."""
+    phase-space density, p(y, y') = p(E) / T(E).
+    With a non-empty obs_tab (rms fast energy fluctuation on the same grid as a_tab), each
+    sampled A is observed as A' = U^{-1}(U(A) + sd(A) z), z ~ N(0, 1) redrawn while the energy
+    is negative (U(x) = ow0sq x^2 / 2 + oalpha x^4 / 4): the model's observation map applied
+    to samples; A' is then recorded (and its orbit point)."""
     n_blocks = states.shape[0]
+    observe = obs_tab.size > 0
     total = n_burn + n_samples * stride
     sq = math.sqrt(h)
     last = a_tab.size - 1
@@ -158,6 +163,22 @@ def run_sde_blocks(states, n_paths, n_burn, n_samples, stride, h, a_tab, b_tab, 
                 if n < n_burn or (n - n_burn + 1) % stride != 0:
                     continue
                 A = math.sqrt(Z)
+                if observe:
+                    u = A * inv_d
+                    j = int(u)
+                    if j >= last:
+                        sd = obs_tab[last]
+                    else:
+                        w = u - j
+                        sd = (1.0 - w) * obs_tab[j] + w * obs_tab[j + 1]
+                    E = 0.5 * ow0sq * A * A + 0.25 * oalpha * A * A * A * A
+                    while True:
+                        z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
+                        Eo = E + sd * z
+                        if Eo >= 0.0:
+                            break
+                    A = math.sqrt(4.0 * Eo / (ow0sq + math.sqrt(ow0sq * ow0sq
+                                                                 + 4.0 * oalpha * Eo)))
                 i = int((A - a_lo) * a_inv)
                 if 0 <= i < hist_A.shape[1]:
                     hist_A[b, i] += 1.0
@@ -184,12 +205,16 @@ def simulate_sde(drift: Callable[[np.ndarray], np.ndarray],
                  blocks: int = 32, dt: float = 0.01, time_: float = 2000.0,
                  burn_in: float | str = "auto", sample_every: float = 0.5,
                  seed: int = 20190102,
-                 A0: float | None = None, phase: dict[str, Any] | None = None) -> Result:
+                 A0: float | None = None, phase: dict[str, Any] | None = None,
+                 observe: dict[str, Any] | None = None) -> Result:
     """Histogram of A for the averaged SDE with batch error bars (blocks are the batches).
 
     phase: optional ``{"omega0", "alpha", "barrier", "edges_x", "edges_v"}`` to also record
     x1, x2 from time-uniform points of the orbit of each sampled amplitude.
-    burn_in: a time, or "auto": BURN_FACTOR x relaxation_time(drift, diffusion)."""
+    burn_in: a time, or "auto": BURN_FACTOR x relaxation_time(drift, diffusion).
+    observe: optional ``{"sd": callable, "omega0", "alpha"}``: an observation map on the
+    sampled energy (sd(A) the rms of a normal fluctuation of U(A), truncated at U >= 0), as
+    the model applies to its closed form (averaging.corrected.CorrectedModel.observe)."""
     edges = np.asarray(edges, dtype=float)
     top = float(A_table if A_table is not None else 1.5 * edges[-1])
     tau = None
@@ -204,6 +229,14 @@ def simulate_sde(drift: Callable[[np.ndarray], np.ndarray],
     a_tab = np.concatenate([[2.0 * a_inner[0] - a_inner[1]], a_inner])  # linear extrapolation
     sig = np.sqrt(np.maximum(s2, 0.0))
     b_tab = np.concatenate([[2.0 * sig[0] - sig[1]], sig])
+    if observe is not None:
+        o_sd = np.asarray(observe["sd"](inner), float)
+        obs_tab = np.concatenate([[o_sd[0]], o_sd])
+        obs_geo = (float(observe["omega0"]) ** 2, float(observe["alpha"]))
+        if not np.all(np.isfinite(obs_tab)):
+            raise ValueError("the observation map's sd is not finite on the table")
+    else:
+        obs_tab, obs_geo = np.zeros(0), (1.0, 0.0)
     if not (np.all(np.isfinite(a_tab)) and np.all(np.isfinite(b_tab))):
         raise ValueError("drift or diffusion is not finite on the table")
     states = states_from_seed(seed, blocks)
@@ -227,7 +260,8 @@ def simulate_sde(drift: Callable[[np.ndarray], np.ndarray],
     def call(st, n_p, n_b, n_s, stride_, hA, sm, hx_, hv_):
         run_sde_blocks(st, n_p, n_b, n_s, stride_, dt, a_tab, b_tab, grid[1] - grid[0], z0,
                        edges[0], 1.0 / (edges[1] - edges[0]), hA, sm, geo[0], geo[1], geo[2],
-                       ex[0], 1.0 / (ex[1] - ex[0]), hx_, ev[0], 1.0 / (ev[1] - ev[0]), hv_)
+                       ex[0], 1.0 / (ex[1] - ex[0]), hx_, ev[0], 1.0 / (ev[1] - ev[0]), hv_,
+                       obs_tab, obs_geo[0], obs_geo[1])
 
     t0 = time.perf_counter()
     call(states[:1].copy(), 1, 1, 1, 1, np.zeros((1, edges.size - 1)), np.zeros((1, 4)),
