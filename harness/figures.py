@@ -31,8 +31,11 @@ AXIS = {"A": "amplitude A (dimensionless)", "x1": "displacement x1 (dimensionles
         "x2": "velocity x2 (dimensionless)"}
 
 
+#: the models the paper's figures are redrawn with: the printed one and the exact-orbit one
+FIGURE_MODELS = ("paper", "exact")
+
 def _run_variant(scene: Scene, joint: bool) -> dict[str, Any]:
-    closed = {m: closed_form(scene, model=m) for m in ("paper", "exact")}
+    closed = {m: closed_form(scene, model=m) for m in FIGURE_MODELS}
     edges = mc_edges(closed, scene.montecarlo.bins)
     obs = replace(scene.observables, joint=joint, events=True)
     mc = montecarlo_solution(replace(scene, observables=obs), progress=False, **edges)
@@ -139,7 +142,7 @@ def draw_figures(out_dir: str | Path, *, numbers: tuple[int, ...] = (2, 3, 4, 5,
         table[f"figure{no}"] = {
             "varied": scene.sweep.path, "values": list(scene.sweep.values),
             "L1": [{m: {o: r["metrics"][m][o]["L1"] for o in ("A", "x1", "x2")}
-                    for m in ("paper", "exact")} for r in runs],
+                    for m in FIGURE_MODELS} for r in runs],
             "L1_floor": [{o: r["metrics"]["exact"][o]["L1_floor"] for o in ("A", "x1", "x2")}
                          for r in runs],
             "stuck_fraction": [r["mc"].info["events"]["stuck_fraction"]["value"] for r in runs],
