@@ -216,7 +216,8 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
             stages(f"Monte Carlo of the {m} averaged SDE")
             sol[f"mc:{m}"] = averaged_sde_solution(
                 scene, m, edges=edges, seed=scene.montecarlo.seed + 1 + i, phase=True,
-                paths=st["paths"], blocks=st["blocks"], dt=st["dt"], time=st["time"],
+                # the SDE's own step, from its relaxation time (montecarlo.averaged_sde)
+                paths=st["paths"], blocks=st["blocks"], dt="auto", time=st["time"],
                 burn_in=run_scene.montecarlo.burn_in, sample_every=st["sample_every"])
         sampling = {m: compare(closed[m].data["A"], sol[f"mc:{m}"].data["A"])
                     for m in MODELS if sde}
