@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 
 from .exact import ExactModel
-from .geometry import Array, amplitude_of_energy, potential, restoring
+from .geometry import Array, amplitude_of_energy_k, potential_k, restoring_k
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -83,12 +83,12 @@ def q_frame_density(model: CorrectedModel, A: Array, *, nodes: int = 8) -> Array
     Normalised to trapezoid mass 1 on A (whose range must hold the mass).
     """
     A = np.asarray(A, dtype=float)
-    w0, a, lam = model.omega0, model.alpha, model.lam
+    k, lam = model.restoring, model.lam
     x, w = np.polynomial.legendre.leggauss(nodes)
     s, w = 0.5 * (x + 1.0), 0.5 * w
     fac = np.exp(-lam * (1.0 - s))
-    Q = potential(A, w0, a)
-    As = amplitude_of_energy(Q[:, None] * fac[None, :], w0, a)
+    Q = potential_k(A, k)
+    As = amplitude_of_energy_k(Q[:, None] * fac[None, :], k)
     et = ExactModel.energy_terms(model, As)
     m_s = ((et["damping"] + et["friction"]) / fac) @ w
     s2 = (et["sigma2"] / fac**2) @ w
@@ -105,6 +105,6 @@ def q_frame_density(model: CorrectedModel, A: Array, *, nodes: int = 8) -> Array
     top = np.where(np.isfinite(top), top, -np.inf)
     with np.errstate(invalid="ignore"):
         log_pe = top + np.log(np.sum(np.exp(stack - top[None, :]), axis=0))
-    log_pa = np.where(np.isfinite(log_pe), log_pe, -np.inf) + np.log(restoring(A, w0, a))
+    log_pa = np.where(np.isfinite(log_pe), log_pe, -np.inf) + np.log(restoring_k(A, k))
     p = np.exp(log_pa - np.max(log_pa))
     return p / np.trapezoid(p, A)

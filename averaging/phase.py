@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from .geometry import Array, amplitude_of_energy, potential
+from .geometry import Array, amplitude_of_energy_k, potential_k
 
 
 @dataclass(frozen=True)
@@ -35,9 +35,25 @@ class PhaseDensities:
     raw_mass: dict[str, float]
 
 
-def phase_densities(A: Array, log_h: Array, log_T: Array, *, omega0: float, alpha: float,
-                    barrier: bool, points: int = 201, nodes: int = 128) -> PhaseDensities:
-    """Map h(A) = log p(y, y') (given on the A grid, with log T(A)) to phase space."""
+def phase_densities(A: Array, log_h: Array, log_T: Array, *,
+                    restoring: tuple[float, ...] | None = None, omega0: float | None = None,
+                    alpha: float | None = None, barrier: bool, points: int = 201,
+                    nodes: int = 128) -> PhaseDensities:
+    """Map h(A) = log p(y, y') (given on the A grid, with log T(A)) to phase space.
+
+    The spring: ``restoring`` = (k1, k3, k5, ...), or the paper's ``omega0``, ``alpha``."""
+    if restoring is None:
+        if omega0 is None or alpha is None:
+            raise TypeError("give restoring=(k1, k3, ...) or omega0= and alpha=")
+        restoring = (omega0**2, alpha)
+    k = tuple(restoring)
+
+    def potential(x: Array, *_: float) -> Array:
+        return potential_k(x, k)
+
+    def amplitude_of_energy(E: Array, *_: float) -> Array:
+        return amplitude_of_energy_k(E, k)
+
     A = np.asarray(A, dtype=float)
     spline = CubicSpline(A, log_h)
     lo, hi = float(A[0]), float(A[-1])

@@ -57,7 +57,7 @@ def solve(scene: Any, *, model: str = "paper", **options: Any) -> Result:
     amp = amplitude_density(m, points=settings.points, tail=settings.tail)
     t1 = time.perf_counter()
     log_T = np.log(m.period(amp.A))
-    ph = phase_densities(amp.A, amp.log_h, log_T, omega0=sys_.omega0, alpha=sys_.alpha,
+    ph = phase_densities(amp.A, amp.log_h, log_T, restoring=tuple(sys_.restoring_law),
                          barrier=sys_.barrier, points=settings.phase_points)
     t2 = time.perf_counter()
     data = {
