@@ -19,7 +19,7 @@ from timing import timed  # noqa: E402
 
 import fpk  # noqa: E402
 from averaging import build_model  # noqa: E402
-from harness.scene import load_scene  # noqa: E402
+from vifpk.core.scene import load_scene  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -26,7 +26,7 @@ sys.path.insert(0, str(ROOT))
 import numba  # noqa: E402
 
 import montecarlo as mc  # noqa: E402
-from harness.scene import MonteCarloSettings, load_scene  # noqa: E402
+from vifpk.core.scene import MonteCarloSettings, load_scene  # noqa: E402
 
 REPEATS = 2
 OBS = ("A", "moments")

@@ -24,7 +24,7 @@ from typing import Any
 from harness.check import MODELS, cross_check, output_problems
 from harness.io import write_atomic
 from harness.provenance import collect
-from harness.scene import load_scene
+from vifpk.core.scene import load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "benchmarks" / "results"

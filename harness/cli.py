@@ -13,9 +13,10 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
+from vifpk.core.scene import Scene, SceneError, load_scene
+
 from . import validate
 from .run import SOLVERS, SolverFailure, run_solver, solution_record
-from .scene import Scene, SceneError, load_scene
 
 EXIT_BAD_INPUT = 2
 EXIT_SOLVER = 3
@@ -202,7 +203,7 @@ def _finite_or_fail(result: Any, scene: Scene) -> None:
 def _mc_overrides(args: argparse.Namespace) -> dict[str, Any]:
     """{"montecarlo.<key>": value} for the --paths, --dt, --time, --seed, --floor, --budget
     given, each checked against its field's range (SceneError naming the option)."""
-    from .scene import check_value
+    from vifpk.core.scene import check_value
 
     given = {k: getattr(args, k) for k in ("paths", "dt", "time", "seed", "floor", "budget")
              if getattr(args, k, None) is not None}

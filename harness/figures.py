@@ -17,11 +17,12 @@ from typing import Any
 
 import numpy as np
 
+from vifpk.core.scene import Scene, load_scene
+
 from .check import mc_edges
 from .compare import compare
 from .io import write_atomic, write_json
 from .run import closed_form, montecarlo_solution
-from .scene import Scene, load_scene
 
 FIGURES = {2: "paper-fig2", 3: "paper-fig3", 4: "paper-fig4", 5: "paper-fig5", 6: "paper-fig6"}
 JOINT = {5, 6}

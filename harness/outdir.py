@@ -39,7 +39,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-from .scene import SceneError
+from vifpk.core.scene import SceneError
 
 try:
     import fcntl

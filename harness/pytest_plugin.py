@@ -35,7 +35,7 @@ def pytest_configure(config: pytest.Config) -> None:
 
 @pytest.fixture
 def vifpk_scene() -> Callable[..., Any]:
-    from .scene import load_scene
+    from vifpk.core.scene import load_scene
 
     def make(name_or_path: str, **values: Any) -> Any:
         scene = load_scene(name_or_path)

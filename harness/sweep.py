@@ -52,7 +52,7 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-from .scene import SECTIONS, Scene, SceneError, load_scene
+from vifpk.core.scene import SECTIONS, Scene, SceneError, load_scene
 
 WORKFLOWS = ("check", "averaging", "bifurcation")
 MODES = ("product", "zip")
@@ -218,7 +218,7 @@ def _resolve_scene(name: Any, sweep_path: Any) -> Scene:
 def load_sweep(path: str | Path) -> Sweep:
     """Read and validate a sweep file, building every point's scene (SweepError on any
     problem, one line naming the key)."""
-    from .scene import shipped_scenes
+    from vifpk.core.scene import shipped_scenes
 
     p: Any = Path(path)
     if not p.is_file():  # a shipped sweep by name: scenes/sweeps/NAME.toml (package data)

@@ -37,9 +37,10 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from vifpk.core.scene import Scene, load_scene
+
 from .compare import compare, is_histogram
 from .io import jsonable, write_atomic
-from .scene import Scene, load_scene
 
 METRICS = ("L1", "hellinger", "ks")
 _STATE: dict[str, Any] = {"cache": None, "refresh": False, "stats": {"hits": 0, "misses": 0}}

@@ -1,7 +1,7 @@
 """Every input checked before any work (issue 11): one pass over the scene, the command-line
 options and their combinations, and the output paths, run by the CLI before any computation.
 
-A problem raises :class:`InputError` (a :class:`~harness.scene.SceneError`): one line that
+A problem raises :class:`InputError` (a :class:`~vifpk.core.scene.SceneError`): one line that
 names the option or field and the allowed range, or the nearest valid values where the code
 would otherwise round (paths to whole batches, time to whole samples). The CLI prints it and
 exits with code 2; nothing has been computed or written by then.
@@ -34,7 +34,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from .scene import SECTIONS, Scene, SceneError
+from vifpk.core.scene import SECTIONS, Scene, SceneError
 
 HOUR = 3600.0
 MAGNITUDE = (1e-100, 1e100)  # allowed |value| of a non-zero physical parameter (module doc)

@@ -56,7 +56,7 @@ class SimulationDiverged(RuntimeError):
 @dataclass(frozen=True, kw_only=True)
 class Settings:
     """Monte Carlo settings: plain numbers, no defaults (the scene's [montecarlo] section
-    holds the one set of defaults, harness.scene.MonteCarloSettings).
+    holds the one set of defaults, vifpk.core.scene.MonteCarloSettings).
 
     dt: a step, or "auto" (tuning.auto_dt for the target floor); burn_in: a time, or "auto"
     (BURN_FACTOR x the relaxation time measured by a pilot); floor: target L1 noise floor of

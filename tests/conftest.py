@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from harness.scene import Scene, load_scene
+from vifpk.core.scene import Scene, load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 

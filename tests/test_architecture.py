@@ -2,7 +2,10 @@
 
 - ``harness/run.py`` is the only harness module that imports a solver package (``averaging``,
   ``fpk``, ``montecarlo``): every workflow reaches the solvers through it;
-- a solver package imports neither ``harness`` nor another solver package.
+- a solver package imports neither ``harness`` nor another solver package: of ours, only
+  ``vifpk.core`` (the shared vocabulary);
+- ``vifpk.core`` imports no solver, no ``harness`` and nothing of ``vifpk`` outside itself;
+  ``import vifpk`` / ``import vifpk.core`` in a fresh interpreter load no solver and no harness.
 
 Imports anywhere in a module count (inside functions too), so a lazy import cannot hide.
 """
@@ -10,6 +13,8 @@ Imports anywhere in a module count (inside functions too), so a lazy import cann
 from __future__ import annotations
 
 import ast
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -18,23 +23,37 @@ from .conftest import ROOT
 
 SOLVERS = ("averaging", "fpk", "montecarlo")
 DOOR = Path("harness") / "run.py"
+CORE = "vifpk.core"
 
 
-def imported_packages(path: Path) -> set[str]:
-    """Top-level vifpk packages a module imports (absolute imports; relative ones stay in
+def imported_modules(path: Path) -> set[str]:
+    """Dotted names of the modules a module imports (absolute imports; relative ones stay in
     their own package)."""
     tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
     found: set[str] = set()
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
-            found.update(a.name.split(".")[0] for a in node.names)
+            found.update(a.name for a in node.names)
         elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
-            found.add(node.module.split(".")[0])
+            found.add(node.module)
         elif (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
               and node.func.attr == "import_module" and node.args
               and isinstance(node.args[0], ast.Constant) and isinstance(node.args[0].value, str)):
-            found.add(node.args[0].value.split(".")[0])
-    return found & {*SOLVERS, "harness"}
+            found.add(node.args[0].value)
+    return found
+
+
+def imported_packages(path: Path) -> set[str]:
+    """Packages of ours a module imports: a solver, ``harness``, ``vifpk.core`` (the shared
+    vocabulary) or ``vifpk`` (the public API, anything of vifpk outside its core)."""
+    found: set[str] = set()
+    for name in imported_modules(path):
+        top = name.split(".")[0]
+        if top == "vifpk":
+            found.add(CORE if name == CORE or name.startswith(CORE + ".") else "vifpk")
+        elif top in {*SOLVERS, "harness"}:
+            found.add(top)
+    return found
 
 
 def modules(package: str) -> list[Path]:
@@ -48,6 +67,8 @@ def test_the_scan_sees_imports(tmp_path: Path):
                    "def f():\n    from montecarlo.kernels import k\n"
                    "    import importlib\n    importlib.import_module('averaging.exact')\n")
     assert imported_packages(src) == {"fpk", "montecarlo", "averaging"}
+    src.write_text("import vifpk.core.scene\nfrom vifpk import solve\nimport numpy\n")
+    assert imported_packages(src) == {CORE, "vifpk"}
 
 
 @pytest.mark.parametrize("path", modules("harness"), ids=lambda p: p.name)
@@ -62,10 +83,31 @@ def test_only_run_py_imports_the_solvers(path: Path):
 
 @pytest.mark.parametrize("package", SOLVERS)
 def test_solvers_import_neither_the_harness_nor_each_other(package: str):
-    bad = {str(p.relative_to(ROOT)): sorted(imported_packages(p) - {package})
+    """Of ours, a solver imports only itself and the shared vocabulary ``vifpk.core``."""
+    bad = {str(p.relative_to(ROOT)): sorted(imported_packages(p) - {package, CORE})
            for p in modules(package)}
     bad = {k: v for k, v in bad.items() if v}
     assert not bad, bad
+
+
+def test_the_core_imports_nothing_above_it():
+    bad = {str(p.relative_to(ROOT)): sorted(imported_packages(p) - {CORE})
+           for p in modules("vifpk/core")}
+    bad = {k: v for k, v in bad.items() if v}
+    assert not bad, bad
+
+
+@pytest.mark.parametrize("statement", ["import vifpk.core", "import vifpk",
+                                       "import vifpk.core.scene"])
+def test_importing_the_core_or_the_api_loads_no_solver_and_no_harness(statement: str):
+    """In a fresh interpreter: the public API is lazy (module ``__getattr__``)."""
+    code = (f"{statement}; import sys; "
+            "print(' '.join(sorted({m.split('.')[0] for m in sys.modules})))")
+    res = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True,
+                         text=True, timeout=120, check=True)
+    loaded = set(res.stdout.split())
+    assert "vifpk" in loaded
+    assert not loaded & {*SOLVERS, "harness", "numba", "pde", "matplotlib"}, loaded
 
 
 # ------------------------------------------------- unknown kinds raise: no silent fallbacks

@@ -28,7 +28,7 @@ def test_solve_json_contract(tmp_path: Path, model: str):
     # the JSON round trip is exact (json writes floats with repr): the densities in the file
     # are bit for bit the solver's (their normalisation is the solver's own doing)
     from harness.run import closed_form
-    from harness.scene import load_scene
+    from vifpk.core.scene import load_scene
 
     ref = closed_form(load_scene(BASE), model=model).data
     for key in ("A", "x1", "x2"):

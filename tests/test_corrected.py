@@ -7,7 +7,7 @@ import pytest
 
 import averaging
 from averaging.corrected import CorrectedModel, q_frame_density
-from harness.scene import load_scene
+from vifpk.core.scene import load_scene
 
 from .conftest import ROOT
 

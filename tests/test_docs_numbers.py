@@ -36,7 +36,7 @@ def test_readme_headline_numbers_agree_with_a_fresh_small_run():
     covers its spread), so the two runs agree within 2 x (floor_small + floor_recorded), plus
     0.005 for the README's rounding to 2 decimals."""
     from harness.check import cross_check
-    from harness.scene import load_scene
+    from vifpk.core.scene import load_scene
 
     readme = (ROOT / "README.md").read_text()
     block = re.search(r"<!-- numbers:finding -->(.*?)<!-- /numbers:finding -->", readme, re.S)

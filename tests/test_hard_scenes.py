@@ -12,7 +12,7 @@ import pytest
 from averaging import solve
 from harness.check import assumption_warnings, cross_check, output_problems, warning_kind
 from harness.cli import main
-from harness.scene import load_scene
+from vifpk.core.scene import load_scene
 
 from .conftest import ROOT
 

@@ -19,10 +19,10 @@ from scipy import stats
 from scipy.integrate import quad
 
 import montecarlo as mc
-from harness.scene import MonteCarloSettings
 from montecarlo import kernels as K
 from montecarlo.averaged_sde import simulate_sde
 from montecarlo.rng import fill_normals, states_from_seed
+from vifpk.core.scene import MonteCarloSettings
 
 from .conftest import vary
 
@@ -570,7 +570,7 @@ def test_long_relaxation_scene_is_right_at_default_settings(base):
 def test_certificate_passes_on_shipped_scenes_at_defaults(name):
     """Each shipped scene (its first sweep value) at default settings: equilibrated.
     A false alarm has probability ~1e-4 per diagnostic by construction of the limits."""
-    from harness.scene import load_scene
+    from vifpk.core.scene import load_scene
 
     sc = load_scene(name).variants()[0]
     res = run(sc, observables=("A", "moments"))

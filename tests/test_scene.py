@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from harness.scene import SceneError, load_scene, scene_from_dict
+from vifpk.core.scene import SceneError, load_scene, scene_from_dict
 
 from .conftest import ROOT
 

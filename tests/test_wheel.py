@@ -60,7 +60,7 @@ def run(inst: dict[str, Path], *args: str, timeout: float = 600
 
 def test_vifpk_comes_from_the_wheel(installed):
     res = run(installed, installed["python"], "-c",
-              "import harness, harness.scene as s; print(harness.__file__); "
+              "import harness, vifpk.core.scene as s; print(harness.__file__); "
               "print(s.shipped_scenes() / 'paper-base.toml')")
     assert res.returncode == 0, res.stderr
     where, scenes = res.stdout.split()

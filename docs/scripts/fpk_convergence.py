@@ -16,7 +16,7 @@ from scipy.interpolate import CubicSpline  # noqa: E402
 
 import fpk  # noqa: E402
 from averaging import build_model, solve  # noqa: E402
-from harness.scene import load_scene  # noqa: E402
+from vifpk.core.scene import load_scene  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -37,7 +37,7 @@ from averaging.geometry import potential, restoring  # noqa: E402
 from averaging.stationary import amplitude_density  # noqa: E402
 from harness.compare import compare  # noqa: E402
 from harness.run import montecarlo_solution  # noqa: E402
-from harness.scene import load_scene  # noqa: E402
+from vifpk.core.scene import load_scene  # noqa: E402
 
 # shipped scene variants without duplicates (fig6[r=0.975] is fig5[mu=0.001])
 SHIPPED = [("paper-base", 0), ("paper-fig2", 0), ("paper-fig2", 2), ("paper-fig3", 0),

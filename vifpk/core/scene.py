@@ -328,11 +328,11 @@ def scene_from_dict(raw: Mapping[str, Any], *, source: str = "<dict>") -> Scene:
 def shipped_scenes() -> Traversable:
     """The shipped scenes: package data ``harness.scenes`` (the repository's top-level
     ``scenes/``, mapped into the wheel by pyproject.toml), read with importlib.resources. In a
-    source checkout on ``sys.path`` that is not installed, the ``scenes/`` beside ``harness/``."""
+    source checkout on ``sys.path`` that is not installed, the repository's ``scenes/``."""
     try:
         return resources.files("harness.scenes")
     except ModuleNotFoundError:
-        return Path(__file__).resolve().parent.parent / "scenes"
+        return Path(__file__).resolve().parents[2] / "scenes"
 
 
 def load_scene(path: str | Path | Traversable) -> Scene:
