@@ -136,6 +136,9 @@ class ExactModel:
         th = np.arange(m) * (np.pi / m)  # trapezoid on one period of pi-periodic integrands
         nu = nu_k(A[..., None], th, k)
         s2, c2 = np.sin(th) ** 2, np.cos(th) ** 2
+        rest = A == 0.0
+        if k[0] == 0.0 and np.any(rest):  # no linear spring: nu = 0, T = inf at A = 0
+            nu = np.where(rest[..., None], 1.0, nu)
         T = 2 * np.pi * np.mean(1.0 / nu, axis=-1)
         avg = {
             "T": T,
@@ -145,6 +148,8 @@ class ExactModel:
             "absv": 4.0 * A / T,
             "E": potential_k(A, k),
         }
+        if k[0] == 0.0 and np.any(rest):  # every average at the rest point is 0
+            avg["T"] = np.where(rest, np.inf, T)
         avg["x2jv2"] = [avg["v2"], avg["x2v2"]] + [
             A ** (2 * j + 2) * 2 * np.pi * np.mean(nu * s2 * c2**j, axis=-1) / T
             for j in range(2, len(self.damping))]

@@ -185,7 +185,9 @@ def amplitude_of_energy_k(E: ArrayLike, k: tuple[float, ...]) -> Array:
     E = np.maximum(np.asarray(E, dtype=float), 0.0)
     if _duffing(k):
         k1, k3 = _k13(k)
-        return np.sqrt(4.0 * E / (k1 + np.sqrt(k1 * k1 + 4.0 * k3 * E)))
+        if k1 > 0.0:
+            return np.sqrt(4.0 * E / (k1 + np.sqrt(k1 * k1 + 4.0 * k3 * E)))
+        return np.sqrt(2.0 * np.sqrt(E / k3))  # pure cubic: U = k3 A^4 / 4
     lo = np.zeros_like(E)
     hi = np.ones_like(E)
     for _ in range(2100):  # doubling: U(hi) >= E (U grows without bound)
@@ -223,3 +225,11 @@ def time_of_theta_k(A: ArrayLike, theta: ArrayLike, k: tuple[float, ...],
     theta = np.asarray(theta, dtype=float)
     sink = np.sin(2.0 * theta[..., None] * kk[1:]) / (2.0 * kk[1:])
     return c[..., :1] * theta + np.einsum("...k,...mk->...m", c[..., 1:], sink)
+
+
+def period_k(A: ArrayLike, k: tuple[float, ...], *, nodes: int = 64) -> Array:
+    """Exact period T(A) = int_0^{2 pi} d theta / nu(A, theta) of the general spring."""
+    A = np.asarray(A, dtype=float)
+    th = np.arange(nodes) * (np.pi / nodes)
+    with np.errstate(divide="ignore"):  # k1 = 0: T = inf at A = 0
+        return 2.0 * np.pi * (1.0 / nu_k(A[..., None], th, k)).mean(axis=-1)

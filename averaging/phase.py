@@ -88,6 +88,10 @@ def phase_densities(A: Array, log_h: Array, log_T: Array, *,
     # trapezoid mass differs from 1 by the quadrature error on this uneven grid (~1e-5)
     E = potential(A, omega0, alpha)
     p_E = np.exp(log_h + log_T)
+    # no linear spring (k1 = 0): T = inf at A = 0, where p_E ~ T has an integrable
+    # singularity; the E record starts at the first grid point with a finite period
+    finite = np.isfinite(log_T)
+    E, p_E = E[finite], p_E[finite]
     raw = {
         "E": float(np.trapezoid(p_E, E)),
         "x1": float(np.trapezoid(p_x1, x1)),

@@ -52,7 +52,7 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-from vifpk.core.scene import SECTIONS, Scene, SceneError, load_scene
+from vifpk.core.scene import INDEXED, MAX_TERMS, SECTIONS, Scene, SceneError, load_scene
 
 WORKFLOWS = ("check", "averaging", "bifurcation")
 MODES = ("product", "zip")
@@ -156,6 +156,12 @@ def _field_of(where: str, path: str) -> Any:
         raise SweepError(f"{where} {path!r}: unknown key; use section.key with a section in "
                          f"{sorted(SECTIONS)}")
     known = {f.name: f for f in fields(SECTIONS[section])}
+    m = INDEXED.fullmatch(key) if section == "system" else None
+    if m and m.group(1) in known and known[m.group(1)].type.startswith("tuple"):
+        if int(m.group(2)) >= MAX_TERMS:
+            raise SweepError(f"{where} {path!r}: index out of range; allowed: 0 to "
+                             f"{MAX_TERMS - 1}")
+        return _Coefficient()  # one coefficient of a polynomial law: a number
     if key not in known:
         close = difflib.get_close_matches(key, list(known), n=1, cutoff=0.5)
         hint = f"did you mean '{section}.{close[0]}'?" if close else \
@@ -164,6 +170,12 @@ def _field_of(where: str, path: str) -> Any:
     if path in RESERVED:
         raise SweepError(f"{where} {path!r}: not allowed in a sweep; {RESERVED[path]}")
     return known[key]
+
+
+class _Coefficient:
+    """Stands for the field of one coefficient of a law ("system.restoring[2]")."""
+
+    type = "float"
 
 
 def _number(v: Any) -> bool:
@@ -270,7 +282,7 @@ def load_sweep(path: str | Path) -> Sweep:
     vary = []
     for key, spec in vary_raw.items():
         f = _field_of(f"{src}: [vary]", key)
-        if f.type not in ("float", "float | str"):
+        if f.type not in ("float", "float | str", "float | None"):
             raise SweepError(f"{src}: [vary] {key!r}: only numeric parameters can vary")
         vary.append((key, _values(f"{src}: [vary] {key!r}", spec)))
     if mode == "zip" and len({len(v) for _, v in vary}) > 1:

@@ -196,7 +196,7 @@ def model_densities(scene: Scene, model: Any) -> dict[str, dict[str, Any]]:
         T = model.period
     else:
         def T(A):
-            return orbit_period(A, s.omega0, s.alpha)
+            return orbit_period(A, s.restoring_law)
     return phase_solution(scene, res, T)[0]
 
 
