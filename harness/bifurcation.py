@@ -98,7 +98,8 @@ def bifurcation(scene: Any, vary: str, *, lo: float | None = None, hi: float | N
                            "paper_claim": PAPER_CLAIMS[vary]}
     other = "r" if vary == "mu" else "mu"
     out["fixed"] = {other: getattr(scene.system, other),
-                    **scene.system.to_dict(),
+                    **{k: v for k, v in scene.system.to_dict().items()
+                       if k not in ("mu", "r", "barrier")},
                     "D": scene.noise.D, "alpha1": scene.noise.alpha1, "noise": scene.noise.kind}
     claim_at = PAPER_CLAIM_FIXED[vary]
     out["paper_claim_fixed"] = claim_at

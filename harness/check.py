@@ -34,6 +34,15 @@ MODELS = ("paper", "exact", "corrected")
 OBSERVABLES = ("A", "x1", "x2")
 
 
+def models_of(scene: Any) -> tuple[tuple[str, ...], dict[str, str]]:
+    """The averaged models that apply to the scene's system, and why each other one does
+    not: the paper's model covers only its own family (System.paper_family_problem)."""
+    problem = scene.system.paper_family_problem()
+    if problem is None:
+        return MODELS, {}
+    return tuple(m for m in MODELS if m != "paper"), {"paper": problem}
+
+
 @dataclass(frozen=True)
 class CheckResult:
     scene: Any
@@ -155,14 +164,15 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True) -> CheckRe
     ``fpk=False`` skips the FPK of each model (no ``discretisation_error``): a sweep point
     needs only the averaging error, and the FPK is the costliest part of a check.
     """
-    stages = _Stages(3 + (2 if fpk else 1) * len(MODELS), quiet)
+    models, absent = models_of(scene)
+    stages = _Stages(3 + (2 if fpk else 1) * len(models), quiet)
     sol: dict[str, Any] = {}
     closed = {}
     stages("averaged models (closed forms)")
-    for m in MODELS:
+    for m in models:
         closed[m] = closed_form(scene, model=m)
         sol[f"closed:{m}"] = closed[m]
-    for m in MODELS if fpk else ():
+    for m in models if fpk else ():
         stages(f"FPK of the {m} model")
         sol[f"fpk:{m}"] = fpk_solution(scene, model=m, cells=400)
     edges = mc_edges(closed, scene.montecarlo.bins)
@@ -178,13 +188,13 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True) -> CheckRe
             progress=not quiet, **edges)
         sol["mc:original"] = mc
         st = mc.info["settings"]
-        for i, m in enumerate(MODELS):
+        for i, m in enumerate(models):
             stages(f"Monte Carlo of the {m} averaged SDE")
             sol[f"mc:{m}"] = averaged_sde_solution(
                 scene, m, edges=edges, seed=scene.montecarlo.seed + 1 + i, phase=True,
                 paths=st["paths"], blocks=st["blocks"], dt=st["dt"], time=st["time"],
                 burn_in=run_scene.montecarlo.burn_in, sample_every=st["sample_every"])
-        sampling = {m: compare(closed[m].data["A"], sol[f"mc:{m}"].data["A"]) for m in MODELS}
+        sampling = {m: compare(closed[m].data["A"], sol[f"mc:{m}"].data["A"]) for m in models}
         bad = _evidence(mc.info.get("convergence", {}), sampling)
         spent = time.perf_counter() - t_mc
         # extend (twice the burn-in and the sampled time) while the evidence says the run is
@@ -192,14 +202,16 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True) -> CheckRe
         if not bad or extensions >= 3 or spent * 3 > budget - spent:
             break
         extensions += 1
-        stages.total += 1 + len(MODELS)
+        stages.total += 1 + len(models)
         mcs = run_scene.montecarlo
         run_scene = replace(run_scene, montecarlo=replace(
             mcs, time=2 * st["time"], burn_in=2 * st["burn_in"],
             dt=st["dt"], floor=0.0))
     stages("metrics")
     metrics: dict[str, Any] = {"models": {}}
-    for m in MODELS:
+    if absent:
+        metrics["models_absent"] = dict(absent)
+    for m in models:
         cf = closed[m].data
         entry: dict[str, Any] = {}
         for kind, key in (("discretisation_error", f"fpk:{m}"), ("sampling_error", f"mc:{m}"),
@@ -221,8 +233,9 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True) -> CheckRe
                         "samples outside the range where the averaged models hold their mass "
                         "(not converged, or a different state altogether); its densities there "
                         "are not shown and count in full toward L1")
-    verdicts = [verdict(m, metrics["models"][m], warnings, convergence=conv) for m in MODELS]
-    for m in MODELS:
+    verdicts = [verdict(m, metrics["models"][m], warnings, convergence=conv) for m in models]
+    verdicts += [f"{m} model: not checked, {why}" for m, why in absent.items()]
+    for m in models:
         cls, cause = verdict_class(metrics["models"][m], warnings, convergence=conv)
         metrics["models"][m]["verdict_class"] = cls
         metrics["models"][m]["verdict_cause"] = cause

@@ -416,13 +416,13 @@ def _check_point(job: Job) -> dict[str, Any]:
     """The cross-check without the FPK: the averaging error of p(A) of each model."""
     import numpy as np
 
-    from .check import MODELS, cross_check
+    from .check import cross_check
 
     res = cross_check(job.scene, quiet=True, fpk=False)
     mc = res.solutions["mc:original"]
     conv = res.metrics["monte_carlo"]["convergence"]
     models = {}
-    for m in MODELS:
+    for m in res.metrics["models"]:
         e = res.metrics["models"][m]["averaging_error"]["A"]
         models[m] = {"averaging_error_A": e["L1"], "averaging_error_A_err": e["L1_err"],
                      "L1_floor_A": e["L1_floor"],
@@ -447,11 +447,11 @@ def _check_point(job: Job) -> dict[str, Any]:
 def _averaging_point(job: Job) -> dict[str, Any]:
     """Closed forms of each model (computed once), the L1 between them, the assumption
     warnings that need no simulation (strong damping, narrow band, strong noise)."""
-    from .check import MODELS, assumption_warnings
+    from .check import assumption_warnings, models_of
     from .compare import compare
     from .run import run_solver
 
-    closed = {m: run_solver(job.scene, "averaging", model=m) for m in MODELS}
+    closed = {m: run_solver(job.scene, "averaging", model=m) for m in models_of(job.scene)[0]}
     warnings = assumption_warnings(job.scene, closed, {})
     flags = _flags(warnings)
     flags.pop("warn_sticking")  # needs the simulation
