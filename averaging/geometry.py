@@ -17,6 +17,8 @@ geometrically; on a quarter orbit (not periodic) Gauss-Legendre is used.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -68,10 +70,15 @@ def period(A: ArrayLike, omega0: float, alpha: float, *, nodes: int = 64) -> Arr
     return 2.0 * np.pi * inv.mean(axis=-1)
 
 
+@functools.lru_cache(maxsize=16)
 def gauss_quarter(nodes: int) -> tuple[Array, Array]:
-    """Gauss-Legendre nodes and weights on theta in [0, pi/2]."""
+    """Gauss-Legendre nodes and weights on theta in [0, pi/2] (computed once per node count:
+    an eigenvalue problem; the arrays are read-only)."""
     x, w = np.polynomial.legendre.leggauss(nodes)
-    return (x + 1.0) * np.pi / 4.0, w * np.pi / 4.0
+    th, wq = (x + 1.0) * np.pi / 4.0, w * np.pi / 4.0
+    th.flags.writeable = False
+    wq.flags.writeable = False
+    return th, wq
 
 
 def time_of_theta(A: ArrayLike, theta: ArrayLike, omega0: float, alpha: float,

@@ -15,13 +15,18 @@ from typing import Any, NamedTuple
 import numpy as np
 import scipy
 
-from .corrected import CorrectedModel
+from .corrected import (
+    CompoundedModel,
+    CorrectedModel,
+    observed_density,
+    observed_log_h,
+)
 from .exact import ExactModel
 from .paper import PaperModel
 from .phase import phase_densities
 from .stationary import NoStationaryDensity, amplitude_density, describe
 
-MODELS = ("paper", "exact", "corrected")
+MODELS = ("paper", "exact", "compounded", "corrected")
 
 
 class Result(NamedTuple):
@@ -30,21 +35,26 @@ class Result(NamedTuple):
 
 
 def build_model(scene: Any, model: str = "paper", **options: Any
-                ) -> PaperModel | ExactModel | CorrectedModel:
+                ) -> PaperModel | ExactModel | CompoundedModel | CorrectedModel:
     """The averaged model named ``model`` for the scene (options: see each model)."""
     if model == "paper":
         return PaperModel.from_scene(scene, **options)
     if model == "exact":
         return ExactModel.from_scene(scene, **options)
+    if model == "compounded":
+        return CompoundedModel.from_scene(scene, **options)
     if model == "corrected":
         return CorrectedModel.from_scene(scene, **options)
     raise ValueError(f"model must be one of {MODELS}, not {model!r}")
 
 
-def solve(scene: Any, *, model: str = "paper", **options: Any) -> Result:
+def solve(scene: Any, *, model: str = "paper", tail_mass: bool = True, **options: Any
+          ) -> Result:
     """Stationary densities of the averaged model for a (duck-typed) scene.
 
-    Raises NoStationaryDensity when the averaged FPK has none (e.g. f = 0).
+    ``tail_mass=False``: no measurement of the mass beyond the grid (diagnostics.tail_mass is
+    None; stationary.amplitude_density). Raises NoStationaryDensity when the averaged FPK has
+    none (e.g. f = 0).
     """
     t0 = time.perf_counter()
     sys_ = scene.system
@@ -54,30 +64,35 @@ def solve(scene: Any, *, model: str = "paper", **options: Any) -> Result:
             "f = 0: there is no noise, so the averaged FPK has no stationary density "
             "(the amplitude relaxes to a deterministic attractor)")
     m = build_model(scene, model, **options)
-    amp = amplitude_density(m, points=settings.points, tail=settings.tail)
+    amp = amplitude_density(m, points=settings.points, tail=settings.tail, tail_mass=tail_mass)
+    A_obs, p_obs, log_h = amp.A, amp.p, amp.log_h
+    if getattr(m, "observes", False):  # the observed (not the slow) energy: section 10.3 (b)
+        A_obs, p_obs = observed_density(m, amp.A, amp.p)
+        log_h = observed_log_h(m, A_obs, p_obs)
     t1 = time.perf_counter()
-    log_T = np.log(m.period(amp.A))
-    ph = phase_densities(amp.A, amp.log_h, log_T, restoring=tuple(sys_.restoring_law),
+    log_T = np.log(m.period(A_obs))
+    ph = phase_densities(A_obs, log_h, log_T, restoring=tuple(sys_.restoring_law),
                          barrier=sys_.barrier, points=settings.phase_points)
     t2 = time.perf_counter()
     data = {
-        "A": {"x": amp.A, "p": amp.p},
+        "A": {"x": A_obs, "p": p_obs},
         "E": {"x": ph.E, "p": ph.p_E},
         "x1": {"x": ph.x1, "p": ph.p_x1},
         "x2": {"x": ph.x2, "p": ph.p_x2},
         "joint": {"x1": ph.x1, "x2": ph.x2, "p": ph.joint},
     }
-    summary = describe(amp.A, amp.p)
+    summary = describe(A_obs, p_obs)
     ok = all(np.all(np.isfinite(d["p"])) and np.min(d["p"]) >= 0.0 for d in data.values())
     info = {
         "solver": "averaging",
         "model": model,
         "options": {k: v for k, v in m.__dict__.items()
                     if k in ("b6", "noise", "impact", "theta_nodes", "harmonics")},
-        "grid": {"points": int(amp.A.size), "A_min": float(amp.A[0]), "A_max": float(amp.A[-1]),
+        "grid": {"points": int(A_obs.size), "A_min": float(A_obs[0]), "A_max": float(A_obs[-1]),
                  "phase_points": int(settings.phase_points)},
         "diagnostics": {
-            "mass": summary["mass"], "min": summary["min"], "tail_mass": amp.tail_mass,
+            "mass": summary["mass"], "min": summary["min"],
+            "tail_mass": amp.tail_mass if tail_mass else None,
             "phase_mass_before_normalisation": ph.raw_mass, "scans": amp.scans,
         },
         "summary": {k: summary[k] for k in ("mean", "mode", "std")},

@@ -77,8 +77,13 @@ def _support(A: Array, lp: Array, tail: float) -> tuple[float, float, float]:
 
 
 def amplitude_density(model: StationaryModel, *, points: int = 801, tail: float = 1e-10,
-                      scan: int = 512, A_start: float = 2.0) -> AmplitudeDensity:
-    """Normalised stationary p_A on a grid of ``points`` nodes holding all but ~tail."""
+                      scan: int = 512, A_start: float = 2.0, tail_mass: bool = True
+                      ) -> AmplitudeDensity:
+    """Normalised stationary p_A on a grid of ``points`` nodes holding all but ~tail.
+
+    ``tail_mass=False`` skips the measurement of the mass outside the grid (a scan of 4 x
+    ``scan`` intervals over three times the support, about half the cost; the field is then
+    NaN): the grid is the same either way."""
     hi = A_start
     scans = 0
     while True:
@@ -111,6 +116,9 @@ def amplitude_density(model: StationaryModel, *, points: int = 801, tail: float 
     mass = np.trapezoid(np.exp(log_p - top), grid)
     log_z = top + math.log(mass)
     log_p = log_p - log_z
+    if not tail_mass:
+        return AmplitudeDensity(A=grid, p=np.exp(log_p), log_p=log_p,
+                                log_h=log_phase + psi - log_z, tail_mass=math.nan, scans=scans)
     # mass outside the grid: from a scan that extends both sides beyond it
     wide = np.linspace(max(lo - (hi - lo), 0.0), hi + (hi - lo), 4 * scan + 1)
     wpsi, wpre, _ = _cumulative(model, wide)

@@ -14,6 +14,8 @@ overhead per point, and the extrapolated cost of a 40 x 40 map at floor 0.01.
    on a LocalCluster of 2 workers (round trip per task), and the cluster's start-up time.
 3. The cost of one point at floor 0.01 (two points of scenes/sweeps/r-mu.toml, serially), and
    the 40 x 40 map extrapolated from it: 1600 x seconds per point / workers.
+4. The point against the bare Monte Carlo of the same point at floor 0.01, in one run
+   (point_against_bare; issue 22: at most 1.5x). ``--point-only`` runs just this part.
 
 The machine is shared (the load average is recorded): the numbers are upper bounds.
 """
@@ -130,12 +132,72 @@ def floor_point_cost(work: Path, points: int) -> dict:
                                 for w in (1, 2, 8, 32, 128)}}
 
 
+def point_against_bare(repeats: int = 3) -> dict:
+    """Issue 22.1: a check sweep point at floor 0.01 against the bare Monte Carlo of the same
+    point (``vifpk solve --solver montecarlo --floor 0.01 --dt auto``: the scene's default
+    observables, its own pilot), both warm in this process (a sweep's worker keeps numba's
+    kernels and the imports from point to point), alternated ``repeats`` times so that a
+    change of the machine's load hits both; medians. Two interior points of
+    scenes/sweeps/r-mu.toml at floor 0.01; the point without the sampled averaged-SDE check
+    (the case of all but about 1 in 16 points, harness.sweep.SDE_CHECK_EVERY), and the same
+    point with it (``sde_point``), so the mean cost per point of a sweep is
+    plain + (sde - plain) / 16."""
+    import statistics
+    from dataclasses import replace
+
+    from harness.run import run_solver
+    from harness.sweep import SDE_CHECK_EVERY, _job, run_point
+
+    sweep = load_sweep(ROOT / "scenes" / "sweeps" / "r-mu.toml")
+    rows = []
+    for i in (6, 18):
+        pt = sweep.points[i]
+        pt = replace(pt, scene=pt.scene.with_values({"montecarlo.floor": 0.01}))
+        bare_scene = pt.scene.with_values({"montecarlo.budget": 600.0})  # solve's default
+        plain, with_sde = _job(sweep, replace(pt, sde=False)), _job(sweep, replace(pt, sde=True))
+        run_point(with_sde)  # warm: kernels of every specialisation, imports
+        run_solver(bare_scene, "montecarlo", progress=False)
+        t_point, t_sde, t_bare = [], [], []
+        load = os.getloadavg()
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            run_solver(bare_scene, "montecarlo", progress=False)
+            t_bare.append(time.perf_counter() - t0)
+            t0 = time.perf_counter()
+            rec = run_point(plain)
+            t_point.append(time.perf_counter() - t0)
+            assert rec["status"] == "ok", rec
+            t0 = time.perf_counter()
+            run_point(with_sde)
+            t_sde.append(time.perf_counter() - t0)
+        point, sde, bare = (statistics.median(t) for t in (t_point, t_sde, t_bare))
+        rows.append({"params": dict(pt.params), "bare_montecarlo_seconds": bare,
+                     "point_seconds": point, "sde_point_seconds": sde,
+                     "ratio": point / bare,
+                     "ratio_mean_per_point": (point + (sde - point) / SDE_CHECK_EVERY) / bare,
+                     "load_average": [load, os.getloadavg()],
+                     "all_seconds": {"bare": t_bare, "point": t_point, "sde_point": t_sde}})
+        print("point vs bare", rows[-1], file=sys.stderr, flush=True)
+    return {"floor": 0.01, "dt": "auto", "points": rows,
+            "ratio_max": max(r["ratio"] for r in rows),
+            "ratio_mean_per_point_max": max(r["ratio_mean_per_point"] for r in rows)}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--floor", type=float, default=0.03,
                     help="target floor of the executor comparison (default 0.03)")
     ap.add_argument("--quick", action="store_true", help="skip the floor-0.01 point cost")
+    ap.add_argument("--point-only", action="store_true",
+                    help="only the point against the bare Monte Carlo (merged into the file)")
     args = ap.parse_args()
+    out = ROOT / "benchmarks" / "results" / "sweep.json"
+    if args.point_only:
+        res = json.loads(out.read_text()) if out.is_file() else {}
+        res["point_vs_bare"] = point_against_bare()
+        out.write_text(json.dumps(res, indent=1) + "\n")
+        print(json.dumps(res["point_vs_bare"], indent=1))
+        return
     work = Path(tempfile.mkdtemp(prefix="vifpk-bench-sweep-"))
     load0 = os.getloadavg()
     res = {"machine": {"cpus": os.cpu_count(), "python": platform.python_version(),
@@ -147,8 +209,8 @@ def main() -> None:
            "dask": dask_overhead()}
     if not args.quick:
         res["floor_0.01"] = floor_point_cost(work, 2)
+        res["point_vs_bare"] = point_against_bare()
     res["machine"]["load_average_end"] = os.getloadavg()
-    out = ROOT / "benchmarks" / "results" / "sweep.json"
     out.write_text(json.dumps(res, indent=1) + "\n")
     print(json.dumps(res, indent=1))
     shutil.rmtree(work, ignore_errors=True)

@@ -227,18 +227,18 @@ def cmd_check(args: argparse.Namespace) -> int:
     from .provenance import folder_name
     from .report import REPORT_FILES, write_report
 
-    validate.output_folder(args.out, "--out")
+    validate.output_folder(args.out, "--out", replaced=True)
     scene = _checked_scene(args, mc=True)
     if scene.system.f == 0.0:
         raise SolverFailure("f = 0: there is no noise, so no stationary density exists; "
                             "nothing to cross-check")
     out = args.out or f"out/{folder_name(scene.name)}"
     if args.out is None:
-        validate.output_folder(out, "--out (default)")
+        validate.output_folder(out, "--out (default)", replaced=True)
     validate.refuse_costly(validate.check_seconds(scene), "this check", args.yes)
     prov = _provenance(args)
     # hold the folder from the start: a second run into it is refused before any work
-    with outdir.hold(out, run_id=prov["run_id"], allowed=REPORT_FILES):
+    with outdir.hold(out, run_id=prov["run_id"], allowed=REPORT_FILES, kind="check report"):
         result = cross_check(scene, quiet=args.quiet)
         files = write_report(result, out, prov=prov)
     for v in result.verdicts:
@@ -340,7 +340,7 @@ def cmd_workprecision(args: argparse.Namespace) -> int:
                                   "ladder of fixed steps); give a number")
     # each repeat times every run of the ladder again: 100 is past any useful minimum of times
     validate.at_least("--repeats", args.repeats, 1, 100)
-    validate.output_folder(args.out, "--out")
+    validate.output_folder(args.out, "--out", replaced=True)
     scene = _checked_scene(args, mc=True)
     if scene.montecarlo.dt == "auto":
         raise validate.InputError("montecarlo.dt = 'auto': workprecision times a ladder of "
@@ -353,7 +353,7 @@ def cmd_workprecision(args: argparse.Namespace) -> int:
     prov = _provenance(args)
     files = ("workprecision.png", "workprecision.md", "workprecision.json")
     # the folder is held from the start and written as a unit, like a check report
-    with outdir.hold(out, run_id=prov["run_id"], allowed=files):
+    with outdir.hold(out, run_id=prov["run_id"], allowed=files, kind="work-precision run"):
         data = run_workprecision(scene, quick=args.quick, repeats=args.repeats,
                                  log=None if args.quiet else log_stderr)
         table = table_markdown(data)
@@ -371,19 +371,24 @@ def cmd_workprecision(args: argparse.Namespace) -> int:
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
-    from .sweep import WorkerLost, load_sweep, parse_executor, require_output_libraries, run_sweep
+    from . import sweep as sw
+    from .provenance import folder_name
 
-    sweep = load_sweep(args.sweep)
-    spec = parse_executor(args.executor)
-    require_output_libraries()
-    out = args.out or f"out/{sweep.name}"
+    validate.output_folder(args.out, "--out")
+    sweep = sw.load_sweep(args.sweep)
+    spec = sw.parse_executor(args.executor)
+    sw.require_output_libraries()
+    # the default folder is out/<the sweep's name made one safe folder name>: never outside out/
+    out = args.out or f"out/{folder_name(sweep.name)}"
+    if args.out is None:
+        validate.output_folder(out, "--out (default)")
+    sw.check_sweep_folder(out)
     try:
-        res = run_sweep(sweep, out, executor=spec, quiet=args.quiet)
-    except (KeyboardInterrupt, WorkerLost) as exc:
-        why = "interrupted" if isinstance(exc, KeyboardInterrupt) else str(exc)
-        print(f"vifpk: {why}; the finished points are kept in {out}/points: run the same "
+        res = sw.run_sweep(sweep, out, executor=spec, quiet=args.quiet)
+    except sw.WorkerLost as exc:
+        print(f"vifpk: {exc}; the finished points are kept in {out}/points: run the same "
               "command again to compute the rest", file=sys.stderr)
-        return 130 if isinstance(exc, KeyboardInterrupt) else EXIT_SOLVER
+        return EXIT_SOLVER
     print(f"{res.total} points: {len(res.computed)} computed, {res.skipped} done before, "
           f"{len(res.failed)} failed; " + ", ".join(str(f) for f in res.files.values()))
     if res.failed:
@@ -529,52 +534,6 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-INTERRUPTED = "vifpk: interrupted; nothing was written"
-
-
-def _interrupt_watchdog(grace: float = 1.5) -> None:
-    """Ctrl-C within a second or two, even inside a long C or numba call: the signal's
-    wakeup byte reaches a watcher thread at once; the main thread gets ``grace`` seconds to
-    unwind (KeyboardInterrupt, temporary files removed), then the process exits with 130."""
-    import os
-    import signal
-    import socket
-    import threading
-    import time
-
-    r, w = socket.socketpair()
-    w.setblocking(False)
-    try:
-        signal.set_wakeup_fd(w.fileno(), warn_on_full_buffer=False)
-    except ValueError:  # not the main thread: no watchdog
-        return
-
-    def watch() -> None:
-        while True:
-            data = r.recv(16)
-            if signal.SIGINT in data:
-                time.sleep(grace)
-                if not _ANNOUNCED:
-                    os.write(2, (_fresh_line() + INTERRUPTED + "\n").encode())
-                os._exit(130)
-
-    _WAKEUP.extend((r, w))  # kept open for the life of the process
-    threading.Thread(target=watch, name="vifpk-interrupt", daemon=True).start()
-
-
-_ANNOUNCED = False
-_WAKEUP: list[Any] = []
-
-
-def _fresh_line() -> str:
-    """Start the message on its own line, after a progress bar that may be half-drawn:
-    clear the line on a terminal, else begin a new one."""
-    try:
-        return "\r\033[K" if sys.stderr.isatty() else "\n"
-    except (AttributeError, ValueError):
-        return "\n"
-
-
 def _first_warning(caught: list[Any]) -> str:
     """' (numpy: overflow encountered in multiply, averaging/paper.py:165)' or ''."""
     if not caught:
@@ -589,8 +548,9 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     numpy RuntimeWarnings are caught (never printed): a run that then fails names the first
     one in its one-line message; a run whose results are finite drops them."""
-    global _ANNOUNCED
     import warnings
+
+    from . import signals
 
     parser = build_parser()
     from_command_line = argv is None  # the console script: Ctrl-C watchdog (not in-process)
@@ -600,8 +560,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_BAD_INPUT
     args = parser.parse_args(argv)
     args.argv = ["vifpk", *(sys.argv[1:] if argv is None else argv)]
+    signals.reset()
     if from_command_line:
-        _interrupt_watchdog()
+        signals.install()
     caught: list[Any] = []
     try:
         with warnings.catch_warnings(record=True) as caught:
@@ -619,15 +580,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"vifpk: numerical failure: {exc}{_first_warning(caught)}; the scene's "
               "magnitudes or the step are most likely too extreme", file=sys.stderr)
         return EXIT_SOLVER
+    except ValueError as exc:  # past validation: a run that could not go on, never a traceback
+        print(f"vifpk: {exc}{_first_warning(caught)}", file=sys.stderr)
+        return EXIT_SOLVER
     except MemoryError:
         print("vifpk: out of memory: a grid, histogram or sample size is too large for this "
               "machine; reduce it (e.g. averaging.phase_points, montecarlo.bins, --grid)",
               file=sys.stderr)
         return EXIT_SOLVER
-    except KeyboardInterrupt:
-        _ANNOUNCED = True
-        print(_fresh_line() + INTERRUPTED, file=sys.stderr)
-        return 130
+    except KeyboardInterrupt:  # Ctrl-C, or SIGTERM (signals.Terminated)
+        signals.announce()
+        return signals.exit_code()
     except BrokenPipeError:  # e.g. `vifpk solve ... | head -2`: the reader left
         import os
 

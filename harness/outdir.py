@@ -91,19 +91,23 @@ def _holder(fd: int) -> dict[str, Any]:
 
 
 @contextmanager
-def hold(folder: str | Path, *, run_id: str = "", allowed: Collection[str] | None = None
-         ) -> Iterator[Path]:
+def hold(folder: str | Path, *, run_id: str = "", allowed: Collection[str] | None = None,
+         kind: str | None = None) -> Iterator[Path]:
     """Hold ``folder`` for this run: refuse if another live run holds it, take over a stale
     lock, clear what killed runs left, and check that the folder may be replaced.
 
+    ``kind`` (a key of :data:`KINDS`): a non-empty folder must hold that kind of output.
     Yields the resolved folder path. Re-entrant within one process. The lock file is removed
-    on exit; a run killed while holding it leaves the file, which the next run finds stale.
+    on exit, and by the interrupt watchdog (harness/signals.py) when Ctrl-C or SIGTERM force
+    an exit; a run killed with SIGKILL leaves the file, which the next run finds stale.
     """
+    from . import signals
+
     target = _resolve(folder)
     if target in _held:
         yield target
         return
-    check_replaceable(target, allowed)
+    check_replaceable(target, allowed, kind)
     made_parent = not target.parent.exists()
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
@@ -112,10 +116,17 @@ def hold(folder: str | Path, *, run_id: str = "", allowed: Collection[str] | Non
                             ) from None
     fd = _acquire(target, run_id)
     _held[target] = fd
+
+    def emergency() -> None:  # the watchdog's forced exit: leave no lock, no partial set
+        shutil.rmtree(target.parent / f".{target.name}.partial-{run_id}", ignore_errors=True)
+        lock_path(target).unlink(missing_ok=True)
+
+    handle = signals.on_interrupt(emergency)
     try:
         recover(target)
         yield target
     finally:
+        signals.forget(handle)
         del _held[target]
         lp = lock_path(target)
         try:
@@ -169,17 +180,42 @@ def _acquire(target: Path, run_id: str) -> int:
         return fd
 
 
-def check_replaceable(target: Path, allowed: Collection[str] | None) -> None:
-    """Refuse a path that is a file, or a folder holding entries an output never writes."""
+#: the outputs vifpk writes into a folder, each told by the entries it always holds (any one)
+KINDS = {"check report": ("metrics.json",), "sweep": ("points", "sweep.nc"),
+         "work-precision run": ("workprecision.json",), "figures": ("figures.json",)}
+
+
+def kind_of(names: Collection[str]) -> str | None:
+    """The kind of output a folder holding ``names`` is, or None."""
+    for kind, marks in KINDS.items():
+        if any(m in names for m in marks):
+            return kind
+    return None
+
+
+def check_replaceable(target: Path, allowed: Collection[str] | None,
+                      kind: str | None = None) -> None:
+    """Refuse a path that is a file, a folder holding entries an output never writes, or a
+    non-empty folder that is not an earlier output of ``kind`` (a sweep folder and a report
+    folder are told apart: neither replaces the other)."""
     if target.is_symlink() or (target.exists() and not target.is_dir()):
         raise FolderRefused(f"{target}: exists and is not a folder; choose a folder path")
     if allowed is None or not target.is_dir():
         return
     try:
-        names = os.listdir(target)
+        names = [n for n in os.listdir(target)
+                 if not n.startswith(".partial-") and not (n.startswith(".") and
+                                                           n.endswith(".tmp"))]
     except OSError as exc:
         raise FolderRefused(f"{target}: cannot read it ({exc.strerror})") from None
-    foreign = sorted(n for n in names if n not in allowed and not n.startswith(".partial-"))
+    found = kind_of(names)
+    if kind is not None and names and found != kind:
+        what = f"is a {found} folder" if found else "does not hold an earlier " + kind
+        raise FolderRefused(f"{target}: {what} ({', '.join(sorted(names)[:3])}"
+                            + (", ..." if len(names) > 3 else "") + f"); a {kind} is written "
+                            "only into a new or empty folder or an earlier one of its own; "
+                            "choose another --out")
+    foreign = sorted(n for n in names if n not in allowed)
     if foreign:
         raise FolderRefused(f"{target}: holds files this command does not write ("
                             + ", ".join(foreign[:3]) + (", ..." if len(foreign) > 3 else "")

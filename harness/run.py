@@ -114,6 +114,14 @@ def fpk_solution(scene: Any, *, model: str, cells: int, method: str = "stepping"
             "f = 0: there is no noise, so the averaged FPK has no stationary density")
     m = averaging.build_model(scene, model, **options)
     res = fpk.stationary(m.drift, m.diffusion, cells=cells, method=method)
+    if getattr(m, "observes", False):  # the observed energy, as the closed form
+        from averaging.corrected import observed_density
+
+        obs = {}
+        for key in ("A", "A_cells"):
+            x, p = observed_density(m, res.data[key]["x"], res.data[key]["p"])
+            obs[key] = {"x": x, "p": p}
+        res = Solution(data=dict(res.data, **obs), info=res.info)
     data, raw_mass = phase_solution(scene, res, m.period)
     info = dict(res.info)
     info["model"] = model
@@ -162,7 +170,7 @@ def montecarlo_solution(scene: Any, *, progress: bool = True, **edges: Any) -> S
                                    edges=edges)
     try:
         res = montecarlo.simulate(scene.system, scene.noise, settings)
-    except montecarlo.SimulationDiverged as exc:
+    except (montecarlo.SimulationDiverged, montecarlo.BudgetExhausted) as exc:
         raise SolverFailure(str(exc)) from None
     info = dict(res.info)
     mom = info.get("moments", {}).get("A", {}).get("mean")
@@ -192,10 +200,12 @@ def averaged_sde_solution(scene: Any, model: Any, *, edges: dict[str, Any], seed
     s = scene.system
     extra = ({"restoring": tuple(s.restoring_law), "barrier": s.barrier,
               "edges_x": edges["edges_x"], "edges_v": edges["edges_v"]} if phase else None)
+    observe = ({"sd": m.observation_sd, "restoring": tuple(s.restoring_law)}
+               if getattr(m, "observes", False) else None)
     return simulate_sde(m.drift, m.diffusion, edges=edges["edges_A"], paths=kw["paths"],
                         blocks=kw["blocks"], dt=kw["dt"], time_=kw["time"],
                         burn_in=kw["burn_in"], sample_every=kw["sample_every"], seed=seed,
-                        phase=extra)
+                        phase=extra, observe=observe)
 
 
 def montecarlo_plan(scene: Any) -> dict[str, Any]:

@@ -47,7 +47,8 @@ import os
 import sys
 import time
 import tomllib
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
@@ -55,9 +56,14 @@ from typing import Any
 from vifpk.core.scene import INDEXED, MAX_TERMS, SECTIONS, Scene, SceneError, load_scene
 
 WORKFLOWS = ("check", "averaging", "bifurcation")
-MODES = ("product", "zip")
+MODES = ("product", "zip", "adaptive")
 TOP_KEYS = ("scene", "workflow", "mode", "seed", "name", "description", "vary", "set",
-            "bifurcation")
+            "bifurcation", "adaptive")
+ADAPTIVE_KEYS = ("points", "model", "batch", "resolution")
+#: points of an adaptive batch unless [adaptive] batch says otherwise: a property of the sweep
+#: file, not of the executor, so that the points do not depend on where they run
+ADAPTIVE_BATCH = 8
+ADAPTIVE_RESOLUTION = 40  # refine the boundary as finely as a 40 x 40 grid (adaptive.min_edge)
 BIFURCATION_KEYS = ("find", "range", "mc")
 FIND = {"mu": "system.mu", "r": "system.r"}
 #: keys a sweep may not vary or set: the seed comes from the sweep's seed; a wall-clock
@@ -90,6 +96,8 @@ class Point:
     key: str
     scene: Scene
     fingerprint: str
+    sde: bool = False  # a check point that runs the averaged SDEs' Monte Carlo
+    batch: int = 0  # adaptive sweeps: 0 for the initial lattice, then 1, 2, ...
 
     def label(self) -> str:
         return " ".join(f"{k}={v:g}" for k, v in self.params)
@@ -110,6 +118,9 @@ class Sweep:
     bifurcation: Mapping[str, Any]
     base: Scene
     points: tuple[Point, ...] = field(repr=False)
+    #: mode "adaptive": points, model, batch, resolution ([adaptive]); vary then holds the
+    #: ranges as (start, stop), and ``points`` the initial lattice (run_adaptive adds the rest)
+    adaptive: Mapping[str, Any] = field(default_factory=dict)
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -136,13 +147,17 @@ def point_seed(seed: int, params: tuple[tuple[str, float], ...]) -> int:
     return int(state[0]) >> 2
 
 
-def fingerprint(workflow: str, scene: Scene, bifurcation: Mapping[str, Any]) -> str:
-    """sha256 of everything a point's result depends on (the scene includes the seed)."""
+def fingerprint(workflow: str, scene: Scene, bifurcation: Mapping[str, Any], *,
+                sde: bool = False) -> str:
+    """sha256 of everything a point's result depends on (the scene includes the seed; ``sde``:
+    the point runs the averaged SDEs' Monte Carlo, SDE_CHECK_EVERY)."""
     d = scene.to_dict()
     d.pop("name", None)
     d.pop("description", None)
-    blob = json.dumps({"workflow": workflow, "scene": d, "bifurcation": dict(bifurcation)},
-                      sort_keys=True)
+    what = {"workflow": workflow, "scene": d, "bifurcation": dict(bifurcation)}
+    if workflow == "check":
+        what["sde_check"] = bool(sde)
+    blob = json.dumps(what, sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()
 
 
@@ -218,31 +233,46 @@ def _values(where: str, spec: Any) -> tuple[float, ...]:
 
 
 def _resolve_scene(name: Any, sweep_path: Any) -> Scene:
+    """The sweep's base scene: a path (relative to the sweep file) must exist; a bare name
+    is a scene file ``NAME.toml`` beside the sweep file, else the shipped scene of that name."""
+    from vifpk.core.scene import shipped_name
+
     if not isinstance(name, str) or not name:
         raise SweepError(f"{sweep_path.name}: scene must be a shipped scene name or a path")
     if isinstance(sweep_path, Path):  # a sweep file on disk: paths relative to it
-        for rel in (sweep_path.parent / name, sweep_path.parent / f"{name}.toml"):
-            if rel.is_file():
-                return load_scene(rel)
+        if not shipped_name(name):
+            return load_scene(sweep_path.parent / Path(name).expanduser())
+        beside = sweep_path.parent / f"{name}.toml"
+        if beside.is_file():
+            return load_scene(beside)
     return load_scene(name)
 
 
 def load_sweep(path: str | Path) -> Sweep:
-    """Read and validate a sweep file, building every point's scene (SweepError on any
-    problem, one line naming the key)."""
-    from vifpk.core.scene import shipped_scenes
+    """Read and validate a sweep file (a path, or the bare name of a shipped sweep), building
+    every point's scene (SweepError on any problem, one line naming the key)."""
+    from vifpk.core.scene import shipped_name, shipped_scenes
 
     p: Any = Path(path)
-    if not p.is_file():  # a shipped sweep by name: scenes/sweeps/NAME.toml (package data)
-        cand = shipped_scenes() / "sweeps" / (p.name if p.suffix else f"{p}.toml")
-        if not cand.is_file():
+    try:
+        is_dir, is_file = p.is_dir(), p.is_file()
+    except OSError as exc:  # e.g. a name longer than the file system allows
+        raise SweepError(f"{str(path)[:80]}...: cannot read ({exc.strerror})") from None
+    if is_dir:
+        raise SweepError(f"{path}: is a folder; give a sweep file (.toml)")
+    if not is_file:  # a shipped sweep by its bare name: scenes/sweeps/NAME.toml (package data)
+        cand = shipped_scenes() / "sweeps" / f"{path}.toml"
+        if not shipped_name(str(path)) or "/" in str(path) or not cand.is_file():
             raise SweepError(f"{path}: no such sweep file")
         p = cand
     try:
-        text = p.read_text(encoding="utf-8")
+        text = p.read_text(encoding="utf-8-sig")  # a UTF-8 BOM is fine, as in scene files
         raw = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SweepError(f"{p.name}: not valid TOML: {exc}") from None
+    except RecursionError:
+        raise SweepError(f"{p.name}: not valid TOML: arrays or tables nested too deeply"
+                         ) from None
     except (OSError, UnicodeDecodeError) as exc:
         raise SweepError(f"{p.name}: cannot read: {exc}") from None
     src = p.name
@@ -284,7 +314,9 @@ def load_sweep(path: str | Path) -> Sweep:
         f = _field_of(f"{src}: [vary]", key)
         if f.type not in ("float", "float | str", "float | None"):
             raise SweepError(f"{src}: [vary] {key!r}: only numeric parameters can vary")
-        vary.append((key, _values(f"{src}: [vary] {key!r}", spec)))
+        vary.append((key, _range(f"{src}: [vary] {key!r}", spec) if mode == "adaptive"
+                     else _values(f"{src}: [vary] {key!r}", spec)))
+    adaptive = _adaptive_table(src, raw, mode, workflow, len(vary))
     if mode == "zip" and len({len(v) for _, v in vary}) > 1:
         lens = ", ".join(f"{k}: {len(v)}" for k, v in vary)
         raise SweepError(f"{src}: mode = 'zip' needs lists of one length ({lens})")
@@ -336,32 +368,121 @@ def load_sweep(path: str | Path) -> Sweep:
 
         combos = [tuple(zip([k for k, _ in vary], c, strict=True))
                   for c in itertools.product(*(v for _, v in vary))]
+    elif mode == "adaptive":
+        from .adaptive import initial_design
+
+        combos = [adaptive_params(vary, u) for u in initial_design(len(vary), adaptive["points"])]
+        if len(combos) > adaptive["points"]:
+            raise SweepError(f"{src}: [adaptive] points = {adaptive['points']}: at least "
+                             f"{len(combos)} (the initial lattice)")
     else:
         combos = [tuple((k, v[i]) for k, v in vary) for i in range(len(vary[0][1]))]
     if mode == "zip" and len({canonical(c) for c in combos}) != len(combos):
         raise SweepError(f"{src}: [vary]: two zipped points have the same values")
-    points = []
     fixed = dict(fixed_raw)
-    # a budget of 0 means no wall-clock limit (see RESERVED)
-    common = {**fixed, "montecarlo.budget": 0.0}
-    for params in combos:
-        s = point_seed(seed, params)
-        values = {**common, **dict(params), "montecarlo.seed": s}
-        try:
-            scene = base.with_values(values)
-        except SceneError as exc:
-            at = ", ".join(f"{k} = {v:g}" for k, v in params)
-            msg = str(exc).split(": ", 1)[-1] if ": " in str(exc) else str(exc)
-            raise SweepError(f"{src}: at the point {at}: {msg}") from None
-        if scene.sweep is not None:
-            raise SweepError(f"{src}: scene: {scene.sweep.path} varies in the base scene; set "
-                             "it in [set] or vary it in [vary]")
-        scene = _named(scene, f"{base.name}[{', '.join(f'{k}={v:g}' for k, v in params)}]")
-        points.append(Point(params=params, seed=s, key=point_key(params), scene=scene,
-                            fingerprint=fingerprint(workflow, scene, bif)))
+    points = [make_point(base, fixed, seed=seed, workflow=workflow, bifurcation=bif,
+                         params=params, first=i == 0, where=src)
+              for i, params in enumerate(combos)]
     return Sweep(path=str(p), text=text, name=name, workflow=workflow, mode=mode, seed=seed,
                  vary=tuple(vary), fixed=fixed, bifurcation=bif, base=base,
-                 points=tuple(points))
+                 points=tuple(points), adaptive=adaptive)
+
+
+def _range(where: str, spec: Any) -> tuple[float, float]:
+    """An adaptive sweep's range {start, stop} (start < stop, finite)."""
+    if not isinstance(spec, Mapping) or set(spec) != {"start", "stop"}:
+        raise SweepError(f"{where}: an adaptive sweep varies over a range "
+                         "{start = ..., stop = ...} (no num: the points are chosen as it runs)")
+    for k in ("start", "stop"):
+        if not _number(spec[k]) or not math.isfinite(spec[k]):
+            raise SweepError(f"{where}.{k} = {spec[k]!r}: must be a finite number")
+    if not spec["start"] < spec["stop"]:
+        raise SweepError(f"{where}: start must be below stop")
+    return float(spec["start"]), float(spec["stop"])
+
+
+def _adaptive_table(src: str, raw: Mapping[str, Any], mode: str, workflow: str, dims: int
+                    ) -> dict[str, Any]:
+    """The validated [adaptive] table (empty unless mode = "adaptive")."""
+    table = raw.get("adaptive")
+    if mode != "adaptive":
+        if table is not None:
+            raise SweepError(f"{src}: [adaptive]: only for mode = 'adaptive'")
+        return {}
+    if workflow != "check":
+        raise SweepError(f"{src}: mode = 'adaptive' refines the check's verdict; it needs "
+                         f"workflow = 'check' (not {workflow!r})")
+    if dims not in (1, 2):
+        raise SweepError(f"{src}: [vary]: an adaptive sweep varies one or two parameters, "
+                         f"not {dims}")
+    if not isinstance(table, Mapping):
+        raise SweepError(f"{src}: [adaptive]: missing; give points = N and model = NAME")
+    for key in table:
+        if key not in ADAPTIVE_KEYS:
+            raise SweepError(f"{src}: [adaptive] {key}: unknown key; allowed: "
+                             + ", ".join(ADAPTIVE_KEYS))
+    from .check import MODELS
+
+    def whole(key: str, lo: int, default: int | None = None) -> int:
+        v = table.get(key, default)
+        if v is None:
+            raise SweepError(f"{src}: [adaptive] {key}: missing (a whole number >= {lo})")
+        if not isinstance(v, int) or isinstance(v, bool) or v < lo:
+            raise SweepError(f"{src}: [adaptive] {key} = {v!r}: must be a whole number >= {lo}")
+        return v
+
+    model = table.get("model")
+    if model not in MODELS:
+        raise SweepError(f"{src}: [adaptive] model = {model!r}: allowed: " + ", ".join(MODELS))
+    return {"points": whole("points", 3), "model": model,
+            "batch": whole("batch", 1, ADAPTIVE_BATCH),
+            "resolution": whole("resolution", 3, ADAPTIVE_RESOLUTION)}
+
+
+def adaptive_params(vary: Sequence[tuple[str, tuple[float, float]]], unit: Sequence[float]
+                    ) -> tuple[tuple[str, float], ...]:
+    """The parameters at unit coordinates ``unit`` of an adaptive sweep's ranges (u = 0 is
+    start, u = 1 exactly stop)."""
+    return tuple((k, hi if u == 1.0 else lo + u * (hi - lo))
+                 for (k, (lo, hi)), u in zip(vary, unit, strict=True))
+
+
+#: a check sweep runs the Monte Carlo of each averaged SDE against its closed form (a check of
+#: the closed forms and the Monte Carlo machinery, not of the averaging error, which is what a
+#: map shows) only at sampled points: the sweep's first point and every point whose key,
+#: read as a number, is divisible by SDE_CHECK_EVERY (about 1 in 16, chosen by the point's
+#: parameters alone, so the choice does not depend on the executor or the order of points)
+SDE_CHECK_EVERY = 16
+
+
+def sde_check_at(key: str, *, first: bool) -> bool:
+    """Whether a check point runs the averaged SDEs' Monte Carlo (SDE_CHECK_EVERY)."""
+    return first or int(key, 16) % SDE_CHECK_EVERY == 0
+
+
+def make_point(base: Scene, fixed: Mapping[str, Any], *, seed: int, workflow: str,
+               bifurcation: Mapping[str, Any], params: tuple[tuple[str, float], ...],
+               first: bool = False, where: str = "sweep") -> Point:
+    """The point of a sweep at ``params`` (varied values by name): its scene (the base scene
+    with ``fixed`` and ``params`` set, no wall-clock budget, its own seed), key and
+    fingerprint. SweepError (naming the point) when the scene is out of range there."""
+    s = point_seed(seed, params)
+    # a budget of 0 means no wall-clock limit (see RESERVED)
+    values = {**fixed, "montecarlo.budget": 0.0, **dict(params), "montecarlo.seed": s}
+    try:
+        scene = base.with_values(values)
+    except SceneError as exc:
+        at = ", ".join(f"{k} = {v:g}" for k, v in params)
+        msg = str(exc).split(": ", 1)[-1] if ": " in str(exc) else str(exc)
+        raise SweepError(f"{where}: at the point {at}: {msg}") from None
+    if scene.sweep is not None:
+        raise SweepError(f"{where}: scene: {scene.sweep.path} varies in the base scene; set "
+                         "it in [set] or vary it in [vary]")
+    scene = _named(scene, f"{base.name}[{', '.join(f'{k}={v:g}' for k, v in params)}]")
+    key = point_key(params)
+    sde = workflow == "check" and sde_check_at(key, first=first)
+    return Point(params=params, seed=s, key=key, scene=scene, sde=sde,
+                 fingerprint=fingerprint(workflow, scene, bifurcation, sde=sde))
 
 
 def _named(scene: Scene, name: str) -> Scene:
@@ -383,6 +504,7 @@ class Job:
     workflow: str
     scene: Scene
     bifurcation: Mapping[str, Any]
+    sde: bool = True  # check: run the averaged SDEs' Monte Carlo (Point.sde)
 
 
 def run_point(job: Job) -> dict[str, Any]:
@@ -418,7 +540,7 @@ def _check_point(job: Job) -> dict[str, Any]:
 
     from .check import cross_check
 
-    res = cross_check(job.scene, quiet=True, fpk=False)
+    res = cross_check(job.scene, quiet=True, fpk=False, sde=job.sde, tail_mass=False)
     mc = res.solutions["mc:original"]
     conv = res.metrics["monte_carlo"]["convergence"]
     models = {}
@@ -427,8 +549,9 @@ def _check_point(job: Job) -> dict[str, Any]:
         models[m] = {"averaging_error_A": e["L1"], "averaging_error_A_err": e["L1_err"],
                      "L1_floor_A": e["L1_floor"],
                      "mean_A": res.solutions[f"closed:{m}"].info["summary"]["mean"],
-                     "sampling_ok": bool(res.metrics["models"][m]["sampling_ok"]),
                      "verdict_class": str(res.metrics["models"][m].get("verdict_class", ""))}
+        if job.sde:  # only where the averaged SDE ran (SDE_CHECK_EVERY); -1 elsewhere
+            models[m]["sampling_ok"] = bool(res.metrics["models"][m]["sampling_ok"])
     # the simulation's mean amplitude from its histogram of A with an exactly rounded sum, its
     # batch error from the moments (accumulated per path and summed in path order: the same
     # bits for any thread count and executor, tests/test_sweep.py)
@@ -436,7 +559,7 @@ def _check_point(job: Job) -> dict[str, Any]:
     mean = {"value": math.fsum((d["x"] * d["p"] * np.diff(d["edges"])).tolist()),
             "err": float(mc.info["moments"]["A"]["mean"]["err"])}
     converged = conv.get("equilibrated") is not False and all(
-        v["sampling_ok"] for v in models.values())
+        v.get("sampling_ok", True) for v in models.values())
     return {"models": models, "mean_A_simulation": mean["value"],
             "mean_A_simulation_err": mean["err"], "converged": converged,
             "extensions": conv.get("extensions", 0),
@@ -548,8 +671,30 @@ def threads_per_worker(workers: int) -> int:
     return max((os.cpu_count() or 1) // workers, 1)
 
 
+def _die_with_parent() -> None:
+    """Linux: this process gets SIGKILL when the process that started it dies, however it
+    dies (SIGKILL included): no worker outlives its sweep (prctl PR_SET_PDEATHSIG)."""
+    if not sys.platform.startswith("linux"):
+        return
+    import ctypes
+    import signal
+
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL), 0, 0, 0)  # 1: SET_PDEATHSIG
+    except (OSError, AttributeError):
+        return
+    if os.getppid() == 1:  # the parent died before the call: follow it now
+        os._exit(1)
+
+
 def _init_worker(threads: int) -> None:
-    """Process-pool initializer: numba threads per worker (before numba is imported)."""
+    """Process-pool initializer: die with the sweep (:func:`_die_with_parent`); Ctrl-C on
+    the terminal's process group is the sweep's to handle (it stops the workers), so the
+    worker ignores SIGINT; numba threads per worker (before numba is imported)."""
+    import signal
+
+    _die_with_parent()
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     os.environ["NUMBA_NUM_THREADS"] = str(threads)
     if "numba" in sys.modules:
         import numba
@@ -558,11 +703,40 @@ def _init_worker(threads: int) -> None:
         numba.set_num_threads(threads)
 
 
+def dask_setup(worker: Any = None) -> None:
+    """dask preload of a local cluster's workers (``preload=["harness.sweep"]``): Ctrl-C on
+    the terminal's process group is the sweep's to handle; the worker ignores it."""
+    import signal
+    import threading
+
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+@contextmanager
+def _signals_blocked() -> Iterator[None]:
+    """SIGINT blocked in this thread while local workers are started: they inherit the mask
+    (fork and exec keep it), so Ctrl-C on the terminal's process group reaches only the
+    sweep, which stops them (:meth:`Runner.stop`); a Ctrl-C meanwhile waits, then arrives."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
 class Runner:
     """An open executor: ``completed(jobs)`` yields records as points finish."""
 
     def __init__(self, spec: ExecutorSpec, *, connect_timeout: float = 10.0):
         self.spec = spec
+        self.stopped = False
         self.client: Any = None
         self.cluster: Any = None
         self.pool: Any = None
@@ -579,12 +753,13 @@ class Runner:
             threads = threads_per_worker(spec.workers)
             import logging
 
-            self.cluster = LocalCluster(
-                n_workers=spec.workers, threads_per_worker=1, processes=True,
-                # any free port for its HTTP server: two clusters on one machine do not
-                # collide on 8787 (and warn about it)
-                dashboard_address=":0", host="127.0.0.1", silence_logs=logging.ERROR,
-                env={"NUMBA_NUM_THREADS": str(threads)})
+            with _signals_blocked():  # Ctrl-C is the sweep's to handle, not the workers'
+                self.cluster = LocalCluster(
+                    n_workers=spec.workers, threads_per_worker=1, processes=True,
+                    # any free port for its HTTP server: two clusters on one machine do not
+                    # collide on 8787 (and warn about it)
+                    dashboard_address=":0", host="127.0.0.1", silence_logs=logging.ERROR,
+                    env={"NUMBA_NUM_THREADS": str(threads)}, preload=["harness.sweep"])
             self.client = Client(self.cluster)
         elif spec.kind == "tcp":
             import socket
@@ -620,7 +795,8 @@ class Runner:
             from concurrent.futures import as_completed
             from concurrent.futures.process import BrokenProcessPool
 
-            futs = [self.pool.submit(run_point, job) for job in jobs]
+            with _signals_blocked():  # the pool starts its workers here
+                futs = [self.pool.submit(run_point, job) for job in jobs]
             try:
                 for f in as_completed(futs):
                     yield f.result()
@@ -648,9 +824,30 @@ class Runner:
             finally:
                 self.client.cancel([f for f in futs if not f.done()])
 
+    def stop(self) -> None:
+        """Stop at once (Ctrl-C, SIGTERM): cancel what is queued and end the pool's worker
+        processes (ProcessPoolExecutor.terminate_workers from Python 3.14, done the same way
+        before it); dask's workers are ended by :meth:`close` (and die with this process)."""
+        pool = self.pool
+        if pool is None:
+            return
+        self.stopped = True
+        procs = list((getattr(pool, "_processes", None) or {}).values())
+        pool.shutdown(wait=False, cancel_futures=True)
+        if hasattr(pool, "terminate_workers"):
+            pool.terminate_workers()
+        else:
+            for proc in procs:
+                try:
+                    proc.terminate()
+                except (OSError, ValueError, AttributeError):
+                    pass
+        for proc in procs:  # reap them: gone before this process says it stopped
+            proc.join(timeout=1.0)
+
     def close(self) -> None:
         if self.pool is not None:
-            self.pool.shutdown(wait=True, cancel_futures=True)
+            self.pool.shutdown(wait=not self.stopped, cancel_futures=True)
         if self.client is not None:
             self.client.close()
         if self.cluster is not None:
@@ -682,7 +879,8 @@ def finished(sweep: Sweep, out: Path) -> dict[str, dict[str, Any]]:
 
 def _job(sweep: Sweep, pt: Point) -> Job:
     return Job(key=pt.key, fingerprint=pt.fingerprint, params=pt.params, seed=pt.seed,
-               workflow=sweep.workflow, scene=pt.scene, bifurcation=sweep.bifurcation)
+               workflow=sweep.workflow, scene=pt.scene, bifurcation=sweep.bifurcation,
+               sde=pt.sde)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -702,29 +900,93 @@ def _log(quiet: bool, text: str) -> None:
         print(text, file=sys.stderr, flush=True)
 
 
+#: what a sweep writes into its folder (outdir.KINDS["sweep"] tells such a folder apart)
+SWEEP_FILES = {"points": "folder", "sweep.nc": "file", "report.html": "file"}
+
+
+def check_sweep_folder(out: str | Path) -> Path:
+    """Refuse, before any work, an output folder a sweep cannot use: a file; a folder holding
+    another kind of output (a check report) or foreign files; ``points`` that is not a folder,
+    ``sweep.nc`` or ``report.html`` that are not files (SweepError naming them)."""
+    from . import outdir
+
+    target = outdir._resolve(out)
+    try:
+        outdir.check_replaceable(target, set(SWEEP_FILES), "sweep")
+    except SceneError as exc:
+        raise SweepError(f"--out {exc}") from None
+    for name, what in SWEEP_FILES.items():
+        p = target / name
+        if p.is_symlink() or (p.exists() and (p.is_dir() != (what == "folder"))):
+            raise SweepError(f"--out {out}: {name} exists and is not a {what}; a sweep writes "
+                             f"its {'point records' if what == 'folder' else name} there; "
+                             "move it away or choose another --out")
+    return target
+
+
+def _clear_temporaries(out: Path) -> None:
+    """Remove the temporary files of killed atomic writes (call with the folder held)."""
+    for folder in (out, out / "points"):
+        if folder.is_dir():
+            for p in folder.glob(".*.tmp"):
+                p.unlink(missing_ok=True)
+
+
+def _kept_message(out: Path, done: int, computed: list[str], todo: int) -> str:
+    n = done + len(computed)
+    if n == 0:
+        return "vifpk: interrupted; no point had finished, nothing was kept"
+    rest = todo - len(computed)
+    return (f"vifpk: interrupted; {n} finished point{'s' if n != 1 else ''} "
+            f"({len(computed)} from this run) kept in {out / 'points'}; no sweep.nc written; "
+            f"run the same command again to compute the other {rest}")
+
+
 def run_sweep(sweep: Sweep, out: str | Path, *, executor: str | ExecutorSpec = "serial",
               quiet: bool = False, report: bool = True,
               provenance: Mapping[str, Any] | None = None) -> SweepRun:
     """Compute every unfinished point on the executor, then write sweep.nc (and the maps).
 
-    Raises SweepError (bad executor, unreachable scheduler) before anything is computed or
-    written. Ctrl-C keeps every record written so far.
+    The folder is held for the whole run with the lock of every vifpk output folder
+    (harness/outdir.py): a second run into it is refused; a folder holding another kind of
+    output is refused (:func:`check_sweep_folder`). Raises SweepError (bad folder or executor,
+    unreachable scheduler) before anything is computed or written. Ctrl-C or SIGTERM stop the
+    workers and keep every record written so far (``signals.message()`` says how many).
     """
-    from .io import write_json
+    from . import outdir, signals
+    from .provenance import new_run_id
 
     spec = parse_executor(executor) if isinstance(executor, str) else executor
     require_output_libraries()
-    out = Path(out)
+    target = check_sweep_folder(out)
+    run_id = str((provenance or {}).get("run_id") or new_run_id())
+    with outdir.hold(target, run_id=run_id, allowed=set(SWEEP_FILES), kind="sweep"):
+        _clear_temporaries(target)
+        if sweep.mode == "adaptive":
+            return run_adaptive(sweep, out, executor=spec, quiet=quiet, report=report,
+                                provenance=provenance)
+        return _run_held(sweep, Path(out), spec, quiet=quiet, report=report,
+                         provenance=provenance, signals=signals)
+
+
+def _run_held(sweep: Sweep, out: Path, spec: ExecutorSpec, *, quiet: bool, report: bool,
+              provenance: Mapping[str, Any] | None, signals: Any) -> SweepRun:
+    from .io import write_json
+
     done = finished(sweep, out)
     todo = [pt for pt in sweep.points if pt.key not in done]
     total = len(sweep.points)
+    computed: list[str] = []
+    signals.set_message(lambda: _kept_message(out, len(done), computed, len(todo)))
     runner = Runner(spec) if todo else None  # connects (or fails) before anything is written
     t0 = time.perf_counter()
-    computed: list[str] = []
     failed = [k for k, r in done.items() if r["status"] == "failed"]
     by_key = {pt.key: pt for pt in sweep.points}
     _log(quiet, f"sweep {sweep.name}: {total} points ({len(done)} done before, {len(todo)} to "
                 f"compute) on {spec}, workflow {sweep.workflow}")
+    handle = signals.on_interrupt(runner.stop) if runner is not None else None
+    if spec.kind in ("dask", "tcp"):
+        signals.set_grace(20.0)  # closing a client or a local cluster takes seconds
     try:
         if runner is not None:
             (out / "points").mkdir(parents=True, exist_ok=True)
@@ -740,11 +1002,145 @@ def run_sweep(sweep: Sweep, out: str | Path, *, executor: str | ExecutorSpec = "
                 _log(quiet, f"[{len(done) + n}/{total}] {by_key[rec['key']].label()}: {what} "
                             f"({rec['seconds']:.1f} s); failures {len(failed)}; "
                             f"ETA {_duration(eta)}")
+    except KeyboardInterrupt:  # Ctrl-C or SIGTERM: the message says what was kept
+        if runner is not None:
+            runner.stop()  # no worker outlives the sweep
+        raise
     finally:
+        if handle is not None:
+            signals.forget(handle)
         if runner is not None:
             runner.close()
     files = write_results(sweep, out, executor=str(spec), report=report, provenance=provenance)
     return SweepRun(total=total, computed=tuple(computed), skipped=len(done),
+                    failed=tuple(failed), seconds=time.perf_counter() - t0, files=files)
+
+
+def _reusable(rec: dict[str, Any] | None, pt: Point) -> bool:
+    """A record on disk is this point's finished result (see ``finished``)."""
+    return bool(rec and rec.get("fingerprint") == pt.fingerprint and (
+        rec.get("status") == "ok" or rec.get("failure") == "numerical"))
+
+
+def adaptive_value(rec: dict[str, Any], model: str) -> float:
+    """f = log(L1 / (2 floor)) of ``model`` at a finished point (NaN for a failed one)."""
+    from .adaptive import log_ratio
+
+    m = (rec.get("result") or {}).get("models", {}).get(model, {})
+    return log_ratio(m.get("averaging_error_A"), m.get("L1_floor_A"))
+
+
+def run_adaptive(sweep: Sweep, out: str | Path, *, executor: ExecutorSpec,
+                 quiet: bool = False, report: bool = True,
+                 provenance: Mapping[str, Any] | None = None) -> SweepRun:
+    """An adaptive sweep (mode = "adaptive"): the initial lattice, then batches of
+    ``[adaptive] batch`` points chosen by harness.adaptive from every finished point, until
+    ``[adaptive] points`` or the resolution is reached; then sweep.nc (a ``point`` dimension)
+    and the maps.
+
+    The batches are replayed from the records on disk: a point with a record is not computed
+    again, and since the choice of a batch depends only on the points before it and their
+    results, a sweep started again (after Ctrl-C, a lost machine) chooses the same points and
+    computes only those without a record. Progress and ETA on stderr, one line a point.
+    """
+    from dataclasses import replace
+
+    from .adaptive import next_batch
+    from .io import write_json
+
+    require_output_libraries()
+    out = Path(out)
+    ad = sweep.adaptive
+    budget, size, model = ad["points"], ad["batch"], ad["model"]
+    if executor.kind in ("processes", "dask") and executor.workers > size:
+        _log(quiet, f"note: {executor} has {executor.workers} workers but [adaptive] batch = "
+                    f"{size}; set batch >= the workers to keep them busy (the batch size "
+                    "chooses the points, the executor does not)")
+    from . import signals
+
+    runner = Runner(executor)  # connects (or fails) before anything is written
+    handle = signals.on_interrupt(runner.stop)
+    t0 = time.perf_counter()
+    order: list[Point] = []
+    units: list[tuple[float, ...]] = []
+    values: list[float] = []
+    computed: list[str] = []
+    failed: list[str] = []
+    skipped = 0
+    spent = 0.0  # seconds of the points computed in this run (for the ETA)
+    _log(quiet, f"sweep {sweep.name}: adaptive, up to {budget} points in batches of {size} on "
+                f"{executor}, refining the {model} model's verdict (L1 < 2 x floor)")
+    from .adaptive import initial_design
+
+    batch_units = initial_design(len(sweep.vary), budget)
+    batch_no = 0
+    signals.set_message(lambda: _kept_message(out, skipped, computed, budget - skipped))
+    try:
+        while batch_units:
+            pts = []
+            for u in batch_units:
+                if not order and not pts:  # the sweep's first point: as load_sweep built it
+                    pt = sweep.points[0]
+                else:
+                    pt = make_point(sweep.base, sweep.fixed, seed=sweep.seed,
+                                    workflow=sweep.workflow, bifurcation=sweep.bifurcation,
+                                    params=adaptive_params(sweep.vary, u), where=sweep.name)
+                pts.append(replace(pt, batch=batch_no))
+            recs: dict[str, dict[str, Any]] = {}
+            todo = []
+            for pt in pts:
+                rec = load_record(out / "points" / f"{pt.key}.json")
+                if _reusable(rec, pt):
+                    recs[pt.key] = rec
+                    skipped += 1
+                    if rec["status"] == "failed":
+                        failed.append(pt.key)
+                else:
+                    todo.append(pt)
+            if todo:
+                (out / "points").mkdir(parents=True, exist_ok=True)
+                by_key = {pt.key: pt for pt in todo}
+                for rec in runner.completed([_job(sweep, pt) for pt in todo]):
+                    write_json(out / "points" / f"{rec['key']}.json", rec)
+                    recs[rec["key"]] = rec
+                    computed.append(rec["key"])
+                    spent = time.perf_counter() - t0
+                    if rec["status"] == "failed":
+                        failed.append(rec["key"])
+                    n = len(order) + len(recs)
+                    # every remaining point costs what the computed ones did on average
+                    eta = spent / len(computed) * max(budget - n, 0)
+                    what = "ok" if rec["status"] == "ok" else f"FAILED: {rec['message']}"
+                    f = adaptive_value(rec, model)
+                    verdict = "" if math.isnan(f) else (
+                        f"; {model} {'within' if f < 0 else 'outside'} the noise "
+                        f"(L1 / 2 floor = {math.exp(f):.2f})")
+                    _log(quiet, f"[{n}/{budget}] batch {batch_no}: {by_key[rec['key']].label()}"
+                                f": {what}{verdict} ({rec['seconds']:.1f} s); failures "
+                                f"{len(failed)}; ETA {_duration(eta)}")
+            for pt, u in zip(pts, batch_units, strict=True):
+                order.append(pt)
+                units.append(tuple(u))
+                values.append(adaptive_value(recs[pt.key], model))
+            if len(order) >= budget:
+                break
+            batch_no += 1
+            batch_units = next_batch(units, values, min(size, budget - len(order)),
+                                     resolution=ad["resolution"])
+            if not batch_units:
+                _log(quiet, f"every triangle is finer than the resolution "
+                            f"({ad['resolution']} x {ad['resolution']}): stopped at "
+                            f"{len(order)} points")
+    except KeyboardInterrupt:  # Ctrl-C or SIGTERM: stop the workers; the message says why
+        runner.stop()
+        raise
+    finally:
+        signals.forget(handle)
+        runner.close()
+    done = replace(sweep, points=tuple(order))
+    files = write_results(done, out, executor=str(executor), report=report,
+                          provenance=provenance)
+    return SweepRun(total=len(order), computed=tuple(computed), skipped=skipped,
                     failed=tuple(failed), seconds=time.perf_counter() - t0, files=files)
 
 
@@ -771,10 +1167,11 @@ def dataset(sweep: Sweep, records: Mapping[str, dict[str, Any]], *,
         def index(pt: Point) -> tuple[int, ...]:
             return tuple(vals.index(v) for (_, vals), (_, v) in zip(sweep.vary, pt.params,
                                                                     strict=True))
-    else:
+    else:  # zip and adaptive: the parameters as coordinates along a point dimension
         dims = ["point"]
         shape = (len(sweep.points),)
-        coords = {k: ("point", np.array(v)) for k, v in sweep.vary}
+        coords = {k: ("point", np.array([dict(pt.params)[k] for pt in sweep.points]))
+                  for k in sweep.names}
         order = {pt.key: i for i, pt in enumerate(sweep.points)}
 
         def index(pt: Point) -> tuple[int, ...]:
@@ -850,12 +1247,19 @@ def dataset(sweep: Sweep, records: Mapping[str, dict[str, Any]], *,
     data["message"] = (dims, message.astype(str))
     data["key"] = (dims, keys.astype(str))
     data["seed"] = (dims, seeds)
+    if sweep.mode == "adaptive":
+        data["batch"] = (dims, np.array([pt.batch for pt in sweep.points], dtype=np.int16))
     if models:
         coords["model"] = ("model", np.array(models))
     ds = xr.Dataset(data, coords=coords)
     for k in WARNING_FLAGS:
         if k in ds:
             ds[k].attrs["flag_values"] = "1: the warning applies, 0: it does not, -1: no value"
+    if "sampling_ok" in ds:
+        ds["sampling_ok"].attrs["flag_values"] = (
+            "1: the averaged SDE's Monte Carlo matches its closed form, 0: it does not, -1: not "
+            f"run at this point (it runs at the first point and where int(key, 16) % "
+            f"{SDE_CHECK_EVERY} == 0)")
     ds.attrs.update({
         "title": f"vifpk sweep {sweep.name}",
         "workflow": sweep.workflow, "mode": sweep.mode, "seed": sweep.seed,
@@ -867,6 +1271,11 @@ def dataset(sweep: Sweep, records: Mapping[str, dict[str, Any]], *,
     })
     if sweep.workflow == "bifurcation":
         ds.attrs["bifurcation"] = json.dumps(dict(sweep.bifurcation))
+    if sweep.mode == "adaptive":
+        ds.attrs["adaptive"] = json.dumps({**sweep.adaptive, "ranges": {
+            k: list(v) for k, v in sweep.vary}})
+        ds["batch"].attrs["meaning"] = ("0: the initial lattice; n: the n-th refinement batch "
+                                        "(harness/adaptive.py)")
     if sweep.workflow == "check":
         ds.attrs["within_noise"] = ("a model is within the Monte Carlo noise where "
                                     "averaging_error_A < 2 L1_floor_A (the check's verdict)")

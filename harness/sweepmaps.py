@@ -112,6 +112,58 @@ def _map_figure(ds: Any, var: str, title: str, *, contour: bool) -> str:
     return _png(fig)
 
 
+def _scattered_map_figure(ds: Any, var: str, title: str) -> str:
+    """An adaptive sweep over two parameters: for each model the error field interpolated
+    linearly on the Delaunay triangulation of the points (in range-scaled coordinates, as the
+    points were chosen: harness/adaptive.py), the contour L1 = 2 x noise floor (white), and
+    the points (white circles: within the noise; black dots: outside; red crosses: failed)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import LogNorm, Normalize
+    from matplotlib.tri import Triangulation
+    from scipy.spatial import Delaunay
+
+    px, py = json.loads(ds.attrs["varied"])
+    x, xl = _axis(ds, px)
+    y, yl = _axis(ds, py)
+    models = list(ds["model"].values)
+    vals = np.asarray(ds[var].transpose("point", "model").values, float)
+    floor = np.asarray(ds["L1_floor_A"].transpose("point", "model").values, float)
+    failed = np.asarray(ds["failed"].values) == 1
+    finite = vals[np.isfinite(vals)]
+    vmin, vmax = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
+    norm = LogNorm(vmin, vmax) if vmin > 0 and vmax > 10 * vmin else Normalize(vmin, vmax)
+    fig, axes = plt.subplots(1, len(models), figsize=(4.6 * len(models) + 1, 4), squeeze=False,
+                             constrained_layout=True)
+    mesh = None
+    for ax, m in zip(axes[0], models, strict=True):
+        j = models.index(m)
+        ok = np.isfinite(vals[:, j]) & np.isfinite(floor[:, j]) & (floor[:, j] > 0)
+        if ok.sum() >= 3:
+            unit = np.stack([(x[ok] - x.min()) / max(np.ptp(x), 1e-300),
+                             (y[ok] - y.min()) / max(np.ptp(y), 1e-300)], axis=1)
+            tri = Triangulation(x[ok], y[ok], triangles=Delaunay(unit).simplices)
+            mesh = ax.tripcolor(tri, vals[ok, j], norm=norm, cmap="viridis", shading="gouraud")
+            ratio = vals[ok, j] / floor[ok, j]
+            if ratio.min() < WITHIN_NOISE < ratio.max():
+                cs = ax.tricontour(tri, ratio, levels=[WITHIN_NOISE], colors="white",
+                                   linewidths=2)
+                ax.clabel(cs, fmt={WITHIN_NOISE: f"{WITHIN_NOISE:g} x floor"}, fontsize=8)
+        inside = np.zeros_like(failed)
+        inside[ok] = vals[ok, j] < WITHIN_NOISE * floor[ok, j]
+        ax.plot(x[inside], y[inside], "o", mfc="none", mec="white", ms=4, ls="none")
+        ax.plot(x[ok & ~inside], y[ok & ~inside], ".", color="black", ms=3, ls="none")
+        ax.plot(x[failed], y[failed], "x", color="red", ms=8, mew=2, ls="none")
+        ax.set_xlabel(xl)
+        ax.set_ylabel(yl)
+        ax.set_title(f"{m} model ({int(ok.sum())} points)")
+    if mesh is not None:
+        fig.colorbar(mesh, ax=axes[0].tolist(), label=title)
+    return _png(fig)
+
+
 def _curve_figure(ds: Any, var: str, err: str | None, title: str) -> str:
     import matplotlib
 
@@ -120,7 +172,11 @@ def _curve_figure(ds: Any, var: str, err: str | None, title: str) -> str:
 
     dims = [d for d in ds[var].dims if d != "model"]
     fig, ax = plt.subplots(figsize=(6, 3.8), constrained_layout=True)
-    if dims == ["point"]:
+    if dims == ["point"] and ds.attrs.get("mode") == "adaptive":  # along its one parameter
+        (name,) = json.loads(ds.attrs["varied"])
+        ds = ds.sortby(name)
+        x, xl = _axis(ds, name)
+    elif dims == ["point"]:
         x, xl = np.arange(ds.sizes["point"]), "point"
     else:
         x, xl = _axis(ds, dims[0])
@@ -176,7 +232,14 @@ def figures(ds: Any) -> list[tuple[str, str]]:
     two = ds.attrs.get("mode") == "product" and len(params) == 2
     out = []
     if wf == "check" and "averaging_error_A" in ds:
-        if two:
+        if ds.attrs.get("mode") == "adaptive" and len(params) == 2:
+            n = int(ds.sizes["point"])
+            out.append((f"Adaptive sweep, {n} points: the averaging error L1 of p(A) "
+                        "interpolated linearly between the points (Delaunay triangles). White "
+                        "contour: L1 = 2 x noise floor; white circles: points within the Monte "
+                        "Carlo noise (averaging holds), black dots: outside; red cross: failed "
+                        "point.", _scattered_map_figure(ds, "averaging_error_A", "L1 of p(A)")))
+        elif two:
             out.append(("Averaging error L1 of p(A) against the simulated original system. "
                         "White contour and circles: within the Monte Carlo noise (L1 < 2 x "
                         "noise floor), averaging holds. Hatched: an assumption warning or no "

@@ -132,8 +132,10 @@ def reproduce_command(scene: Scene) -> str:
                     for k, v in dataclasses.asdict(getattr(scene, sec)).items())
     sets += "".join(f" --set montecarlo.{k}={getattr(st, k)}"
                     for k in ("blocks", "burn_in", "sample_every", "bins"))
-    return (f"vifpk solve {where} --solver montecarlo --paths {st.paths} --dt {st.dt:g} "
-            f"--time {st.time:g} --seed {st.seed} {sets} --json reference.json")
+    # dt is a number or "auto"; numbers as repr (exact: :g kept 6 digits)
+    target = f" --floor {st.floor!r} --budget {st.budget!r}" if st.floor > 0 else ""
+    return (f"vifpk solve {where} --solver montecarlo --paths {st.paths} --dt {st.dt} "
+            f"--time {st.time!r} --seed {st.seed}{target} {sets} --json reference.json")
 
 
 class Reference:

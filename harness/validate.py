@@ -186,6 +186,13 @@ def montecarlo_settings(scene: Scene, options: Mapping[str, str] | None = None) 
         raise InputError(f"{_name('time', options)} = {_g(mc.time)} would sample "
                          f"{_g(plan['sampled_time'])} (whole windows of whole samples every "
                          f"{_g(step)}); nearest valid: {near}")
+    if mc.floor > 0 and mc.budget > 0:
+        least = _montecarlo_least_seconds(scene)
+        if mc.budget < least:
+            raise InputError(f"{_name('budget', options)} = {_g(mc.budget)} s cannot cover the "
+                             "pilots, the burn-in and the first sampling windows (at least "
+                             f"{least:.2g} s here, a lower bound from their path-steps); "
+                             f"allowed: at least {least:.2g} s, or 0 for no limit")
 
 
 def search_range(vary: str, lo: float, hi: float, field: Any) -> None:
@@ -209,6 +216,29 @@ def at_least(option: str, value: int | float | None, lo: float, hi: float = math
 
 # --------------------------------------------------------------------------------------------
 # output paths
+NAME_BYTES = 200  # one file or folder name; the writers add hidden siblings beside it
+#                  (".NAME.partial-<run id>", ".NAME.<hex>.tmp") within the usual 255-byte limit
+PATH_BYTES = 3800  # a whole path, below the usual 4096 with room for those siblings
+
+
+def _short(path: Any) -> str:
+    text = str(path)
+    return text if len(text) <= 80 else text[:60] + "..." + text[-12:]
+
+
+def _lengths(path: Path, option: str) -> None:
+    """Every name in the path within NAME_BYTES, the whole path within PATH_BYTES."""
+    for part in path.parts:
+        n = len(os.fsencode(part))
+        if n > NAME_BYTES:
+            raise InputError(f"{option} {_short(path)}: a name in the path is {n} bytes long; "
+                             f"allowed: up to {NAME_BYTES} bytes per name")
+    n = len(os.fsencode(str(path.absolute())))
+    if n > PATH_BYTES:
+        raise InputError(f"{option} {_short(path)}: the path is {n} bytes long; allowed: up "
+                         f"to {PATH_BYTES} bytes")
+
+
 def _nearest_existing(path: Path) -> Path:
     p = path.absolute()
     while not p.exists():
@@ -219,44 +249,67 @@ def _nearest_existing(path: Path) -> Path:
 def _probe(folder: Path, option: str, path: Path) -> None:
     """A temporary file in ``folder``, removed at once: can the run write there?"""
     if not folder.is_dir():
-        raise InputError(f"{option} {path}: {folder} is not a folder")
+        raise InputError(f"{option} {_short(path)}: {folder} is not a folder")
     try:
         fd, tmp = tempfile.mkstemp(prefix=".vifpk-probe-", dir=folder)
     except OSError as exc:
-        raise InputError(f"{option} {path}: cannot write in {folder} "
+        raise InputError(f"{option} {_short(path)}: cannot write in {folder} "
                          f"({exc.strerror or exc})") from None
     os.close(fd)
     os.unlink(tmp)
 
 
 def output_file(path: str | None, option: str) -> None:
-    """A file the run will write (atomically, beside itself)."""
+    """A file the run will write as a unit (a temporary file beside it, then a rename): a
+    regular file or a new name, never a folder, a device, a pipe or a symbolic link (the
+    rename would replace the link, e.g. /dev/stdout, instead of writing through it)."""
     if path is None:
         return
     p = Path(path)
+    _lengths(p, option)
+    if p.is_symlink():
+        raise InputError(f"{option} {_short(path)}: is a symbolic link; give the real file "
+                         "path (outputs are written as a temporary file renamed over the name)")
     if p.is_dir():
         raise InputError(f"{option} {path}: is a folder; give a file name")
+    if p.exists() and not p.is_file():
+        raise InputError(f"{option} {path}: is not a regular file (a device or a pipe); give "
+                         "a file name (outputs are written as a unit, then renamed)")
     if p.name in ("", ".", ".."):
         raise InputError(f"{option} {path}: give a file name")
     _probe(_nearest_existing(p.parent), option, p)
 
 
-def output_folder(path: str | None, option: str) -> None:
-    """A folder the run will write files into (created if missing)."""
+def output_folder(path: str | None, option: str, *, replaced: bool = False) -> None:
+    """A folder the run will write files into (created if missing). ``replaced``: the run
+    swaps the whole folder in at its end, so it must not be the current folder or one that
+    holds it (the shell would be left in a deleted folder)."""
     if path is None:
         return
     p = Path(path)
+    _lengths(p, option)
     if p.exists() and not p.is_dir():
         raise InputError(f"{option} {path}: exists and is not a folder; give a folder")
+    if p.is_symlink():
+        raise InputError(f"{option} {path}: is a symbolic link; give the real folder path")
+    if replaced:
+        here = Path.cwd().resolve()
+        full = p.expanduser().resolve()
+        if full == here or full in here.parents:
+            raise InputError(f"{option} {path}: is the current folder (or holds it); the "
+                             "output folder is replaced as a unit at the end, which would "
+                             "pull it from under the shell; give a new subfolder, e.g. "
+                             f"{option.split()[0]} out")
     _probe(_nearest_existing(p), option, p)
 
 
 # --------------------------------------------------------------------------------------------
 # cost
-def montecarlo_seconds(scene: Scene) -> float:
-    """Lower bound of the wall time of one Monte Carlo run of the original system: the
-    sampled path-steps plus the pilots' (burn-in "auto" counted at its minimum, 20 time
-    units, the relaxation pilot at 8 windows of 10), at MC_STEPS_PER_CORE on every core."""
+def _montecarlo_least_seconds(scene: Scene) -> float:
+    """Lower bound of the wall time of the sampled path-steps plus the pilots' (burn-in
+    "auto" counted at its minimum, 20 time units, the relaxation pilot at 8 windows of 10),
+    at MC_STEPS_PER_CORE on every core; with a target floor, of the first sampled windows
+    only (half of ``time``: montecarlo.sampling_plan), the least such a run does."""
     from .run import montecarlo_plan
 
     mc = scene.montecarlo
@@ -267,7 +320,14 @@ def montecarlo_seconds(scene: Scene) -> float:
     sampled = mc.time / 2 if mc.floor > 0 else plan["sampled_time"]
     steps = (mc.paths * (burn + sampled) + pilots) / h
     cores = mc.threads or os.cpu_count() or 1
-    seconds = steps / (MC_STEPS_PER_CORE * cores)
+    return steps / (MC_STEPS_PER_CORE * cores)
+
+
+def montecarlo_seconds(scene: Scene) -> float:
+    """Lower bound of the wall time of one Monte Carlo run of the original system (see
+    :func:`_montecarlo_least_seconds`), capped by the budget of a run to a target floor."""
+    mc = scene.montecarlo
+    seconds = _montecarlo_least_seconds(scene)
     if mc.floor > 0 and mc.budget > 0:
         seconds = min(seconds, mc.budget)
     return seconds

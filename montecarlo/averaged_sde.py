@@ -37,6 +37,7 @@ import numpy as np
 from numba import prange
 
 from ._jit import jit
+from .geometry import amplitude_general, potential
 from .rng import normal, states_from_seed, uniform
 from .simulate import CHUNK_SECONDS, Result, _density, _mean_se
 
@@ -149,13 +150,18 @@ def orbit_point(A, w0sq, alpha, khi, s0, s1, s2, s3):
 @jit(parallel=True)
 def run_sde_blocks(states, n_paths, n_burn, n_samples, stride, h, a_tab, b_tab, dA_tab,
                    z0, a_lo, a_inv, hist_A, sums, barrier, w0sq, alpha, khi, x_lo, x_inv, hist_x,
-                   v_lo, v_inv, hist_v):
+                   v_lo, v_inv, hist_v, obs_tab, ow0sq, oalpha, okhi):
     """Per block: histogram of A and sums (A, A^2, samples, reflections) after burn-in.
     a_tab = 2 A m(A) - sigma^2(A), b_tab = sigma(A) on the grid A_j = j dA_tab.
     With hist_x / hist_v, each sample also records a time-uniform point of the orbit of
     amplitude A (x1 = |y|, x2 = y' sgn(y) with the barrier): the averaged model's own
-    phase-space density, p(y, y') = p(E) / T(E)."""
+    phase-space density, p(y, y') = p(E) / T(E).
+    With a non-empty obs_tab (rms fast energy fluctuation on the same grid as a_tab), each
+    sampled A is observed as A' = U^{-1}(U(A) + sd(A) z), z ~ N(0, 1) redrawn while the energy
+    is negative (U(x) = ow0sq x^2 / 2 + oalpha x^4 / 4): the model's observation map applied
+    to samples; A' is then recorded (and its orbit point)."""
     n_blocks = states.shape[0]
+    observe = obs_tab.size > 0
     total = n_burn + n_samples * stride
     sq = math.sqrt(h)
     last = a_tab.size - 1
@@ -187,6 +193,28 @@ def run_sde_blocks(states, n_paths, n_burn, n_samples, stride, h, a_tab, b_tab, 
                 if n < n_burn or (n - n_burn + 1) % stride != 0:
                     continue
                 A = math.sqrt(Z)
+                if observe:
+                    u = A * inv_d
+                    j = int(u)
+                    if j >= last:
+                        sd = obs_tab[last]
+                    else:
+                        w = u - j
+                        sd = (1.0 - w) * obs_tab[j] + w * obs_tab[j + 1]
+                    if okhi is None:
+                        E = 0.5 * ow0sq * A * A + 0.25 * oalpha * A * A * A * A
+                    else:
+                        E = potential(A, ow0sq, oalpha, okhi)
+                    while True:
+                        z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
+                        Eo = E + sd * z
+                        if Eo >= 0.0:
+                            break
+                    if okhi is None:
+                        A = math.sqrt(4.0 * Eo / (ow0sq + math.sqrt(ow0sq * ow0sq
+                                                                     + 4.0 * oalpha * Eo)))
+                    else:  # the amplitude of energy Eo: the orbit through x = 0, v^2/2 = Eo
+                        A = amplitude_general(0.0, math.sqrt(2.0 * Eo), ow0sq, oalpha, okhi)
                 i = int((A - a_lo) * a_inv)
                 if 0 <= i < hist_A.shape[1]:
                     hist_A[b, i] += 1.0
@@ -207,19 +235,35 @@ def run_sde_blocks(states, n_paths, n_burn, n_samples, stride, h, a_tab, b_tab, 
         states[b, 0], states[b, 1], states[b, 2], states[b, 3] = s0, s1, s2, s3
 
 
+def _spring(d: dict[str, Any]) -> tuple[float, float, np.ndarray | None]:
+    """(w0sq, alpha, khi) of the kernels from {"restoring": (k1, k3, ...)} or the paper's
+    {"omega0", "alpha"}; khi = (k5, ...) or None (trailing zeros dropped)."""
+    k = (tuple(float(c) for c in d["restoring"]) if "restoring" in d
+         else (float(d["omega0"]) ** 2, float(d["alpha"])))
+    k = k + (0.0,) * (2 - len(k))
+    while len(k) > 2 and k[-1] == 0.0:
+        k = k[:-1]
+    return k[0], k[1], (np.array(k[2:]) if len(k) > 2 else None)
+
+
 def simulate_sde(drift: Callable[[np.ndarray], np.ndarray],
                  diffusion: Callable[[np.ndarray], np.ndarray], *, edges: np.ndarray,
                  A_table: float | None = None, table_points: int = 4001, paths: int = 1024,
                  blocks: int = 32, dt: float = 0.01, time_: float = 2000.0,
                  burn_in: float | str = "auto", sample_every: float = 0.5,
                  seed: int = 20190102,
-                 A0: float | None = None, phase: dict[str, Any] | None = None) -> Result:
+                 A0: float | None = None, phase: dict[str, Any] | None = None,
+                 observe: dict[str, Any] | None = None) -> Result:
     """Histogram of A for the averaged SDE with batch error bars (blocks are the batches).
 
     phase: optional ``{"restoring" (k1, k3, ...) or "omega0" and "alpha", "barrier",
     "edges_x", "edges_v"}`` to also record
     x1, x2 from time-uniform points of the orbit of each sampled amplitude.
-    burn_in: a time, or "auto": BURN_FACTOR x relaxation_time(drift, diffusion)."""
+    burn_in: a time, or "auto": BURN_FACTOR x relaxation_time(drift, diffusion).
+    observe: optional ``{"sd": callable, "restoring" or "omega0" and "alpha"}``: an
+    observation map on the
+    sampled energy (sd(A) the rms of a normal fluctuation of U(A), truncated at U >= 0), as
+    the model applies to its closed form (averaging.corrected.CorrectedModel.observe)."""
     edges = np.asarray(edges, dtype=float)
     top = float(A_table if A_table is not None else 1.5 * edges[-1])
     tau = None
@@ -234,6 +278,14 @@ def simulate_sde(drift: Callable[[np.ndarray], np.ndarray],
     a_tab = np.concatenate([[2.0 * a_inner[0] - a_inner[1]], a_inner])  # linear extrapolation
     sig = np.sqrt(np.maximum(s2, 0.0))
     b_tab = np.concatenate([[2.0 * sig[0] - sig[1]], sig])
+    if observe is not None:
+        o_sd = np.asarray(observe["sd"](inner), float)
+        obs_tab = np.concatenate([[o_sd[0]], o_sd])
+        obs_geo = _spring(observe)
+        if not np.all(np.isfinite(obs_tab)):
+            raise ValueError("the observation map's sd is not finite on the table")
+    else:
+        obs_tab, obs_geo = np.zeros(0), (1.0, 0.0, None)
     if not (np.all(np.isfinite(a_tab)) and np.all(np.isfinite(b_tab))):
         raise ValueError("drift or diffusion is not finite on the table")
     states = states_from_seed(seed, blocks)
@@ -247,13 +299,7 @@ def simulate_sde(drift: Callable[[np.ndarray], np.ndarray],
     if phase is not None:
         ex = np.asarray(phase["edges_x"], dtype=float)
         ev = np.asarray(phase["edges_v"], dtype=float)
-        k = (tuple(float(c) for c in phase["restoring"]) if "restoring" in phase
-             else (float(phase["omega0"]) ** 2, float(phase["alpha"])))
-        k = k + (0.0,) * (2 - len(k))
-        while len(k) > 2 and k[-1] == 0.0:
-            k = k[:-1]
-        geo = (bool(phase["barrier"]), k[0], k[1],
-               np.array(k[2:]) if len(k) > 2 else None)
+        geo = (bool(phase["barrier"]), *_spring(phase))
         hx, hv = np.zeros((blocks, ex.size - 1)), np.zeros((blocks, ev.size - 1))
     else:
         ex = ev = np.array([0.0, 1.0])
@@ -263,7 +309,8 @@ def simulate_sde(drift: Callable[[np.ndarray], np.ndarray],
     def call(st, n_p, n_b, n_s, stride_, hA, sm, hx_, hv_):
         run_sde_blocks(st, n_p, n_b, n_s, stride_, dt, a_tab, b_tab, grid[1] - grid[0], z0,
                        edges[0], 1.0 / (edges[1] - edges[0]), hA, sm, *geo,
-                       ex[0], 1.0 / (ex[1] - ex[0]), hx_, ev[0], 1.0 / (ev[1] - ev[0]), hv_)
+                       ex[0], 1.0 / (ex[1] - ex[0]), hx_, ev[0], 1.0 / (ev[1] - ev[0]), hv_,
+                       obs_tab, *obs_geo)
 
     t0 = time.perf_counter()
     call(states[:1].copy(), 1, 1, 1, 1, np.zeros((1, edges.size - 1)), np.zeros((1, 4)),

@@ -53,6 +53,11 @@ class SimulationDiverged(RuntimeError):
     The message is one line and names the time step (the usual cause)."""
 
 
+class BudgetExhausted(RuntimeError):
+    """The wall-time budget of a run to a target floor ran out before the first sampling
+    window (in the pilots or the burn-in): there is no sample. The message is one line."""
+
+
 @dataclass(frozen=True, kw_only=True)
 class Settings:
     """Monte Carlo settings: plain numbers, no defaults (the scene's [montecarlo] section
@@ -366,7 +371,8 @@ def sampling_plan(time_: float, sample_every: float, h: float, target: float
 def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> Result:
     """Monte Carlo of the original system for (duck-typed) scene.system and scene.noise.
 
-    Raises ValueError on settings it cannot use and SimulationDiverged when the run blows up.
+    Raises ValueError on settings it cannot use, SimulationDiverged when the run blows up and
+    BudgetExhausted when a target floor's budget ends before the first sampling window.
     """
     st = replace(settings, **overrides)
     obs = tuple(o for o in st.observables if o in OBSERVABLES)
@@ -440,6 +446,11 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
                 step.run(arr, win_steps, n_burn + run_to * win_steps, n_burn, stride, spw,
                          windows)
                 run_to += 1
+            if run_to == 0:  # only a target floor's budget stops a run before its first window
+                raise BudgetExhausted(
+                    f"the budget of {st.budget:g} s ran out before the first sampling window "
+                    f"(the pilots and the burn-in took {time.perf_counter() - t_start:.3g} s): "
+                    "no sample was taken; give a larger budget, or 0 for no limit")
             if "A" in obs:
                 floor = _floor_A(arr)
             if target <= 0:

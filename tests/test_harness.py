@@ -1,4 +1,5 @@
-"""The cross-check: metrics on hand-computed cases, the report end to end on a tiny scene."""
+"""The cross-check: metrics on hand-computed cases, the report end to end on the canned check
+of a tiny scene (tests/conftest.py)."""
 
 from __future__ import annotations
 
@@ -90,7 +91,8 @@ class _Collect(HTMLParser):
             self.imgs.append(dict(attrs)["src"])
 
 
-def test_check_end_to_end(tmp_path: Path, capsys):
+def test_check_end_to_end(tmp_path: Path, capsys, canned_check):
+    """`vifpk check` from the command line to the report folder, on the canned tiny check."""
     out = tmp_path / "rep"
     assert main(["check", TINY, "--out", str(out), "--quiet"]) == 0
     printed = capsys.readouterr().out
@@ -115,7 +117,8 @@ def test_check_end_to_end(tmp_path: Path, capsys):
         assert "mc_original__A__err" in z and "closed_paper__A__p" in z
 
 
-def test_interrupted_report_leaves_no_complete_looking_file(tmp_path: Path, monkeypatch):
+def test_interrupted_report_leaves_no_complete_looking_file(tmp_path: Path, monkeypatch,
+                                                           canned_check):
     from harness import report
 
     def boom(*a, **k):

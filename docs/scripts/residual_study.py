@@ -125,7 +125,8 @@ def wall_offset(m, A, n=200):
     m00, m01, m10, m11 = (Y[:, :, k] for k in (2, 3, 4, 5))
     phi_v = m10[:, :, None] * (-m01[:, None, :]) + m11[:, :, None] * m00[:, None, :]
     phi_x_end = m00[:, -1, None] * (-m01) + m01[:, -1, None] * m00
-    R = (m.D / m.alpha1) * np.exp(-m.alpha1 * np.abs(t[:, :, None] - t[:, None, :]))
+    a1 = m.spectrum.alpha1
+    R = (m.spectrum.D / a1) * np.exp(-a1 * np.abs(t[:, :, None] - t[:, None, :]))
     w = np.ones(n + 1)
     w[0] = w[-1] = 0.5
     K = R * phi_v * np.tril(np.ones((n + 1, n + 1)))[None]
@@ -145,7 +146,7 @@ class WithOffset(CorrectedModel):
 
     def energy_terms(self, A):
         et = super().energy_terms(A)
-        if self.barrier and self.noise_kind == "ou":
+        if self.barrier and self.spectrum.kind == "ou":
             if self not in _TABLES:
                 _TABLES[self] = self._table()
             tab = _TABLES[self]
@@ -164,11 +165,11 @@ _TABLES: dict = {}
 def fast_fluctuation(m, A, p):
     """p_H = p_E convolved with N(0, V(E)), V = sigma_E^2 / (2 alpha1) (first-order corrector
     psi = xi a(phase): its variance (D / alpha1) <a^2> = sigma_E^2 / (2 alpha1))."""
-    if m.noise_kind != "ou":
+    if m.spectrum.kind != "ou":
         return A, p
     E, g = potential(A, m.omega0, m.alpha), restoring(A, m.omega0, m.alpha)
     pE = np.where(g > 0, p / np.maximum(g, 1e-300), 0.0)
-    V = m.sigma2_energy(np.maximum(A, 1e-9)) / (2 * m.alpha1) + 1e-300
+    V = m.sigma2_energy(np.maximum(A, 1e-9)) / (2 * m.spectrum.alpha1) + 1e-300
     K = np.exp(-(E[:, None] - E[None, :]) ** 2 / (2 * V)) / np.sqrt(2 * np.pi * V)
     pA = (K @ (pE * np.gradient(E))) * g
     return A, pA / np.trapezoid(pA, A)

@@ -554,31 +554,75 @@ def shipped_scenes() -> Traversable:
         return Path(__file__).resolve().parents[2] / "scenes"
 
 
+def shipped_name(text: str) -> bool:
+    """True when ``text`` is the name of a shipped scene rather than a path: relative, no
+    ``.toml`` suffix, no ``.``/``..``/``~`` parts ("paper-base", "hard/r-low"). A path is a
+    path: one that does not exist is an error, never a shipped scene of the same name."""
+    parts = text.split("/")
+    return bool(text) and not text.endswith(".toml") and not text.startswith(("/", "~")) \
+        and all(part and not part.startswith(".") for part in parts) and "\\" not in text
+
+
+def shipped_names() -> list[str]:
+    """The names of the shipped scenes (``hard/...`` included; sweeps excluded)."""
+    root = shipped_scenes()
+    out = []
+    for entry in sorted(root.iterdir(), key=lambda e: e.name):
+        if entry.is_file() and entry.name.endswith(".toml"):
+            out.append(entry.name[:-5])
+        elif entry.is_dir() and entry.name == "hard":
+            out += [f"hard/{e.name[:-5]}" for e in sorted(entry.iterdir(), key=lambda e: e.name)
+                    if e.name.endswith(".toml")]
+    return out
+
+
+def find_scene(path: str | Path | Traversable) -> Path | Traversable | None:
+    """The file a scene path or name stands for, as :func:`load_scene` reads it: the path
+    itself when it is a file, else the shipped scene of that bare name (:func:`shipped_name`,
+    in :func:`shipped_scenes`); None when there is none."""
+    p: Path | Traversable = path if isinstance(path, Traversable) else Path(path)
+    if p.is_file():
+        return p
+    text = str(path)
+    if isinstance(path, Traversable) and not isinstance(path, Path) or not shipped_name(text):
+        return None
+    where = shipped_scenes()
+    for part in f"{text}.toml".split("/"):  # one part at a time: a namespace
+        where = where / part                # package's MultiplexedPath takes one
+    return where if where.is_file() else None
+
+
 def load_scene(path: str | Path | Traversable) -> Scene:
-    """Read a scene file, or a shipped scene by name ("paper-base", "hard/r-low") or by the
-    file name of one ("scenes/paper-base.toml" from any directory). Raises
+    """Read a scene file, or a shipped scene by its bare name ("paper-base", "hard/r-low";
+    see :func:`shipped_name`). A path (anything ending in ``.toml``, absolute, or starting
+    with ``.``) must exist: a wrong path is an error, not another scene of that name. Raises
     :class:`SceneError` (one line) on any problem."""
     p: Path | Traversable = path if isinstance(path, Traversable) else Path(path)
-    if p.is_dir():
+    try:
+        is_dir, is_file = p.is_dir(), p.is_file()
+    except OSError as exc:  # e.g. a name longer than the file system allows
+        raise SceneError(f"{str(path)[:80]}: cannot read ({exc.strerror or exc})") from None
+    if is_dir:
         raise SceneError(f"{path}: is a folder; give a scene file (.toml)")
-    if not p.is_file():
-        shipped = shipped_scenes()
-        rel = str(path) if isinstance(path, str | Path) else p.name
-        if Path(rel).suffix == "":
-            where = shipped
-            for part in f"{rel}.toml".split("/"):  # one part at a time: a namespace
-                where = where / part               # package's MultiplexedPath takes one
-            candidates = [where]
-        else:
-            candidates = [shipped / Path(rel).name]
-        found = [c for c in candidates if c.is_file()]
-        if not found:
-            raise SceneError(f"{path}: no such scene file")
-        p = found[0]
+    if not is_file:
+        found = find_scene(path)
+        if found is None:
+            text = str(path)
+            if isinstance(path, Traversable) and not isinstance(path, Path) \
+                    or not shipped_name(text):
+                raise SceneError(f"{path}: no such scene file")
+            names = shipped_names()
+            close = difflib.get_close_matches(text, names, n=1, cutoff=0.6)
+            hint = f"did you mean '{close[0]}'?" if close else "shipped: " + ", ".join(names)
+            raise SceneError(f"{path}: no such scene file or shipped scene; {hint}")
+        p = found
     try:
         raw = tomllib.loads(p.read_text(encoding="utf-8-sig"))  # a UTF-8 BOM is fine
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(f"{p.name}: not valid TOML: {exc}") from None
+    except RecursionError:
+        raise SceneError(f"{p.name}: not valid TOML: arrays or tables nested too deeply"
+                         ) from None
     except (OSError, UnicodeDecodeError) as exc:
         raise SceneError(f"{p.name}: cannot read: {exc}") from None
     return scene_from_dict(raw, source=p.name)
