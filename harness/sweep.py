@@ -232,6 +232,22 @@ def _values(where: str, spec: Any) -> tuple[float, ...]:
     return vals
 
 
+def _base_sets_dt(name: str, sweep_path: Any) -> bool:
+    """Whether the base scene's file (found as _resolve_scene finds it) sets montecarlo.dt."""
+    from vifpk.core.scene import shipped_name
+
+    from .run import file_sets
+
+    if isinstance(sweep_path, Path):
+        if not shipped_name(name):
+            return file_sets(str(sweep_path.parent / Path(name).expanduser()), "montecarlo",
+                             "dt")
+        beside = sweep_path.parent / f"{name}.toml"
+        if beside.is_file():
+            return file_sets(str(beside), "montecarlo", "dt")
+    return file_sets(name, "montecarlo", "dt")
+
+
 def _resolve_scene(name: Any, sweep_path: Any) -> Scene:
     """The sweep's base scene: a path (relative to the sweep file) must exist; a bare name
     is a scene file ``NAME.toml`` beside the sweep file, else the shipped scene of that name."""
@@ -380,6 +396,13 @@ def load_sweep(path: str | Path) -> Sweep:
     if mode == "zip" and len({canonical(c) for c in combos}) != len(combos):
         raise SweepError(f"{src}: [vary]: two zipped points have the same values")
     fixed = dict(fixed_raw)
+    # the time step follows the floor (harness.run.follow_floor) unless the sweep or the
+    # base scene file gives one
+    floor = fixed.get("montecarlo.floor", base.montecarlo.floor)
+    pinned = "montecarlo.dt" in fixed or "montecarlo.dt" in vary_raw or _base_sets_dt(
+        raw["scene"], p)
+    if workflow != "averaging" and floor and not pinned:
+        fixed["montecarlo.dt"] = "auto"
     points = [make_point(base, fixed, seed=seed, workflow=workflow, bifurcation=bif,
                          params=params, first=i == 0, where=src)
               for i, params in enumerate(combos)]
