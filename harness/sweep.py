@@ -73,7 +73,8 @@ RESERVED = {"montecarlo.seed": "set the sweep's seed with the top-level key `see
                                  "point depend on the machine's speed); use montecarlo.floor"}
 #: warnings of the cross-check as flags: variable name -> the warning's kind (check.WARNING_KINDS)
 WARNING_FLAGS = {"warn_narrow_band": "narrow_band", "warn_sticking": "sticking",
-                 "warn_strong_damping": "strong_damping", "warn_strong_noise": "strong_noise"}
+                 "warn_strong_damping": "strong_damping", "warn_strong_noise": "strong_noise",
+                 "warn_correlated_noise": "correlated_noise"}
 EXTRA_HINT = "pip install 'vifpk[cluster]'"
 
 
@@ -587,6 +588,7 @@ def _check_point(job: Job) -> dict[str, Any]:
             "mean_A_simulation_err": mean["err"], "converged": converged,
             "extensions": conv.get("extensions", 0),
             "flags": {**_flags(res.warnings), "warn_not_converged": not converged},
+            "recommended_model": res.metrics["recommended_model"],
             "warnings": res.warnings, "verdicts": res.verdicts}
 
 
@@ -1241,6 +1243,8 @@ def dataset(sweep: Sweep, records: Mapping[str, dict[str, Any]], *,
         for k in ("mean_A_simulation", "mean_A_simulation_err", "L1_paper_exact_A"):
             if k in res:
                 put(k, res[k], pt)
+        if "recommended_model" in res:  # check's recommendation (issue 23): a string per point
+            put("recommended_model", res["recommended_model"], pt, dtype=object, fill="")
         if "extensions" in res:
             put("extensions", res["extensions"], pt, dtype=np.int16, fill=-1)
         if "converged" in res:
