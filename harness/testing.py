@@ -123,8 +123,12 @@ def reference_key(scene: Scene) -> str:
 
 
 def reproduce_command(scene: Scene) -> str:
+    from vifpk.core.scene import shipped_names
+
     st = scene.montecarlo
     where = scene.source or "SCENE.toml"
+    if where.endswith(".toml") and where[:-5] in shipped_names():
+        where = where[:-5]  # a shipped scene by its bare name (a file name is a path)
     def show(v: Any) -> str:  # as --set parses it: TOML booleans, bare words
         return str(v).lower() if isinstance(v, bool) else f"{v}"
 
