@@ -28,6 +28,7 @@ from .run import (
     energy_rates,
     fpk_solution,
     montecarlo_solution,
+    validity,
 )
 
 MODELS = ("paper", "exact", "corrected")
@@ -42,6 +43,7 @@ class CheckResult:
     warnings: list[str]
     verdicts: list[str]
     provenance: dict[str, Any] | None = None  # harness.provenance.collect(); set by the writer
+    recommendation: str = ""  # one line: the model to trust here and why (recommend())
 
 
 class _Stages:
@@ -97,7 +99,14 @@ def mc_edges(closed: dict[str, Any], bins: int) -> dict[str, np.ndarray]:
 #: reworded sentence fails loudly instead of silently clearing a flag elsewhere.
 WARNING_KINDS = {"strong damping:": "strong_damping", "narrow-band noise:": "narrow_band",
                  "sticking-dominated motion:": "sticking", "strong noise:": "strong_noise",
+                 "correlated noise:": "correlated_noise",
                  "the simulation of the original system puts": "outside_range"}
+
+
+#: advisory kinds: the averaging assumptions hold, but the measured O(eps) remainder of the
+#: averaged models is beyond the target there (docs/report.md, "Warnings"); the verdicts stay
+#: estimates and check still recommends a model
+ADVISORY = ("correlated_noise",)
 
 
 def warning_kind(text: str) -> str:
@@ -108,14 +117,16 @@ def warning_kind(text: str) -> str:
     raise ValueError(f"not a warning of harness.check: {text[:60]!r}")
 
 
-def assumption_warnings(scene: Any, closed: dict[str, Any], mc_info: dict[str, Any]
-                        ) -> list[str]:
+def assumption_warnings(scene: Any, closed: dict[str, Any], mc_info: dict[str, Any],
+                        val: dict[str, Any] | None = None) -> list[str]:
     """Sentences naming each averaging assumption that clearly fails for this scene.
 
     Stochastic averaging needs (i) weak damping and weak noise relative to the restoring
     force (quasi-conservative: the energy changes little over one period), (ii) a noise
     correlation time short against the relaxation of the amplitude (wide-band noise), and
-    (iii) motion that oscillates rather than sticks.
+    (iii) motion that oscillates rather than sticks. ``val``: the scene's validity numbers
+    over the bulk of p(E) (run.validity); the narrow-band test uses alpha1 / Omega(E) there
+    (at the mean amplitude without them). Thresholds: docs/report.md, "Warnings".
     """
     n = scene.noise
     out = []
@@ -132,10 +143,25 @@ def assumption_warnings(scene: Any, closed: dict[str, Any], mc_info: dict[str, A
         out.append(f"strong damping: at the mean amplitude {A:.3g} the energy changes by "
                    f"{rate * T:.2f} of itself per period (mostly {main}), so the energy is not "
                    "nearly conserved over one cycle, which averaging assumes")
-    if n.kind == "ou" and n.alpha1 < 0.5 * w:
-        out.append(f"narrow-band noise: bandwidth alpha1 = {n.alpha1:g} is below half the "
-                   f"oscillation frequency ({w:.3g}); the noise is not wide-band against the "
-                   "oscillation, which the Stratonovich-Khasminskii limit requires")
+    band = (val or {}).get("band")
+    if n.kind == "ou" and band is not None and min(band) < BAND_MIN:
+        lo, hi = min(band), max(band)
+        out.append(f"narrow-band noise: bandwidth alpha1 = {n.alpha1:g} is {lo:.2g}-{hi:.2g} x "
+                   "the oscillation frequency over the bulk of p(E) (10%-90% energies), below "
+                   f"{BAND_MIN:g}; the noise is not wide-band against the oscillation, which the "
+                   "Stratonovich-Khasminskii limit requires")
+    elif n.kind == "ou" and band is None and n.alpha1 < BAND_MIN * w:
+        out.append(f"narrow-band noise: bandwidth alpha1 = {n.alpha1:g} is below {BAND_MIN:g} x "
+                   f"the oscillation frequency ({w:.3g}) at the mean amplitude; the noise is not "
+                   "wide-band against the oscillation, which the Stratonovich-Khasminskii limit "
+                   "requires")
+    corr = (val or {}).get("correlation")
+    if corr is not None and corr[1] > CORRELATION_MAX:
+        out.append(f"correlated noise: over one correlation time 1/alpha1 the noise changes the "
+                   f"energy by {100 * math.sqrt(corr[1]):.0f}% (rms) at the median energy "
+                   f"(sigma_E^2 / (alpha1 E^2) = {corr[1]:.3f} > {CORRELATION_MAX:g}); the "
+                   "averaged models' O(D/alpha1) remainder is beyond L1 = 2 x floor there "
+                   "(measured, docs/report.md)")
     stuck = mc_info.get("events", {}).get("stuck_fraction", {}).get("value", 0.0)
     if stuck > 0.1:
         out.append(f"sticking-dominated motion: the mass is stuck {100 * stuck:.0f}% of the time "
@@ -190,7 +216,8 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
             stages(f"Monte Carlo of the {m} averaged SDE")
             sol[f"mc:{m}"] = averaged_sde_solution(
                 scene, m, edges=edges, seed=scene.montecarlo.seed + 1 + i, phase=True,
-                paths=st["paths"], blocks=st["blocks"], dt=st["dt"], time=st["time"],
+                # the SDE's own step, from its relaxation time (montecarlo.averaged_sde)
+                paths=st["paths"], blocks=st["blocks"], dt="auto", time=st["time"],
                 burn_in=run_scene.montecarlo.burn_in, sample_every=st["sample_every"])
         sampling = {m: compare(closed[m].data["A"], sol[f"mc:{m}"].data["A"])
                     for m in MODELS if sde}
@@ -223,7 +250,8 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
     if bad:
         conv["equilibrated"] = False
         conv["reason"] = "; ".join(bad)
-    warnings = assumption_warnings(scene, closed, mc.info)
+    val = validity(scene)
+    warnings = assumption_warnings(scene, closed, mc.info, val)
     outside = mc.info.get("events", {}).get("outside_fraction", {})
     worst = max(outside.values(), default=0.0)
     if worst > 1e-3:
@@ -237,6 +265,10 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
         metrics["models"][m]["verdict_class"] = cls
         metrics["models"][m]["verdict_cause"] = cause
     stages.done()
+    rec_model, rec_line = recommend(metrics, warnings, val, convergence=conv)
+    metrics["recommended_model"] = rec_model
+    metrics["recommendation"] = rec_line
+    metrics["validity"] = val
     metrics["verdicts"] = verdicts
     metrics["warnings"] = warnings
     metrics["monte_carlo"] = {k: mc.info[k] for k in ("settings", "effects", "events", "L1_floor",
@@ -255,7 +287,7 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
         "threads": mc.info.get("threads"),
     }
     return CheckResult(scene=scene, solutions=sol, metrics=metrics, warnings=warnings,
-                       verdicts=verdicts)
+                       verdicts=verdicts, recommendation=rec_line)
 
 
 def output_problems(result: CheckResult) -> list[str]:
@@ -334,8 +366,9 @@ def verdict_class(entry: dict[str, Any], warnings: list[str], *,
     conv = convergence or {}
     if conv.get("equilibrated") is False or entry.get("sampling_ok") is False:
         return "not an estimate", "the Monte Carlo has not converged"
-    if warnings:
-        names = [w.split(":")[0] for w in warnings]
+    failing = [w for w in warnings if warning_kind(w) not in ADVISORY]
+    if failing:
+        names = [w.split(":")[0] for w in failing]
         return "not an estimate", "failing averaging assumptions (" + ", ".join(names) + ")"
     l1, floor = e["L1"], e["L1_floor"]
     # a sweep point runs no FPK (cross_check(fpk=False)): no discretisation part then
@@ -384,3 +417,75 @@ def verdict(model: str, entry: dict[str, Any], warnings: list[str], *,
     else:
         line += f"; dominant cause: {cause}"
     return line
+
+
+# ------------------------------------------------------------------ which model to trust
+#: models check may recommend (``paper`` drops the sgn(y) of the excitation: never)
+RECOMMENDABLE = ("exact", "corrected")
+BAND_MIN = 0.5  # narrow-band warning: alpha1 / Omega(E) below this anywhere in the bulk
+WALL_MAX = 0.2  # corrected trusted only while delta / E <= this at the 10% energy
+CORRELATION_MAX = 0.045  # advisory: sigma_E^2 / (alpha1 E^2) at the median energy
+
+
+def recommend(metrics: dict[str, Any], warnings: list[str], val: dict[str, Any], *,
+              convergence: dict[str, Any] | None = None) -> tuple[str, str]:
+    """(model, one line): the averaged model to trust for this scene and why, or "none".
+
+    Evidence, in order: (1) the Monte Carlo must have converged and no averaging assumption
+    may fail (warnings), else "none"; (2) the measured averaging errors L1(A) of ``exact`` and
+    ``corrected`` against the same simulation: the lower one when they differ by more than
+    the noise floor; (3) within the noise, ``corrected`` (its extra terms are derived) unless
+    its wall-energy term is outside its derivation over the bulk of p(E) (delta / E above
+    WALL_MAX at the 10% energy), then ``exact``; advisory warnings (ADVISORY) do not stop a
+    recommendation but are named in it; (4) a recommended model whose own L1 is
+    not small (>= SMALL_L1) is not trustworthy: "none", naming the best. Thresholds and the
+    curves behind them: docs/report.md, "Warnings" and "Which model to trust".
+    """
+    conv = convergence or {}
+    head = "recommended model: "
+    models = metrics["models"]
+    if conv.get("equilibrated") is False or any(
+            models[m].get("sampling_ok") is False for m in RECOMMENDABLE if m in models):
+        return "none", (head + "none -- the Monte Carlo has not converged, so no model's error "
+                        "is measured here")
+    e = {m: models[m]["averaging_error"]["A"] for m in RECOMMENDABLE if m in models}
+    best = min(e, key=lambda m: e[m]["L1"])
+    desc = ", ".join(f"{m} {e[m]['L1']:.3f}" for m in e)
+    floor = max(x["L1_floor"] for x in e.values())
+    failing = [w for w in warnings if warning_kind(w) not in ADVISORY]
+    advisory = [w for w in warnings if warning_kind(w) in ADVISORY]
+    if failing:
+        kinds = ", ".join(warning_kind(w).replace("_", " ") for w in failing)
+        return "none", (head + f"none -- averaging assumptions fail here ({kinds}); the "
+                        f"measured L1(A) ({desc}, floor {floor:.3f}) is not an approximation "
+                        "error to rely on elsewhere")
+    wall = (val.get("wall") or [0.0])[0]  # at the 10% energy, where delta / E is largest
+    band = val.get("band")
+    why: str
+    if "exact" in e and "corrected" in e and abs(e["corrected"]["L1"] - e["exact"]["L1"]) <= floor:
+        if wall > WALL_MAX:
+            pick = "exact"
+            why = (f"exact and corrected agree within the noise ({desc}, floor {floor:.3f}) and "
+                   f"corrected's energy-at-the-wall term is outside its derivation here (delta/E "
+                   f"= {wall:.2f} at the 10% energy > {WALL_MAX:g}"
+                   + (f"; alpha1/Omega = {min(band):.2f}-{max(band):.2f}" if band else "") + ")")
+        else:
+            pick = "corrected"
+            why = (f"exact and corrected agree within the noise ({desc}, floor {floor:.3f}); "
+                   "corrected keeps the derived O(eps) impact terms")
+    else:
+        pick = best
+        other = [m for m in e if m != best]
+        why = (f"lowest measured L1(A) beyond the noise ({desc}, floor {floor:.3f})"
+               if other else f"the only candidate ({desc})")
+        if pick == "exact" and wall > WALL_MAX:
+            why += (f"; corrected's energy-at-the-wall term is outside its derivation here "
+                    f"(delta/E = {wall:.2f} at the 10% energy > {WALL_MAX:g})")
+    if e[pick]["L1"] >= SMALL_L1:
+        return "none", (head + f"none -- the best model, {pick}, misplaces "
+                        f"{50 * e[pick]['L1']:.0f}% of the probability mass ({desc}, floor "
+                        f"{floor:.3f})")
+    if advisory:
+        why += ("; expect it to miss by more than 2 x the floor: correlated-noise regime "
+                "(see warnings)")
+    return pick, head + f"{pick} -- {why}"

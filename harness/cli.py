@@ -231,8 +231,16 @@ def _mc_overrides(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def _apply_mc_options(scene: Scene, args: argparse.Namespace) -> Scene:
+    from .run import file_sets, follow_floor
+
     mc = _mc_overrides(args)
-    return scene.with_values(mc) if mc else scene
+    scene = scene.with_values(mc) if mc else scene
+    pinned = ("dt" in mc or "montecarlo.dt" in mc
+              or any(_parse_override(o)[0] == "montecarlo.dt" for o in args.set or ())
+              or file_sets(args.scene, "montecarlo", "dt"))
+    return follow_floor(scene, pinned=pinned)
+
+
 
 
 def cmd_check(args: argparse.Namespace) -> int:
@@ -259,6 +267,7 @@ def cmd_check(args: argparse.Namespace) -> int:
         files = write_report(result, out, prov=prov)
     for v in result.verdicts:
         print(v)
+    print(result.recommendation)
     for w in result.warnings:
         print(f"warning: {w}")
     print(f"report: {files['report.html']}")
@@ -611,6 +620,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ArithmeticError as exc:  # overflow, 0 division, numpy errors, FPK coefficients
         print(f"vifpk: numerical failure: {exc}{_first_warning(caught)}; the scene's "
               "magnitudes or the step are most likely too extreme", file=sys.stderr)
+        return EXIT_SOLVER
+    except ValueError as exc:  # past validation: a run that could not go on, never a traceback
+        print(f"vifpk: {exc}{_first_warning(caught)}", file=sys.stderr)
         return EXIT_SOLVER
     except MemoryError:
         print("vifpk: out of memory: a grid, histogram or sample size is too large for this "

@@ -116,13 +116,16 @@ def collect(*, argv: Sequence[str] | None = None, scene_path: str | Path | None 
 
 
 def scene_file(path: str | Path) -> Path | None:
-    """The scene file a path or shipped-scene name resolves to (as ``load_scene`` does)."""
-    p = Path(path)
-    if p.is_file():
-        return p
-    shipped = Path(__file__).resolve().parent.parent / "scenes"
-    c = shipped / (f"{p}.toml" if p.suffix == "" else p.name)
-    return c if c.is_file() else None
+    """The scene file a path or shipped-scene name resolves to, found where ``load_scene``
+    reads it (``vifpk.core.scene.find_scene``: a shipped scene is package data ``harness.scenes``,
+    in a wheel under site-packages/harness/scenes); None when there is none on disk."""
+    from vifpk.core import scene
+
+    found = scene.find_scene(path)
+    if found is None:
+        return None
+    p = Path(str(found))  # importlib.resources gives filesystem paths for installed packages
+    return p if p.is_file() else None
 
 
 def overridden_name(name: str, overrides: Sequence[str]) -> str:

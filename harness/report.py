@@ -296,6 +296,8 @@ def render_markdown(res: CheckResult, figures: dict[str, str]) -> str:
     out += ["", "L1 = ∫|p - q| runs from 0 (identical) to 2 (disjoint). Classes: "
             + "; ".join(_class_legend()) + ".", ""]
     out += [f"- {v}" for v in res.verdicts]
+    if res.recommendation:
+        out += ["", f"**{res.recommendation}**"]
     if res.warnings:
         out += ["", "## Warnings: averaging assumptions that fail here", ""]
         out += [f"- {w}" for w in res.warnings]
@@ -362,6 +364,8 @@ def render_html(res: CheckResult, pngs: dict[str, bytes]) -> str:
     parts.append("<details><summary>The verdict in full</summary><ul>")
     parts += [f"<li>{e(v)}</li>" for v in res.verdicts]
     parts.append("</ul></details>")
+    if res.recommendation:
+        parts.append(f'<p class="recommendation"><b>{e(res.recommendation)}</b></p>')
     if res.warnings:
         parts.append("<h2>Warnings: averaging assumptions that fail here</h2><ul>")
         parts += [f'<li class="warn">{e(w)}</li>' for w in res.warnings]

@@ -91,6 +91,14 @@ def energy_rates(scene: Any, A: float) -> dict[str, float]:
     return rates(scene, A)
 
 
+def validity(scene: Any) -> dict[str, Any]:
+    """How far the scene is from the averaging limits over the bulk of p(E)
+    (``averaging.validity``: band alpha1 / Omega, wall delta / E, noise sigma_E^2 T / E^2)."""
+    from averaging.validity import validity as numbers
+
+    return numbers(scene)
+
+
 # ----------------------------------------------------------------------------- FPK
 def fpk_stationary(drift: Any, diffusion: Any, **options: Any) -> Any:
     """``fpk.stationary`` on any drift m(A) and diffusion sigma^2(A) (cells, method, ...)."""
@@ -168,7 +176,7 @@ def montecarlo_solution(scene: Any, *, progress: bool = True, **edges: Any) -> S
                                    edges=edges)
     try:
         res = montecarlo.simulate(scene.system, scene.noise, settings)
-    except montecarlo.SimulationDiverged as exc:
+    except (montecarlo.SimulationDiverged, montecarlo.BudgetExhausted) as exc:
         raise SolverFailure(str(exc)) from None
     info = dict(res.info)
     mom = info.get("moments", {}).get("A", {}).get("mean")
@@ -204,6 +212,36 @@ def averaged_sde_solution(scene: Any, model: Any, *, edges: dict[str, Any], seed
                         blocks=kw["blocks"], dt=kw["dt"], time_=kw["time"],
                         burn_in=kw["burn_in"], sample_every=kw["sample_every"], seed=seed,
                         phase=extra, observe=observe)
+
+
+def file_sets(path: str, section: str, key: str) -> bool:
+    """Whether the scene file (a path or a shipped name) sets ``[section] key`` itself."""
+    import tomllib
+    from pathlib import Path
+
+    from vifpk.core.scene import find_scene
+
+    p = Path(path)
+    found: Any = p if p.is_file() else find_scene(path)
+    if found is None:
+        return False
+    try:
+        raw = tomllib.loads(found.read_text(encoding="utf-8-sig"))
+    except (OSError, ValueError, RecursionError):
+        return False
+    table = raw.get(section)
+    return isinstance(table, dict) and key in table
+
+
+def follow_floor(scene: Any, *, pinned: bool) -> Any:
+    """The time step follows the floor: when a target floor is asked for (montecarlo.floor >
+    0) and no step was given (``--dt``, ``--set montecarlo.dt=``, the scene file's
+    [montecarlo] dt), dt is "auto" (tuning.auto_dt: the largest step whose predicted bias is
+    half the floor) instead of the fixed default 0.01, which is 4x finer than a floor of 0.01
+    needs. ``pinned``: a step was given; it is kept."""
+    if pinned or not scene.montecarlo.floor or scene.montecarlo.dt == "auto":
+        return scene
+    return scene.with_values({"montecarlo.dt": "auto"})
 
 
 def montecarlo_plan(scene: Any) -> dict[str, Any]:

@@ -73,7 +73,8 @@ RESERVED = {"montecarlo.seed": "set the sweep's seed with the top-level key `see
                                  "point depend on the machine's speed); use montecarlo.floor"}
 #: warnings of the cross-check as flags: variable name -> the warning's kind (check.WARNING_KINDS)
 WARNING_FLAGS = {"warn_narrow_band": "narrow_band", "warn_sticking": "sticking",
-                 "warn_strong_damping": "strong_damping", "warn_strong_noise": "strong_noise"}
+                 "warn_strong_damping": "strong_damping", "warn_strong_noise": "strong_noise",
+                 "warn_correlated_noise": "correlated_noise"}
 EXTRA_HINT = "pip install 'vifpk[cluster]'"
 #: the largest grid a sweep file may ask for (building and validating a point's scene costs
 #: ~0.1 ms; a 1000 x 1000 grid was silent for minutes before any work)
@@ -223,6 +224,22 @@ def _values(where: str, spec: Any) -> tuple[float, ...]:
     if len(set(vals)) != len(vals):
         raise SweepError(f"{where}: a value appears twice")
     return vals
+
+
+def _base_sets_dt(name: str, sweep_path: Any) -> bool:
+    """Whether the base scene's file (found as _resolve_scene finds it) sets montecarlo.dt."""
+    from vifpk.core.scene import shipped_name
+
+    from .run import file_sets
+
+    if isinstance(sweep_path, Path):
+        if not shipped_name(name):
+            return file_sets(str(sweep_path.parent / Path(name).expanduser()), "montecarlo",
+                             "dt")
+        beside = sweep_path.parent / f"{name}.toml"
+        if beside.is_file():
+            return file_sets(str(beside), "montecarlo", "dt")
+    return file_sets(name, "montecarlo", "dt")
 
 
 def _resolve_scene(name: Any, sweep_path: Any) -> Scene:
@@ -378,6 +395,13 @@ def load_sweep(path: str | Path) -> Sweep:
     if mode == "zip" and len({canonical(c) for c in combos}) != len(combos):
         raise SweepError(f"{src}: [vary]: two zipped points have the same values")
     fixed = dict(fixed_raw)
+    # the time step follows the floor (harness.run.follow_floor) unless the sweep or the
+    # base scene file gives one
+    floor = fixed.get("montecarlo.floor", base.montecarlo.floor)
+    pinned = "montecarlo.dt" in fixed or "montecarlo.dt" in vary_raw or _base_sets_dt(
+        raw["scene"], p)
+    if workflow != "averaging" and floor and not pinned:
+        fixed["montecarlo.dt"] = "auto"
     points = [make_point(base, fixed, seed=seed, workflow=workflow, bifurcation=bif,
                          params=params, first=i == 0, where=src)
               for i, params in enumerate(combos)]
@@ -578,6 +602,7 @@ def _check_point(job: Job) -> dict[str, Any]:
             "mean_A_simulation_err": mean["err"], "converged": converged,
             "extensions": conv.get("extensions", 0),
             "flags": {**_flags(res.warnings), "warn_not_converged": not converged},
+            "recommended_model": res.metrics["recommended_model"],
             "warnings": res.warnings, "verdicts": res.verdicts}
 
 
@@ -1261,6 +1286,8 @@ def dataset(sweep: Sweep, records: Mapping[str, dict[str, Any]], *,
         for k in ("mean_A_simulation", "mean_A_simulation_err", "L1_paper_exact_A"):
             if k in res:
                 put(k, res[k], pt)
+        if "recommended_model" in res:  # check's recommendation (issue 23): a string per point
+            put("recommended_model", res["recommended_model"], pt, dtype=object, fill="")
         if "extensions" in res:
             put("extensions", res["extensions"], pt, dtype=np.int16, fill=-1)
         if "converged" in res:

@@ -238,6 +238,13 @@ def montecarlo_settings(scene: Scene, options: Mapping[str, str] | None = None) 
                          f"{_g(plan['sampled_time'])} (whole windows of whole samples every "
                          f"{_g(step)}); nearest valid: {near}")
     refuse_unreachable_floor(scene, options)
+    if mc.floor > 0 and mc.budget > 0:
+        least = _montecarlo_least_seconds(scene)
+        if mc.budget < least:
+            raise InputError(f"{_name('budget', options)} = {_g(mc.budget)} s cannot cover the "
+                             "pilots, the burn-in and the first sampling windows (at least "
+                             f"{least:.2g} s here, a lower bound from their path-steps); "
+                             f"allowed: at least {least:.2g} s, or 0 for no limit")
 
 
 def search_range(vary: str, lo: float, hi: float, field: Any) -> None:
@@ -350,15 +357,13 @@ def output_folder(path: str | None, option: str, *, replaced: bool = False) -> N
 
 # --------------------------------------------------------------------------------------------
 # cost
-def montecarlo_seconds(scene: Scene, *, speed: float | None = None) -> float:
-    """Lower bound of the wall time of one Monte Carlo run of the original system: the
-    sampled path-steps (with a target floor F at least the time its samples need, see the
-    code), the burn-in ("auto" counted at its minimum, 20 time units) and the
-    pilots (the scale pilot, 32 paths x 1200; with burn-in "auto" the relaxation pilot at its
-    shortest, 256 paths x 80), at ``speed`` path-steps per second per core (default
-    MC_STEPS_PER_CORE, faster than any machine measured) on every core the run uses. With a
-    target floor the sampling is counted at half of ``time`` and at most ``budget`` seconds (0:
-    no limit, so a floor run with no budget is counted at its full ``time`` at least)."""
+def _montecarlo_parts(scene: Scene, speed: float | None) -> tuple[float, float, float]:
+    """(seconds of the pilots and the burn-in, of the first sampled windows, of the sampling
+    a target floor needs at least) at ``speed`` path-steps per second per core (default
+    MC_STEPS_PER_CORE, faster than any machine measured) on every core the run uses: burn-in
+    "auto" counted at its minimum (20 time units), the scale pilot at 32 paths x 1200, the
+    relaxation pilot at its shortest (256 paths x 80); with a target floor the first windows
+    are half of ``time`` (montecarlo.sampling_plan), else the sampled time."""
     from .run import montecarlo_plan
 
     mc = scene.montecarlo
@@ -366,14 +371,29 @@ def montecarlo_seconds(scene: Scene, *, speed: float | None = None) -> float:
     h = plan["dt"]
     burn = 20.0 if mc.burn_in == "auto" else float(mc.burn_in)
     pilots = 32 * 1200.0 + (256 * 80.0 if mc.burn_in == "auto" else 0.0)
-    if mc.floor > 0:
-        sampled = max(mc.time / 2, floor_time(scene))
-    else:
-        sampled = plan["sampled_time"]
     cores = mc.threads or min(numba_threads_available(), os.cpu_count() or 1)
-    rate = (speed or MC_STEPS_PER_CORE) * cores
-    fixed = (mc.paths * burn + pilots) / h / rate
-    sampling = mc.paths * sampled / h / rate
+    per_step = 1.0 / h / ((speed or MC_STEPS_PER_CORE) * cores)
+    first = mc.time / 2 if mc.floor > 0 else plan["sampled_time"]
+    needed = floor_time(scene) if mc.floor > 0 else 0.0
+    return ((mc.paths * burn + pilots) * per_step, mc.paths * first * per_step,
+            mc.paths * needed * per_step)
+
+
+def _montecarlo_least_seconds(scene: Scene) -> float:
+    """Lower bound of the least wall time a Monte Carlo run does (the pilots, the burn-in
+    and the first sampled windows; see :func:`_montecarlo_parts`)."""
+    fixed, first, _ = _montecarlo_parts(scene, None)
+    return fixed + first
+
+
+def montecarlo_seconds(scene: Scene, *, speed: float | None = None) -> float:
+    """Lower bound of the wall time of one Monte Carlo run of the original system
+    (:func:`_montecarlo_parts`): with a target floor, the sampling is the larger of the
+    first windows and what the floor needs (:func:`floor_time`), cut at ``budget`` seconds
+    when there is one (0: no limit)."""
+    mc = scene.montecarlo
+    fixed, first, needed = _montecarlo_parts(scene, speed)
+    sampling = max(first, needed)
     if mc.floor > 0 and mc.budget > 0:
         sampling = min(sampling, mc.budget)
     return fixed + sampling

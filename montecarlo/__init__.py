@@ -4,6 +4,7 @@ OU or white noise), and of an averaged 1-D amplitude SDE. Imports no other vifpk
 
 from .simulate import (
                        OBSERVABLES,
+                       BudgetExhausted,
                        Result,
                        Settings,
                        SimulationDiverged,
@@ -14,5 +15,5 @@ from .simulate import (
                        step_size,
 )
 
-__all__ = ["OBSERVABLES", "Result", "Settings", "SimulationDiverged", "block_seeds", "effects",
-           "sampling_plan", "simulate", "step_size"]
+__all__ = ["OBSERVABLES", "BudgetExhausted", "Result", "Settings", "SimulationDiverged",
+           "block_seeds", "effects", "sampling_plan", "simulate", "step_size"]

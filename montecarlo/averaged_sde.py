@@ -42,6 +42,13 @@ from .simulate import CHUNK_SECONDS, Result, _density, _mean_se
 
 ORDER = 1
 BURN_FACTOR = 6.0  # as for the original system (tuning.py): burn-in = 6 x relaxation time
+#: dt = "auto": the largest sample_every / k not above tau / STEPS_PER_TAU. The averaged SDE
+#: lives on the slow time scale of the amplitude (tau ~ 90 on the paper's base scene), not on
+#: the oscillation's, which sets the original system's step. Measured on paper-base
+#: (1024 paths x 2000 time units, two seeds, docs/montecarlo.md): no bias of p(A) against the
+#: closed form of any of the three models at dt = 0.05, 0.1 or 0.25 (L1 0.45-1.3 x its noise
+#: floor of 0.01, as at dt = 0.01); tau / 1000 is 0.09 there, a margin of about 3 in dt.
+STEPS_PER_TAU = 1000.0
 LOG_DEPTH = 60.0  # relaxation_time: cells where pi > e^-60 of its peak
 
 
@@ -200,7 +207,7 @@ def run_sde_blocks(states, n_paths, n_burn, n_samples, stride, h, a_tab, b_tab, 
 def simulate_sde(drift: Callable[[np.ndarray], np.ndarray],
                  diffusion: Callable[[np.ndarray], np.ndarray], *, edges: np.ndarray,
                  A_table: float | None = None, table_points: int = 4001, paths: int = 1024,
-                 blocks: int = 32, dt: float = 0.01, time_: float = 2000.0,
+                 blocks: int = 32, dt: float | str = 0.01, time_: float = 2000.0,
                  burn_in: float | str = "auto", sample_every: float = 0.5,
                  seed: int = 20190102,
                  A0: float | None = None, phase: dict[str, Any] | None = None,
@@ -210,16 +217,24 @@ def simulate_sde(drift: Callable[[np.ndarray], np.ndarray],
     phase: optional ``{"omega0", "alpha", "barrier", "edges_x", "edges_v"}`` to also record
     x1, x2 from time-uniform points of the orbit of each sampled amplitude.
     burn_in: a time, or "auto": BURN_FACTOR x relaxation_time(drift, diffusion).
+    dt: a step, or "auto": the largest sample_every / k not above tau / STEPS_PER_TAU (tau the
+    relaxation time; sample_every / 10 when tau is not finite).
     observe: optional ``{"sd": callable, "omega0", "alpha"}``: an observation map on the
     sampled energy (sd(A) the rms of a normal fluctuation of U(A), truncated at U >= 0), as
     the model applies to its closed form (averaging.corrected.CorrectedModel.observe)."""
     edges = np.asarray(edges, dtype=float)
     top = float(A_table if A_table is not None else 1.5 * edges[-1])
     tau = None
-    if burn_in == "auto":
+    if burn_in == "auto" or dt == "auto":
         tau = relaxation_time(drift, diffusion, top)
+    if burn_in == "auto":
         burn_in = BURN_FACTOR * tau if math.isfinite(tau) else 300.0
     burn_in = float(burn_in)
+    dt_mode = "auto" if dt == "auto" else "fixed"
+    if dt == "auto":
+        target = tau / STEPS_PER_TAU if math.isfinite(tau) else sample_every / 10.0
+        dt = sample_every / math.ceil(sample_every / target * (1 - 1e-12))
+    dt = float(dt)
     grid = np.linspace(0.0, top, table_points)
     inner = grid[1:]
     m, s2 = np.asarray(drift(inner), float), np.asarray(diffusion(inner), float)
@@ -287,7 +302,8 @@ def simulate_sde(drift: Callable[[np.ndarray], np.ndarray],
     info: dict[str, Any] = {
         "solver": "averaged-sde",
         "order": {"weak": ORDER, "note": "exact BESQ(2) part + explicit remainder, Z = A^2"},
-        "settings": {"paths": blocks * per_block, "dt": dt, "time": n_samples * stride * dt,
+        "settings": {"paths": blocks * per_block, "dt": dt, "dt_mode": dt_mode,
+                     "time": n_samples * stride * dt,
                      "burn_in": n_burn * dt, "sample_every": stride * dt, "blocks": blocks,
                      "table_points": table_points, "A_table": top},
         "seed": {"root": seed, "scheme": "numpy.random.SeedSequence(root).spawn(blocks)"},

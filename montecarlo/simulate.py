@@ -53,6 +53,11 @@ class SimulationDiverged(RuntimeError):
     The message is one line and names the time step (the usual cause)."""
 
 
+class BudgetExhausted(RuntimeError):
+    """The wall-time budget of a run to a target floor ran out before the first sampling
+    window (in the pilots or the burn-in): there is no sample. The message is one line."""
+
+
 @dataclass(frozen=True, kw_only=True)
 class Settings:
     """Monte Carlo settings: plain numbers, no defaults (the scene's [montecarlo] section
@@ -336,7 +341,8 @@ def sampling_plan(time_: float, sample_every: float, h: float, target: float
 def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> Result:
     """Monte Carlo of the original system for (duck-typed) scene.system and scene.noise.
 
-    Raises ValueError on settings it cannot use and SimulationDiverged when the run blows up.
+    Raises ValueError on settings it cannot use, SimulationDiverged when the run blows up and
+    BudgetExhausted when a target floor's budget ends before the first sampling window.
     """
     st = replace(settings, **overrides)
     obs = tuple(o for o in st.observables if o in OBSERVABLES)
@@ -348,7 +354,6 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
     if not (math.isfinite(h) and h > 0 and st.paths >= st.blocks >= 2):
         raise ValueError("need dt > 0 and paths >= blocks >= 2")
     t_start = time.perf_counter()
-    deadline = t_start + st.budget if st.budget and st.budget > 0 else math.inf
     threads = st.threads or numba.config.NUMBA_NUM_THREADS
     numba.set_num_threads(threads)
     stride, spw, n_win = sampling_plan(st.time, st.sample_every, h, target)
@@ -363,6 +368,10 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
                              "edges_v": np.linspace(-1, 1, 3)}, obs)
     _kernel(tiny, phys, h, 2, 0, 1, 1, 1, np.zeros((1, 1, 1)) if st.certificate else None)
     compile_s = time.perf_counter() - t0
+    # the budget counts the run (pilots, burn-in, windows), not numba's one-off compile: a cold
+    # cache would otherwise eat a small budget before any physics ran
+    t_run = time.perf_counter()
+    deadline = t_run + st.budget if st.budget and st.budget > 0 else math.inf
 
     bar = _progress(st.progress)
     step = _Stepper(phys, h, threads, bar)
@@ -416,6 +425,11 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
                 step.run(arr, win_steps, n_burn + run_to * win_steps, n_burn, stride, spw,
                          windows)
                 run_to += 1
+            if run_to == 0:  # only a target floor's budget stops a run before its first window
+                raise BudgetExhausted(
+                    f"the budget of {st.budget:g} s ran out before the first sampling window "
+                    f"(the pilots and the burn-in took {time.perf_counter() - t_run:.3g} s): "
+                    "no sample was taken; give a larger budget, or 0 for no limit")
             if "A" in obs:
                 floor = _floor_A(arr)
             if target <= 0:

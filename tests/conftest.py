@@ -5,10 +5,15 @@ In the style of py-pde's conftest: every test runs with numpy floating-point err
 fails the test where it is made instead of travelling into a density. A test that expects them
 says so with ``@pytest.mark.numpy_errors_ok`` (with the reason in its docstring). Matplotlib
 figures left open by a test are closed after it.
+
+The fast tier tests output writing, interruption, rendering and sweeps on canned input: one
+cross-check of the tiny scene (``tiny_check``, tests/data/tiny.toml: small, not physics) is
+computed once a session, and ``canned_check`` makes every ``cross_check`` return it.
 """
 
 from __future__ import annotations
 
+import copy
 import sys
 from dataclasses import replace
 from pathlib import Path
@@ -19,6 +24,11 @@ import pytest
 from vifpk.core.scene import Scene, load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
+TINY = ROOT / "tests" / "data" / "tiny.toml"
+# The canned check is not extended: check doubles a run the evidence calls too short only
+# while three times the time spent fits montecarlo.budget (harness/check.py), so a budget of
+# 1 ms stops it on any machine (with floor = 0 the budget bounds nothing else).
+TINY_CHECK_SET = ["montecarlo.budget=0.001"]
 
 
 @pytest.fixture(autouse=True)
@@ -35,6 +45,43 @@ def _numpy_errors_raise_and_figures_close(request: pytest.FixtureRequest):
 @pytest.fixture(scope="session")
 def base() -> Scene:
     return load_scene(ROOT / "scenes" / "paper-base.toml")
+
+
+@pytest.fixture(scope="session")
+def tiny_check():
+    """One cross-check (harness.check.cross_check) of the tiny scene, computed once a session:
+    the canned input of the tests of writing, interruption, rendering and sweeps."""
+    from harness.check import cross_check
+    from harness.cli import concrete_scene
+
+    return cross_check(concrete_scene(str(TINY), TINY_CHECK_SET), quiet=True)
+
+
+@pytest.fixture
+def canned_check(tiny_check, monkeypatch):
+    """``harness.check.cross_check`` replaced by the tiny check, its scene swapped for the one
+    asked (so titles, folders and sweep coordinates follow the request); ``sde=False`` drops
+    the averaged SDEs' runs as cross_check does. Commands that check then write, interrupt and
+    render without computing. Returns the canned result."""
+    import harness.check
+
+    def canned(scene, *, quiet=False, fpk=True, sde=True, tail_mass=True):
+        res = replace(tiny_check, scene=scene, metrics=copy.deepcopy(tiny_check.metrics))
+        if not fpk or not sde:
+            drop = ([f"fpk:{m}" for m in harness.check.MODELS] if not fpk else []) + \
+                   ([f"mc:{m}" for m in harness.check.MODELS] if not sde else [])
+            res = replace(res, solutions={k: v for k, v in res.solutions.items()
+                                          if k not in drop})
+            for entry in res.metrics["models"].values():
+                if not fpk:
+                    entry.pop("discretisation_error", None)
+                if not sde:
+                    entry.pop("sampling_error", None)
+                    entry["sampling_ok"] = None
+        return res
+
+    monkeypatch.setattr(harness.check, "cross_check", canned)
+    return tiny_check
 
 
 def vary(scene: Scene, **kw: float | str | bool) -> Scene:

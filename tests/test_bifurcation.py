@@ -41,6 +41,7 @@ def test_paper_model_reproduces_the_papers_critical_r(base):
     assert critical_value(base, "paper", "r", 0.9, 1.0) == pytest.approx(0.968, abs=5e-4)
 
 
+@pytest.mark.slow
 def test_mc_shape_sees_crater_and_peak(base):
     small = {"montecarlo.paths": 128, "montecarlo.blocks": 16, "montecarlo.time": 400.0}
     crater = mc_shape(with_param(base, "r", 0.995).with_values(small))

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import subprocess
 import sys
 from pathlib import Path
@@ -110,3 +111,53 @@ def test_fpk_json(tmp_path: Path):
     # the summary's mean was computed from the same arrays before writing: the round trip
     # keeps it to rounding (json floats are exact; 1e-12 covers the re-summation)
     assert np.trapezoid(x * p, x) == pytest.approx(d["info"]["summary"]["mean"], rel=1e-12)
+
+
+def test_budget_too_small_for_the_pilots_is_refused_up_front(capsys):
+    """Issue 19 bug 1: the pilots and the first sampling windows cannot fit in 0.01 s (their
+    path-steps at the cost estimate's rate, a lower bound of the wall time): exit 2 naming
+    --budget, before any computation (it used to run the pilots and die with a ValueError)."""
+    code = main(["solve", BASE, "--solver", "montecarlo", "--floor", "1e-4", "--budget",
+                 "0.01"])
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert "--budget (montecarlo.budget) = 0.01" in err and "or 0 for no limit" in err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+
+
+def test_budget_spent_before_the_first_window_exits_3_with_one_line(monkeypatch, capsys):
+    """A budget above the up-front lower bound that still runs out in the pilots (here the
+    bound is disabled by an infinite assumed speed): exit 3, one line, no file written."""
+    from harness import validate
+
+    monkeypatch.setattr(validate, "MC_STEPS_PER_CORE", math.inf)
+    code = main(["solve", BASE, "--solver", "montecarlo", "--paths", "32", "--floor", "1e-4",
+                 "--budget", "1e-6", "--set", "montecarlo.burn_in=20"])
+    err = capsys.readouterr().err
+    assert code == 3, err
+    err = err[err.find("vifpk: "):]  # after the progress bar, when it showed (a slow pilot)
+    assert err.startswith("vifpk: the budget of 1e-06 s ran out before the first sampling "
+                          "window")
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+
+
+def test_a_value_error_inside_a_run_is_one_line_exit_3(monkeypatch, capsys):
+    """cli.main lets no ValueError out as a traceback (issue 19): one line, exit 3."""
+    import harness.cli as cli
+
+    def boom(args):
+        raise ValueError("no sample was taken: time must be at least sample_every")
+
+    parser = cli.build_parser
+    monkeypatch.setattr(cli, "build_parser", lambda: _with_func(parser(), boom))
+    code = main(["solve", BASE])
+    err = capsys.readouterr().err
+    assert code == 3, err
+    assert err.strip() == "vifpk: no sample was taken: time must be at least sample_every"
+
+
+def _with_func(parser, func):
+    for action in parser._subparsers._group_actions:
+        for sub in action.choices.values():
+            sub.set_defaults(func=func)
+    return parser

@@ -29,6 +29,7 @@ def test_marked_blocks_are_what_the_recorded_run_renders():
     assert _script().stale(_recorded()) == []
 
 
+@pytest.mark.slow
 def test_readme_headline_numbers_agree_with_a_fresh_small_run():
     """The README's L1(A) of both models (2 decimals) against a fresh run with 256 paths x 500
     time units. Tolerance: each measured L1 is within its noise of the true one (triangle

@@ -61,6 +61,7 @@ def test_stepping_reaches_the_direct_solution_and_conserves_mass():
     assert d["min"] > 0
 
 
+@pytest.mark.slow
 def test_explicit_stepper_agrees():
     res = fpk.stationary(rayleigh_m, rayleigh_s2, cells=100, method="stepping",
                          stepper="explicit", rtol=1e-7, steady=1e-7)
@@ -149,6 +150,7 @@ def test_base_scene_paper_model_order_and_default_accuracy(base):
     assert errs[2] <= 1e-4  # the default grid (400 cells): the bound
 
 
+@pytest.mark.slow
 def test_base_scene_exact_model_default_accuracy(base):
     res = run_solver(base, "fpk", model="exact")
     x = res.data["A"]["x"][1:-1]
@@ -158,6 +160,7 @@ def test_base_scene_exact_model_default_accuracy(base):
     assert res.info["diagnostics"]["worst_mass_drift"] < 1e-10
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("params", [dict(D=1e-5), dict(r=1.0), dict(mu=0.1), dict(alpha1=50.0),
                                     dict(alpha=10.0), dict(D=1e-5, c1=0.1)])
 @pytest.mark.parametrize("model", ["paper", "exact"])

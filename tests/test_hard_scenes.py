@@ -74,6 +74,7 @@ def test_sticking_is_reported_from_the_simulation():
         warning_kind("sticky motion: reworded")
 
 
+@pytest.mark.slow
 def test_unconverged_simulation_is_reported():
     """Too short a burn-in at D = 1e-5: check's own evidence (the certificate, the averaged-SDE
     runs against their closed forms) sees it. With a budget it extends the Monte Carlo until the
@@ -98,6 +99,7 @@ def test_no_noise_scene_is_a_clear_message(tmp_path: Path, capsys):
     assert "no stationary density" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["alpha1-narrow", "r-low", "D-tiny"])
 def test_hard_scene_cross_check_small(name):
     scene = load_scene(ROOT / "scenes" / "hard" / f"{name}.toml")

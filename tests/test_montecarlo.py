@@ -125,6 +125,7 @@ def test_chatter_guard_rests_the_mass():
 
 
 # ------------------------------------------------------------------------------- exact densities
+@pytest.mark.slow
 @pytest.mark.parametrize("barrier", [False, True])
 def test_gibbs_density_white_noise_linear_damping(base, barrier):
     """c2 = 0, c1 = -c < 0, mu = 0, white noise: p(x, v) ~ exp(-c H / (D f^2)); with an elastic
@@ -155,6 +156,7 @@ def test_gibbs_density_white_noise_linear_damping(base, barrier):
         assert rate["err"] < 2e-3 * rice  # the test resolves the rate to 0.2%
 
 
+@pytest.mark.slow
 def test_atom_at_rest_is_the_stuck_fraction(base):
     """mu = 0.05: the mass is at rest ~30% of the time. The share of samples at v = 0 (the atom
     of p(x2)) and the time-integrated stuck fraction are two estimators of the same number:
@@ -210,6 +212,7 @@ def fitted_order(dts, bias):
     return float(slope), float(math.sqrt(cov[0, 0]))
 
 
+@pytest.mark.slow
 def test_weak_order_on_the_smooth_subsystem(base):
     """Linear oscillator (alpha = 0, c2 = 0, no barrier, no friction) under OU noise:
     E[v^2] = f^2 int w^2 |H|^2 S dw exactly. The bias of the splitting falls at the declared
@@ -232,6 +235,7 @@ def test_weak_order_on_the_smooth_subsystem(base):
     assert abs(slope - K.WEAK_ORDER_SMOOTH) < 4 * se + 0.15, (slope, se, bias)
 
 
+@pytest.mark.slow
 def test_weak_order_across_impacts_and_sticking(base):
     """With impacts (r = 0.8) and stick-slip (mu = 0.05) the exact stationary power balance
     input = damping + friction + impact losses has residual 0; the scheme's residual is its
@@ -255,6 +259,7 @@ def test_weak_order_across_impacts_and_sticking(base):
         slope, se, res)
 
 
+@pytest.mark.slow
 def test_weak_order_of_the_averaged_sde():
     """Rayleigh case m = -A + 1/(2A), sigma^2 = 1: p(A) = 2A exp(-A^2), E[A] = sqrt(pi)/2.
     The bias of E[A] falls at the declared order averaged_sde.ORDER = 1 (tolerance: 4
@@ -275,6 +280,7 @@ def test_weak_order_of_the_averaged_sde():
     assert abs(slope - averaged_sde.ORDER) < 4 * se + 0.2, (slope, se, bias)
 
 
+@pytest.mark.slow
 def test_energy_balance_ou_noise(base):
     """Exact in stationarity for the original system with OU noise:
     E[f xi v] = E[(c2 x^2 - c1) v^2] + mu E|v| + (1 - r^2) E[v^2/2 per impact] x rate.
@@ -290,6 +296,7 @@ def test_energy_balance_ou_noise(base):
     assert en["residual"]["err"] < 1e-3 * en["input"]["value"]  # a sharp test
 
 
+@pytest.mark.slow
 def test_energy_balance_white_noise(base):
     """White noise: the input is exactly f^2 D (Ito). The measured losses (damping + friction
     + impacts, r = 0.8, mu = 0.05) match it within 4 batch errors plus the scheme's bias,
@@ -304,6 +311,7 @@ def test_energy_balance_white_noise(base):
         assert en[term]["value"] > 20 * en[term]["err"], (term, en[term])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("params", [dict(r=0.5), dict(mu=0.1), dict(D=1e-5), dict(alpha1=50.0),
                                     dict(r=0.3, mu=0.2), dict(kind="white", r=0.5)])
 def test_hard_cases_keep_the_energy_balance(base, params):
@@ -331,6 +339,7 @@ def test_chatter_is_reported(base):
 
 
 # ------------------------------------------------------------------------------- averaged SDE
+@pytest.mark.slow
 def test_averaged_sde_rayleigh():
     """m = -aA + s/(2A), sigma^2 = s: p = (2a/s) A exp(-a A^2/s). Euler-Maruyama on Z = A^2
     is weak order 1; at dt = 0.01 its bias is far below the batch error."""
@@ -409,6 +418,7 @@ def test_blow_up_raises_naming_the_time_step(base):
         run(base, paths=32, blocks=16, dt=2.0, time=100, burn_in=10.0, edges=FIXED)
 
 
+@pytest.mark.slow
 def test_numpy_reference_is_the_same_scheme(base):
     """The benchmark's NumPy implementation must simulate the same scheme: stuck fraction and
     impact rate agree within 4 combined batch standard errors (friction-heavy scene)."""
@@ -436,6 +446,7 @@ def long_relaxation(base):
                 D=base.noise.D / 4)
 
 
+@pytest.mark.slow
 def test_certificate_fails_with_its_reason_when_burn_in_is_far_too_short(base):
     sc = long_relaxation(base)
     res = run(sc, paths=256, blocks=16, time=1000, burn_in=50.0, observables=("A", "moments"))
@@ -444,6 +455,7 @@ def test_certificate_fails_with_its_reason_when_burn_in_is_far_too_short(base):
     assert "R-hat" in conv["reason"] and conv["rhat"] > conv["rhat_limit"]
 
 
+@pytest.mark.slow
 def test_auto_burn_in_measures_a_long_relaxation_and_certifies(base):
     """burn_in = "auto" on the long-relaxation scene: the pilot's tau is several times the
     base scene's, the burn-in is BURN_FACTOR tau, and the certificate passes."""
@@ -461,7 +473,7 @@ def test_runs_cut_into_any_chunks_are_bit_identical(base, monkeypatch):
     import sys as _sys
 
     sim = _sys.modules["montecarlo.simulate"]
-    kw = dict(paths=32, blocks=16, time=200, burn_in=50.0, edges=FIXED, seed=5,
+    kw = dict(paths=32, blocks=16, time=50, burn_in=20.0, edges=FIXED, seed=5,
               observables=("A", "x1", "x2", "moments", "events", "energy"))
     one = run(base, **kw)
     monkeypatch.setattr(sim, "CHUNK_SECONDS", 1e-4)  # hundreds of tiny kernel calls
@@ -475,6 +487,7 @@ def test_runs_cut_into_any_chunks_are_bit_identical(base, monkeypatch):
         assert a == b, key
 
 
+@pytest.mark.slow
 def test_floor_is_reached_and_is_the_real_noise(base):
     """--floor F: the run stops with L1 floor <= F. Re-estimated from independent seeds: two
     independent runs differ by E L1 = sqrt(2/pi) sum sqrt(se1^2 + se2^2) w ~ sqrt(2) F (same

@@ -27,3 +27,26 @@ def test_run_ids_differ_within_one_second():
     now = datetime(2026, 11, 23, tzinfo=UTC)
     ids = {provenance.new_run_id(now) for _ in range(50)}
     assert len(ids) == 50  # 6 hex digits: P(a collision among 50) = 50 * 49 / 2 / 16**6 ~ 7e-5
+
+
+def test_scene_file_finds_shipped_scenes_where_load_scene_does(tmp_path, monkeypatch):
+    """Issue 19 bug 3: a shipped scene's file is found where ``load_scene`` reads it (package
+    data ``harness.scenes``, e.g. in a wheel install), not in a ``scenes/`` beside the
+    package. Here the shipped scenes are moved to a folder only the loader knows."""
+    import vifpk.core.scene as scene_mod
+    from vifpk.core.scene import load_scene
+
+    (tmp_path / "hard").mkdir()
+    body = b"name = 'only-here'\n"
+    (tmp_path / "only-here.toml").write_bytes(body)
+    (tmp_path / "hard" / "deep.toml").write_bytes(body)
+    monkeypatch.setattr(scene_mod, "shipped_scenes", lambda: tmp_path)
+    monkeypatch.chdir(tmp_path / "hard")  # no only-here.toml in the working directory
+    for name in ("only-here", "hard/deep"):
+        assert load_scene(name).name == "only-here"
+        found = provenance.scene_file(name)
+        assert found is not None, name
+        assert provenance.collect(scene_path=found)["scene"]["sha256"] == \
+            hashlib.sha256(body).hexdigest()
+    assert provenance.scene_file("nowhere") is None
+    assert provenance.scene_file("only-here.toml") is None  # a path, and not here

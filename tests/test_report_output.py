@@ -1,9 +1,10 @@
 """The check report as written output: one run id in every file, provenance in every output,
 the folder swap under SIGKILL, byte-identical metrics.json for one seed, modes under a umask.
 
-One cross-check of the tiny scene (tests/data/tiny.toml) is computed for the module and
-reused; the kill tests re-write its report in subprocesses that pause at a named moment of
-the writing (``VIFPK_TEST_PAUSE``, harness/outdir.py) and are SIGKILLed there.
+One cross-check of the tiny scene (tests/data/tiny.toml) is computed for the session
+(tests/conftest.py ``tiny_check``) and reused; the kill tests re-write its report in
+subprocesses that pause at a named moment of the writing (``VIFPK_TEST_PAUSE``,
+harness/outdir.py) and are SIGKILLed there. The byte-identical test is in the slow tier.
 """
 
 from __future__ import annotations
@@ -25,9 +26,11 @@ import numpy as np
 import pytest
 
 from harness import provenance
-from harness.cli import concrete_scene, main
+from harness.cli import main
 from harness.io import dumps
 from harness.report import write_report
+
+from .conftest import TINY_CHECK_SET
 
 ROOT = Path(__file__).resolve().parent.parent
 TINY = str(ROOT / "tests" / "data" / "tiny.toml")
@@ -36,11 +39,9 @@ KEYS = {"run_id", "created", "vifpk", "git", "versions", "command", "scene", "ov
 
 
 @pytest.fixture(scope="module")
-def run(tmp_path_factory):
-    from harness.check import cross_check
-
+def run(tmp_path_factory, tiny_check):
     tmp = tmp_path_factory.mktemp("report")
-    res = cross_check(concrete_scene(TINY, []), quiet=True)
+    res = tiny_check
     prov = provenance.collect(argv=["vifpk", "check", TINY], scene_path=TINY)
     write_report(res, tmp / "first", prov=prov)
     (tmp / "res.pickle").write_bytes(pickle.dumps(res))
@@ -90,12 +91,14 @@ def test_timings_and_provenance_are_the_only_machine_dependent_keys(run):
     assert m["timings"]["steps_per_second"]["mc:original"] > 0
 
 
+@pytest.mark.slow  # a second real check in a new process (bit-for-bit reproducibility)
 def test_metrics_byte_identical_across_runs_and_modes_follow_umask(run, tmp_path: Path):
     """A second run of the same scene and seed, in a new process with another thread count and
     umask 027: metrics.json without "timings" and "provenance" is byte-identical."""
     out = tmp_path / "second"
     env = dict(os.environ, PYTHONPATH=str(ROOT), NUMBA_NUM_THREADS="1")
-    subprocess.run([sys.executable, "-m", "harness", "check", TINY, "--out", str(out),
+    sets = [a for s in TINY_CHECK_SET for a in ("--set", s)]  # as the session's check
+    subprocess.run([sys.executable, "-m", "harness", "check", TINY, *sets, "--out", str(out),
                     "--quiet"], env=env, check=True, capture_output=True,
                    preexec_fn=lambda: os.umask(0o027))
     a = (run["dir"] / "metrics.json").read_text()

@@ -129,6 +129,7 @@ def serial_check(tmp_path_factory):
     return out
 
 
+@pytest.mark.slow  # eight real check points (Monte Carlo), serial and on a LocalCluster
 def test_local_cluster_equals_serial_bit_for_bit(serial_check, tmp_path):
     """A real LocalCluster on loopback (2 worker processes, 1 numba thread each) against the
     serial run: every variable identical, NaN for NaN (the check workflow: Monte Carlo with
@@ -148,13 +149,35 @@ def test_local_cluster_equals_serial_bit_for_bit(serial_check, tmp_path):
         assert nc.stat().st_mode & 0o777 == 0o666 & ~umask, oct(nc.stat().st_mode)
 
 
-def test_sde_check_only_at_sampled_points(serial_check):
+@pytest.fixture
+def canned_check_sweep(canned_check, tmp_path):
+    """The 2 x 2 check sweep run serially on the canned tiny check (tests/conftest.py): what
+    the sweep does with each point's result, without computing one."""
+    res = run_sweep(load_sweep(CHECK), tmp_path, executor="serial", quiet=True, report=False)
+    assert len(res.computed) == 4 and not res.failed
+    return tmp_path
+
+
+def test_check_sweep_writes_every_variable_of_every_point(canned_check_sweep):
+    ds = _values(canned_check_sweep / "sweep.nc")
+    assert {"averaging_error_A", "averaging_error_A_err", "L1_floor_A", "mean_A",
+            "mean_A_simulation", "converged", "warn_narrow_band", "warn_sticking",
+            "warn_strong_damping", "warn_strong_noise", "warn_not_converged"} <= set(ds)
+    assert ds.sizes == {"system.r": 2, "system.mu": 2, "model": len(MODELS)}
+    assert (ds["status"] == "ok").all()
+
+
+@pytest.mark.parametrize("source", ["canned", pytest.param("computed", marks=pytest.mark.slow)])
+def test_sde_check_only_at_sampled_points(source, request):
     """The averaged SDEs' Monte Carlo runs at the first point and where the key is divisible by
-    SDE_CHECK_EVERY (chosen by the parameters alone); sampling_ok is -1 elsewhere."""
+    SDE_CHECK_EVERY (chosen by the parameters alone); sampling_ok is -1 elsewhere. On the
+    canned check (fast tier) and on the real serial sweep (slow tier)."""
     from harness.sweep import SDE_CHECK_EVERY
 
+    folder = request.getfixturevalue("canned_check_sweep" if source == "canned"
+                                     else "serial_check")
     sweep = load_sweep(CHECK)
-    ds = _values(serial_check / "sweep.nc")
+    ds = _values(folder / "sweep.nc")
     assert sweep.points[0].sde
     for pt in sweep.points:
         assert pt.sde == (pt is sweep.points[0] or int(pt.key, 16) % SDE_CHECK_EVERY == 0)
@@ -192,6 +215,7 @@ def test_interrupted_sweep_resumes_with_only_the_rest(tmp_path):
     assert again.computed == () and again.skipped == len(sweep.points)
 
 
+@pytest.mark.slow  # a real dask LocalCluster: two worker processes import the whole stack
 def test_killed_dask_worker_loses_and_duplicates_no_point(tmp_path):
     """SIGKILL one of two workers while it runs a point: dask reschedules it; every point is
     computed and recorded exactly once."""

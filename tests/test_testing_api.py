@@ -74,6 +74,7 @@ def test_averaging_error_pass_fail_and_message():
     assert "(from cache)" in msg  # the second assertion reused the reference
 
 
+@pytest.mark.slow
 def test_user_model_protocol():
     import averaging
 
@@ -103,21 +104,23 @@ def test_cache_is_hit_and_refreshed(pytester):
         from harness.testing import cache_stats
 
         def test_ref(vifpk_scene, vifpk_reference):
-            ref = vifpk_reference(vifpk_scene("paper-base"), paths=64, time=100.0, blocks=16)
+            ref = vifpk_reference(vifpk_scene("paper-base"), paths=32, time=20.0, blocks=16)
             print("CACHED", ref.cached)
             assert ref.data["A"]["p"].size > 0
     """)
     cache = pytester.path / "cache"
-    first = pytester.runpytest_subprocess("-s", "--vifpk-cache", str(cache))
+    # in-process (the plugin's options and fixtures are the same; the kernels stay compiled)
+    first = pytester.runpytest_inprocess("-s", "--vifpk-cache", str(cache))
     first.assert_outcomes(passed=1)
     assert "CACHED False" in first.stdout.str()
-    second = pytester.runpytest_subprocess("-s", "--vifpk-cache", str(cache))
+    second = pytester.runpytest_inprocess("-s", "--vifpk-cache", str(cache))
     assert "CACHED True" in second.stdout.str()
-    third = pytester.runpytest_subprocess("-s", "--vifpk-cache", str(cache), "--vifpk-refresh")
+    third = pytester.runpytest_inprocess("-s", "--vifpk-cache", str(cache), "--vifpk-refresh")
     assert "CACHED False" in third.stdout.str()
     assert len(list(cache.glob("*.npz"))) == 1
 
 
+@pytest.mark.slow
 def test_example_runs(tmp_path):
     example = tmp_path / "test_my_model.py"
     shutil.copy(ROOT / "docs" / "examples" / "test_my_model.py", example)
@@ -128,19 +131,29 @@ def test_example_runs(tmp_path):
     assert "2 passed" in res.stdout and "reproduce: vifpk solve" in res.stdout
 
 
-def test_reproduce_command_gives_the_same_reference(tmp_path):
-    """The command printed in a failure message rebuilds the reference bit for bit."""
+@pytest.mark.parametrize("dt", ["scene", "auto"])
+def test_reproduce_command_gives_the_same_reference(tmp_path, dt):
+    """The command printed in a failure message rebuilds the reference bit for bit: run here
+    in-process (harness.cli.main), with the scene's dt and with ``dt = "auto"``. Issue 19
+    bug 2: with "auto" the command used to crash formatting dt with ``:g`` (after the Monte
+    Carlo had run); it must say ``--dt auto``."""
     import json
     import shlex
 
-    scene = testing._scene("paper-base").with_values(
-        {"noise.kind": "white", "montecarlo.paths": 32, "montecarlo.time": 20.0,
-         "montecarlo.blocks": 16})
-    ref = testing.mc_reference(scene)
+    from harness.cli import main
+
+    values = {"noise.kind": "white", "montecarlo.paths": 32, "montecarlo.time": 20.0,
+              "montecarlo.blocks": 16}
+    if dt == "auto":
+        values["montecarlo.dt"] = "auto"
+    ref = testing.mc_reference(testing._scene("paper-base").with_values(values))
+    if dt == "auto":
+        assert " --dt auto " in ref.info["command"]
     out = tmp_path / "ref.json"
-    cmd = ref.info["command"].replace("vifpk ", "", 1).replace("reference.json", str(out))
-    res = subprocess.run([sys.executable, "-m", "harness", *shlex.split(cmd)], cwd=tmp_path,
-                         capture_output=True, text=True, timeout=300)
-    assert res.returncode == 0, res.stderr
-    got = np.array(json.loads(out.read_text())["pdf"]["A"]["p"])
-    assert np.array_equal(got, ref.data["A"]["p"])
+    cmd = ref.info["command"].replace("reference.json", str(out))
+    assert cmd.startswith("vifpk solve ")
+    assert main(shlex.split(cmd)[1:]) == 0
+    got = json.loads(out.read_text())
+    assert got["info"]["settings"]["dt"] == ref.info["settings"]["dt"]
+    for key in ("A", "x1", "x2"):
+        assert np.array_equal(np.array(got["pdf"][key]["p"]), ref.data[key]["p"])

@@ -1,9 +1,11 @@
 """The wheel ships what it needs: build it, install it into a fresh virtual environment, and
 run the shipped scenes from an empty directory (issue 12.3).
 
-The venv sees the system's site-packages (numpy, numba, py-pde, ... are not reinstalled), but
-vifpk itself must come from the wheel: the test checks where ``harness`` is imported from and
-runs with no PYTHONPATH, from a directory with no scenes/ in it.
+The venv sees the site-packages of the interpreter running the tests (numpy, numba, py-pde,
+... are not reinstalled): a ``.pth`` file lists them, because ``system_site_packages`` would
+show the base interpreter's instead, which inside a virtualenv lacks them. vifpk itself must
+come from the wheel: the test checks where ``harness`` is imported from and runs with no
+PYTHONPATH, from a directory with no scenes/ in it.
 """
 
 from __future__ import annotations
@@ -35,15 +37,34 @@ def installed(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
                     str(src)], check=True, timeout=600)
     (wheel,) = dist.glob("vifpk-*.whl")
     env_dir = tmp / "venv"
-    venv.create(env_dir, system_site_packages=True, with_pip=True)
+    venv.create(env_dir, system_site_packages=False, with_pip=True)
     bin_dir = env_dir / ("Scripts" if os.name == "nt" else "bin")
     py = bin_dir / "python"
+    _see_running_packages(py)
     subprocess.run([str(py), "-m", "pip", "install", "-q", "--no-deps", "--force-reinstall",
                     str(wheel)], check=True, timeout=600, env=_env(bin_dir))
     empty = tmp / "empty"
     empty.mkdir()
     return {"python": py, "vifpk": bin_dir / "vifpk", "bin": bin_dir, "cwd": empty,
             "venv": env_dir}
+
+
+def running_site_dirs() -> list[str]:
+    """The site-packages folders of the interpreter running the tests, in its order: those of
+    its own prefix (a virtualenv's), of its base when the venv includes them, the user's, and
+    any a ``.pth`` added; never the repository (the sources must not shadow the wheel)."""
+    dirs = [p for p in sys.path if Path(p).name in ("site-packages", "dist-packages")]
+    root = ROOT.resolve()
+    return [p for p in dict.fromkeys(dirs)
+            if Path(p).is_dir() and not Path(p).resolve().is_relative_to(root)]
+
+
+def _see_running_packages(py: Path) -> None:
+    """Append the running interpreter's site folders to the new venv's sys.path (a .pth file
+    in the venv's own site-packages, so the wheel installed there comes first)."""
+    site = subprocess.run([str(py), "-c", "import sysconfig; print(sysconfig.get_path('purelib'))"],
+                          capture_output=True, text=True, check=True).stdout.strip()
+    (Path(site) / "_vifpk_test_deps.pth").write_text("\n".join(running_site_dirs()) + "\n")
 
 
 def _env(bin_dir: Path) -> dict[str, str]:
@@ -68,6 +89,38 @@ def test_vifpk_comes_from_the_wheel(installed):
     assert Path(where).resolve().is_relative_to(venv_dir), where
     assert Path(scenes).resolve().is_relative_to(venv_dir), scenes
     assert not Path(where).resolve().is_relative_to(ROOT.resolve())
+
+
+def test_the_venv_sees_the_packages_of_the_interpreter_running_the_tests(installed):
+    """Issue 19 bug 4: numba, py-pde, ... come from the interpreter running the tests (a
+    virtualenv, as the README tells users to work), not from the base interpreter behind it."""
+    import numba
+    import pde
+
+    res = run(installed, installed["python"], "-c",
+              "import numba, pde; print(numba.__file__); print(pde.__file__)")
+    assert res.returncode == 0, res.stderr
+    assert [Path(p).resolve() for p in res.stdout.split()] == \
+        [Path(numba.__file__).resolve(), Path(pde.__file__).resolve()]
+
+
+def test_shipped_scenes_carry_their_provenance(installed):
+    """Issue 19 bug 3: a shipped scene read from the wheel's package data is named and hashed
+    in the output's provenance (it used to be ``scene: None``)."""
+    import hashlib
+    import json
+
+    for name in ("paper-base", "hard/r-low"):
+        out = installed["cwd"] / "prov.json"
+        res = run(installed, installed["vifpk"], "solve", name, "--solver", "averaging",
+                  "--json", str(out))
+        assert res.returncode == 0, res.stderr
+        scene = json.loads(out.read_text())["info"]["provenance"]["scene"]
+        assert scene is not None, name
+        assert Path(scene["path"]).resolve().is_relative_to(installed["venv"].resolve())
+        body = (ROOT / "scenes" / f"{name}.toml").read_bytes()
+        assert scene["sha256"] == hashlib.sha256(body).hexdigest()
+        out.unlink()
 
 
 def test_solve_a_shipped_scene_from_an_empty_directory(installed):

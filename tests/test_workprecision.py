@@ -37,6 +37,7 @@ def test_seconds_to_reach_takes_the_cheapest_run():
     assert row["0.01"] == 0.5 and row["0.001"] == 2.0 and math.isnan(row["0.0001"])
 
 
+@pytest.mark.slow
 def test_small_ladder_end_to_end(tmp_path: Path, capsys):
     out = tmp_path / "wp"
     assert main(["workprecision", "paper-base", "--quick", "--repeats", "1", "--out", str(out),

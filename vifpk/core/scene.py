@@ -369,6 +369,22 @@ def shipped_names() -> list[str]:
     return out
 
 
+def find_scene(path: str | Path | Traversable) -> Path | Traversable | None:
+    """The file a scene path or name stands for, as :func:`load_scene` reads it: the path
+    itself when it is a file, else the shipped scene of that bare name (:func:`shipped_name`,
+    in :func:`shipped_scenes`); None when there is none."""
+    p: Path | Traversable = path if isinstance(path, Traversable) else Path(path)
+    if p.is_file():
+        return p
+    text = str(path)
+    if isinstance(path, Traversable) and not isinstance(path, Path) or not shipped_name(text):
+        return None
+    where = shipped_scenes()
+    for part in f"{text}.toml".split("/"):  # one part at a time: a namespace
+        where = where / part                # package's MultiplexedPath takes one
+    return where if where.is_file() else None
+
+
 def load_scene(path: str | Path | Traversable) -> Scene:
     """Read a scene file, or a shipped scene by its bare name ("paper-base", "hard/r-low";
     see :func:`shipped_name`). A path (anything ending in ``.toml``, absolute, or starting
@@ -382,19 +398,17 @@ def load_scene(path: str | Path | Traversable) -> Scene:
     if is_dir:
         raise SceneError(f"{path}: is a folder; give a scene file (.toml)")
     if not is_file:
-        text = str(path)
-        if isinstance(path, Traversable) and not isinstance(path, Path) \
-                or not shipped_name(text):
-            raise SceneError(f"{path}: no such scene file")
-        where = shipped_scenes()
-        for part in f"{text}.toml".split("/"):  # one part at a time: a namespace
-            where = where / part                # package's MultiplexedPath takes one
-        if not where.is_file():
+        found = find_scene(path)
+        if found is None:
+            text = str(path)
+            if isinstance(path, Traversable) and not isinstance(path, Path) \
+                    or not shipped_name(text):
+                raise SceneError(f"{path}: no such scene file")
             names = shipped_names()
             close = difflib.get_close_matches(text, names, n=1, cutoff=0.6)
             hint = f"did you mean '{close[0]}'?" if close else "shipped: " + ", ".join(names)
             raise SceneError(f"{path}: no such scene file or shipped scene; {hint}")
-        p = where
+        p = found
     try:
         raw = tomllib.loads(p.read_text(encoding="utf-8-sig"))  # a UTF-8 BOM is fine
     except tomllib.TOMLDecodeError as exc:
