@@ -191,7 +191,12 @@ def cmd_solve(args: argparse.Namespace) -> int:
                                   ">= 4 (cells of the FPK)")
     validate.output_file(args.json, "--json")
     scene = _checked_scene(args, mc=args.solver == "montecarlo")
-    model = args.model or "paper"
+    # default: the paper's model for the paper's family, else the exact model
+    outside = scene.system.paper_family_problem()
+    model = args.model or ("paper" if outside is None else "exact")
+    if args.solver != "montecarlo" and model == "paper" and outside is not None:
+        raise validate.InputError(f"--model paper: {outside}; allowed here: --model exact "
+                                  "or --model corrected")
     if args.solver == "montecarlo" and args.joint and not scene.observables.joint:
         scene = scene.with_values({"observables.joint": True})
     validate.refuse_costly(lambda sp: validate.solve_seconds(scene, args.solver, model,
@@ -294,9 +299,14 @@ def cmd_bifurcation(args: argparse.Namespace) -> int:
     lo, hi = args.range if args.range else (None, None)
     validate.search_range(args.vary, d_lo if lo is None else lo, d_hi if hi is None else hi,
                           validate.fields_of(section)[key])
+    outside = scene.system.paper_family_problem()
+    if outside is not None and "paper" in (args.model or ()):
+        raise validate.InputError(f"--model paper: {outside}; allowed here: --model exact "
+                                  "or --model corrected")
+    default_models = ("paper", "exact") if outside is None else ("exact",)
     if not args.no_mc:
         # two Monte Carlo checks around each model's critical value (check_points)
-        points = 2 * len(set(args.model or ("paper", "exact")))
+        points = 2 * len(set(args.model or default_models))
         validate.refuse_oversized(scene)
         validate.refuse_costly(lambda sp: points * validate.montecarlo_seconds(scene, speed=sp),
                                "this bifurcation "
@@ -305,7 +315,7 @@ def cmd_bifurcation(args: argparse.Namespace) -> int:
         print(f"searching the critical {args.vary} (shape criterion on each averaged model)"
               + ("; then Monte Carlo on both sides" if not args.no_mc else "") + " ...",
               file=sys.stderr, flush=True)
-    chosen = {"models": tuple(dict.fromkeys(args.model))} if args.model else {}
+    chosen = {"models": tuple(dict.fromkeys(args.model or default_models))}
     res = bifurcation(scene, args.vary, lo=lo, hi=hi, mc=not args.no_mc, **chosen)
     fixed = ", ".join(f"{k} = {v:g}" if isinstance(v, float) else f"{k} = {v}"
                       for k, v in res["fixed"].items())

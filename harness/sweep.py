@@ -53,7 +53,7 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-from vifpk.core.scene import SECTIONS, Scene, SceneError, load_scene
+from vifpk.core.scene import INDEXED, MAX_TERMS, SECTIONS, Scene, SceneError, load_scene
 
 WORKFLOWS = ("check", "averaging", "bifurcation")
 MODES = ("product", "zip", "adaptive")
@@ -175,6 +175,12 @@ def _field_of(where: str, path: str) -> Any:
         raise SweepError(f"{where} {path!r}: unknown key; use section.key with a section in "
                          f"{sorted(SECTIONS)}")
     known = {f.name: f for f in fields(SECTIONS[section])}
+    m = INDEXED.fullmatch(key) if section == "system" else None
+    if m and m.group(1) in known and known[m.group(1)].type.startswith("tuple"):
+        if int(m.group(2)) >= MAX_TERMS:
+            raise SweepError(f"{where} {path!r}: index out of range; allowed: 0 to "
+                             f"{MAX_TERMS - 1}")
+        return _Coefficient()  # one coefficient of a polynomial law: a number
     if key not in known:
         close = difflib.get_close_matches(key, list(known), n=1, cutoff=0.5)
         hint = f"did you mean '{section}.{close[0]}'?" if close else \
@@ -183,6 +189,12 @@ def _field_of(where: str, path: str) -> Any:
     if path in RESERVED:
         raise SweepError(f"{where} {path!r}: not allowed in a sweep; {RESERVED[path]}")
     return known[key]
+
+
+class _Coefficient:
+    """Stands for the field of one coefficient of a law ("system.restoring[2]")."""
+
+    type = "float"
 
 
 def _number(v: Any) -> bool:
@@ -322,7 +334,7 @@ def load_sweep(path: str | Path) -> Sweep:
     vary = []
     for key, spec in vary_raw.items():
         f = _field_of(f"{src}: [vary]", key)
-        if f.type not in ("float", "float | str"):
+        if f.type not in ("float", "float | str", "float | None"):
             raise SweepError(f"{src}: [vary] {key!r}: only numeric parameters can vary")
         vary.append((key, _range(f"{src}: [vary] {key!r}", spec) if mode == "adaptive"
                      else _values(f"{src}: [vary] {key!r}", spec)))
@@ -576,13 +588,13 @@ def _check_point(job: Job) -> dict[str, Any]:
     """The cross-check without the FPK: the averaging error of p(A) of each model."""
     import numpy as np
 
-    from .check import MODELS, cross_check
+    from .check import cross_check
 
     res = cross_check(job.scene, quiet=True, fpk=False, sde=job.sde, tail_mass=False)
     mc = res.solutions["mc:original"]
     conv = res.metrics["monte_carlo"]["convergence"]
     models = {}
-    for m in MODELS:
+    for m in res.metrics["models"]:
         e = res.metrics["models"][m]["averaging_error"]["A"]
         models[m] = {"averaging_error_A": e["L1"], "averaging_error_A_err": e["L1_err"],
                      "L1_floor_A": e["L1_floor"],
@@ -609,12 +621,12 @@ def _check_point(job: Job) -> dict[str, Any]:
 def _averaging_point(job: Job) -> dict[str, Any]:
     """Closed forms of each model (computed once), the L1 between them, the assumption
     warnings that need no simulation (strong damping, narrow band, strong noise)."""
-    from .check import MODELS, assumption_warnings
+    from .check import assumption_warnings, models_of
     from .compare import compare
     from .run import run_solver
     from .validate import finite_result
 
-    closed = {m: run_solver(job.scene, "averaging", model=m) for m in MODELS}
+    closed = {m: run_solver(job.scene, "averaging", model=m) for m in models_of(job.scene)[0]}
     for r in closed.values():  # a point is "ok" only with finite numbers, as `solve` exits 3
         finite_result(r, job.scene)
     warnings = assumption_warnings(job.scene, closed, {})

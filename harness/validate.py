@@ -122,16 +122,33 @@ def duplicate_overrides(overrides: Sequence[str]) -> None:
 def scene_magnitudes(scene: Scene) -> None:
     """Non-zero physical parameters within MAGNITUDE (see the module docstring)."""
     lo, hi = MAGNITUDE
+    for sec, key, v in _physical(scene):
+        if v != 0.0 and not lo <= abs(v) <= hi:
+            if "[" in key:
+                raise InputError(f"{sec}.{key} = {v:g} is out of range; allowed: 0 or "
+                                 f"{lo:g} <= |coefficient| <= {hi:g} (beyond, the model's "
+                                 "coefficients over- or underflow double precision)")
+            zero = fields_of(sec)[key].metadata["check"](0.0) is None  # 0 allowed there?
+            raise InputError(f"{sec}.{key} = {v:g} is out of range; allowed: "
+                             f"{'0 or ' if zero else ''}{lo:g} <= |{key}| <= {hi:g} "
+                             "(beyond, the model's coefficients over- or underflow double "
+                             "precision)")
+
+
+def _physical(scene: Scene) -> list[tuple[str, str, float]]:
+    """(section, key, value) of every physical number the scene gives: the PHYSICAL keys it
+    sets and each coefficient of a law given as a list ("restoring[2]")."""
+    out = []
     for sec, keys in PHYSICAL.items():
         obj = getattr(scene, sec)
         for key in keys:
-            v = float(getattr(obj, key))
-            if v != 0.0 and not lo <= abs(v) <= hi:
-                zero = fields_of(sec)[key].metadata["check"](0.0) is None  # 0 allowed there?
-                raise InputError(f"{sec}.{key} = {v:g} is out of range; allowed: "
-                                 f"{'0 or ' if zero else ''}{lo:g} <= |{key}| <= {hi:g} "
-                                 "(beyond, the model's coefficients over- or underflow double "
-                                 "precision)")
+            v = getattr(obj, key)
+            if v is not None:
+                out.append((sec, key, float(v)))
+    for law in ("restoring", "damping", "velocity_damping"):
+        for i, c in enumerate(getattr(scene.system, law)):
+            out.append(("system", f"{law}[{i}]", float(c)))
+    return out
 
 
 def finite_result(result: Any, scene: Scene) -> None:
@@ -157,11 +174,9 @@ def most_extreme(scene: Scene) -> str:
     """'noise.D = 1e-90 (the scene's most extreme magnitude)': the field to look at first
     when a run fails numerically (farthest from 1 in log10 among the non-zero parameters)."""
     best, name, value = -1.0, "", 0.0
-    for sec, keys in PHYSICAL.items():
-        for key in keys:
-            v = float(getattr(getattr(scene, sec), key))
-            if v != 0.0 and abs(math.log10(abs(v))) > best:
-                best, name, value = abs(math.log10(abs(v))), f"{sec}.{key}", v
+    for sec, key, v in _physical(scene):
+        if v != 0.0 and abs(math.log10(abs(v))) > best:
+            best, name, value = abs(math.log10(abs(v))), f"{sec}.{key}", v
     return f"{name} = {value:g} (the scene's most extreme magnitude)"
 
 
@@ -209,7 +224,7 @@ def montecarlo_settings(scene: Scene, options: Mapping[str, str] | None = None) 
                          f"{_g(mc.sample_every / MAX_STEPS_PER_SAMPLE)}")
     plan = montecarlo_plan(scene)
     h = plan["dt"]
-    w0 = scene.system.omega0
+    w0 = math.sqrt(scene.system.restoring_law[0])  # the small-amplitude frequency
     if h * w0 >= 2.0:
         raise InputError(f"{_name('dt', options)} = {_g(h)} is too large for this scene; "
                          f"allowed: dt < 2 / omega0 = {_g(2.0 / w0)} (the splitting's "
