@@ -1,15 +1,11 @@
 """The three-way cross-check of one scene: how wrong is each averaged model, and why.
 
-For each averaged model M (by default ``paper``, ``exact``, ``corrected``: CHECK_MODELS in
-vifpk.core.defaults; any registered model by name) on the observables A, x1, x2:
+For each averaged model M (``paper``, ``exact``, ``corrected``) on the observables A, x1, x2:
 
     discretisation_error  FPK(M) against the closed form of M         (numerics of the FPK)
     sampling_error        MC of M's averaged SDE against M's closed form (MC noise + bias)
     averaging_error       MC of the ORIGINAL system against M's closed form (the answer)
 
-A model with no closed form (a plugin giving only drift and diffusion) has the FPK direct solve
-as its reference density (harness.run.closed_form), so its discretisation error is not
-computed (there is no independent closed form to measure the FPK against).
 Every metric against an MC histogram carries its noise floor and error bar (compare.py).
 All Monte Carlo runs share histogram edges (chosen from the closed forms' supports, so that
 the comparisons are bin by bin); the MC of the original system stays physically independent.
@@ -35,9 +31,22 @@ from .run import (
     energy_rates,
     fpk_solution,
     montecarlo_solution,
+    validity,
 )
 
 OBSERVABLES = ("A", "x1", "x2")
+
+
+def models_of(scene: Any, models: tuple[str, ...] = CHECK_MODELS
+              ) -> tuple[tuple[str, ...], dict[str, str]]:
+    """Of ``models`` (registered names; default CHECK_MODELS), the ones that apply to the
+    scene's system, and why each other one does not: the paper's model covers only its own
+    family (System.paper_family_problem)."""
+    models = tuple(dict.fromkeys(models))
+    problem = scene.system.paper_family_problem()
+    if problem is None or "paper" not in models:
+        return models, {}
+    return tuple(m for m in models if m != "paper"), {"paper": problem}
 
 
 @dataclass(frozen=True)
@@ -48,6 +57,7 @@ class CheckResult:
     warnings: list[WarningRecord]
     verdicts: list[str]
     provenance: dict[str, Any] | None = None  # harness.provenance.collect(); set by the writer
+    recommendation: str = ""  # one line: the model to trust here and why (recommend())
     models: tuple[str, ...] = CHECK_MODELS  # the averaged models checked, in report order
 
 
@@ -99,24 +109,32 @@ def mc_edges(closed: dict[str, Any], bins: int) -> dict[str, np.ndarray]:
             "edges_v": np.linspace(-1.1 * v_max, 1.1 * v_max, bins + 1)}
 
 
-#: The kinds of warning check writes (WarningRecord.kind): code acts on these (the sweep's
-#: flags), people read the text.
-WARNING_KINDS = ("strong_damping", "narrow_band", "sticking", "strong_noise", "outside_range")
+#: The kinds of warning check writes (WarningRecord.kind): code acts on the kind (the
+#: sweep's flags, advisory or not), people read the text.
+WARNING_KINDS = ("strong_damping", "narrow_band", "sticking", "strong_noise", "correlated_noise",
+                 "outside_range")
 
 
-def assumption_warnings(scene: Any, closed: dict[str, Any], mc_info: dict[str, Any]
-                        ) -> list[WarningRecord]:
+#: advisory kinds: the averaging assumptions hold, but the measured O(eps) remainder of the
+#: averaged models is beyond the target there (docs/report.md, "Warnings"); the verdicts stay
+#: estimates and check still recommends a model
+ADVISORY = ("correlated_noise",)
+
+
+def assumption_warnings(scene: Any, closed: dict[str, Any], mc_info: dict[str, Any],
+                        val: dict[str, Any] | None = None) -> list[WarningRecord]:
     """Records (kind, sentence) naming each averaging assumption that clearly fails here.
 
     Stochastic averaging needs (i) weak damping and weak noise relative to the restoring
     force (quasi-conservative: the energy changes little over one period), (ii) a noise
     correlation time short against the relaxation of the amplitude (wide-band noise), and
-    (iii) motion that oscillates rather than sticks.
+    (iii) motion that oscillates rather than sticks. ``val``: the scene's validity numbers
+    over the bulk of p(E) (run.validity); the narrow-band test uses alpha1 / Omega(E) there
+    (at the mean amplitude without them). Thresholds: docs/report.md, "Warnings".
     """
     n = scene.noise
     out = []
-    ref = closed.get("exact") or next(iter(closed.values()), None)
-    A = ref.info["summary"]["mean"] if ref is not None else 1.0
+    A = closed["exact"].info["summary"]["mean"] if "exact" in closed else 1.0
     rates = energy_rates(scene, A)
     T, E = rates["T"], rates["E"]
     w = 2 * math.pi / T
@@ -131,12 +149,31 @@ def assumption_warnings(scene: Any, closed: dict[str, Any], mc_info: dict[str, A
             f"strong damping: at the mean amplitude {A:.3g} the energy changes by "
             f"{rate * T:.2f} of itself per period (mostly {main}), so the energy is not "
             "nearly conserved over one cycle, which averaging assumes"))
-    if n.kind == "ou" and n.alpha1 < 0.5 * w:
+    band = (val or {}).get("band")
+    if n.kind == "ou" and band is not None and min(band) < BAND_MIN:
+        lo, hi = min(band), max(band)
         out.append(WarningRecord(
             "narrow_band",
-            f"narrow-band noise: bandwidth alpha1 = {n.alpha1:g} is below half the "
-            f"oscillation frequency ({w:.3g}); the noise is not wide-band against the "
-            "oscillation, which the Stratonovich-Khasminskii limit requires"))
+            f"narrow-band noise: bandwidth alpha1 = {n.alpha1:g} is {lo:.2g}-{hi:.2g} x "
+            "the oscillation frequency over the bulk of p(E) (10%-90% energies), below "
+            f"{BAND_MIN:g}; the noise is not wide-band against the oscillation, which the "
+            "Stratonovich-Khasminskii limit requires"))
+    elif n.kind == "ou" and band is None and n.alpha1 < BAND_MIN * w:
+        out.append(WarningRecord(
+            "narrow_band",
+            f"narrow-band noise: bandwidth alpha1 = {n.alpha1:g} is below {BAND_MIN:g} x "
+            f"the oscillation frequency ({w:.3g}) at the mean amplitude; the noise is not "
+            "wide-band against the oscillation, which the Stratonovich-Khasminskii limit "
+            "requires"))
+    corr = (val or {}).get("correlation")
+    if corr is not None and corr[1] > CORRELATION_MAX:
+        out.append(WarningRecord(
+            "correlated_noise",
+            f"correlated noise: over one correlation time 1/alpha1 the noise changes the "
+            f"energy by {100 * math.sqrt(corr[1]):.0f}% (rms) at the median energy "
+            f"(sigma_E^2 / (alpha1 E^2) = {corr[1]:.3f} > {CORRELATION_MAX:g}); the "
+            "averaged models' O(D/alpha1) remainder is beyond L1 = 2 x floor there "
+            "(measured, docs/report.md)"))
     stuck = mc_info.get("events", {}).get("stuck_fraction", {}).get("value", 0.0)
     if stuck > 0.1:
         out.append(WarningRecord(
@@ -158,8 +195,13 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
                 tail_mass: bool = True, models: tuple[str, ...] = CHECK_MODELS) -> CheckResult:
     """Run every solver on a concrete scene and compute the error decomposition.
 
-    ``models``: registered averaged models (vifpk.core.registry), in report order; the Monte
-    Carlo of model i's averaged SDE is seeded with the scene's seed + 1 + i.
+    ``models``: registered averaged models (vifpk.core.registry), in report order (those that
+    do not apply to the scene are named in ``models_absent``); the Monte Carlo of model i's
+    averaged SDE is seeded with the scene's seed + 1 + i. A model with no closed form (a
+    plugin giving only drift and diffusion) has the FPK direct solve as its reference
+    density (harness.run.closed_form), so no FPK is measured against it (no
+    ``discretisation_error``; its entry holds ``reference`` instead).
+
     ``fpk=False`` skips the FPK of each model (no ``discretisation_error``): a sweep point
     needs only the averaging error, and the FPK is the costliest part of a check.
     ``sde=False`` skips the Monte Carlo of each averaged SDE (no ``sampling_error``, and
@@ -169,18 +211,18 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
     extension. ``tail_mass=False`` skips the closed forms' measurement of the mass beyond
     their grids (a diagnostic of the closed form, about half its cost).
     """
-    names = tuple(dict.fromkeys(models))
+    models, absent = models_of(scene, models)
     # closed forms, the original system's Monte Carlo and the metrics; FPK and SDE per model
-    stages = _Stages(3 + len(names) * (int(fpk) + int(sde)), quiet)
+    stages = _Stages(3 + len(models) * (int(fpk) + int(sde)), quiet)
     sol: dict[str, Any] = {}
     closed = {}
     stages("averaged models (closed forms)")
-    for m in names:
+    for m in models:
         closed[m] = closed_form(scene, model=m, tail_mass=tail_mass)
         sol[f"closed:{m}"] = closed[m]
     # the FPK of a model measured against its closed form (none: nothing to measure against)
-    with_fpk = [m for m in names if fpk and closed[m].info.get("closed_form", True)]
-    stages.total -= len(names) - len(with_fpk) if fpk else 0
+    with_fpk = [m for m in models if fpk and closed[m].info.get("closed_form", True)]
+    stages.total -= len(models) - len(with_fpk) if fpk else 0
     for m in with_fpk:
         stages(f"FPK of the {m} model")
         sol[f"fpk:{m}"] = fpk_solution(scene, model=m, cells=FPK_CELLS)
@@ -197,14 +239,15 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
             progress=not quiet, **edges)
         sol["mc:original"] = mc
         st = mc.info["settings"]
-        for i, m in enumerate(names if sde else ()):
+        for i, m in enumerate(models if sde else ()):
             stages(f"Monte Carlo of the {m} averaged SDE")
             sol[f"mc:{m}"] = averaged_sde_solution(
                 scene, m, edges=edges, seed=scene.montecarlo.seed + 1 + i, phase=True,
-                paths=st["paths"], blocks=st["blocks"], dt=st["dt"], time=st["time"],
+                # the SDE's own step, from its relaxation time (montecarlo.averaged_sde)
+                paths=st["paths"], blocks=st["blocks"], dt="auto", time=st["time"],
                 burn_in=run_scene.montecarlo.burn_in, sample_every=st["sample_every"])
         sampling = {m: compare(closed[m].data["A"], sol[f"mc:{m}"].data["A"])
-                    for m in names if sde}
+                    for m in models if sde}
         bad = _evidence(mc.info.get("convergence", {}), sampling)
         spent = time.perf_counter() - t_mc
         # extend (twice the burn-in and the sampled time) while the evidence says the run is
@@ -212,14 +255,16 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
         if not bad or extensions >= 3 or spent * 3 > budget - spent:
             break
         extensions += 1
-        stages.total += 1 + (len(names) if sde else 0)
+        stages.total += 1 + (len(models) if sde else 0)
         mcs = run_scene.montecarlo
         run_scene = replace(run_scene, montecarlo=replace(
             mcs, time=2 * st["time"], burn_in=2 * st["burn_in"],
             dt=st["dt"], floor=0.0))
     stages("metrics")
     metrics: dict[str, Any] = {"models": {}}
-    for m in names:
+    if absent:
+        metrics["models_absent"] = dict(absent)
+    for m in models:
         cf = closed[m].data
         entry: dict[str, Any] = {}
         for kind, key in (("discretisation_error", f"fpk:{m}"), ("sampling_error", f"mc:{m}"),
@@ -236,7 +281,8 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
     if bad:
         conv["equilibrated"] = False
         conv["reason"] = "; ".join(bad)
-    warnings = assumption_warnings(scene, closed, mc.info)
+    val = validity(scene)
+    warnings = assumption_warnings(scene, closed, mc.info, val)
     outside = mc.info.get("events", {}).get("outside_fraction", {})
     worst = max(outside.values(), default=0.0)
     if worst > 1e-3:
@@ -246,12 +292,17 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
             "samples outside the range where the averaged models hold their mass "
             "(not converged, or a different state altogether); its densities there "
             "are not shown and count in full toward L1"))
-    verdicts = [verdict(m, metrics["models"][m], warnings, convergence=conv) for m in names]
-    for m in names:
+    verdicts = [verdict(m, metrics["models"][m], warnings, convergence=conv) for m in models]
+    verdicts += [f"{m} model: not checked, {why}" for m, why in absent.items()]
+    for m in models:
         cls, cause = verdict_class(metrics["models"][m], warnings, convergence=conv)
         metrics["models"][m]["verdict_class"] = cls
         metrics["models"][m]["verdict_cause"] = cause
     stages.done()
+    rec_model, rec_line = recommend(metrics, warnings, val, convergence=conv)
+    metrics["recommended_model"] = rec_model
+    metrics["recommendation"] = rec_line
+    metrics["validity"] = val
     metrics["verdicts"] = verdicts
     metrics["warnings"] = [w.text for w in warnings]
     metrics["warning_kinds"] = [w.kind for w in warnings]
@@ -271,7 +322,7 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
         "threads": mc.info.get("threads"),
     }
     return CheckResult(scene=scene, solutions=sol, metrics=metrics, warnings=warnings,
-                       verdicts=verdicts, models=names)
+                       verdicts=verdicts, recommendation=rec_line, models=models)
 
 
 def output_problems(result: CheckResult) -> list[str]:
@@ -349,8 +400,9 @@ def verdict_class(entry: dict[str, Any], warnings: list[WarningRecord], *,
     conv = convergence or {}
     if conv.get("equilibrated") is False or entry.get("sampling_ok") is False:
         return "not an estimate", "the Monte Carlo has not converged"
-    if warnings:
-        names = [w.title for w in warnings]
+    failing = [w for w in warnings if w.kind not in ADVISORY]
+    if failing:
+        names = [w.title for w in failing]
         return "not an estimate", "failing averaging assumptions (" + ", ".join(names) + ")"
     l1, floor = e["L1"], e["L1_floor"]
     # a sweep point runs no FPK (cross_check(fpk=False)): no discretisation part then
@@ -399,3 +451,75 @@ def verdict(model: str, entry: dict[str, Any], warnings: list[WarningRecord], *,
     else:
         line += f"; dominant cause: {cause}"
     return line
+
+
+# ------------------------------------------------------------------ which model to trust
+#: models check may recommend (``paper`` drops the sgn(y) of the excitation: never)
+RECOMMENDABLE = ("exact", "corrected")
+BAND_MIN = 0.5  # narrow-band warning: alpha1 / Omega(E) below this anywhere in the bulk
+WALL_MAX = 0.2  # corrected trusted only while delta / E <= this at the 10% energy
+CORRELATION_MAX = 0.045  # advisory: sigma_E^2 / (alpha1 E^2) at the median energy
+
+
+def recommend(metrics: dict[str, Any], warnings: list[WarningRecord], val: dict[str, Any], *,
+              convergence: dict[str, Any] | None = None) -> tuple[str, str]:
+    """(model, one line): the averaged model to trust for this scene and why, or "none".
+
+    Evidence, in order: (1) the Monte Carlo must have converged and no averaging assumption
+    may fail (warnings), else "none"; (2) the measured averaging errors L1(A) of ``exact`` and
+    ``corrected`` against the same simulation: the lower one when they differ by more than
+    the noise floor; (3) within the noise, ``corrected`` (its extra terms are derived) unless
+    its wall-energy term is outside its derivation over the bulk of p(E) (delta / E above
+    WALL_MAX at the 10% energy), then ``exact``; advisory warnings (ADVISORY) do not stop a
+    recommendation but are named in it; (4) a recommended model whose own L1 is
+    not small (>= SMALL_L1) is not trustworthy: "none", naming the best. Thresholds and the
+    curves behind them: docs/report.md, "Warnings" and "Which model to trust".
+    """
+    conv = convergence or {}
+    head = "recommended model: "
+    models = metrics["models"]
+    if conv.get("equilibrated") is False or any(
+            models[m].get("sampling_ok") is False for m in RECOMMENDABLE if m in models):
+        return "none", (head + "none -- the Monte Carlo has not converged, so no model's error "
+                        "is measured here")
+    e = {m: models[m]["averaging_error"]["A"] for m in RECOMMENDABLE if m in models}
+    best = min(e, key=lambda m: e[m]["L1"])
+    desc = ", ".join(f"{m} {e[m]['L1']:.3f}" for m in e)
+    floor = max(x["L1_floor"] for x in e.values())
+    failing = [w for w in warnings if w.kind not in ADVISORY]
+    advisory = [w for w in warnings if w.kind in ADVISORY]
+    if failing:
+        kinds = ", ".join(w.title for w in failing)
+        return "none", (head + f"none -- averaging assumptions fail here ({kinds}); the "
+                        f"measured L1(A) ({desc}, floor {floor:.3f}) is not an approximation "
+                        "error to rely on elsewhere")
+    wall = (val.get("wall") or [0.0])[0]  # at the 10% energy, where delta / E is largest
+    band = val.get("band")
+    why: str
+    if "exact" in e and "corrected" in e and abs(e["corrected"]["L1"] - e["exact"]["L1"]) <= floor:
+        if wall > WALL_MAX:
+            pick = "exact"
+            why = (f"exact and corrected agree within the noise ({desc}, floor {floor:.3f}) and "
+                   f"corrected's energy-at-the-wall term is outside its derivation here (delta/E "
+                   f"= {wall:.2f} at the 10% energy > {WALL_MAX:g}"
+                   + (f"; alpha1/Omega = {min(band):.2f}-{max(band):.2f}" if band else "") + ")")
+        else:
+            pick = "corrected"
+            why = (f"exact and corrected agree within the noise ({desc}, floor {floor:.3f}); "
+                   "corrected keeps the derived O(eps) impact terms")
+    else:
+        pick = best
+        other = [m for m in e if m != best]
+        why = (f"lowest measured L1(A) beyond the noise ({desc}, floor {floor:.3f})"
+               if other else f"the only candidate ({desc})")
+        if pick == "exact" and wall > WALL_MAX:
+            why += (f"; corrected's energy-at-the-wall term is outside its derivation here "
+                    f"(delta/E = {wall:.2f} at the 10% energy > {WALL_MAX:g})")
+    if e[pick]["L1"] >= SMALL_L1:
+        return "none", (head + f"none -- the best model, {pick}, misplaces "
+                        f"{50 * e[pick]['L1']:.0f}% of the probability mass ({desc}, floor "
+                        f"{floor:.3f})")
+    if advisory:
+        why += ("; expect it to miss by more than 2 x the floor: correlated-noise regime "
+                "(see warnings)")
+    return pick, head + f"{pick} -- {why}"

@@ -51,7 +51,7 @@ def _figure_densities(res: CheckResult, text: dict[str, str] | None = None) -> b
     sol = res.solutions
     fig, axes = plt.subplots(1, 3, figsize=(13, 4.4))
     for ax, o in zip(axes, OBSERVABLES, strict=True):
-        for k, m in enumerate(res.models):
+        for k, m in enumerate(res.metrics["models"]):
             col = MODEL_COLORS[k % len(MODEL_COLORS)]
             closed = sol[f"closed:{m}"]
             d = closed.data[o]
@@ -75,7 +75,8 @@ def _figure_densities(res: CheckResult, text: dict[str, str] | None = None) -> b
         ax.set_xlabel(LABELS[o])
         ax.set_ylabel(f"density p({o}) (dimensionless)")
     handles, labels = axes[0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="lower center", ncol=len(res.models) + 1, fontsize=8,
+    fig.legend(handles, labels, loc="lower center", ncol=len(res.metrics["models"]) + 1,
+               fontsize=8,
                frameon=False)
     fig.suptitle(f"{res.scene.name}: stationary densities of the averaged models against "
                  "the original system")
@@ -92,7 +93,7 @@ def _figure_decomposition(res: CheckResult, text: dict[str, str] | None = None) 
     plt = pyplot()
     from matplotlib.patches import Rectangle
 
-    models = res.models
+    models = tuple(res.metrics["models"])
     fig, axes = plt.subplots(1, len(models), figsize=(3.7 * len(models), 4.2), sharey=True)
     width = 0.25
     smallest = min(max(res.metrics["models"][m][k][o]["L1"], 1e-12)
@@ -209,7 +210,8 @@ def _tables(res: CheckResult) -> list[tuple[str, list[str], list[list[str]]]]:
     """Per model, the error decomposition: every metric with its noise floor; a value below
     its floor reads "< floor"; the FPK comparison is deterministic (no floor: "–")."""
     raws = []
-    for m in res.models:
+    models = tuple(res.metrics["models"])
+    for m in models:
         raw = []
         for kind in KINDS:
             if kind not in res.metrics["models"][m]:  # no closed form: no FPK measured
@@ -228,7 +230,7 @@ def _tables(res: CheckResult) -> list[tuple[str, list[str], list[list[str]]]]:
     fmts = _column_formats(raws, _TABLE_SPEC)
     return [(f"{m} model: error decomposition", TABLE_HEAD,
              _format_columns(raw, _TABLE_SPEC, fmts))
-            for m, raw in zip(res.models, raws, strict=True)]
+            for m, raw in zip(models, raws, strict=True)]
 
 
 CLASS_TEXT = {
@@ -247,7 +249,7 @@ def verdict_rows(res: CheckResult) -> list[list[str]]:
     """The ten-second verdict: per model, class, L1(A) +/- error bar, times the noise floor,
     share of the probability mass misplaced (L1 / 2, on L1's 0..2 scale), dominant cause."""
     rows = []
-    for m in res.models:
+    for m in res.metrics["models"]:
         entry = res.metrics["models"][m]
         e = entry["averaging_error"]["A"]
         floor = e["L1_floor"]
@@ -298,6 +300,8 @@ def render_markdown(res: CheckResult, figures: dict[str, str]) -> str:
     out += ["", "L1 = ∫|p - q| runs from 0 (identical) to 2 (disjoint). Classes: "
             + "; ".join(_class_legend()) + ".", ""]
     out += [f"- {v}" for v in res.verdicts]
+    if res.recommendation:
+        out += ["", f"**{res.recommendation}**"]
     if res.warnings:
         out += ["", "## Warnings: averaging assumptions that fail here", ""]
         out += [f"- {w.text}" for w in res.warnings]
@@ -364,6 +368,8 @@ def render_html(res: CheckResult, pngs: dict[str, bytes]) -> str:
     parts.append("<details><summary>The verdict in full</summary><ul>")
     parts += [f"<li>{e(v)}</li>" for v in res.verdicts]
     parts.append("</ul></details>")
+    if res.recommendation:
+        parts.append(f'<p class="recommendation"><b>{e(res.recommendation)}</b></p>')
     if res.warnings:
         parts.append("<h2>Warnings: averaging assumptions that fail here</h2><ul>")
         parts += [f'<li class="warn">{e(w.text)}</li>' for w in res.warnings]

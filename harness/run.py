@@ -93,7 +93,7 @@ def model_period(scene: Any, m: Any) -> tuple[Any, str]:
     s = scene.system
 
     def T(A: Any) -> Any:
-        return orbit_period(A, s.omega0, s.alpha)
+        return orbit_period(A, s.restoring_law)
 
     return T, "exact orbit (the model gives no period)"
 
@@ -115,24 +115,25 @@ def amplitude_density(scene: Any, model: Any, **options: Any) -> Any:
     T, _ = model_period(scene, m)
     with np.errstate(divide="ignore"):
         log_p = np.log(p)
-    log_h = log_p - np.log(restoring_force(A, s.omega0, s.alpha)) - np.log(T(A))
+    log_h = log_p - np.log(restoring_force(A, s.restoring_law)) - np.log(T(A))
     return AmplitudeDensity(A=A, p=p, log_p=log_p, log_h=log_h,
                             tail_mass=float(res.info["diagnostics"].get("tail_mass", 0.0)),
                             scans=0)
 
 
-def orbit_period(A: Any, omega0: float, alpha: float) -> Any:
-    """T(A) of the exact Duffing orbit of amplitude A (``averaging.geometry.period``)."""
-    from averaging.geometry import period
+def orbit_period(A: Any, restoring: tuple[float, ...]) -> Any:
+    """T(A) of the exact orbit of amplitude A of the spring g = k1 x + k3 x^3 + ...
+    (``restoring`` = (k1, k3, ...): System.restoring_law; ``averaging.geometry.period_k``)."""
+    from averaging.geometry import period_k
 
-    return period(A, omega0, alpha)
+    return period_k(A, tuple(restoring))
 
 
-def restoring_force(A: Any, omega0: float, alpha: float) -> Any:
-    """g(A) = omega0^2 A + alpha A^3 (``averaging.geometry.restoring``)."""
-    from averaging.geometry import restoring
+def restoring_force(A: Any, restoring: tuple[float, ...]) -> Any:
+    """g(A) = k1 A + k3 A^3 + ... (``averaging.geometry.restoring_k``)."""
+    from averaging.geometry import restoring_k
 
-    return restoring(A, omega0, alpha)
+    return restoring_k(A, tuple(restoring))
 
 
 def energy_rates(scene: Any, A: float) -> dict[str, float]:
@@ -140,6 +141,14 @@ def energy_rates(scene: Any, A: float) -> dict[str, float]:
     from averaging.exact import energy_rates as rates
 
     return rates(scene, A)
+
+
+def validity(scene: Any) -> dict[str, Any]:
+    """How far the scene is from the averaging limits over the bulk of p(E)
+    (``averaging.validity``: band alpha1 / Omega, wall delta / E, noise sigma_E^2 T / E^2)."""
+    from averaging.validity import validity as numbers
+
+    return numbers(scene)
 
 
 # ----------------------------------------------------------------------------- FPK
@@ -189,14 +198,15 @@ def fpk_solution(scene: Any, *, model: Any, cells: int, method: str = "stepping"
 def phase_solution(scene: Any, res: Any, period: Any) -> tuple[dict[str, Any], dict]:
     """An FPK result's p(A) mapped to p(E), p(x1, x2), p(x1), p(x2) as for the closed form,
     with p(y, y') = p_A / (g T); ``period`` gives T(A). Returns (data, raw masses)."""
-    from averaging.geometry import restoring
+    from averaging.geometry import restoring_k
     from averaging.phase import phase_densities
 
     s = scene.system
+    k = tuple(s.restoring_law)
     A, p = res.data["A_cells"]["x"], res.data["A_cells"]["p"]
     log_T = np.log(period(A))
-    log_h = np.log(np.maximum(p, 1e-300)) - np.log(restoring(A, s.omega0, s.alpha)) - log_T
-    ph = phase_densities(A, log_h, log_T, omega0=s.omega0, alpha=s.alpha, barrier=s.barrier,
+    log_h = np.log(np.maximum(p, 1e-300)) - np.log(restoring_k(A, k)) - log_T
+    ph = phase_densities(A, log_h, log_T, restoring=k, barrier=s.barrier,
                          points=scene.averaging.phase_points)
     data = {"A": res.data["A"], "E": {"x": ph.E, "p": ph.p_E}, "x1": {"x": ph.x1, "p": ph.p_x1},
             "x2": {"x": ph.x2, "p": ph.p_x2},
@@ -250,14 +260,44 @@ def averaged_sde_solution(scene: Any, model: Any, *, edges: dict[str, Any], seed
     kw = {k: settings.get(k, getattr(mc, k)) for k in keys}
     m = averaged_model(scene, model)
     s = scene.system
-    extra = ({"omega0": s.omega0, "alpha": s.alpha, "barrier": s.barrier,
+    extra = ({"restoring": tuple(s.restoring_law), "barrier": s.barrier,
               "edges_x": edges["edges_x"], "edges_v": edges["edges_v"]} if phase else None)
-    observe = ({"sd": m.observation_sd, "omega0": s.omega0, "alpha": s.alpha}
+    observe = ({"sd": m.observation_sd, "restoring": tuple(s.restoring_law)}
                if getattr(m, "observes", False) else None)
     return simulate_sde(m.drift, m.diffusion, edges=edges["edges_A"], paths=kw["paths"],
                         blocks=kw["blocks"], dt=kw["dt"], time_=kw["time"],
                         burn_in=kw["burn_in"], sample_every=kw["sample_every"], seed=seed,
                         phase=extra, observe=observe)
+
+
+def file_sets(path: str, section: str, key: str) -> bool:
+    """Whether the scene file (a path or a shipped name) sets ``[section] key`` itself."""
+    import tomllib
+    from pathlib import Path
+
+    from vifpk.core.scene import find_scene
+
+    p = Path(path)
+    found: Any = p if p.is_file() else find_scene(path)
+    if found is None:
+        return False
+    try:
+        raw = tomllib.loads(found.read_text(encoding="utf-8-sig"))
+    except (OSError, ValueError, RecursionError):
+        return False
+    table = raw.get(section)
+    return isinstance(table, dict) and key in table
+
+
+def follow_floor(scene: Any, *, pinned: bool) -> Any:
+    """The time step follows the floor: when a target floor is asked for (montecarlo.floor >
+    0) and no step was given (``--dt``, ``--set montecarlo.dt=``, the scene file's
+    [montecarlo] dt), dt is "auto" (tuning.auto_dt: the largest step whose predicted bias is
+    half the floor) instead of the fixed default 0.01, which is 4x finer than a floor of 0.01
+    needs. ``pinned``: a step was given; it is kept."""
+    if pinned or not scene.montecarlo.floor or scene.montecarlo.dt == "auto":
+        return scene
+    return scene.with_values({"montecarlo.dt": "auto"})
 
 
 def montecarlo_plan(scene: Any) -> Any:

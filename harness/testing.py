@@ -125,20 +125,37 @@ def reference_key(scene: Scene) -> str:
     return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()[:20]
 
 
+def _scene_argument(scene: Scene) -> str:
+    """How the command names the scene: its file when that is in the working directory, the
+    bare name of a shipped scene (``paper-base``; a path ending in .toml must exist), else a
+    placeholder. Every value the run depends on is given with --set anyway."""
+    from vifpk.core.scene import find_scene
+
+    source = scene.source or ""
+    if source and Path(source).is_file():
+        return source
+    stem = source[:-5] if source.endswith(".toml") else source
+    if stem and find_scene(stem) is not None:
+        return stem
+    return "SCENE.toml"
+
+
 def reproduce_command(scene: Scene) -> str:
+    """The ``vifpk solve`` command that runs this scene's Monte Carlo reference again: every
+    value of [system], [noise] and of the [montecarlo] settings the result depends on, numbers
+    as ``repr`` (exact), ``dt`` a number or "auto"."""
     st = scene.montecarlo
-    where = scene.source or "SCENE.toml"
-    def show(v: Any) -> str:  # as --set parses it: TOML booleans, bare words
+
+    def show(v: Any) -> str:  # as --set parses it: TOML booleans, bare words, floats exact
         return str(v).lower() if isinstance(v, bool) else f"{v}"
 
+    d = scene.to_dict()  # the system's laws in the spelling the scene uses (lists as TOML)
     sets = " ".join(f"--set {sec}.{k}={show(v)}" for sec in ("system", "noise")
-                    for k, v in dataclasses.asdict(getattr(scene, sec)).items())
-    sets += "".join(f" --set montecarlo.{k}={getattr(st, k)}"
-                    for k in ("blocks", "burn_in", "sample_every", "bins"))
-    # dt is a number or "auto"; numbers as repr (exact: :g kept 6 digits)
-    target = f" --floor {st.floor!r} --budget {st.budget!r}" if st.floor > 0 else ""
-    return (f"vifpk solve {where} --solver montecarlo --paths {st.paths} --dt {st.dt} "
-            f"--time {st.time!r} --seed {st.seed}{target} {sets} --json reference.json")
+                    for k, v in d[sec].items())
+    sets += "".join(f" --set montecarlo.{k}={show(getattr(st, k))}"
+                    for k in ("blocks", "burn_in", "sample_every", "bins", "floor", "budget"))
+    return (f"vifpk solve {_scene_argument(scene)} --solver montecarlo --paths {st.paths} "
+            f"--dt {st.dt} --time {st.time!r} --seed {st.seed} {sets} --json reference.json")
 
 
 class Reference:

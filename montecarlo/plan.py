@@ -19,6 +19,8 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
 from vifpk.core.registry import NOISE_KINDS, one_of
 
 from .tuning import auto_dt
@@ -36,13 +38,38 @@ RELAX_MAX_TIME = 20000.0
 MIN_AUTO_BURN_IN = 20.0
 
 
+def _laws(system: Any) -> tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]]:
+    """(k, d, e): the spring (k1, k3, ...), damping (d0, d2, ...) and velocity damping
+    (e2, ...) coefficients, trailing zeros dropped, k and d padded to two terms. A system
+    with the paper's names only (omega0, alpha, c1, c2) gives k = (omega0^2, alpha),
+    d = (-c1, c2)."""
+    if hasattr(system, "restoring_law"):
+        k, d = tuple(system.restoring_law), tuple(system.damping_law)
+        e = tuple(system.velocity_law)
+    else:
+        k = (float(system.omega0) ** 2, float(system.alpha))
+        d, e = (-float(system.c1), float(system.c2)), ()
+
+    def trim(c: tuple[float, ...], keep: int) -> tuple[float, ...]:
+        c = tuple(float(v) for v in c)
+        while len(c) > keep and c[-1] == 0.0:
+            c = c[:-1]
+        return c + (0.0,) * (keep - len(c))
+
+    return trim(k, 2), trim(d, 2), trim(e, 0)
+
+
 def physics(system: Any, noise: Any) -> dict[str, Any]:
     """The kernel's physics arguments from (duck-typed) scene.system and scene.noise; a
     switched-off effect is None (pruned at compile time). An unknown noise kind raises."""
     one_of("noise kind", noise.kind, NOISE_KINDS)
+    k, d, e = _laws(system)
     return {
-        "c1": float(system.c1), "c2": float(system.c2), "w0sq": float(system.omega0) ** 2,
-        "alpha": float(system.alpha), "f": float(system.f), "D": float(noise.D),
+        "c1": -d[0], "c2": d[1], "w0sq": k[0], "alpha": k[1],
+        "khi": np.array(k[2:]) if len(k) > 2 else None,
+        "dhi": np.array(d[2:]) if len(d) > 2 else None,
+        "ev": np.array(e) if e else None,
+        "f": float(system.f), "D": float(noise.D),
         "mu": float(system.mu) if system.mu > 0 else None,
         "r": float(system.r) if getattr(system, "barrier", True) else None,
         "alpha1": float(noise.alpha1) if noise.kind == "ou" else None,
@@ -100,6 +127,8 @@ class Plan:
     sample_interval: float  # stride x dt
     sampled_time: float  # per path, after the burn-in (with a target floor: the first stage)
     nearest_times: tuple[float, ...]  # the times nearest ``time`` that are sampled exactly
+    burn_in: float  # the burn-in time, at least (MIN_AUTO_BURN_IN for "auto")
+    pilot_path_time: float  # simulated path-time of the pilots, at least
     path_steps: float  # a lower bound of the path-steps of the run, pilots included
 
 
@@ -128,8 +157,9 @@ def plan(system: Any, noise: Any, mc: Any) -> Plan:
     auto = mc.burn_in == "auto"
     burn = MIN_AUTO_BURN_IN if auto else float(mc.burn_in)
     run_time = mc.time / 2 if target > 0 else sampled_time
-    steps = (mc.paths * (burn + run_time) + pilot_path_time(auto)) / h
+    pilots = pilot_path_time(auto)
+    steps = (mc.paths * (burn + run_time) + pilots) / h
     return Plan(dt=h, stride=stride, samples_per_window=spw, windows=n_win,
                 sample_interval=interval, sampled_time=sampled_time,
                 nearest_times=tuple(m * interval for m in (below[-1:] + above[:1])),
-                path_steps=steps)
+                burn_in=burn, pilot_path_time=pilots, path_steps=steps)

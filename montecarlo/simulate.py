@@ -108,6 +108,15 @@ def block_seeds(seed: int, blocks: int, per_block: int = 1, key: int = 0) -> np.
     return out
 
 
+def _potential(x: Any, phys: dict[str, Any]) -> Any:
+    """U(x) of the kernel's spring (geometry.potential, vectorised)."""
+    w0sq, alpha = phys["w0sq"], phys["alpha"]
+    u = 0.5 * w0sq * x * x + 0.25 * alpha * x**4  # (the paper's form, operation for operation)
+    for i, c in enumerate(phys["khi"] if phys["khi"] is not None else ()):
+        u = u + c / (2 * i + 6) * x ** (2 * i + 6)
+    return u
+
+
 def effects(system: Any, noise: Any) -> dict[str, bool | str]:
     p = _params(system, noise)
     return {"friction": p["mu"] is not None, "barrier": p["r"] is not None,
@@ -141,7 +150,7 @@ def _kernel(arr: _Arrays, phys: dict[str, Any], h: float, n_steps: int, step0: i
     ea, ex, ev = hi["edges_A"], hi["edges_x"], hi["edges_v"]
     K.run_paths(arr.rng, arr.state, n_steps, step0, n_burn, stride, h,
                 phys["c1"], phys["c2"], phys["w0sq"], phys["alpha"], phys["f"], phys["D"],
-                phys["mu"], phys["r"], phys["alpha1"],
+                phys["mu"], phys["r"], phys["alpha1"], phys["khi"], phys["dhi"], phys["ev"],
                 ea[0], 1.0 / (ea[1] - ea[0]), hi["A"], ex[0], 1.0 / (ex[1] - ex[0]), hi["x"],
                 ev[0], 1.0 / (ev[1] - ev[0]), hi["v"], hi["joint"], arr.moments, arr.events,
                 arr.energy, spw, windows)
@@ -150,7 +159,9 @@ def _kernel(arr: _Arrays, phys: dict[str, Any], h: float, n_steps: int, step0: i
 def _diverged(h: float, what: str) -> SimulationDiverged:
     return SimulationDiverged(
         f"the Monte Carlo blew up ({what}) at dt = {h:g}: the time step is most likely too "
-        "large for this scene; try a smaller --dt (e.g. 0.01) or --dt auto")
+        f"large for this scene; try a smaller --dt (e.g. {h / 4:g}) or --dt auto; if a "
+        "smaller step blows up too, the amplitude grows without bound (negative damping "
+        "c1 > 0 not held by c2, impacts or friction) and no stationary density exists")
 
 
 class _Stepper:
@@ -210,10 +221,8 @@ def _starts(amplitudes: np.ndarray, phys: dict[str, Any], gen: np.random.Generat
             ) -> np.ndarray:
     """(x, v, xi) on the conservative orbit of each amplitude, at a uniform random phase;
     xi from the stationary OU law."""
-    w0sq, alpha = phys["w0sq"], phys["alpha"]
-
     def U(x: np.ndarray) -> np.ndarray:
-        return 0.5 * w0sq * x * x + 0.25 * alpha * x**4
+        return _potential(x, phys)
 
     th = gen.uniform(0.0, 2 * math.pi, amplitudes.shape)
     x = amplitudes * np.cos(th)
@@ -319,7 +328,6 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
     if not (math.isfinite(h) and h > 0 and st.paths >= st.blocks >= 2):
         raise ValueError("need dt > 0 and paths >= blocks >= 2")
     t_start = time.perf_counter()
-    deadline = t_start + st.budget if st.budget and st.budget > 0 else math.inf
     threads = st.threads or numba.config.NUMBA_NUM_THREADS
     numba.set_num_threads(threads)
     stride, spw, n_win = sampling_plan(st.time, st.sample_every, h, target)
@@ -334,6 +342,10 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
                              "edges_v": np.linspace(-1, 1, 3)}, obs)
     _kernel(tiny, phys, h, 2, 0, 1, 1, 1, np.zeros((1, 1, 1)) if st.certificate else None)
     compile_s = time.perf_counter() - t0
+    # the budget counts the run (pilots, burn-in, windows), not numba's one-off compile: a cold
+    # cache would otherwise eat a small budget before any physics ran
+    t_run = time.perf_counter()
+    deadline = t_run + st.budget if st.budget and st.budget > 0 else math.inf
 
     bar = _progress(st.progress)
     step = _Stepper(phys, h, threads, bar)
@@ -342,7 +354,7 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
         a_hint = float(edges["edges_A"][-1]) if "edges_A" in edges else 1.0
         a_hi = _pilot_scale(phys, h, st.seed, step, a_hint)
         if not edges:
-            vmax = math.sqrt(2 * (0.5 * phys["w0sq"] * a_hi**2 + 0.25 * phys["alpha"] * a_hi**4))
+            vmax = math.sqrt(2 * _potential(a_hi, phys))
             edges = {"edges_A": np.linspace(0.0, a_hi, st.bins + 1),
                      "edges_x": np.linspace(0.0 if phys["r"] is not None else -a_hi, a_hi,
                                             st.bins + 1),
@@ -356,6 +368,12 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
             burn_in = float(st.burn_in)
         pilot_s = time.perf_counter() - t1
 
+        if not burn_in / h < 2.0**53:  # beyond any run (and numba's integers)
+            raise SimulationDiverged(
+                f"the relaxation pilot measured a relaxation time of {burn_in / BURN_FACTOR:.3g}"
+                f" (burn-in {burn_in:.3g} = {burn_in / h:.3g} steps of dt = {h:g}): the paths "
+                "barely forget their start (most likely the noise is too weak to mix them: "
+                "check noise.D and f); give montecarlo.burn_in explicitly to run anyway")
         n_burn = int(round(burn_in / h))
         win_steps = spw * stride
         gen = np.random.default_rng(np.random.SeedSequence(st.seed, spawn_key=(1 << 24,)))
@@ -384,7 +402,7 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
             if run_to == 0:  # only a target floor's budget stops a run before its first window
                 raise BudgetExhausted(
                     f"the budget of {st.budget:g} s ran out before the first sampling window "
-                    f"(the pilots and the burn-in took {time.perf_counter() - t_start:.3g} s): "
+                    f"(the pilots and the burn-in took {time.perf_counter() - t_run:.3g} s): "
                     "no sample was taken; give a larger budget, or 0 for no limit")
             if "A" in obs:
                 floor = _floor_A(arr)

@@ -109,6 +109,9 @@ def test_check_end_to_end(tmp_path: Path, capsys, canned_check):
                 for key in ("L1", "L1_floor", "hellinger", "ks"):
                     assert math.isfinite(e[key]), (model, kind, obs, key)
     assert m["scene"]["name"] == "tiny" and len(m["verdicts"]) == 3
+    assert m["recommended_model"] in ("exact", "corrected", "none")  # public contract
+    assert m["recommendation"].startswith("recommended model: ")
+    assert m["recommendation"] in printed
     parser = _Collect()
     parser.feed((out / "report.html").read_text())
     assert "table" in parser.tags and len(parser.imgs) == 2
@@ -136,3 +139,61 @@ def test_check_f_zero_is_a_clear_message(tmp_path: Path, capsys):
                  "--quiet"]) == 3
     err = capsys.readouterr().err
     assert "no stationary density" in err and not (tmp_path / "o").exists()
+
+
+# ------------------------------------------------------------ which model to trust (issue 23)
+def _canned(l1: dict[str, float], floor: float = 0.01) -> dict:
+    return {"models": {m: {"averaging_error": {"A": {"L1": v, "L1_floor": floor}},
+                           "sampling_ok": True} for m, v in l1.items()}}
+
+
+VAL = {"wall": [0.05, 0.01, 0.0], "band": [2.0, 1.9, 1.8]}
+
+
+def test_recommend_takes_the_lower_measured_error_beyond_the_noise():
+    from harness.check import recommend
+
+    m, line = recommend(_canned({"exact": 0.08, "corrected": 0.01}), [], VAL)
+    assert m == "corrected" and line.startswith("recommended model: corrected -- lowest")
+    m, _ = recommend(_canned({"exact": 0.02, "corrected": 0.06}), [], VAL)
+    assert m == "exact"
+
+
+def test_recommend_within_the_noise_follows_the_wall_term_validity():
+    """A tie within the floor goes to corrected unless its wall term is outside its
+    derivation (delta/E above WALL_MAX at the 10% energy), then to exact, naming why."""
+    from harness.check import WALL_MAX, recommend
+
+    tie = _canned({"exact": 0.041, "corrected": 0.045})
+    assert recommend(tie, [], VAL)[0] == "corrected"
+    m, line = recommend(tie, [], {"wall": [2 * WALL_MAX, 0.05, 0.01], "band": [0.7] * 3})
+    assert m == "exact" and "energy-at-the-wall" in line
+
+
+def test_recommend_none_when_assumptions_fail_or_unconverged_or_large():
+    from harness.check import recommend
+
+    narrow = ("narrow-band noise: bandwidth alpha1 = 0.2 is 0.2-0.2 x the oscillation "
+              "frequency over the bulk of p(E)")
+    m, line = recommend(_canned({"exact": 0.01, "corrected": 0.01}), [narrow], VAL)
+    assert m == "none" and "narrow band" in line
+    m, line = recommend(_canned({"exact": 0.01, "corrected": 0.01}), [], VAL,
+                        convergence={"equilibrated": False})
+    assert m == "none" and "not converged" in line
+    m, line = recommend(_canned({"exact": 0.15, "corrected": 0.30}), [], VAL)
+    assert m == "none" and "exact" in line
+
+
+def test_advisory_warning_keeps_the_recommendation_and_the_estimate():
+    """correlated noise is advisory: the verdict stays an estimate and a model is named."""
+    from harness.check import ADVISORY, recommend, verdict_class
+    from vifpk.core.result import WarningRecord
+
+    w = WarningRecord("correlated_noise", "correlated noise: over one correlation time 1/alpha1 "
+                      "the noise changes the energy")
+    assert w.kind in ADVISORY
+    m, line = recommend(_canned({"exact": 0.05, "corrected": 0.02}), [w], VAL)
+    assert m == "corrected" and "correlated-noise regime" in line
+    entry = {"averaging_error": {"A": {"L1": 0.05, "L1_floor": 0.01, "L1_err": 0.001}},
+             "sampling_error": {"A": {"L1": 0.01, "L1_floor": 0.01}}, "sampling_ok": True}
+    assert verdict_class(entry, [w])[0] == "small"

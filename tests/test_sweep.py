@@ -215,6 +215,7 @@ def test_interrupted_sweep_resumes_with_only_the_rest(tmp_path):
     assert again.computed == () and again.skipped == len(sweep.points)
 
 
+@pytest.mark.slow  # a real dask LocalCluster: two worker processes import the whole stack
 def test_killed_dask_worker_loses_and_duplicates_no_point(tmp_path):
     """SIGKILL one of two workers while it runs a point: dask reschedules it; every point is
     computed and recorded exactly once."""

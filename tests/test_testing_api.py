@@ -70,7 +70,7 @@ def test_averaging_error_pass_fail_and_message():
     msg = str(exc.value)
     assert "averaging error of paper on p(A): L1 = 0.4" in msg
     assert "+/-" in msg and "noise floor" in msg and "128 paths" in msg
-    assert "reproduce: vifpk solve paper-base.toml --solver montecarlo --paths 128" in msg
+    assert "reproduce: vifpk solve paper-base --solver montecarlo --paths 128" in msg
     assert "(from cache)" in msg  # the second assertion reused the reference
 
 

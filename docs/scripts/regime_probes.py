@@ -28,6 +28,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 import averaging  # noqa: E402
+from averaging.validity import validity  # noqa: E402
 from harness.compare import compare  # noqa: E402
 from harness.run import montecarlo_solution  # noqa: E402
 from vifpk.core.scene import load_scene  # noqa: E402
@@ -53,6 +54,31 @@ PROBES: dict[str, dict] = {
     "friction mu=0.006 a1=2": {"system.mu": 0.006},
     "posdamp c1=-0.01 r=0.99 a1=1": {"system.c1": -0.01, "system.r": 0.99,
                                      "noise.alpha1": 1.0},
+    "w0=1 a1=0.5": {"noise.alpha1": 0.5},
+    "impact r=0.9 a1=1.5": {"system.r": 0.9, "noise.alpha1": 1.5},
+    "impact r=0.85 a1=4": {"system.r": 0.85, "noise.alpha1": 4.0},
+    "friction mu=0.006 a1=1.2 w0=1.5": {"system.mu": 0.006, "noise.alpha1": 1.2,
+                                         "system.omega0": 1.5},
+    "posdamp c1=-0.02 r=0.98 a1=1.5": {"system.c1": -0.02, "system.r": 0.98,
+                                       "noise.alpha1": 1.5},
+}
+HALF = {"system.c1": 0.0125, "system.c2": 0.025, "system.mu": 0.0005, "system.r": 0.98,
+        "noise.D": 0.005}  # every dissipative coefficient, 1 - r and D halved (k = 1/2)
+#: section-10 style experiments on the regimes (--mechanism): scaling eps (k = 1/2) and
+#: switching effects off one at a time
+MECHANISM: dict[str, dict] = {
+    "stiff w0=1.5 a1=1 k=1/2": {**HALF, "system.omega0": 1.5, "noise.alpha1": 1.0},
+    "stiff w0=1.5 a1=1 r=1": {"system.omega0": 1.5, "noise.alpha1": 1.0, "system.r": 1.0},
+    "stiff w0=1.5 a1=1 no barrier": {"system.omega0": 1.5, "noise.alpha1": 1.0,
+                                     "system.barrier": False},
+    "w0=1.5 a1=3 k=1/2": {**HALF, "system.omega0": 1.5, "noise.alpha1": 3.0},
+    "w0=1.5 a1=3 r=1": {"system.omega0": 1.5, "noise.alpha1": 3.0, "system.r": 1.0},
+    "friction mu=0.006 a1=1.2 k=1/2": {**HALF, "system.mu": 0.003, "noise.alpha1": 1.2},
+    "friction mu=0.006 a1=1.2 r=1": {"system.mu": 0.006, "noise.alpha1": 1.2, "system.r": 1.0},
+    "impact r=0.85 a1=1 k=1/2": {**HALF, "system.r": 0.925, "noise.alpha1": 1.0},
+    "posdamp c1=-0.01 r=0.99 a1=1 k=1/2": {**HALF, "system.c1": -0.005, "system.r": 0.995,
+                                           "noise.alpha1": 1.0},
+    "posdamp c1=-0.01 a1=1 r=1": {"system.c1": -0.01, "system.r": 1.0, "noise.alpha1": 1.0},
 }
 SHIPPED = [("paper-base", 0), ("paper-fig2", 0), ("paper-fig2", 2), ("paper-fig3", 0),
            ("paper-fig3", 2), ("paper-fig4", 1), ("paper-fig4", 2), ("paper-fig5", 0),
@@ -60,12 +86,13 @@ SHIPPED = [("paper-base", 0), ("paper-fig2", 0), ("paper-fig2", 2), ("paper-fig3
 
 
 def all_scenes():
-    base = load_scene(ROOT / "scenes" / "paper-base.toml")
-    for name, over in PROBES.items():
-        yield name, replace(base.with_values(over), name=name)
+    """The shipped scene variants, then the probes."""
     for name, i in SHIPPED:
         sc = load_scene(ROOT / "scenes" / f"{name}.toml").variants()[i]
         yield sc.name, sc
+    base = load_scene(ROOT / "scenes" / "paper-base.toml")
+    for name, over in {**PROBES, **MECHANISM}.items():
+        yield name, replace(base.with_values(over), name=name)
 
 
 def mc_histogram(scene, cache: Path, floor: float, dt: float, top: float):
@@ -128,8 +155,13 @@ def main() -> None:
     ap.add_argument("--cache", default="/tmp/vifpk-probes")
     ap.add_argument("--only", nargs="*")
     ap.add_argument("--shipped", action="store_true", help="also the shipped scene variants")
+    ap.add_argument("--mechanism", action="store_true", help="only the MECHANISM experiments")
     ap.add_argument("--out", default=None)
+    ap.add_argument("--table", nargs="+", help="print the markdown table of these result files")
     args = ap.parse_args()
+    if args.table:
+        table(args.table)
+        return
     cache = Path(args.cache)
     cache.mkdir(parents=True, exist_ok=True)
     out_path = Path(args.out) if args.out else None
@@ -137,16 +169,18 @@ def main() -> None:
     for name, scene in all_scenes():
         if args.only and name not in args.only:
             continue
-        if not args.shipped and name not in PROBES and not args.only:
+        if args.mechanism != (name in MECHANISM) and not args.only:
+            continue
+        if not args.shipped and name not in PROBES and name not in MECHANISM and not args.only:
             continue
         dens = model_densities(scene)
         top = 1.1 * max(float(dens[m]["x"][-1]) for m in ("exact", "compounded"))
         h = mc_histogram(scene, cache, args.floor, args.dt, top)
-        row = {"overrides": PROBES.get(name), "floor_target": args.floor,
+        row = {"overrides": PROBES.get(name, MECHANISM.get(name)), "floor_target": args.floor,
                "dt": float(h["dt_used"]), "mc_mean_A": float(h["mean"]),
                "mc_mean_A_err": float(h["mean_err"]), "mc_seconds": float(h["seconds"]),
                "stuck_fraction": float(h["stuck"]), "load_average": os.getloadavg(),
-               **band_ratio(scene, dens["exact"]), "models": {}}
+               **band_ratio(scene, dens["exact"]), "validity": validity(scene), "models": {}}
         for m, d in dens.items():
             c = compare(d, h)
             row["models"][m] = {"L1": c["L1"], "L1_err": c["L1_err"],
@@ -163,6 +197,47 @@ def main() -> None:
             tmp = out_path.with_suffix(".tmp")
             tmp.write_text(json.dumps(results, indent=1, sort_keys=True))
             tmp.replace(out_path)
+
+
+
+
+def table(paths: list[Path]) -> None:
+    """Markdown table of stored rows (later files override earlier ones for the same scene):
+    L1(A) (mean shift) of exact, compounded, corrected, the floor, dt, and what check would
+    recommend from these numbers (harness.check.recommend with the scene's warnings)."""
+    from harness.check import assumption_warnings, recommend
+
+    rows: dict[str, dict] = {}
+    for p in paths:
+        for key, r in json.loads(Path(p).read_text()).items():
+            rows[key.split(" @")[0]] = r
+    print("| scene | exact | compounded | corrected | floor | dt | check recommends |")
+    print("|---|---|---|---|---|---|---|")
+    for name, scene in all_scenes():
+        if name not in rows:
+            continue
+        r = rows[name]
+        M = r["models"]
+        val = validity(scene)
+        closed = {"exact": averaging.solve(scene, model="exact")}
+        mc_info = {"events": {"stuck_fraction": {"value": r.get("stuck_fraction", 0.0)}}}
+        warns = assumption_warnings(scene, closed, mc_info, val)
+        canned = {"models": {m: {"averaging_error": {"A": {"L1": M[m]["L1"],
+                                                            "L1_floor": r["L1_floor"]}},
+                                 "sampling_ok": True} for m in ("exact", "corrected")}}
+        rec, line = recommend(canned, warns, val)
+        body = line.split(" -- ", 1)[1]
+        if rec == "none" and "fail here (" in body:
+            why = body.split("fail here (", 1)[1].split(")")[0]
+        else:
+            why = body.split(" (")[0]
+            if "energy-at-the-wall" in body:
+                why += "; corrected's wall term out of range"
+            if "correlated-noise regime" in body:
+                why += "; correlated-noise regime"
+        cells = " | ".join(f"{M[m]['L1']:.3f} ({M[m]['mean_diff']:+.3f})"
+                           for m in ("exact", "compounded", "corrected"))
+        print(f"| {name} | {cells} | {r['L1_floor']:.4f} | {r['dt']:g} | **{rec}**: {why} |")
 
 
 if __name__ == "__main__":
