@@ -172,9 +172,10 @@ def test_recommend_within_the_noise_follows_the_wall_term_validity():
 
 def test_recommend_none_when_assumptions_fail_or_unconverged_or_large():
     from harness.check import recommend
+    from vifpk.core.result import WarningRecord
 
-    narrow = ("narrow-band noise: bandwidth alpha1 = 0.2 is 0.2-0.2 x the oscillation "
-              "frequency over the bulk of p(E)")
+    narrow = WarningRecord("narrow_band", "narrow-band noise: bandwidth alpha1 = 0.2 is 0.2-0.2 x "
+                           "the oscillation frequency over the bulk of p(E)")
     m, line = recommend(_canned({"exact": 0.01, "corrected": 0.01}), [narrow], VAL)
     assert m == "none" and "narrow band" in line
     m, line = recommend(_canned({"exact": 0.01, "corrected": 0.01}), [], VAL,
