@@ -249,3 +249,19 @@ def test_montecarlo_energy_balance_general_damping_and_friction():
     losses, exact = en["losses"], 1.3**2 * 0.01
     assert abs(losses["value"] - exact) <= 3 * losses["err"], (losses, exact)
     assert en["damping"]["value"] > 0 and en["friction"]["value"] > 0
+
+
+# ----------------------------------------------------------------------------- hard cases
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["soft-bound", "degree9", "quintic-large"])
+def test_hard_springs_give_finite_normalised_densities(name):
+    """Every solver of check (closed forms, FPKs, averaged SDEs, the original system's Monte
+    Carlo) on the hard springs of scenes/hard/: finite, normalised densities and finite
+    metrics (harness.check.output_problems, the same bounds as the other hard scenes)."""
+    from harness.check import cross_check, output_problems
+
+    scene = load_scene(f"hard/{name}").with_values(
+        {"montecarlo.paths": 64, "montecarlo.blocks": 16, "montecarlo.time": 100.0})
+    result = cross_check(scene, quiet=True)
+    assert output_problems(result) == []
+    assert "paper" not in result.metrics["models"] and "models_absent" in result.metrics
