@@ -563,3 +563,65 @@ def test_cost_between_the_bounds_uses_the_measured_speed(monkeypatch):
     monkeypatch.setenv("VIFPK_STEPS_PER_SECOND", "fast")
     with pytest.raises(validate.InputError, match="VIFPK_STEPS_PER_SECOND=fast"):
         validate.refuse_costly(estimate, "this run", False)
+
+
+# --------------------------------------------------------------------------------------------
+# G: the verdict looks at every observable; a colour per class; help texts
+def _entry(**l1):
+    hist = {o: {"L1": v, "L1_err": 0.002, "L1_floor": 0.018, "ks": v / 2, "mean_diff": 0.0}
+            for o, v in l1.items()}
+    return {"averaging_error": hist, "sampling_ok": True,
+            "sampling_error": {o: {"L1": 0.01, "L1_floor": 0.018} for o in l1}}
+
+
+def test_headline_verdict_is_the_worst_observable():
+    """The issue's case: p(A) within the noise but p(x2) 2.8 x its floor: not called
+    indistinguishable; the line names each observable's class."""
+    from harness.check import verdict, verdict_class
+
+    e = _entry(A=0.02, x1=0.03, x2=2.8 * 0.018)
+    cls, cause = verdict_class(e, [])
+    assert cls == "small" and "p(x2)" in cause
+    line = verdict("corrected", e, [])
+    assert line.startswith("corrected model: SMALL --")
+    assert "p(A) indistinguishable" in line and "p(x2) small (L1 0.050, 2.8 x floor)" in line
+    assert verdict_class(_entry(A=0.02, x1=0.02, x2=0.02), [])[0] == "indistinguishable"
+    assert verdict_class(_entry(A=0.05, x1=0.4, x2=0.02), [])[0] == "large"
+
+
+def test_each_class_has_its_own_colour():
+    from harness.check import CLASSES
+    from harness.report import CLASS_COLOURS, _class_css
+
+    assert set(CLASS_COLOURS) == set(CLASSES)
+    assert len(set(CLASS_COLOURS.values())) == len(CLASSES)
+    css = _class_css()
+    assert all(f".{c.replace(' ', '-')}{{background:" in css for c in CLASSES)
+
+
+def test_help_texts_count_the_models():
+    from harness.cli import build_parser
+
+    sub = next(a for a in build_parser()._actions if hasattr(a, "choices") and a.choices)
+    helps = {a.dest: a.help for a in sub._choices_actions}
+    assert "both" not in helps["check"] and "every averaged model" in helps["check"]
+    assert "two averaged models" in helps["figures"]
+
+
+def test_bifurcation_prints_words_not_python_reprs(monkeypatch, capsys):
+    import harness.bifurcation
+    from harness.cli import main
+
+    def canned(scene, vary, **kw):
+        return {"fixed": {"r": 0.96}, "critical": {"paper": None, "exact": 0.0123},
+                "range": [0.0, 0.05], "paper_claim": "mu near 0.038",
+                "mc_check": [{"value": 0.01, "predicted": {"paper": "crater", "exact": "peak"},
+                              "monte_carlo": {"shape": "peak", "max_rise_in_se": 1.5},
+                              "words": "agrees"}]}
+
+    monkeypatch.setattr(harness.bifurcation, "bifurcation", canned)
+    assert main(["bifurcation", BASE, "--vary", "mu", "--no-mc", "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert "{" not in out and "[" not in out and "'paper'" not in out, out
+    assert "paper model: critical mu = none in 0 to 0.05" in out
+    assert "models predict paper a crater, exact a peak" in out
