@@ -76,6 +76,9 @@ WARNING_FLAGS = {"warn_narrow_band": "narrow_band", "warn_sticking": "sticking",
                  "warn_strong_damping": "strong_damping", "warn_strong_noise": "strong_noise",
                  "warn_correlated_noise": "correlated_noise"}
 EXTRA_HINT = "pip install 'vifpk[cluster]'"
+#: the largest grid a sweep file may ask for (building and validating a point's scene costs
+#: ~0.1 ms; a 1000 x 1000 grid was silent for minutes before any work)
+MAX_POINTS = 100_000
 
 
 class SweepError(SceneError):
@@ -222,6 +225,8 @@ def _values(where: str, spec: Any) -> tuple[float, ...]:
             raise SweepError(f"{where}.num = {num!r}: must be a whole number >= 1")
         if num == 0:
             raise SweepError(f"{where}: empty grid (num = 0)")
+        if num > MAX_POINTS:
+            raise SweepError(f"{where}.num = {num}: out of range; allowed: 1 to {MAX_POINTS}")
         for k in ("start", "stop"):
             if not _number(spec[k]) or not math.isfinite(spec[k]):
                 raise SweepError(f"{where}.{k} = {spec[k]!r}: must be a finite number")
@@ -364,11 +369,11 @@ def load_sweep(path: str | Path) -> Sweep:
             from .bifurcation import VARIABLES
 
             ok = (isinstance(rng, list) and len(rng) == 2 and all(_number(v) for v in rng)
-                  and rng[0] < rng[1])
+                  and all(math.isfinite(v) for v in rng) and rng[0] < rng[1])
             _, _, (d_lo, d_hi) = VARIABLES[find]
             if not ok:
                 raise SweepError(f"{src}: [bifurcation] range = {rng!r}: must be [lo, hi] "
-                                 "with lo < hi")
+                                 "of finite numbers with lo < hi")
             bif["range"] = [float(rng[0]), float(rng[1])]
             lo_ok = rng[0] >= 0 if find == "mu" else 0 < rng[0]
             if not lo_ok or (find == "r" and rng[1] > 1):
@@ -383,6 +388,11 @@ def load_sweep(path: str | Path) -> Sweep:
     if mode == "product":
         import itertools
 
+        size = math.prod(len(v) for _, v in vary)
+        if size > MAX_POINTS:
+            raise SweepError(f"{src}: [vary]: {' x '.join(str(len(v)) for _, v in vary)} = "
+                             f"{size} points; allowed: up to {MAX_POINTS} points a sweep "
+                             "(split it, or use mode = \"adaptive\")")
         combos = [tuple(zip([k for k, _ in vary], c, strict=True))
                   for c in itertools.product(*(v for _, v in vary))]
     elif mode == "adaptive":
@@ -502,11 +512,27 @@ def make_point(base: Scene, fixed: Mapping[str, Any], *, seed: int, workflow: st
     if scene.sweep is not None:
         raise SweepError(f"{where}: scene: {scene.sweep.path} varies in the base scene; set "
                          "it in [set] or vary it in [vary]")
+    _validate_point(scene, workflow, bifurcation, where, params)
     scene = _named(scene, f"{base.name}[{', '.join(f'{k}={v:g}' for k, v in params)}]")
     key = point_key(params)
     sde = workflow == "check" and sde_check_at(key, first=first)
     return Point(params=params, seed=s, key=key, scene=scene, sde=sde,
                  fingerprint=fingerprint(workflow, scene, bifurcation, sde=sde))
+
+
+def _validate_point(scene: Scene, workflow: str, bifurcation: Mapping[str, Any], where: str,
+                    params: tuple[tuple[str, float], ...]) -> None:
+    """A point's scene checked as `vifpk check` / `solve` check theirs before any work
+    (magnitudes; the Monte Carlo settings where the workflow simulates)."""
+    from . import validate
+
+    try:
+        validate.scene_magnitudes(scene)
+        if workflow == "check" or (workflow == "bifurcation" and bifurcation.get("mc")):
+            validate.montecarlo_settings(scene)
+    except SceneError as exc:
+        at = ", ".join(f"{k} = {v:g}" for k, v in params)
+        raise SweepError(f"{where}: at the point {at}: {exc}") from None
 
 
 def _named(scene: Scene, name: str) -> Scene:
@@ -598,8 +624,11 @@ def _averaging_point(job: Job) -> dict[str, Any]:
     from .check import assumption_warnings, models_of
     from .compare import compare
     from .run import run_solver
+    from .validate import finite_result
 
     closed = {m: run_solver(job.scene, "averaging", model=m) for m in models_of(job.scene)[0]}
+    for r in closed.values():  # a point is "ok" only with finite numbers, as `solve` exits 3
+        finite_result(r, job.scene)
     warnings = assumption_warnings(job.scene, closed, {})
     flags = _flags(warnings)
     flags.pop("warn_sticking")  # needs the simulation
@@ -947,6 +976,32 @@ def check_sweep_folder(out: str | Path) -> Path:
                              f"its {'point records' if what == 'folder' else name} there; "
                              "move it away or choose another --out")
     return target
+
+
+def sweep_seconds(sweep: Sweep, *, speed: float | None = None) -> float:
+    """Lower bound of the wall time of the sweep's points on this machine (validate.py's
+    estimates: a check point is its Monte Carlo and closed forms, an averaging point its
+    closed forms, a bifurcation point its Monte Carlo checks (two per model) or, without
+    them, ~20 closed-form evaluations per model). Local executors share the same cores, so
+    the points' times add up; a remote cluster may be faster (confirm with --yes)."""
+    from . import validate as v
+
+    models = ("paper", "exact", "corrected")
+    total = 0.0
+    for pt in sweep.points:
+        sc = pt.scene
+        closed = sum(v.averaging_seconds(sc, m) for m in models)
+        if sweep.workflow == "check":
+            total += v.montecarlo_seconds(sc, speed=speed) + closed
+        elif sweep.workflow == "averaging":
+            total += closed
+        elif sweep.bifurcation.get("mc"):
+            total += 4 * v.montecarlo_seconds(sc, speed=speed) + 20 * closed
+        else:
+            total += 20 * closed
+    if sweep.mode == "adaptive" and sweep.points:  # the lattice stands for the whole budget
+        total *= max(sweep.adaptive["points"] / len(sweep.points), 1.0)
+    return total
 
 
 def _clear_temporaries(out: Path) -> None:

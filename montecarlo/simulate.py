@@ -186,7 +186,9 @@ def _kernel(arr: _Arrays, phys: dict[str, Any], h: float, n_steps: int, step0: i
 def _diverged(h: float, what: str) -> SimulationDiverged:
     return SimulationDiverged(
         f"the Monte Carlo blew up ({what}) at dt = {h:g}: the time step is most likely too "
-        "large for this scene; try a smaller --dt (e.g. 0.01) or --dt auto")
+        f"large for this scene; try a smaller --dt (e.g. {h / 4:g}) or --dt auto; if a "
+        "smaller step blows up too, the amplitude grows without bound (negative damping "
+        "c1 > 0 not held by c2, impacts or friction) and no stationary density exists")
 
 
 class _Stepper:
@@ -424,6 +426,12 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
             burn_in = float(st.burn_in)
         pilot_s = time.perf_counter() - t1
 
+        if not burn_in / h < 2.0**53:  # beyond any run (and numba's integers)
+            raise SimulationDiverged(
+                f"the relaxation pilot measured a relaxation time of {burn_in / BURN_FACTOR:.3g}"
+                f" (burn-in {burn_in:.3g} = {burn_in / h:.3g} steps of dt = {h:g}): the paths "
+                "barely forget their start (most likely the noise is too weak to mix them: "
+                "check noise.D and f); give montecarlo.burn_in explicitly to run anyway")
         n_burn = int(round(burn_in / h))
         win_steps = spw * stride
         gen = np.random.default_rng(np.random.SeedSequence(st.seed, spawn_key=(1 << 24,)))

@@ -49,6 +49,17 @@ def _nonneg(v: float) -> str | None:
     return None if math.isfinite(v) and v >= 0 else "a finite number >= 0"
 
 
+def _tail(v: float) -> str | None:
+    """The probability mass the amplitude grid may leave beyond A_max: a small tolerance (a
+    tail of 0.5 would cut half the density off the grid)."""
+    return None if math.isfinite(v) and 0.0 < v <= 1e-3 else "0 < tail <= 0.001"
+
+
+def _floor(v: float) -> str | None:
+    """A target L1 noise floor: an L1 distance between densities is at most 2."""
+    return None if math.isfinite(v) and 0.0 <= v < 2.0 else "0 <= floor < 2 (0: none)"
+
+
 def _restitution(v: float) -> str | None:
     return None if math.isfinite(v) and 0 < v <= 1 else "0 < r <= 1"
 
@@ -266,7 +277,7 @@ class AveragingSettings:
     """Numerical settings of the averaged models (closed form and exact orbit averages)."""
 
     points: int = field(default=801, metadata=_meta(_int_at_least(17), "grid points in A"))
-    tail: float = field(default=1e-10, metadata=_meta(_positive, "mass allowed beyond A_max"))
+    tail: float = field(default=1e-10, metadata=_meta(_tail, "mass allowed beyond A_max"))
     theta_nodes: int = field(default=64, metadata=_meta(_int_at_least(8), "GL nodes a quarter"))
     harmonics: int = field(default=24, metadata=_meta(_int_at_least(4), "orbit harmonics"))
     # at most 4001: memory grows as phase_points^2 (12.7 GB and 53 s measured at 20001)
@@ -292,7 +303,7 @@ class MonteCarloSettings:
     bins: int = field(default=100, metadata=_meta(_int_between(4, 100_000), "histogram bins"))
     threads: int = field(default=0, metadata=_meta(_int_at_least(0), "0: all cores"))
     floor: float = field(default=0.0, metadata=_meta(
-        _nonneg, "target L1 noise floor of p(A); 0: sample exactly `time`"))
+        _floor, "target L1 noise floor of p(A); 0: sample exactly `time`"))
     budget: float = field(default=600.0, metadata=_meta(
         _nonneg, "wall seconds allowed to reach the floor; 0: no limit"))
 
@@ -475,8 +486,9 @@ def scene_from_dict(raw: Mapping[str, Any], *, source: str = "<dict>") -> Scene:
     """Build and validate a Scene from a parsed TOML document."""
     top = {"name", "description", *SECTIONS}
     for key in raw:
-        if key == "sweep":
-            continue
+        if key == "sweep" and isinstance(raw[key], Mapping) and set(raw[key]) <= {"field",
+                                                                                 "values"}:
+            continue  # written by Scene.to_dict beside the varied list; the list rules
         if key not in top:
             raise SceneError(f"{source}: unknown key '{key}'; {_suggest(key, sorted(top))}")
     name = raw.get("name", Path(source).stem if source else "scene")
