@@ -86,9 +86,13 @@ SHIPPED = [("paper-base", 0), ("paper-fig2", 0), ("paper-fig2", 2), ("paper-fig3
 
 
 def all_scenes():
-    """The shipped scene variants, then the probes."""
+    """The shipped scene variants, the user-defined-system families (scenes/systems), then the
+    probes."""
     for name, i in SHIPPED:
         sc = load_scene(ROOT / "scenes" / f"{name}.toml").variants()[i]
+        yield sc.name, sc
+    for path in sorted((ROOT / "scenes" / "systems").glob("*.toml")):  # issue 21 families
+        sc = load_scene(path)
         yield sc.name, sc
     base = load_scene(ROOT / "scenes" / "paper-base.toml")
     for name, over in {**PROBES, **MECHANISM}.items():
@@ -142,8 +146,7 @@ def band_ratio(scene, dens) -> dict[str, float]:
     c = np.concatenate([[0.0], np.cumsum(0.5 * (p[1:] + p[:-1]) * np.diff(A))])
     c /= c[-1]
     q = np.interp([0.1, 0.5, 0.9], c, A)
-    from averaging.geometry import period
-    Om = 2 * np.pi / period(q, scene.system.omega0, scene.system.alpha)
+    Om = 2 * np.pi / averaging.build_model(scene, "exact").period(q)
     return {f"alpha1_over_Omega_q{k}": float(scene.noise.alpha1 / o)
             for k, o in zip((10, 50, 90), Om, strict=True)}
 
