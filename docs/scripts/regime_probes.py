@@ -55,6 +55,8 @@ PROBES: dict[str, dict] = {
     "posdamp c1=-0.01 r=0.99 a1=1": {"system.c1": -0.01, "system.r": 0.99,
                                      "noise.alpha1": 1.0},
     "w0=1 a1=0.5": {"noise.alpha1": 0.5},
+    "posdamp c1=-0.02 r=0.95": {"system.c1": -0.02, "system.r": 0.95},
+    "posdamp c1=-0.02 r=0.95 D=0.005": {"system.c1": -0.02, "system.r": 0.95, "noise.D": 0.005},
     "impact r=0.9 a1=1.5": {"system.r": 0.9, "noise.alpha1": 1.5},
     "impact r=0.85 a1=4": {"system.r": 0.85, "noise.alpha1": 4.0},
     "friction mu=0.006 a1=1.2 w0=1.5": {"system.mu": 0.006, "noise.alpha1": 1.2,
