@@ -80,6 +80,8 @@ MECHANISM: dict[str, dict] = {
     "impact r=0.85 a1=1 k=1/2": {**HALF, "system.r": 0.925, "noise.alpha1": 1.0},
     "posdamp c1=-0.01 r=0.99 a1=1 k=1/2": {**HALF, "system.c1": -0.005, "system.r": 0.995,
                                            "noise.alpha1": 1.0},
+    "posdamp c1=-0.02 r=0.95 k=1/2": {**HALF, "system.c1": -0.01, "system.r": 0.975},
+    "posdamp c1=-0.02 r=0.95 r=1": {"system.c1": -0.02, "system.r": 1.0},
     "posdamp c1=-0.01 a1=1 r=1": {"system.c1": -0.01, "system.r": 1.0, "noise.alpha1": 1.0},
 }
 SHIPPED = [("paper-base", 0), ("paper-fig2", 0), ("paper-fig2", 2), ("paper-fig3", 0),
