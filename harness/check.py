@@ -277,6 +277,7 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
         cls, cause = verdict_class(metrics["models"][m], warnings, convergence=conv)
         metrics["models"][m]["verdict_class"] = cls
         metrics["models"][m]["verdict_cause"] = cause
+        metrics["models"][m]["verdict_by_observable"] = observable_classes(metrics["models"][m])
     stages.done()
     rec_model, rec_line = recommend(metrics, warnings, val, convergence=conv)
     metrics["recommended_model"] = rec_model
@@ -365,17 +366,49 @@ CLASSES = ("indistinguishable", "small", "moderate", "large", "not an estimate")
 DOMINANCE = 3.0  # a cause dominates when it is 3 x every other part of the decomposition
 
 
+RANK = {"indistinguishable": 0, "small": 1, "moderate": 2, "large": 3}
+
+
+def observable_class(e: dict[str, Any]) -> str:
+    """The class of one observable's averaging error (thresholds above; no convergence or
+    assumption test: see :func:`verdict_class`)."""
+    l1, floor = e["L1"], e["L1_floor"]
+    if l1 < INDISTINGUISHABLE_FACTOR * floor:
+        return "indistinguishable"
+    return "small" if l1 < SMALL_L1 else ("moderate" if l1 < LARGE_L1 else "large")
+
+
+def observable_classes(entry: dict[str, Any]) -> dict[str, str]:
+    """{observable: class} for every observable the check measured (p(A), p(x1), p(x2))."""
+    return {o: observable_class(e) for o, e in entry["averaging_error"].items()}
+
+
+def worst_observable(entry: dict[str, Any]) -> str:
+    """The observable with the worst class (ties: the largest L1 relative to its floor; p(A)
+    first when still tied): the one the headline verdict speaks for."""
+    errs = entry["averaging_error"]
+    per = observable_classes(entry)
+
+    def key(o: str) -> tuple[int, float, bool]:
+        e = errs[o]
+        ratio = e["L1"] / e["L1_floor"] if e["L1_floor"] > 0 else math.inf
+        return RANK[per[o]], ratio, o == "A"
+
+    return max(errs, key=key)
+
+
 def verdict_class(entry: dict[str, Any], warnings: list[str], *,
                   convergence: dict[str, Any] | None = None) -> tuple[str, str]:
-    """(class, dominant cause) of one model's averaging error of p(A).
+    """(class, dominant cause) of one model's averaging error, over EVERY observable measured.
 
     Class: "not an estimate" when the Monte Carlo has not converged or an averaging assumption
-    fails (the distance is then not an approximation error); else "indistinguishable" when
-    L1 < 2 x its noise floor, "small" when L1 < 0.1, "moderate" when L1 < 0.3, "large" above.
-    Cause: what the decomposition says the distance comes from (the averaged model itself when
-    its averaging error is 3 x the FPK discretisation and the sampling errors and floors).
+    fails (the distance is then not an approximation error); else the worst class among the
+    observables (p(A), p(x1), p(x2)), each "indistinguishable" when L1 < 2 x its noise floor,
+    "small" when L1 < 0.1, "moderate" when L1 < 0.3, "large" above. Cause: what the
+    decomposition of that worst observable says the distance comes from (the averaged model
+    itself when its averaging error is 3 x the FPK discretisation and the sampling errors and
+    floors), naming the observable when it is not p(A).
     """
-    e = entry["averaging_error"]["A"]
     conv = convergence or {}
     if conv.get("equilibrated") is False or entry.get("sampling_ok") is False:
         return "not an estimate", "the Monte Carlo has not converged"
@@ -383,16 +416,19 @@ def verdict_class(entry: dict[str, Any], warnings: list[str], *,
     if failing:
         names = [w.split(":")[0] for w in failing]
         return "not an estimate", "failing averaging assumptions (" + ", ".join(names) + ")"
+    o = worst_observable(entry)
+    e = entry["averaging_error"][o]
     l1, floor = e["L1"], e["L1_floor"]
     # a sweep point runs no FPK (cross_check(fpk=False)): no discretisation part then
-    disc = entry["discretisation_error"]["A"]["L1"] if "discretisation_error" in entry else 0.0
+    disc = entry.get("discretisation_error", {}).get(o, {"L1": 0.0})["L1"]
     # without the averaged SDE's Monte Carlo (a sweep point, cross_check(sde=False)) the noise
     # is the floor of the simulation of the original system alone
-    samp = entry.get("sampling_error", {}).get("A", {"L1": 0.0, "L1_floor": 0.0})
+    samp = entry.get("sampling_error", {}).get(o, {"L1": 0.0, "L1_floor": 0.0})
     noise = max(samp["L1"], samp["L1_floor"], floor)
-    if l1 < INDISTINGUISHABLE_FACTOR * floor:
-        return "indistinguishable", "Monte Carlo noise (the distance is at its floor)"
-    cls = "small" if l1 < SMALL_L1 else ("moderate" if l1 < LARGE_L1 else "large")
+    cls = observable_class(e)
+    where = "" if o == "A" else f" (on p({o}), the worst observable)"
+    if cls == "indistinguishable":
+        return cls, "Monte Carlo noise (the distance is at its floor)"
     if l1 >= DOMINANCE * max(disc, noise):
         cause = (f"the averaged model itself (FPK numerics {disc:.1e}, Monte Carlo noise "
                  f"{noise:.1e})")
@@ -402,13 +438,14 @@ def verdict_class(entry: dict[str, Any], warnings: list[str], *,
         cause = f"Monte Carlo noise ({noise:.1e}) as much as the model"
     else:
         cause = "none dominant"
-    return cls, cause
+    return cls, cause + where
 
 
 def verdict(model: str, entry: dict[str, Any], warnings: list[str], *,
             convergence: dict[str, Any] | None = None) -> str:
-    """One line: the class, the averaging error of p(A) with its error bar, what it means
-    against the noise floor and against the 0..2 scale of L1, and the dominant cause."""
+    """One line: the class (the worst over the observables), the averaging error of p(A) with
+    its error bar, what it means against the noise floor and against the 0..2 scale of L1,
+    every other observable's error and class, and the dominant cause."""
     e = entry["averaging_error"]["A"]
     cls, cause = verdict_class(entry, warnings, convergence=convergence)
     ratio = e["L1"] / e["L1_floor"] if e["L1_floor"] > 0 else math.inf
@@ -417,6 +454,15 @@ def verdict(model: str, entry: dict[str, Any], warnings: list[str], *,
             f"{e['L1_floor']:.3f}; on the 0-2 scale of L1, {50 * e['L1']:.1f}% of the "
             f"probability mass is misplaced (KS {e['ks']:.3f}, mean shift "
             f"{e['mean_diff']:+.3f})")
+    per = observable_classes(entry)
+    others = []
+    for o, eo in entry["averaging_error"].items():
+        if o == "A":
+            continue
+        r = eo["L1"] / eo["L1_floor"] if eo["L1_floor"] > 0 else math.inf
+        others.append(f"p({o}) {per[o]} (L1 {eo['L1']:.3f}, {r:.1f} x floor)")
+    if others:
+        line += f"; p(A) {per['A']}, " + ", ".join(others)
     conv = convergence or {}
     if cls == "not an estimate" and (conv.get("equilibrated") is False
                                      or entry.get("sampling_ok") is False):

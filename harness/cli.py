@@ -321,10 +321,15 @@ def cmd_bifurcation(args: argparse.Namespace) -> int:
                       for k, v in res["fixed"].items())
     print(f"varying {args.vary} with {fixed}")
     for m, c in res["critical"].items():
-        where = f"{c:.6g}" if c is not None else f"none in {res['range']}"
+        lo_hi = res["range"]
+        where = f"{c:.6g}" if c is not None else (
+            f"none in {lo_hi[0]:g} to {lo_hi[1]:g}" if isinstance(lo_hi, list | tuple)
+            and len(lo_hi) == 2 else f"none in {lo_hi}")
         print(f"{m} model: critical {args.vary} = {where}")
     for chk in res.get("mc_check", []):
-        print(f"  {args.vary} = {chk['value']:.5g}: models predict {chk['predicted']}; "
+        said = ", ".join(f"{k} a {v}" for k, v in chk["predicted"].items()) \
+            if isinstance(chk["predicted"], dict) else str(chk["predicted"])
+        print(f"  {args.vary} = {chk['value']:.5g}: models predict {said}; "
               f"original system (MC): {chk['monte_carlo']['shape']} "
               f"(largest rise of log p(y, y') {chk['monte_carlo']['max_rise_in_se']:.1f} s.e.)"
               f" -- {chk['words']}")
@@ -514,8 +519,10 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
                    help=SET_HELP)
     s.set_defaults(func=cmd_solve)
-    c = sub.add_parser("check", help="cross-check both averaged models against the Monte "
-                                     "Carlo of the original system and write an error report")
+    c = sub.add_parser("check", help="cross-check every averaged model (paper, exact, "
+                                     "corrected; exact and corrected outside the paper's "
+                                     "family) against the Monte Carlo of the original system "
+                                     "and write an error report")
     c.add_argument("scene", help="scene TOML file (or the name of a shipped scene)")
     c.add_argument("--out", metavar="DIR", help="report directory (default: out/<scene name>)")
     c.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
@@ -542,8 +549,9 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--quiet", action="store_true", help=QUIET_HELP)
     _add_mc_options(b)
     b.set_defaults(func=cmd_bifurcation)
-    f = sub.add_parser("figures", help="redraw the paper's Figures 2-6: both averaged models "
-                                       "against the Monte Carlo of the original system")
+    f = sub.add_parser("figures", help="redraw the paper's Figures 2-6: two averaged models "
+                                       "(the paper's and the exact one) against the Monte "
+                                       "Carlo of the original system")
     f.add_argument("--out", default="out/figures", metavar="DIR",
                    help="directory for paper-fig*.png and figures.json/.md "
                         "(default: %(default)s)")

@@ -1,4 +1,4 @@
-"""The paper's Figures 2-6, redrawn from the figure scenes: both averaged models against the
+"""The paper's Figures 2-6, redrawn from the figure scenes: two averaged models against the
 Monte Carlo of the original system.
 
 Figures 2-4: p(A), p(x1), p(x2) for each value of the varied parameter (lines: models;

@@ -231,6 +231,8 @@ def _tables(res: CheckResult) -> list[tuple[str, list[str], list[list[str]]]]:
 
 
 CLASS_TEXT = {
+    "headline": "the class of a model is the worst of its observables' classes (p(A), p(x1), "
+                "p(x2)), each judged by the thresholds below against its own noise floor",
     "indistinguishable": f"L1 < {INDISTINGUISHABLE_FACTOR:g} x its noise floor: no error "
                          "measurable at this sample size",
     "small": f"L1 < {SMALL_L1:g}: at most {50 * SMALL_L1:g}% of the probability mass misplaced",
@@ -242,23 +244,39 @@ CLASS_TEXT = {
 }
 
 
+#: one colour per verdict class, in the order of CLASSES (a sequential green-to-red scale,
+#: distinct hues so that SMALL never reads as INDISTINGUISHABLE; grey: no estimate)
+CLASS_COLOURS = {"indistinguishable": "#a6dba0", "small": "#d9f0a3", "moderate": "#fee391",
+                 "large": "#fc9272", "not an estimate": "#d9d9d9"}
+
+
+def _class_css() -> str:
+    return "".join(f".{k.replace(' ', '-')}{{background:{v}}}" for k, v in CLASS_COLOURS.items())
+
+
 def verdict_rows(res: CheckResult) -> list[list[str]]:
-    """The ten-second verdict: per model, class, L1(A) +/- error bar, times the noise floor,
-    share of the probability mass misplaced (L1 / 2, on L1's 0..2 scale), dominant cause."""
+    """The ten-second verdict: per model, class (the worst over every observable), L1(A) +/-
+    error bar, times the noise floor, share of the probability mass misplaced (L1 / 2, on
+    L1's 0..2 scale), the class of each observable, dominant cause."""
+    from .check import observable_classes
+
     rows = []
     for m in res.metrics["models"]:
         entry = res.metrics["models"][m]
         e = entry["averaging_error"]["A"]
         floor = e["L1_floor"]
         ratio = f"{e['L1'] / floor:.1f} x floor {floor:.3f}" if floor > 0 else "–"
+        per = entry.get("verdict_by_observable") or observable_classes(entry)
         rows.append([m, entry.get("verdict_class", "?").upper(),
                      f"{e['L1']:.3f} ± {e['L1_err']:.3f}", ratio, f"{50 * e['L1']:.1f}%",
+                     ", ".join(f"p({o}) {c}" for o, c in per.items()),
                      entry.get("verdict_cause", "")])
     return rows
 
 
-VERDICT_HEAD = ["model", "class", "L1(A) vs original system", "against the noise floor",
-                "mass misplaced (L1/2)", "dominant cause"]
+VERDICT_HEAD = ["model", "class (worst observable)", "L1(A) vs original system",
+                "against the noise floor", "mass misplaced (L1/2)", "each observable",
+                "dominant cause"]
 
 
 def _class_legend() -> list[str]:
@@ -343,9 +361,8 @@ def render_html(res: CheckResult, pngs: dict[str, bytes]) -> str:
         "<style>body{font-family:sans-serif;max-width:1200px;margin:2em auto;padding:0 1em}"
         "table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #ccc;padding:3px 8px;"
         "text-align:right}th{background:#eee}img{max-width:100%}.warn{color:#a00}"
-        "table.verdict td{text-align:left}.cls{font-weight:bold}.indistinguishable{background:#cfc}"
-        ".small{background:#dfd}.moderate{background:#ffd}.large{background:#fcc}"
-        ".not-an-estimate{background:#ddd}</style></head><body>",
+        "table.verdict td{text-align:left}.cls{font-weight:bold}" + _class_css()
+        + "</style></head><body>",
         f"<h1>Error report: {e(res.scene.name)}</h1>",
         *([f'<p class="run">{e(provenance.summary(res.provenance))}</p>']
           if res.provenance else []),

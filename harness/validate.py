@@ -334,6 +334,8 @@ def output_file(path: str | None, option: str) -> None:
         return
     p = Path(path)
     _lengths(p, option)
+    if path.endswith(("/", os.sep)):
+        raise InputError(f"{option} {path}: ends with a folder separator; give a file name")
     if p.is_symlink():
         raise InputError(f"{option} {_short(path)}: is a symbolic link; give the real file "
                          "path (outputs are written as a temporary file renamed over the name)")

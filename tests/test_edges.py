@@ -40,9 +40,35 @@ def _sweep_file(folder: Path, text: str = SWEEP, name: str = "s.toml") -> Path:
     return p
 
 
-def _scene(folder: Path, body: str) -> str:
+def _home(folder: Path) -> Path:
+    home = folder / "home"
+    home.mkdir()
+    (home / ".bashrc").write_text("# mine\n")
+    (home / "thesis").mkdir()
+    return home
+
+
+def _fifo(folder: Path) -> str:
+    os.mkfifo(folder / "fifo.toml")
+    return str(folder / "fifo.toml")
+
+
+def _loop(folder: Path) -> str:
+    (folder / "loop.toml").symlink_to(folder / "loop.toml")
+    return str(folder / "loop.toml")
+
+
+_ENV: dict[str, str] = {}
+
+
+def _with_env(folder: Path, key: str, value: str, args: list[str]) -> list[str]:
+    _ENV[key] = value
+    return args
+
+
+def _scene(folder: Path, body: str | bytes) -> str:
     p = folder / "scene.toml"
-    p.write_text(body)
+    p.write_bytes(body if isinstance(body, bytes) else body.encode())
     return str(p)
 
 
@@ -219,6 +245,50 @@ def _setup_cases():
                                                       "x1 = false\nx2 = false\nmoments = false"
                                                       "\nevents = false\n"), *MC],
          "every observable is off"),
+        # my own: hostile inputs beyond the issue's (docs/edges.md lists them all)
+        ("json-trailing-slash", lambda t: ["solve", BASE, "--json", str(t / "new") + "/"],
+         "ends with a folder separator"),
+        ("json-empty", lambda t: ["solve", BASE, "--json", ""], "is a folder"),
+        ("out-slash", lambda t: ["check", BASE, "--out", "/"], "is the current folder (or"),
+        ("out-home", lambda t: ["check", BASE, "--out", str(_home(t))],
+         "does not hold an earlier check report"),
+        ("scene-fifo", lambda t: ["solve", _fifo(t)], "no such scene file"),
+        ("scene-symlink-loop", lambda t: ["solve", _loop(t)], "no such scene file"),
+        ("scene-latin1", lambda t: ["solve", _scene(t, b"name = \"caf\xe9\"\n")],
+         "cannot read"),
+        ("scene-duplicate-key", lambda t: ["solve", _scene(t, "[system]\nr = 0.9\nr = 0.8\n")],
+         "not valid TOML"),
+        ("scene-two-lists", lambda t: ["solve", _scene(t, "[system]\nr = [0.9, 0.95]\n"
+                                                       "mu = [0.0, 0.001]\n")],
+         "only one parameter may vary"),
+        ("scene-is-a-sweep", lambda t: ["solve", str(_sweep_file(t))], "unknown key 'scene'"),
+        ("sweep-is-a-scene", lambda t: ["sweep", str(DATA / "tiny.toml")],
+         "unknown key 'averaging'"),
+        ("set-no-value", lambda t: ["solve", BASE, "--set", "noise.D"], "expected section.key"),
+        ("set-empty-value", lambda t: ["solve", BASE, "--set", "noise.D="], "noise.D = ''"),
+        ("set-table", lambda t: ["solve", BASE, "--set", "noise.D={a=1}"], "must be a finite"),
+        ("set-unicode-section", lambda t: ["solve", BASE, "--set", "système.r=1"],
+         "unknown field"),
+        ("dt-underflow", lambda t: ["solve", BASE, *MC, "--dt", "1e-400"], "--dt = 0.0"),
+        ("range-equal", lambda t: ["bifurcation", BASE, "--vary", "mu", "--range", "0.01",
+                                   "0.01", "--no-mc"], "LO must be below HI"),
+        ("executor-space", lambda t: ["sweep", str(_sweep_file(t)), "--executor", " serial"],
+         "unknown executor"),
+        ("executor-processes-empty", lambda t: ["sweep", str(_sweep_file(t)), "--executor",
+                                                "processes:"], "N must be a whole number"),
+        ("sweep-vary-bool", lambda t: ["sweep", str(_sweep_file(t, SWEEP.replace(
+            "[0.95, 0.97]", "[true, false]")))], "True is not a finite number"),
+        ("sweep-name-empty", lambda t: ["sweep", str(_sweep_file(t, 'name = ""\n' + SWEEP))],
+         "name and description must be strings"),
+        ("sweep-name-300", lambda t: ["sweep", str(_sweep_file(t, f'name = "{"n" * 300}"\n'
+                                                                + SWEEP))], "bytes long"),
+        ("sweep-scene-is-a-sweep", lambda t: ["sweep", str(_sweep_file(t, SWEEP.replace(
+            '"tiny"', '"inner.toml"'), name="outer.toml"))] if _sweep_file(
+            t, SWEEP, name="inner.toml") else [], "unknown key 'scene'"),
+        ("numba-threads-text", lambda t: _with_env(t, "NUMBA_NUM_THREADS", "abc",
+                                                   ["solve", BASE]), "NUMBA_NUM_THREADS=abc"),
+        ("check-paths-32", lambda t: ["check", BASE, "--set", "montecarlo.paths=32"],
+         "paths >= 2 x blocks"),
         # D: the cost guard
         ("floor-5", lambda t: ["solve", BASE, *MC, "--floor", "5"], "0 <= floor < 2"),
         ("floor-no-budget", lambda t: ["solve", BASE, *MC, "--floor", "1e-5", "--budget", "0"],
@@ -284,7 +354,10 @@ def test_refused_before_any_work(case, no_computation, tmp_path, monkeypatch, ca
     from harness.cli import main
 
     monkeypatch.chdir(tmp_path)
+    _ENV.clear()
     args = case[1](tmp_path)
+    for key, value in _ENV.items():
+        monkeypatch.setenv(key, value)
     before = _snapshot(tmp_path)
     try:
         code = main(args)
@@ -563,3 +636,65 @@ def test_cost_between_the_bounds_uses_the_measured_speed(monkeypatch):
     monkeypatch.setenv("VIFPK_STEPS_PER_SECOND", "fast")
     with pytest.raises(validate.InputError, match="VIFPK_STEPS_PER_SECOND=fast"):
         validate.refuse_costly(estimate, "this run", False)
+
+
+# --------------------------------------------------------------------------------------------
+# G: the verdict looks at every observable; a colour per class; help texts
+def _entry(**l1):
+    hist = {o: {"L1": v, "L1_err": 0.002, "L1_floor": 0.018, "ks": v / 2, "mean_diff": 0.0}
+            for o, v in l1.items()}
+    return {"averaging_error": hist, "sampling_ok": True,
+            "sampling_error": {o: {"L1": 0.01, "L1_floor": 0.018} for o in l1}}
+
+
+def test_headline_verdict_is_the_worst_observable():
+    """The issue's case: p(A) within the noise but p(x2) 2.8 x its floor: not called
+    indistinguishable; the line names each observable's class."""
+    from harness.check import verdict, verdict_class
+
+    e = _entry(A=0.02, x1=0.03, x2=2.8 * 0.018)
+    cls, cause = verdict_class(e, [])
+    assert cls == "small" and "p(x2)" in cause
+    line = verdict("corrected", e, [])
+    assert line.startswith("corrected model: SMALL --")
+    assert "p(A) indistinguishable" in line and "p(x2) small (L1 0.050, 2.8 x floor)" in line
+    assert verdict_class(_entry(A=0.02, x1=0.02, x2=0.02), [])[0] == "indistinguishable"
+    assert verdict_class(_entry(A=0.05, x1=0.4, x2=0.02), [])[0] == "large"
+
+
+def test_each_class_has_its_own_colour():
+    from harness.check import CLASSES
+    from harness.report import CLASS_COLOURS, _class_css
+
+    assert set(CLASS_COLOURS) == set(CLASSES)
+    assert len(set(CLASS_COLOURS.values())) == len(CLASSES)
+    css = _class_css()
+    assert all(f".{c.replace(' ', '-')}{{background:" in css for c in CLASSES)
+
+
+def test_help_texts_count_the_models():
+    from harness.cli import build_parser
+
+    sub = next(a for a in build_parser()._actions if hasattr(a, "choices") and a.choices)
+    helps = {a.dest: a.help for a in sub._choices_actions}
+    assert "both" not in helps["check"] and "every averaged model" in helps["check"]
+    assert "two averaged models" in helps["figures"]
+
+
+def test_bifurcation_prints_words_not_python_reprs(monkeypatch, capsys):
+    import harness.bifurcation
+    from harness.cli import main
+
+    def canned(scene, vary, **kw):
+        return {"fixed": {"r": 0.96}, "critical": {"paper": None, "exact": 0.0123},
+                "range": [0.0, 0.05], "paper_claim": "mu near 0.038",
+                "mc_check": [{"value": 0.01, "predicted": {"paper": "crater", "exact": "peak"},
+                              "monte_carlo": {"shape": "peak", "max_rise_in_se": 1.5},
+                              "words": "agrees"}]}
+
+    monkeypatch.setattr(harness.bifurcation, "bifurcation", canned)
+    assert main(["bifurcation", BASE, "--vary", "mu", "--no-mc", "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert "{" not in out and "[" not in out and "'paper'" not in out, out
+    assert "paper model: critical mu = none in 0 to 0.05" in out
+    assert "models predict paper a crater, exact a peak" in out
