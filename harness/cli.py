@@ -13,10 +13,14 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
+from vifpk.core import registry
+from vifpk.core.defaults import BIFURCATION_MODELS, BURN_FACTOR, CHECK_MODELS, FPK_CELLS
+from vifpk.core.registry import SOLVERS
+from vifpk.core.result import BadInput
 from vifpk.core.scene import Scene, SceneError, load_scene
 
 from . import validate
-from .run import SOLVERS, SolverFailure, run_solver, solution_record
+from .run import SolverFailure, run_solver, solution_record
 
 EXIT_BAD_INPUT = 2
 EXIT_SOLVER = 3
@@ -27,7 +31,25 @@ SET_HELP = ("override a scene value, e.g. noise.D=0.02 (repeatable; default: non
 QUIET_HELP = "no progress on the terminal (default: progress on stderr)"
 
 
+class _Once(argparse._StoreAction):
+    """A value option given twice is refused (the last would silently win), as ``--set``
+    given twice for one key is."""
+
+    def __call__(self, parser, namespace, values, option_string=None):  # type: ignore[override]
+        seen = namespace.__dict__.setdefault("_given", {})
+        if self.dest in seen:
+            parser.error(f"{option_string} given twice ({seen[self.dest]} and {values}); give "
+                         "it once")
+        seen[self.dest] = values
+        super().__call__(parser, namespace, values, option_string)
+
+
 class _Parser(argparse.ArgumentParser):
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.register("action", None, _Once)
+        self.register("action", "store", _Once)
+
     def error(self, message: str) -> None:  # one line, exit 2
         self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message}\n")
 
@@ -88,7 +110,8 @@ def _mc_summary(info: dict[str, Any]) -> str:
     if conv.get("equilibrated") is not None:
         burn = f"burn-in {conv['burn_in']:g}"
         if "relaxation_time" in conv:
-            burn += f" = 6 x measured relaxation time {conv['relaxation_time']:.3g}"
+            burn += (f" = {BURN_FACTOR:g} x measured relaxation time "
+                     f"{conv['relaxation_time']:.3g}")
         if conv["equilibrated"]:
             lines.append(f"  equilibrated: yes (R-hat {conv['rhat']:.4f} <= "
                          f"{conv['rhat_limit']:.4f}, drift {conv['drift_z']:+.1f} s.e., ESS "
@@ -116,6 +139,9 @@ def _summary(result: Any) -> str:
     s, d = info["summary"], info["diagnostics"]
     lines = [
         f"{info['solver']} ({info.get('model', '-')}): {info['status']['message']}",
+        *([f"  method: {info['method']}"] if info.get("closed_form") is False else []),
+        *([f"  period T(A): {info['period']}"] if str(info.get("period", "model")) != "model"
+          else []),
         f"  amplitude A: mean {s['mean']:.6g}, mode {s['mode']:.6g}, std {s['std']:.6g}",
         f"  grid: {info['grid'].get('points', info['grid'].get('cells'))} points on "
         f"[{info['grid']['A_min']:.4g}, {info['grid']['A_max']:.4g}]",
@@ -147,6 +173,10 @@ def _checked_scene(args: argparse.Namespace, *, mc: bool) -> Scene:
     validate.scene_magnitudes(scene)
     if mc:
         validate.montecarlo_settings(scene, {k: f"--{k}" for k in _mc_given(args)})
+        if getattr(args, "budget", None) is not None and scene.montecarlo.floor <= 0:
+            raise validate.InputError(f"--budget {args.budget:g}: does not apply without a "
+                                      "target floor (--floor F > 0 or montecarlo.floor): the "
+                                      "budget limits the time spent reaching the floor")
     return scene
 
 
@@ -169,11 +199,19 @@ def cmd_solve(args: argparse.Namespace) -> int:
                                   ">= 4 (cells of the FPK)")
     validate.output_file(args.json, "--json")
     scene = _checked_scene(args, mc=args.solver == "montecarlo")
-    model = args.model or "paper"
+    # default: the paper's model for the paper's family, else the exact model
+    outside = scene.system.paper_family_problem()
+    model = args.model or ("paper" if outside is None else "exact")
+    if args.solver != "montecarlo" and model == "paper" and outside is not None:
+        raise validate.InputError(f"--model paper: {outside}; allowed here: --model exact "
+                                  "or --model corrected")
     if args.solver == "montecarlo" and args.joint and not scene.observables.joint:
         scene = scene.with_values({"observables.joint": True})
-    validate.refuse_costly(validate.solve_seconds(scene, args.solver, model, args.grid),
+    validate.refuse_costly(lambda sp: validate.solve_seconds(scene, args.solver, model,
+                                                             args.grid, speed=sp),
                            "this solve", args.yes)
+    if args.solver == "montecarlo":
+        validate.refuse_oversized(scene)
     if args.solver == "montecarlo":
         result = run_solver(scene, "montecarlo")
     else:
@@ -190,14 +228,8 @@ def cmd_solve(args: argparse.Namespace) -> int:
 
 
 def _finite_or_fail(result: Any, scene: Scene) -> None:
-    """Never exit 0 with NaN: every density of a result must be finite."""
-    import numpy as np
-
-    for key, d in result.data.items():
-        p = d.get("p") if isinstance(d, dict) else None
-        if p is not None and not np.all(np.isfinite(np.asarray(p, dtype=float))):
-            raise SolverFailure(f"the density of {key} is not finite: the solver failed "
-                                f"numerically; likely cause: {validate.most_extreme(scene)}")
+    """Never exit 0 with NaN (validate.finite_result)."""
+    validate.finite_result(result, scene)
 
 
 def _mc_overrides(args: argparse.Namespace) -> dict[str, Any]:
@@ -238,11 +270,14 @@ def cmd_check(args: argparse.Namespace) -> int:
     out = args.out or f"out/{folder_name(scene.name)}"
     if args.out is None:
         validate.output_folder(out, "--out (default)", replaced=True)
-    validate.refuse_costly(validate.check_seconds(scene), "this check", args.yes)
+    models = tuple(dict.fromkeys(args.model)) if args.model else CHECK_MODELS
+    validate.refuse_costly(lambda sp: validate.check_seconds(scene, models, speed=sp),
+                           "this check", args.yes)
+    validate.refuse_oversized(scene)
     prov = _provenance(args)
     # hold the folder from the start: a second run into it is refused before any work
     with outdir.hold(out, run_id=prov["run_id"], allowed=REPORT_FILES, kind="check report"):
-        result = cross_check(scene, quiet=args.quiet)
+        result = cross_check(scene, quiet=args.quiet, models=models)
         files = write_report(result, out, prov=prov)
     for v in result.verdicts:
         print(v)
@@ -260,30 +295,51 @@ def cmd_bifurcation(args: argparse.Namespace) -> int:
     if args.no_mc:
         validate.refuse_options(_mc_given(args), "with --no-mc (no Monte Carlo is run)")
     validate.output_file(args.json, "--json")
-    scene = _checked_scene(args, mc=not args.no_mc)
-    lo, hi = args.range if args.range else (None, None)
     section, key, (d_lo, d_hi) = VARIABLES[args.vary]
+    for text in args.set:
+        if text.partition("=")[0].strip() == f"{section}.{key}":
+            raise validate.InputError(f"--set {text}: {section}.{key} is the parameter "
+                                      f"--vary {args.vary} searches; give its interval with "
+                                      "--range LO HI instead")
+    scene = _checked_scene(args, mc=not args.no_mc)
+    if scene.system.f == 0.0:
+        raise SolverFailure("f = 0: there is no noise, so no stationary density exists at any "
+                            f"{args.vary}; nothing to search")
+    lo, hi = args.range if args.range else (None, None)
     validate.search_range(args.vary, d_lo if lo is None else lo, d_hi if hi is None else hi,
                           validate.fields_of(section)[key])
+    outside = scene.system.paper_family_problem()
+    if outside is not None and "paper" in (args.model or ()):
+        raise validate.InputError(f"--model paper: {outside}; allowed here: --model exact "
+                                  "or --model corrected")
+    default_models = (BIFURCATION_MODELS if outside is None
+                      else tuple(m for m in BIFURCATION_MODELS if m != "paper"))
     if not args.no_mc:
         # two Monte Carlo checks around each model's critical value (check_points)
-        points = 2 * len(set(args.model or ("paper", "exact")))
-        validate.refuse_costly(points * validate.montecarlo_seconds(scene), "this bifurcation "
+        points = 2 * len(set(args.model or default_models))
+        validate.refuse_oversized(scene)
+        validate.refuse_costly(lambda sp: points * validate.montecarlo_seconds(scene, speed=sp),
+                               "this bifurcation "
                                f"search (Monte Carlo at up to {points} points)", args.yes)
     if not args.quiet:
         print(f"searching the critical {args.vary} (shape criterion on each averaged model)"
               + ("; then Monte Carlo on both sides" if not args.no_mc else "") + " ...",
               file=sys.stderr, flush=True)
-    chosen = {"models": tuple(dict.fromkeys(args.model))} if args.model else {}
+    chosen = {"models": tuple(dict.fromkeys(args.model or default_models))}
     res = bifurcation(scene, args.vary, lo=lo, hi=hi, mc=not args.no_mc, **chosen)
     fixed = ", ".join(f"{k} = {v:g}" if isinstance(v, float) else f"{k} = {v}"
                       for k, v in res["fixed"].items())
     print(f"varying {args.vary} with {fixed}")
     for m, c in res["critical"].items():
-        where = f"{c:.6g}" if c is not None else f"none in {res['range']}"
+        lo_hi = res["range"]
+        where = f"{c:.6g}" if c is not None else (
+            f"none in {lo_hi[0]:g} to {lo_hi[1]:g}" if isinstance(lo_hi, list | tuple)
+            and len(lo_hi) == 2 else f"none in {lo_hi}")
         print(f"{m} model: critical {args.vary} = {where}")
     for chk in res.get("mc_check", []):
-        print(f"  {args.vary} = {chk['value']:.5g}: models predict {chk['predicted']}; "
+        said = ", ".join(f"{k} a {v}" for k, v in chk["predicted"].items()) \
+            if isinstance(chk["predicted"], dict) else str(chk["predicted"])
+        print(f"  {args.vary} = {chk['value']:.5g}: models predict {said}; "
               f"original system (MC): {chk['monte_carlo']['shape']} "
               f"(largest rise of log p(y, y') {chk['monte_carlo']['max_rise_in_se']:.1f} s.e.)"
               f" -- {chk['words']}")
@@ -304,14 +360,16 @@ def cmd_figures(args: argparse.Namespace) -> int:
     validate.output_folder(args.out, "--out")
     overrides = _mc_overrides(args)
     options = {k: f"--{k}" for k in _mc_given(args)}
-    seconds = 0.0
+    scenes = []
     for no in args.figure or (2, 3, 4, 5, 6):
         sweep = load_scene(FIGURES[no])  # a shipped scene, as draw_figures loads it
         for scene in (sweep.with_values(overrides) if overrides else sweep).variants():
             validate.scene_magnitudes(scene)
             validate.montecarlo_settings(scene, options)
-            seconds += validate.montecarlo_seconds(scene)
-    validate.refuse_costly(seconds, "these figures", args.yes)
+            validate.refuse_oversized(scene)
+            scenes.append(scene)
+    validate.refuse_costly(lambda sp: sum(validate.montecarlo_seconds(sc, speed=sp)
+                                          for sc in scenes), "these figures", args.yes)
     prov = _provenance(args)
     # figures are replaced one by one (--figure redraws some of them), each atomically; the
     # lock keeps two runs from interleaving in one folder
@@ -347,7 +405,7 @@ def cmd_workprecision(args: argparse.Namespace) -> int:
     out = Path(args.out or f"out/{folder_name(scene.name)}-workprecision")
     if args.out is None:
         validate.output_folder(str(out), "--out (default)")
-    validate.refuse_costly(validate.workprecision_seconds(scene, args.quick),
+    validate.refuse_costly(lambda sp: validate.workprecision_seconds(scene, args.quick, speed=sp),
                            "this work-precision run", args.yes)
     prov = _provenance(args)
     files = ("workprecision.png", "workprecision.md", "workprecision.json")
@@ -382,6 +440,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     if args.out is None:
         validate.output_folder(out, "--out (default)")
     sw.check_sweep_folder(out)
+    validate.refuse_costly(lambda sp: sw.sweep_seconds(sweep, speed=sp),
+                           f"this sweep ({len(sweep.points)} points)", args.yes)
     try:
         res = sw.run_sweep(sweep, out, executor=spec, quiet=args.quiet)
     except sw.WorkerLost as exc:
@@ -443,6 +503,30 @@ def _dt_value(text: str) -> float | str:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number or 'auto'") from None
 
 
+def _model_name(text: str) -> str:
+    """A registered averaged model (vifpk.core.registry); else one line listing them."""
+    names = registry.model_names()
+    if text not in names:
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is not a registered model; registered: {', '.join(names)} "
+            "(vifpk models lists them; docs/plugins.md adds one)")
+    return text
+
+
+def cmd_models(args: argparse.Namespace) -> int:
+    """List the registered averaged models: name, who registered it, its entry point."""
+    entries = registry.models()
+    width = max(len(e.name) for e in entries)
+    for e in entries:
+        tags = [t for t, on in (("check default", e.name in CHECK_MODELS),
+                                ("built-in", e.builtin)) if on]
+        print(f"{e.name:<{width}}  {e.value}  ({e.distribution}"
+              + (f"; {', '.join(tags)}" if tags else "") + ")")
+    for c in registry.model_conflicts():
+        print(f"warning: model registered twice: {c}", file=sys.stderr)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     from .provenance import vifpk_version
 
@@ -455,26 +539,31 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--solver", choices=SOLVERS, default="averaging",
                    help="averaging: closed form of an averaged model; fpk: its Fokker-Planck "
                         "equation; montecarlo: the original system (default: %(default)s)")
-    s.add_argument("--model", choices=("paper", "exact", "corrected"),
-                   help="averaged model for --solver averaging|fpk: the paper's printed one, "
-                        "the exact-orbit one, or the exact one with discrete (compounded) "
-                        "impact losses (default: paper)")
+    s.add_argument("--model", type=_model_name, metavar="NAME",
+                   help="averaged model for --solver averaging|fpk: any registered one, "
+                        "built-in or a plugin's (`vifpk models` lists them, docs/plugins.md; "
+                        "default: paper)")
     s.add_argument("--json", metavar="OUT",
                    help="write the solution record to OUT (default: print a summary)")
     s.add_argument("--grid", type=_whole_number, metavar="N",
-                   help="FPK: number of cells, >= 4 (default: 400)")
+                   help=f"FPK: number of cells, >= 4 (default: {FPK_CELLS})")
     _add_mc_options(s)
     s.add_argument("--joint", action="store_true",
                    help="include the joint PDF in the JSON (default: off)")
     s.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
                    help=SET_HELP)
     s.set_defaults(func=cmd_solve)
-    c = sub.add_parser("check", help="cross-check both averaged models against the Monte "
-                                     "Carlo of the original system and write an error report")
+    c = sub.add_parser("check", help="cross-check the averaged models (default: "
+                                     f"{', '.join(CHECK_MODELS)}; outside the paper's family "
+                                     "without paper) against the Monte Carlo of the original "
+                                     "system and write an error report")
     c.add_argument("scene", help="scene TOML file (or the name of a shipped scene)")
     c.add_argument("--out", metavar="DIR", help="report directory (default: out/<scene name>)")
     c.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
                    help=SET_HELP)
+    c.add_argument("--model", action="append", type=_model_name, metavar="NAME",
+                   help="an averaged model to check, any registered one (repeat for several; "
+                        f"default: {', '.join(CHECK_MODELS)})")
     c.add_argument("--quiet", action="store_true", help=QUIET_HELP)
     _add_mc_options(c)
     c.set_defaults(func=cmd_check)
@@ -486,9 +575,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "value, and the output names it)")
     b.add_argument("--range", nargs=2, type=float, metavar=("LO", "HI"),
                    help="search interval (default: mu 0 0.05, r 0.9 1)")
-    b.add_argument("--model", action="append", choices=("paper", "exact", "corrected"),
-                   help="an averaged model whose critical value to find (repeat for several; "
-                        "default: paper and exact)")
+    b.add_argument("--model", action="append", type=_model_name, metavar="NAME",
+                   help="an averaged model whose critical value to find, any registered one "
+                        f"(repeat for several; default: {', '.join(BIFURCATION_MODELS)})")
     b.add_argument("--json", metavar="OUT", help="write the result as JSON (default: none)")
     b.add_argument("--no-mc", action="store_true",
                    help="skip the Monte Carlo check (default: run it on both sides)")
@@ -497,8 +586,9 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--quiet", action="store_true", help=QUIET_HELP)
     _add_mc_options(b)
     b.set_defaults(func=cmd_bifurcation)
-    f = sub.add_parser("figures", help="redraw the paper's Figures 2-6: both averaged models "
-                                       "against the Monte Carlo of the original system")
+    f = sub.add_parser("figures", help="redraw the paper's Figures 2-6: two averaged models "
+                                       "(the paper's and the exact one) against the Monte "
+                                       "Carlo of the original system")
     f.add_argument("--out", default="out/figures", metavar="DIR",
                    help="directory for paper-fig*.png and figures.json/.md "
                         "(default: %(default)s)")
@@ -529,7 +619,12 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("--out", metavar="DIR", help="output directory (default out/<sweep name>)")
     sw.add_argument("--quiet", action="store_true",
                     help="no progress lines on the terminal (default: one line a point)")
+    sw.add_argument("--yes", action="store_true",
+                    help="run even when the estimated cost exceeds an hour (default: off)")
     sw.set_defaults(func=cmd_sweep)
+    ms = sub.add_parser("models", help="list the registered averaged models (built-in and "
+                                       "plugins, docs/plugins.md)")
+    ms.set_defaults(func=cmd_models)
     return p
 
 
@@ -559,6 +654,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_BAD_INPUT
     args = parser.parse_args(argv)
     args.argv = ["vifpk", *(sys.argv[1:] if argv is None else argv)]
+    try:
+        validate.environment()
+    except SceneError as exc:
+        print(f"vifpk: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     signals.reset()
     if from_command_line:
         signals.install()
@@ -569,7 +669,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             code = int(args.func(args))
             sys.stdout.flush()  # a closed pipe shows here, not at exit
             return code
-    except SceneError as exc:
+    except BadInput as exc:  # a scene field, an option, an output folder
         print(f"vifpk: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except SolverFailure as exc:
@@ -591,11 +691,38 @@ def main(argv: Sequence[str] | None = None) -> int:
         signals.announce()
         return signals.exit_code()
     except BrokenPipeError:  # e.g. `vifpk solve ... | head -2`: the reader left
+        _silence_stdout()
+        return 141
+    except OSError as exc:  # a full disk, a read-only or vanished folder, `> /dev/full`
+        _silence_stdout()
+        where = f" {exc.filename}" if exc.filename else " the standard output"
+        print(f"vifpk: cannot write{where} ({exc.strerror or exc}); the run's output is "
+              "incomplete", file=sys.stderr)
+        return EXIT_SOLVER
+    except Exception as exc:  # noqa: BLE001 - never a traceback: one line, where it happened
         import os
+        import traceback
 
+        if os.environ.get("VIFPK_TRACEBACK") or not from_command_line:
+            raise  # in-process callers (the Python API, tests) get the exception itself
+        tb = traceback.extract_tb(exc.__traceback__)[-1]
+        where = "/".join(tb.filename.split("/")[-2:])
+        text = str(exc).splitlines()[0][:300] if str(exc) else ""
+        print(f"vifpk: internal error: {type(exc).__name__}: {text} ({where}:{tb.lineno})"
+              f"{_first_warning(caught)}; please report it (VIFPK_TRACEBACK=1 shows the "
+              "traceback)", file=sys.stderr)
+        return EXIT_SOLVER
+
+
+def _silence_stdout() -> None:
+    """Point stdout at /dev/null so the interpreter's final flush stays quiet."""
+    import os
+
+    try:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
-        return 141
+    except (OSError, ValueError):
+        pass
 
 
 if __name__ == "__main__":

@@ -7,6 +7,9 @@ the varied parameters::
     workflow = "check"            # "check" | "averaging" (closed forms only) | "bifurcation"
     mode = "product"              # or "zip"
     seed = 7                      # optional; default the base scene's montecarlo.seed
+    models = ["paper", "mine"]    # optional: registered averaged models (vifpk.core.registry);
+                                  # default: the workflow's own (check, averaging: CHECK_MODELS;
+                                  # bifurcation: BIFURCATION_MODELS, vifpk.core.defaults)
     [vary]
     "system.r" = [0.95, 0.96, 0.97, 0.98]
     "system.mu" = {start = 0.0, stop = 0.004, num = 5}
@@ -53,12 +56,13 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-from vifpk.core.scene import SECTIONS, Scene, SceneError, load_scene
+from vifpk.core.defaults import BIFURCATION_MODELS, CHECK_MODELS
+from vifpk.core.scene import INDEXED, MAX_TERMS, SECTIONS, Scene, SceneError, load_scene
 
 WORKFLOWS = ("check", "averaging", "bifurcation")
 MODES = ("product", "zip", "adaptive")
 TOP_KEYS = ("scene", "workflow", "mode", "seed", "name", "description", "vary", "set",
-            "bifurcation", "adaptive")
+            "bifurcation", "adaptive", "models")
 ADAPTIVE_KEYS = ("points", "model", "batch", "resolution")
 #: points of an adaptive batch unless [adaptive] batch says otherwise: a property of the sweep
 #: file, not of the executor, so that the points do not depend on where they run
@@ -71,10 +75,14 @@ FIND = {"mu": "system.mu", "r": "system.r"}
 RESERVED = {"montecarlo.seed": "set the sweep's seed with the top-level key `seed`",
             "montecarlo.budget": "sweeps run without a wall-clock budget (a budget makes a "
                                  "point depend on the machine's speed); use montecarlo.floor"}
-#: warnings of the cross-check as flags: variable name -> the warning's kind (check.WARNING_KINDS)
+#: warnings of the cross-check as flags: variable name -> the warning's kind (WarningRecord.kind)
 WARNING_FLAGS = {"warn_narrow_band": "narrow_band", "warn_sticking": "sticking",
-                 "warn_strong_damping": "strong_damping", "warn_strong_noise": "strong_noise"}
+                 "warn_strong_damping": "strong_damping", "warn_strong_noise": "strong_noise",
+                 "warn_correlated_noise": "correlated_noise"}
 EXTRA_HINT = "pip install 'vifpk[cluster]'"
+#: the largest grid a sweep file may ask for (building and validating a point's scene costs
+#: ~0.1 ms; a 1000 x 1000 grid was silent for minutes before any work)
+MAX_POINTS = 100_000
 
 
 class SweepError(SceneError):
@@ -121,6 +129,7 @@ class Sweep:
     #: mode "adaptive": points, model, batch, resolution ([adaptive]); vary then holds the
     #: ranges as (start, stop), and ``points`` the initial lattice (run_adaptive adds the rest)
     adaptive: Mapping[str, Any] = field(default_factory=dict)
+    models: tuple[str, ...] | None = None  # None: the workflow's default models
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -148,15 +157,18 @@ def point_seed(seed: int, params: tuple[tuple[str, float], ...]) -> int:
 
 
 def fingerprint(workflow: str, scene: Scene, bifurcation: Mapping[str, Any], *,
-                sde: bool = False) -> str:
+                sde: bool = False, models: tuple[str, ...] | None = None) -> str:
     """sha256 of everything a point's result depends on (the scene includes the seed; ``sde``:
-    the point runs the averaged SDEs' Monte Carlo, SDE_CHECK_EVERY)."""
+    the point runs the averaged SDEs' Monte Carlo, SDE_CHECK_EVERY; the models only when the
+    sweep names them, so a sweep without ``models`` keeps its records)."""
     d = scene.to_dict()
     d.pop("name", None)
     d.pop("description", None)
-    what = {"workflow": workflow, "scene": d, "bifurcation": dict(bifurcation)}
+    what: dict[str, Any] = {"workflow": workflow, "scene": d, "bifurcation": dict(bifurcation)}
     if workflow == "check":
         what["sde_check"] = bool(sde)
+    if models is not None:
+        what["models"] = list(models)
     blob = json.dumps(what, sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()
 
@@ -171,6 +183,12 @@ def _field_of(where: str, path: str) -> Any:
         raise SweepError(f"{where} {path!r}: unknown key; use section.key with a section in "
                          f"{sorted(SECTIONS)}")
     known = {f.name: f for f in fields(SECTIONS[section])}
+    m = INDEXED.fullmatch(key) if section == "system" else None
+    if m and m.group(1) in known and known[m.group(1)].type.startswith("tuple"):
+        if int(m.group(2)) >= MAX_TERMS:
+            raise SweepError(f"{where} {path!r}: index out of range; allowed: 0 to "
+                             f"{MAX_TERMS - 1}")
+        return _Coefficient()  # one coefficient of a polynomial law: a number
     if key not in known:
         close = difflib.get_close_matches(key, list(known), n=1, cutoff=0.5)
         hint = f"did you mean '{section}.{close[0]}'?" if close else \
@@ -179,6 +197,12 @@ def _field_of(where: str, path: str) -> Any:
     if path in RESERVED:
         raise SweepError(f"{where} {path!r}: not allowed in a sweep; {RESERVED[path]}")
     return known[key]
+
+
+class _Coefficient:
+    """Stands for the field of one coefficient of a law ("system.restoring[2]")."""
+
+    type = "float"
 
 
 def _number(v: Any) -> bool:
@@ -209,6 +233,8 @@ def _values(where: str, spec: Any) -> tuple[float, ...]:
             raise SweepError(f"{where}.num = {num!r}: must be a whole number >= 1")
         if num == 0:
             raise SweepError(f"{where}: empty grid (num = 0)")
+        if num > MAX_POINTS:
+            raise SweepError(f"{where}.num = {num}: out of range; allowed: 1 to {MAX_POINTS}")
         for k in ("start", "stop"):
             if not _number(spec[k]) or not math.isfinite(spec[k]):
                 raise SweepError(f"{where}.{k} = {spec[k]!r}: must be a finite number")
@@ -305,6 +331,20 @@ def load_sweep(path: str | Path) -> Sweep:
     seed = raw.get("seed", base.montecarlo.seed)
     if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
         raise SweepError(f"{src}: seed = {seed!r}: must be a whole number >= 0")
+    models = raw.get("models")
+    if models is not None:
+        from vifpk.core.registry import model_names
+
+        known = model_names()
+        if (not isinstance(models, list) or not models
+                or not all(isinstance(m, str) for m in models)):
+            raise SweepError(f"{src}: models = {models!r}: a list of model names; registered: "
+                             + ", ".join(known))
+        for m in models:
+            if m not in known:
+                raise SweepError(f"{src}: models: {m!r} is not a registered model; "
+                                 "registered: " + ", ".join(known))
+        models = tuple(dict.fromkeys(models))
     name = raw.get("name", Path(p.name).stem)
     description = raw.get("description", "")
     if not isinstance(name, str) or not name or not isinstance(description, str):
@@ -316,11 +356,11 @@ def load_sweep(path: str | Path) -> Sweep:
     vary = []
     for key, spec in vary_raw.items():
         f = _field_of(f"{src}: [vary]", key)
-        if f.type not in ("float", "float | str"):
+        if f.type not in ("float", "float | str", "float | None"):
             raise SweepError(f"{src}: [vary] {key!r}: only numeric parameters can vary")
         vary.append((key, _range(f"{src}: [vary] {key!r}", spec) if mode == "adaptive"
                      else _values(f"{src}: [vary] {key!r}", spec)))
-    adaptive = _adaptive_table(src, raw, mode, workflow, len(vary))
+    adaptive = _adaptive_table(src, raw, mode, workflow, len(vary), models or CHECK_MODELS)
     if mode == "zip" and len({len(v) for _, v in vary}) > 1:
         lens = ", ".join(f"{k}: {len(v)}" for k, v in vary)
         raise SweepError(f"{src}: mode = 'zip' needs lists of one length ({lens})")
@@ -351,11 +391,11 @@ def load_sweep(path: str | Path) -> Sweep:
             from .bifurcation import VARIABLES
 
             ok = (isinstance(rng, list) and len(rng) == 2 and all(_number(v) for v in rng)
-                  and rng[0] < rng[1])
+                  and all(math.isfinite(v) for v in rng) and rng[0] < rng[1])
             _, _, (d_lo, d_hi) = VARIABLES[find]
             if not ok:
                 raise SweepError(f"{src}: [bifurcation] range = {rng!r}: must be [lo, hi] "
-                                 "with lo < hi")
+                                 "of finite numbers with lo < hi")
             bif["range"] = [float(rng[0]), float(rng[1])]
             lo_ok = rng[0] >= 0 if find == "mu" else 0 < rng[0]
             if not lo_ok or (find == "r" and rng[1] > 1):
@@ -370,6 +410,11 @@ def load_sweep(path: str | Path) -> Sweep:
     if mode == "product":
         import itertools
 
+        size = math.prod(len(v) for _, v in vary)
+        if size > MAX_POINTS:
+            raise SweepError(f"{src}: [vary]: {' x '.join(str(len(v)) for _, v in vary)} = "
+                             f"{size} points; allowed: up to {MAX_POINTS} points a sweep "
+                             "(split it, or use mode = \"adaptive\")")
         combos = [tuple(zip([k for k, _ in vary], c, strict=True))
                   for c in itertools.product(*(v for _, v in vary))]
     elif mode == "adaptive":
@@ -392,11 +437,11 @@ def load_sweep(path: str | Path) -> Sweep:
     if workflow != "averaging" and floor and not pinned:
         fixed["montecarlo.dt"] = "auto"
     points = [make_point(base, fixed, seed=seed, workflow=workflow, bifurcation=bif,
-                         params=params, first=i == 0, where=src)
+                         params=params, first=i == 0, where=src, models=models)
               for i, params in enumerate(combos)]
     return Sweep(path=str(p), text=text, name=name, workflow=workflow, mode=mode, seed=seed,
                  vary=tuple(vary), fixed=fixed, bifurcation=bif, base=base,
-                 points=tuple(points), adaptive=adaptive)
+                 points=tuple(points), adaptive=adaptive, models=models)
 
 
 def _range(where: str, spec: Any) -> tuple[float, float]:
@@ -412,8 +457,8 @@ def _range(where: str, spec: Any) -> tuple[float, float]:
     return float(spec["start"]), float(spec["stop"])
 
 
-def _adaptive_table(src: str, raw: Mapping[str, Any], mode: str, workflow: str, dims: int
-                    ) -> dict[str, Any]:
+def _adaptive_table(src: str, raw: Mapping[str, Any], mode: str, workflow: str, dims: int,
+                    models: tuple[str, ...] = CHECK_MODELS) -> dict[str, Any]:
     """The validated [adaptive] table (empty unless mode = "adaptive")."""
     table = raw.get("adaptive")
     if mode != "adaptive":
@@ -432,8 +477,6 @@ def _adaptive_table(src: str, raw: Mapping[str, Any], mode: str, workflow: str, 
         if key not in ADAPTIVE_KEYS:
             raise SweepError(f"{src}: [adaptive] {key}: unknown key; allowed: "
                              + ", ".join(ADAPTIVE_KEYS))
-    from .check import MODELS
-
     def whole(key: str, lo: int, default: int | None = None) -> int:
         v = table.get(key, default)
         if v is None:
@@ -443,8 +486,8 @@ def _adaptive_table(src: str, raw: Mapping[str, Any], mode: str, workflow: str, 
         return v
 
     model = table.get("model")
-    if model not in MODELS:
-        raise SweepError(f"{src}: [adaptive] model = {model!r}: allowed: " + ", ".join(MODELS))
+    if model not in models:  # one of the models the sweep's checks run
+        raise SweepError(f"{src}: [adaptive] model = {model!r}: allowed: " + ", ".join(models))
     return {"points": whole("points", 3), "model": model,
             "batch": whole("batch", 1, ADAPTIVE_BATCH),
             "resolution": whole("resolution", 3, ADAPTIVE_RESOLUTION)}
@@ -473,7 +516,8 @@ def sde_check_at(key: str, *, first: bool) -> bool:
 
 def make_point(base: Scene, fixed: Mapping[str, Any], *, seed: int, workflow: str,
                bifurcation: Mapping[str, Any], params: tuple[tuple[str, float], ...],
-               first: bool = False, where: str = "sweep") -> Point:
+               first: bool = False, where: str = "sweep",
+               models: tuple[str, ...] | None = None) -> Point:
     """The point of a sweep at ``params`` (varied values by name): its scene (the base scene
     with ``fixed`` and ``params`` set, no wall-clock budget, its own seed), key and
     fingerprint. SweepError (naming the point) when the scene is out of range there."""
@@ -489,11 +533,27 @@ def make_point(base: Scene, fixed: Mapping[str, Any], *, seed: int, workflow: st
     if scene.sweep is not None:
         raise SweepError(f"{where}: scene: {scene.sweep.path} varies in the base scene; set "
                          "it in [set] or vary it in [vary]")
+    _validate_point(scene, workflow, bifurcation, where, params)
     scene = _named(scene, f"{base.name}[{', '.join(f'{k}={v:g}' for k, v in params)}]")
     key = point_key(params)
     sde = workflow == "check" and sde_check_at(key, first=first)
     return Point(params=params, seed=s, key=key, scene=scene, sde=sde,
-                 fingerprint=fingerprint(workflow, scene, bifurcation, sde=sde))
+                 fingerprint=fingerprint(workflow, scene, bifurcation, sde=sde, models=models))
+
+
+def _validate_point(scene: Scene, workflow: str, bifurcation: Mapping[str, Any], where: str,
+                    params: tuple[tuple[str, float], ...]) -> None:
+    """A point's scene checked as `vifpk check` / `solve` check theirs before any work
+    (magnitudes; the Monte Carlo settings where the workflow simulates)."""
+    from . import validate
+
+    try:
+        validate.scene_magnitudes(scene)
+        if workflow == "check" or (workflow == "bifurcation" and bifurcation.get("mc")):
+            validate.montecarlo_settings(scene)
+    except SceneError as exc:
+        at = ", ".join(f"{k} = {v:g}" for k, v in params)
+        raise SweepError(f"{where}: at the point {at}: {exc}") from None
 
 
 def _named(scene: Scene, name: str) -> Scene:
@@ -516,6 +576,7 @@ class Job:
     scene: Scene
     bifurcation: Mapping[str, Any]
     sde: bool = True  # check: run the averaged SDEs' Monte Carlo (Point.sde)
+    models: tuple[str, ...] | None = None  # None: the workflow's default models
 
 
 def run_point(job: Job) -> dict[str, Any]:
@@ -538,10 +599,12 @@ def run_point(job: Job) -> dict[str, Any]:
     return rec
 
 
-def _flags(warnings: list[str]) -> dict[str, bool]:
-    from .check import warning_kind
+def _models(job: Job, default: tuple[str, ...]) -> tuple[str, ...]:
+    return job.models if job.models is not None else default
 
-    kinds = {warning_kind(w) for w in warnings}
+
+def _flags(warnings: list[Any]) -> dict[str, bool]:
+    kinds = {w.kind for w in warnings}
     return {k: v in kinds for k, v in WARNING_FLAGS.items()}
 
 
@@ -549,13 +612,14 @@ def _check_point(job: Job) -> dict[str, Any]:
     """The cross-check without the FPK: the averaging error of p(A) of each model."""
     import numpy as np
 
-    from .check import MODELS, cross_check
+    from .check import cross_check
 
-    res = cross_check(job.scene, quiet=True, fpk=False, sde=job.sde, tail_mass=False)
+    res = cross_check(job.scene, quiet=True, fpk=False, sde=job.sde, tail_mass=False,
+                      models=_models(job, CHECK_MODELS))
     mc = res.solutions["mc:original"]
     conv = res.metrics["monte_carlo"]["convergence"]
     models = {}
-    for m in MODELS:
+    for m in res.metrics["models"]:
         e = res.metrics["models"][m]["averaging_error"]["A"]
         models[m] = {"averaging_error_A": e["L1"], "averaging_error_A_err": e["L1_err"],
                      "L1_floor_A": e["L1_floor"],
@@ -575,23 +639,28 @@ def _check_point(job: Job) -> dict[str, Any]:
             "mean_A_simulation_err": mean["err"], "converged": converged,
             "extensions": conv.get("extensions", 0),
             "flags": {**_flags(res.warnings), "warn_not_converged": not converged},
-            "warnings": res.warnings, "verdicts": res.verdicts}
+            "recommended_model": res.metrics["recommended_model"],
+            "warnings": [w.text for w in res.warnings], "verdicts": res.verdicts}
 
 
 def _averaging_point(job: Job) -> dict[str, Any]:
     """Closed forms of each model (computed once), the L1 between them, the assumption
     warnings that need no simulation (strong damping, narrow band, strong noise)."""
-    from .check import MODELS, assumption_warnings
+    from .check import assumption_warnings, models_of
     from .compare import compare
     from .run import run_solver
+    from .validate import finite_result
 
-    closed = {m: run_solver(job.scene, "averaging", model=m) for m in MODELS}
+    closed = {m: run_solver(job.scene, "averaging", model=m)
+              for m in models_of(job.scene, _models(job, CHECK_MODELS))[0]}
+    for r in closed.values():  # a point is "ok" only with finite numbers, as `solve` exits 3
+        finite_result(r, job.scene)
     warnings = assumption_warnings(job.scene, closed, {})
     flags = _flags(warnings)
     flags.pop("warn_sticking")  # needs the simulation
     out: dict[str, Any] = {"models": {m: {"mean_A": r.info["summary"]["mean"]}
                                       for m, r in closed.items()},
-                           "flags": flags, "warnings": warnings}
+                           "flags": flags, "warnings": [w.text for w in warnings]}
     if "paper" in closed and "exact" in closed:
         out["L1_paper_exact_A"] = compare(closed["paper"].data["A"],
                                           closed["exact"].data["A"])["L1"]
@@ -604,7 +673,8 @@ def _bifurcation_point(job: Job) -> dict[str, Any]:
 
     b = job.bifurcation
     lo, hi = b["range"] if b.get("range") else (None, None)
-    res = bifurcation(job.scene, b["find"], lo=lo, hi=hi, mc=b["mc"])
+    res = bifurcation(job.scene, b["find"], lo=lo, hi=hi, mc=b["mc"],
+                      models=_models(job, BIFURCATION_MODELS))
     checks = [{"value": c["value"], "crater": c["monte_carlo"]["shape"] == "crater",
                "agrees": c["agrees"]} for c in res.get("mc_check", [])]
     return {"models": {m: {"critical": c} for m, c in res["critical"].items()},
@@ -891,7 +961,7 @@ def finished(sweep: Sweep, out: Path) -> dict[str, dict[str, Any]]:
 def _job(sweep: Sweep, pt: Point) -> Job:
     return Job(key=pt.key, fingerprint=pt.fingerprint, params=pt.params, seed=pt.seed,
                workflow=sweep.workflow, scene=pt.scene, bifurcation=sweep.bifurcation,
-               sde=pt.sde)
+               sde=pt.sde, models=sweep.models)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -933,6 +1003,32 @@ def check_sweep_folder(out: str | Path) -> Path:
                              f"its {'point records' if what == 'folder' else name} there; "
                              "move it away or choose another --out")
     return target
+
+
+def sweep_seconds(sweep: Sweep, *, speed: float | None = None) -> float:
+    """Lower bound of the wall time of the sweep's points on this machine (validate.py's
+    estimates: a check point is its Monte Carlo and closed forms, an averaging point its
+    closed forms, a bifurcation point its Monte Carlo checks (two per model) or, without
+    them, ~20 closed-form evaluations per model). Local executors share the same cores, so
+    the points' times add up; a remote cluster may be faster (confirm with --yes)."""
+    from . import validate as v
+
+    models = ("paper", "exact", "corrected")
+    total = 0.0
+    for pt in sweep.points:
+        sc = pt.scene
+        closed = sum(v.averaging_seconds(sc, m) for m in models)
+        if sweep.workflow == "check":
+            total += v.montecarlo_seconds(sc, speed=speed) + closed
+        elif sweep.workflow == "averaging":
+            total += closed
+        elif sweep.bifurcation.get("mc"):
+            total += 4 * v.montecarlo_seconds(sc, speed=speed) + 20 * closed
+        else:
+            total += 20 * closed
+    if sweep.mode == "adaptive" and sweep.points:  # the lattice stands for the whole budget
+        total *= max(sweep.adaptive["points"] / len(sweep.points), 1.0)
+    return total
 
 
 def _clear_temporaries(out: Path) -> None:
@@ -1095,7 +1191,8 @@ def run_adaptive(sweep: Sweep, out: str | Path, *, executor: ExecutorSpec,
                 else:
                     pt = make_point(sweep.base, sweep.fixed, seed=sweep.seed,
                                     workflow=sweep.workflow, bifurcation=sweep.bifurcation,
-                                    params=adaptive_params(sweep.vary, u), where=sweep.name)
+                                    params=adaptive_params(sweep.vary, u), where=sweep.name,
+                                    models=sweep.models)
                 pts.append(replace(pt, batch=batch_no))
             recs: dict[str, dict[str, Any]] = {}
             todo = []
@@ -1229,6 +1326,8 @@ def dataset(sweep: Sweep, records: Mapping[str, dict[str, Any]], *,
         for k in ("mean_A_simulation", "mean_A_simulation_err", "L1_paper_exact_A"):
             if k in res:
                 put(k, res[k], pt)
+        if "recommended_model" in res:  # check's recommendation (issue 23): a string per point
+            put("recommended_model", res["recommended_model"], pt, dtype=object, fill="")
         if "extensions" in res:
             put("extensions", res["extensions"], pt, dtype=np.int16, fill=-1)
         if "converged" in res:
@@ -1301,16 +1400,10 @@ def write_netcdf(ds: Any, path: Path) -> Path:
     """Write a Dataset atomically (temporary file beside it, then rename). The temporary file
     is created with mode 0666 minus the umask, as every other output (netCDF keeps the mode of
     the file it overwrites; ``tempfile`` would give 0600)."""
-    from .io import temp_beside
+    from .io import atomic_path
 
-    tmp, fd = temp_beside(path)
-    os.close(fd)
-    try:
+    with atomic_path(path) as tmp:
         ds.to_netcdf(tmp, engine="netcdf4")
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
     return path
 
 

@@ -32,20 +32,31 @@ from typing import Any, NamedTuple
 import numba
 import numpy as np
 
+from vifpk.core.defaults import BURN_FACTOR
+from vifpk.core.result import Result, Status
+
 from . import kernels as K
 from .certificate import certificate
-from .tuning import BURN_FACTOR, auto_dt, fit_relaxation
+from .plan import (
+    MIN_AUTO_BURN_IN,
+    RELAX_MAX_TIME,
+    RELAX_PAIRS,
+    RELAX_SEGMENT,
+    RELAX_WINDOW,
+    SCALE_BLOCKS,
+    SCALE_BURN_IN,
+    SCALE_PER_BLOCK,
+    SCALE_SAMPLE_EVERY,
+    SCALE_SAMPLES,
+    sampling_plan,
+    step_size,
+)
+from .plan import physics as _params
+from .tuning import fit_relaxation
 
 OBSERVABLES = ("A", "x1", "x2", "joint", "moments", "events", "energy")
-NOISE_KINDS = ("ou", "white")
-WINDOWS = 16  # at least 16 sampled windows (the certificate's draws along each path)
 CHUNK_SECONDS = 0.4  # wall time of one kernel call: Ctrl-C is seen between calls
 START_LOW = 0.05  # lowest start amplitude, as a fraction of the pilot's largest
-
-
-class Result(NamedTuple):
-    data: dict[str, dict[str, Any]]
-    info: dict[str, Any]
 
 
 class SimulationDiverged(RuntimeError):
@@ -97,17 +108,13 @@ def block_seeds(seed: int, blocks: int, per_block: int = 1, key: int = 0) -> np.
     return out
 
 
-def _params(system: Any, noise: Any) -> dict[str, Any]:
-    """Kernel physics arguments; a switched-off effect is None (pruned at compile time)."""
-    if noise.kind not in NOISE_KINDS:
-        raise ValueError(f"noise kind must be one of {NOISE_KINDS}, not {noise.kind!r}")
-    return {
-        "c1": float(system.c1), "c2": float(system.c2), "w0sq": float(system.omega0) ** 2,
-        "alpha": float(system.alpha), "f": float(system.f), "D": float(noise.D),
-        "mu": float(system.mu) if system.mu > 0 else None,
-        "r": float(system.r) if getattr(system, "barrier", True) else None,
-        "alpha1": float(noise.alpha1) if noise.kind == "ou" else None,
-    }
+def _potential(x: Any, phys: dict[str, Any]) -> Any:
+    """U(x) of the kernel's spring (geometry.potential, vectorised)."""
+    w0sq, alpha = phys["w0sq"], phys["alpha"]
+    u = 0.5 * w0sq * x * x + 0.25 * alpha * x**4  # (the paper's form, operation for operation)
+    for i, c in enumerate(phys["khi"] if phys["khi"] is not None else ()):
+        u = u + c / (2 * i + 6) * x ** (2 * i + 6)
+    return u
 
 
 def effects(system: Any, noise: Any) -> dict[str, bool | str]:
@@ -143,7 +150,7 @@ def _kernel(arr: _Arrays, phys: dict[str, Any], h: float, n_steps: int, step0: i
     ea, ex, ev = hi["edges_A"], hi["edges_x"], hi["edges_v"]
     K.run_paths(arr.rng, arr.state, n_steps, step0, n_burn, stride, h,
                 phys["c1"], phys["c2"], phys["w0sq"], phys["alpha"], phys["f"], phys["D"],
-                phys["mu"], phys["r"], phys["alpha1"],
+                phys["mu"], phys["r"], phys["alpha1"], phys["khi"], phys["dhi"], phys["ev"],
                 ea[0], 1.0 / (ea[1] - ea[0]), hi["A"], ex[0], 1.0 / (ex[1] - ex[0]), hi["x"],
                 ev[0], 1.0 / (ev[1] - ev[0]), hi["v"], hi["joint"], arr.moments, arr.events,
                 arr.energy, spw, windows)
@@ -152,7 +159,9 @@ def _kernel(arr: _Arrays, phys: dict[str, Any], h: float, n_steps: int, step0: i
 def _diverged(h: float, what: str) -> SimulationDiverged:
     return SimulationDiverged(
         f"the Monte Carlo blew up ({what}) at dt = {h:g}: the time step is most likely too "
-        "large for this scene; try a smaller --dt (e.g. 0.01) or --dt auto")
+        f"large for this scene; try a smaller --dt (e.g. {h / 4:g}) or --dt auto; if a "
+        "smaller step blows up too, the amplitude grows without bound (negative damping "
+        "c1 > 0 not held by c2, impacts or friction) and no stationary density exists")
 
 
 class _Stepper:
@@ -212,10 +221,8 @@ def _starts(amplitudes: np.ndarray, phys: dict[str, Any], gen: np.random.Generat
             ) -> np.ndarray:
     """(x, v, xi) on the conservative orbit of each amplitude, at a uniform random phase;
     xi from the stationary OU law."""
-    w0sq, alpha = phys["w0sq"], phys["alpha"]
-
     def U(x: np.ndarray) -> np.ndarray:
-        return 0.5 * w0sq * x * x + 0.25 * alpha * x**4
+        return _potential(x, phys)
 
     th = gen.uniform(0.0, 2 * math.pi, amplitudes.shape)
     x = amplitudes * np.cos(th)
@@ -234,15 +241,16 @@ _DUMMY = {"edges_A": np.array([0.0, 1.0]), "edges_x": np.array([0.0, 1.0]),
 
 def _pilot_scale(phys: dict[str, Any], h: float, seed: int, step: _Stepper,
                  a_hint: float) -> float:
-    """The largest amplitude seen by 32 paths from small starts over 200 + 1000 time units,
-    times 1.25 (the histogram ranges and the top of the over-dispersed starts)."""
+    """The largest amplitude seen by the scale pilot (plan.py: 32 paths from small starts over
+    200 + 1000 time units), times 1.25 (the histogram ranges and the top of the over-dispersed
+    starts)."""
     gen = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(1 << 20,)))
-    amps = np.full((8, 4), 0.1 * a_hint)
-    arr = _arrays(block_seeds(seed, 8, 4, key=1 << 21), _starts(amps, phys, gen), _DUMMY,
-                  ("moments",))
-    n_burn = int(round(200.0 / h))
-    stride = max(int(round(0.5 / h)), 1)
-    step.run(arr, n_burn + 2000 * stride, 0, n_burn, stride)
+    amps = np.full((SCALE_BLOCKS, SCALE_PER_BLOCK), 0.1 * a_hint)
+    arr = _arrays(block_seeds(seed, SCALE_BLOCKS, SCALE_PER_BLOCK, key=1 << 21),
+                  _starts(amps, phys, gen), _DUMMY, ("moments",))
+    n_burn = int(round(SCALE_BURN_IN / h))
+    stride = max(int(round(SCALE_SAMPLE_EVERY / h)), 1)
+    step.run(arr, n_burn + SCALE_SAMPLES * stride, 0, n_burn, stride)
     amax = 1.25 * float(np.max(arr.moments[..., K.MO_MAXA]))
     if not math.isfinite(amax):
         raise _diverged(h, "non-finite amplitude in the pilot run")
@@ -250,9 +258,10 @@ def _pilot_scale(phys: dict[str, Any], h: float, seed: int, step: _Stepper,
 
 
 def _relaxation(phys: dict[str, Any], h: float, seed: int, step: _Stepper, a_hi: float,
-                sample_every: float, pairs: int = 128, max_time: float = 20000.0
-                ) -> dict[str, Any]:
-    """tau from pairs started low and high with common random numbers (tuning.py)."""
+                sample_every: float, pairs: int = RELAX_PAIRS,
+                max_time: float = RELAX_MAX_TIME) -> dict[str, Any]:
+    """tau from pairs started low and high with common random numbers (tuning.py); the
+    pilot's sizes are plan.py's."""
     gen = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(1 << 22,)))
     amps = np.empty((2, pairs))
     amps[0], amps[1] = START_LOW * a_hi, a_hi
@@ -262,12 +271,12 @@ def _relaxation(phys: dict[str, Any], h: float, seed: int, step: _Stepper, a_hi:
     rng = np.concatenate([rng, rng.copy()])
     arr = _arrays(rng, state, _DUMMY, ())
     stride = max(int(round(sample_every / h)), 1)
-    spw = max(int(round(10.0 / (stride * h))), 1)  # windows of ~10 time units
+    spw = max(int(round(RELAX_WINDOW / (stride * h))), 1)  # windows of ~RELAX_WINDOW
     win_steps = spw * stride
     win_time = win_steps * h
     n_win_max = int(max_time / win_time)
     windows = np.zeros((2, pairs, n_win_max))
-    seg = max(int(200.0 / win_time), 4)  # windows per segment
+    seg = max(int(RELAX_SEGMENT / win_time), 4)  # windows per segment
     done = 0
     t_d = np.empty(0)
     d = se = np.empty(0)
@@ -303,39 +312,6 @@ def _floor_A(arr: _Arrays) -> float:
                     np.diff(e))["L1_floor"]
 
 
-def step_size(dt: float | str, target: float, phys: dict[str, Any], sample_every: float
-              ) -> float:
-    """The time step: ``dt``, or for "auto" the largest whole fraction sample_every / k of
-    sample_every not above tuning.auto_dt (so that samples fall on steps exactly)."""
-    if dt != "auto":
-        return float(dt)
-    h = auto_dt(target, phys)
-    return sample_every / math.ceil(sample_every / h * (1 - 1e-12))
-
-
-def sampling_plan(time_: float, sample_every: float, h: float, target: float
-                  ) -> tuple[int, int, int]:
-    """(steps between samples, samples per window, windows) of a run.
-
-    The n = time_ / (stride h) samples of each path are cut into the fewest windows from
-    WINDOWS to 2 WINDOWS that divide n exactly (n windows of one sample below WINDOWS), so
-    the sampled time is exactly ``time_`` whenever n is whole and has such a divisor (every
-    multiple of 16 to 32 samples; harness.validate refuses the others, naming the nearest).
-    Failing that, WINDOWS windows of n // WINDOWS samples, and what is left is not sampled.
-    With a target floor the run starts with WINDOWS // 2 windows of n // WINDOWS samples."""
-    stride = max(int(round(sample_every / h)), 1)
-    n = max(int(time_ / (stride * h) * (1 + 1e-12)), 1)
-    if target > 0:
-        return stride, max(n // WINDOWS, 1), WINDOWS // 2
-    if n < WINDOWS:
-        return stride, 1, n
-    for n_win in range(WINDOWS, 2 * WINDOWS + 1):
-        if n % n_win == 0:
-            return stride, n // n_win, n_win
-    spw = n // WINDOWS
-    return stride, spw, n // spw
-
-
 def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> Result:
     """Monte Carlo of the original system for (duck-typed) scene.system and scene.noise.
 
@@ -352,7 +328,6 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
     if not (math.isfinite(h) and h > 0 and st.paths >= st.blocks >= 2):
         raise ValueError("need dt > 0 and paths >= blocks >= 2")
     t_start = time.perf_counter()
-    deadline = t_start + st.budget if st.budget and st.budget > 0 else math.inf
     threads = st.threads or numba.config.NUMBA_NUM_THREADS
     numba.set_num_threads(threads)
     stride, spw, n_win = sampling_plan(st.time, st.sample_every, h, target)
@@ -367,6 +342,10 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
                              "edges_v": np.linspace(-1, 1, 3)}, obs)
     _kernel(tiny, phys, h, 2, 0, 1, 1, 1, np.zeros((1, 1, 1)) if st.certificate else None)
     compile_s = time.perf_counter() - t0
+    # the budget counts the run (pilots, burn-in, windows), not numba's one-off compile: a cold
+    # cache would otherwise eat a small budget before any physics ran
+    t_run = time.perf_counter()
+    deadline = t_run + st.budget if st.budget and st.budget > 0 else math.inf
 
     bar = _progress(st.progress)
     step = _Stepper(phys, h, threads, bar)
@@ -375,7 +354,7 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
         a_hint = float(edges["edges_A"][-1]) if "edges_A" in edges else 1.0
         a_hi = _pilot_scale(phys, h, st.seed, step, a_hint)
         if not edges:
-            vmax = math.sqrt(2 * (0.5 * phys["w0sq"] * a_hi**2 + 0.25 * phys["alpha"] * a_hi**4))
+            vmax = math.sqrt(2 * _potential(a_hi, phys))
             edges = {"edges_A": np.linspace(0.0, a_hi, st.bins + 1),
                      "edges_x": np.linspace(0.0 if phys["r"] is not None else -a_hi, a_hi,
                                             st.bins + 1),
@@ -384,11 +363,17 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
         if st.burn_in == "auto":
             _label(bar, "monte carlo: relaxation pilot")
             relax = _relaxation(phys, h, st.seed, step, a_hi, st.sample_every)
-            burn_in = max(BURN_FACTOR * relax["tau"], 20.0)
+            burn_in = max(BURN_FACTOR * relax["tau"], MIN_AUTO_BURN_IN)
         else:
             burn_in = float(st.burn_in)
         pilot_s = time.perf_counter() - t1
 
+        if not burn_in / h < 2.0**53:  # beyond any run (and numba's integers)
+            raise SimulationDiverged(
+                f"the relaxation pilot measured a relaxation time of {burn_in / BURN_FACTOR:.3g}"
+                f" (burn-in {burn_in:.3g} = {burn_in / h:.3g} steps of dt = {h:g}): the paths "
+                "barely forget their start (most likely the noise is too weak to mix them: "
+                "check noise.D and f); give montecarlo.burn_in explicitly to run anyway")
         n_burn = int(round(burn_in / h))
         win_steps = spw * stride
         gen = np.random.default_rng(np.random.SeedSequence(st.seed, spawn_key=(1 << 24,)))
@@ -417,7 +402,7 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
             if run_to == 0:  # only a target floor's budget stops a run before its first window
                 raise BudgetExhausted(
                     f"the budget of {st.budget:g} s ran out before the first sampling window "
-                    f"(the pilots and the burn-in took {time.perf_counter() - t_start:.3g} s): "
+                    f"(the pilots and the burn-in took {time.perf_counter() - t_run:.3g} s): "
                     "no sample was taken; give a larger budget, or 0 for no limit")
             if "A" in obs:
                 floor = _floor_A(arr)
@@ -534,7 +519,7 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
     ok = all(np.all(np.isfinite(d["p"])) for d in data.values())
     if not ok:
         raise _diverged(h, "non-finite histogram")
-    info["status"] = {"ok": True, "message": "simulated"}
+    info["status"] = Status.SIMULATED.record()
     return Result(data=data, info=info)
 
 

@@ -28,7 +28,8 @@ from typing import Any
 
 import numpy as np
 
-BURN_FACTOR = 6.0
+from vifpk.core.defaults import BURN_FACTOR  # noqa: F401  (re-exported; its one home)
+
 BIAS_C, BIAS_P = 0.173, 1.11
 BIAS_FRACTION = 0.5
 DT_RANGE = (0.0025, 0.04)
@@ -39,7 +40,8 @@ def auto_dt(target_floor: float | None, phys: dict[str, Any]) -> float:
     """Largest dt with predicted bias C dt^p <= BIAS_FRACTION x target (see module)."""
     F = target_floor if target_floor and target_floor > 0 else DEFAULT_FLOOR
     dt = (BIAS_FRACTION * F / BIAS_C) ** (1.0 / BIAS_P)
-    period = 2 * math.pi / math.sqrt(phys["w0sq"])
+    # no linear spring (k1 = 0): no small-amplitude period to resolve, only DT_RANGE
+    period = 2 * math.pi / math.sqrt(phys["w0sq"]) if phys["w0sq"] > 0 else math.inf
     dt = min(dt, period / 100.0, DT_RANGE[1])
     return float(max(dt, DT_RANGE[0]))
 

@@ -339,6 +339,7 @@ def test_chatter_is_reported(base):
 
 
 # ------------------------------------------------------------------------------- averaged SDE
+@pytest.mark.slow
 def test_averaged_sde_rayleigh():
     """m = -aA + s/(2A), sigma^2 = s: p = (2a/s) A exp(-a A^2/s). Euler-Maruyama on Z = A^2
     is weak order 1; at dt = 0.01 its bias is far below the batch error."""
@@ -421,8 +422,8 @@ def test_blow_up_raises_naming_the_time_step(base):
 def test_numpy_reference_is_the_same_scheme(base):
     """The benchmark's NumPy implementation must simulate the same scheme: stuck fraction and
     impact rate agree within 4 combined batch standard errors (friction-heavy scene)."""
+    from montecarlo.plan import physics as _params
     from montecarlo.reference import simulate_numpy
-    from montecarlo.simulate import _params
 
     sc = vary(base, mu=0.1)
     r = run(sc, paths=256, blocks=16, dt=0.01, time=200, burn_in=50,
@@ -472,7 +473,7 @@ def test_runs_cut_into_any_chunks_are_bit_identical(base, monkeypatch):
     import sys as _sys
 
     sim = _sys.modules["montecarlo.simulate"]
-    kw = dict(paths=32, blocks=16, time=200, burn_in=50.0, edges=FIXED, seed=5,
+    kw = dict(paths=32, blocks=16, time=50, burn_in=20.0, edges=FIXED, seed=5,
               observables=("A", "x1", "x2", "moments", "events", "energy"))
     one = run(base, **kw)
     monkeypatch.setattr(sim, "CHUNK_SECONDS", 1e-4)  # hundreds of tiny kernel calls

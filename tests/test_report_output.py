@@ -30,6 +30,8 @@ from harness.cli import main
 from harness.io import dumps
 from harness.report import write_report
 
+from .conftest import TINY_CHECK_SET
+
 ROOT = Path(__file__).resolve().parent.parent
 TINY = str(ROOT / "tests" / "data" / "tiny.toml")
 RUN_ID = re.compile(r"\d{8}T\d{6}Z-[0-9a-f]{6}")
@@ -95,7 +97,8 @@ def test_metrics_byte_identical_across_runs_and_modes_follow_umask(run, tmp_path
     umask 027: metrics.json without "timings" and "provenance" is byte-identical."""
     out = tmp_path / "second"
     env = dict(os.environ, PYTHONPATH=str(ROOT), NUMBA_NUM_THREADS="1")
-    subprocess.run([sys.executable, "-m", "harness", "check", TINY, "--out", str(out),
+    sets = [a for s in TINY_CHECK_SET for a in ("--set", s)]  # as the session's check
+    subprocess.run([sys.executable, "-m", "harness", "check", TINY, *sets, "--out", str(out),
                     "--quiet"], env=env, check=True, capture_output=True,
                    preexec_fn=lambda: os.umask(0o027))
     a = (run["dir"] / "metrics.json").read_text()
@@ -156,7 +159,7 @@ def test_overrides_name_the_title_and_the_default_folder(run, tmp_path: Path, mo
     import harness.check
 
     monkeypatch.setattr(harness.check, "cross_check",
-                        lambda scene, quiet: dataclasses.replace(run["res"], scene=scene))
+                        lambda scene, quiet, **_: dataclasses.replace(run["res"], scene=scene))
     monkeypatch.chdir(tmp_path)
     assert main(["check", TINY, "--set", "system.mu=0.01", "--quiet"]) == 0
     folder = tmp_path / "out" / "tiny+system.mu=0.01"

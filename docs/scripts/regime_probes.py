@@ -55,6 +55,8 @@ PROBES: dict[str, dict] = {
     "posdamp c1=-0.01 r=0.99 a1=1": {"system.c1": -0.01, "system.r": 0.99,
                                      "noise.alpha1": 1.0},
     "w0=1 a1=0.5": {"noise.alpha1": 0.5},
+    "posdamp c1=-0.02 r=0.95": {"system.c1": -0.02, "system.r": 0.95},
+    "posdamp c1=-0.02 r=0.95 D=0.005": {"system.c1": -0.02, "system.r": 0.95, "noise.D": 0.005},
     "impact r=0.9 a1=1.5": {"system.r": 0.9, "noise.alpha1": 1.5},
     "impact r=0.85 a1=4": {"system.r": 0.85, "noise.alpha1": 4.0},
     "friction mu=0.006 a1=1.2 w0=1.5": {"system.mu": 0.006, "noise.alpha1": 1.2,
@@ -78,6 +80,8 @@ MECHANISM: dict[str, dict] = {
     "impact r=0.85 a1=1 k=1/2": {**HALF, "system.r": 0.925, "noise.alpha1": 1.0},
     "posdamp c1=-0.01 r=0.99 a1=1 k=1/2": {**HALF, "system.c1": -0.005, "system.r": 0.995,
                                            "noise.alpha1": 1.0},
+    "posdamp c1=-0.02 r=0.95 k=1/2": {**HALF, "system.c1": -0.01, "system.r": 0.975},
+    "posdamp c1=-0.02 r=0.95 r=1": {"system.c1": -0.02, "system.r": 1.0},
     "posdamp c1=-0.01 a1=1 r=1": {"system.c1": -0.01, "system.r": 1.0, "noise.alpha1": 1.0},
 }
 SHIPPED = [("paper-base", 0), ("paper-fig2", 0), ("paper-fig2", 2), ("paper-fig3", 0),
@@ -86,9 +90,13 @@ SHIPPED = [("paper-base", 0), ("paper-fig2", 0), ("paper-fig2", 2), ("paper-fig3
 
 
 def all_scenes():
-    """The shipped scene variants, then the probes."""
+    """The shipped scene variants, the user-defined-system families (scenes/systems), then the
+    probes."""
     for name, i in SHIPPED:
         sc = load_scene(ROOT / "scenes" / f"{name}.toml").variants()[i]
+        yield sc.name, sc
+    for path in sorted((ROOT / "scenes" / "systems").glob("*.toml")):  # issue 21 families
+        sc = load_scene(path)
         yield sc.name, sc
     base = load_scene(ROOT / "scenes" / "paper-base.toml")
     for name, over in {**PROBES, **MECHANISM}.items():
@@ -142,8 +150,7 @@ def band_ratio(scene, dens) -> dict[str, float]:
     c = np.concatenate([[0.0], np.cumsum(0.5 * (p[1:] + p[:-1]) * np.diff(A))])
     c /= c[-1]
     q = np.interp([0.1, 0.5, 0.9], c, A)
-    from averaging.geometry import period
-    Om = 2 * np.pi / period(q, scene.system.omega0, scene.system.alpha)
+    Om = 2 * np.pi / averaging.build_model(scene, "exact").period(q)
     return {f"alpha1_over_Omega_q{k}": float(scene.noise.alpha1 / o)
             for k, o in zip((10, 50, 90), Om, strict=True)}
 
@@ -157,7 +164,11 @@ def main() -> None:
     ap.add_argument("--shipped", action="store_true", help="also the shipped scene variants")
     ap.add_argument("--mechanism", action="store_true", help="only the MECHANISM experiments")
     ap.add_argument("--out", default=None)
+    ap.add_argument("--table", nargs="+", help="print the markdown table of these result files")
     args = ap.parse_args()
+    if args.table:
+        table(args.table)
+        return
     cache = Path(args.cache)
     cache.mkdir(parents=True, exist_ok=True)
     out_path = Path(args.out) if args.out else None
@@ -193,6 +204,47 @@ def main() -> None:
             tmp = out_path.with_suffix(".tmp")
             tmp.write_text(json.dumps(results, indent=1, sort_keys=True))
             tmp.replace(out_path)
+
+
+
+
+def table(paths: list[Path]) -> None:
+    """Markdown table of stored rows (later files override earlier ones for the same scene):
+    L1(A) (mean shift) of exact, compounded, corrected, the floor, dt, and what check would
+    recommend from these numbers (harness.check.recommend with the scene's warnings)."""
+    from harness.check import assumption_warnings, recommend
+
+    rows: dict[str, dict] = {}
+    for p in paths:
+        for key, r in json.loads(Path(p).read_text()).items():
+            rows[key.split(" @")[0]] = r
+    print("| scene | exact | compounded | corrected | floor | dt | check recommends |")
+    print("|---|---|---|---|---|---|---|")
+    for name, scene in all_scenes():
+        if name not in rows:
+            continue
+        r = rows[name]
+        M = r["models"]
+        val = validity(scene)
+        closed = {"exact": averaging.solve(scene, model="exact")}
+        mc_info = {"events": {"stuck_fraction": {"value": r.get("stuck_fraction", 0.0)}}}
+        warns = assumption_warnings(scene, closed, mc_info, val)
+        canned = {"models": {m: {"averaging_error": {"A": {"L1": M[m]["L1"],
+                                                            "L1_floor": r["L1_floor"]}},
+                                 "sampling_ok": True} for m in ("exact", "corrected")}}
+        rec, line = recommend(canned, warns, val)
+        body = line.split(" -- ", 1)[1]
+        if rec == "none" and "fail here (" in body:
+            why = body.split("fail here (", 1)[1].split(")")[0]
+        else:
+            why = body.split(" (")[0]
+            if "energy-at-the-wall" in body:
+                why += "; corrected's wall term out of range"
+            if "correlated-noise regime" in body:
+                why += "; correlated-noise regime"
+        cells = " | ".join(f"{M[m]['L1']:.3f} ({M[m]['mean_diff']:+.3f})"
+                           for m in ("exact", "compounded", "corrected"))
+        print(f"| {name} | {cells} | {r['L1_floor']:.4f} | {r['dt']:g} | **{rec}**: {why} |")
 
 
 if __name__ == "__main__":
