@@ -249,3 +249,46 @@ def test_montecarlo_energy_balance_general_damping_and_friction():
     losses, exact = en["losses"], 1.3**2 * 0.01
     assert abs(losses["value"] - exact) <= 3 * losses["err"], (losses, exact)
     assert en["damping"]["value"] > 0 and en["friction"]["value"] > 0
+
+
+# ----------------------------------------------------------------------------- hard cases
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["soft-bound", "degree9", "quintic-large"])
+def test_hard_springs_give_finite_normalised_densities(name):
+    """Every solver of check (closed forms, FPKs, averaged SDEs, the original system's Monte
+    Carlo) on the hard springs of scenes/hard/: finite, normalised densities and finite
+    metrics (harness.check.output_problems, the same bounds as the other hard scenes)."""
+    from harness.check import cross_check, output_problems
+
+    scene = load_scene(f"hard/{name}").with_values(
+        {"montecarlo.paths": 64, "montecarlo.blocks": 16, "montecarlo.time": 100.0})
+    result = cross_check(scene, quiet=True)
+    assert output_problems(result) == []
+    assert "paper" not in result.metrics["models"] and "models_absent" in result.metrics
+
+
+# ----------------------------------------------------------------------------- the harness
+def test_paper_model_absent_outside_its_family(capsys):
+    """solve --model paper: exit 2, one line, before any computation; check and figures take
+    the models that apply."""
+    from harness.check import models_of
+    from harness.cli import main
+    from harness.figures import figure_models
+
+    assert main(["solve", "systems/quintic", "--solver", "averaging", "--model", "paper"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "--model paper" in err and "x^5 term" in err and "\n" not in err
+    q = load_scene("systems/quintic")
+    assert models_of(q) == (("exact", "corrected"), {"paper": q.system.paper_family_problem()})
+    assert figure_models(q) == ("exact", "corrected")
+    base = load_scene("paper-base")
+    assert models_of(base)[0] == ("paper", "exact", "corrected")
+    assert figure_models(base) == ("paper", "exact")
+
+
+def test_sweep_over_a_coefficient_loads():
+    from harness.sweep import load_sweep
+
+    sw = load_sweep("quintic-k5")
+    ks = sorted(p.scene.system.restoring_law[2] for p in sw.points)
+    assert ks == [0.0, 0.5, 1.0, 2.0, 4.0]
