@@ -671,8 +671,10 @@ def test_headline_verdict_is_the_worst_observable():
 
 
 def test_each_class_has_its_own_colour():
-    from harness.check import CLASSES
+    from harness.check import RANK
     from harness.report import CLASS_COLOURS, _class_css
+
+    CLASSES = [*RANK, "not an estimate"]  # every class verdict_class returns
 
     assert set(CLASS_COLOURS) == set(CLASSES)
     assert len(set(CLASS_COLOURS.values())) == len(CLASSES)
@@ -685,8 +687,9 @@ def test_help_texts_count_the_models():
 
     sub = next(a for a in build_parser()._actions if hasattr(a, "choices") and a.choices)
     helps = {a.dest: a.help for a in sub._choices_actions}
-    assert "both" not in helps["check"] and "every averaged model" in helps["check"]
-    assert "two averaged models" in helps["figures"]
+    assert "both averaged models" not in helps["check"]  # there are three
+    assert all(m in helps["check"] for m in ("paper", "exact", "corrected"))
+    assert "two averaged models" in helps["figures"]  # it draws two
 
 
 def test_bifurcation_prints_words_not_python_reprs(monkeypatch, capsys):
