@@ -85,9 +85,14 @@ def mc_shape(scene: Any, *, z: float = 3.0) -> dict[str, Any]:
 
 
 def bifurcation(scene: Any, vary: str, *, lo: float | None = None, hi: float | None = None,
-                models: tuple[str, ...] = ("paper", "exact"), mc: bool = True,
+                models: tuple[str, ...] | None = None, mc: bool = True,
                 offset: float = 0.1) -> dict[str, Any]:
-    """Critical values for each model and, optionally, the MC shape on both sides of each."""
+    """Critical values for each model and, optionally, the MC shape on both sides of each.
+    ``models``: by default the paper's and the exact model, only the exact one outside the
+    paper model's family (System.paper_family_problem)."""
+    if models is None:
+        models = (("paper", "exact") if scene.system.paper_family_problem() is None
+                  else ("exact",))
     if vary not in VARIABLES:
         raise ValueError(f"--vary must be one of {sorted(VARIABLES)}")
     d_lo, d_hi = VARIABLES[vary][2]

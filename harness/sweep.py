@@ -986,10 +986,12 @@ def sweep_seconds(sweep: Sweep, *, speed: float | None = None) -> float:
     the points' times add up; a remote cluster may be faster (confirm with --yes)."""
     from . import validate as v
 
-    models = ("paper", "exact", "corrected")
     total = 0.0
     for pt in sweep.points:
         sc = pt.scene
+        models = ("paper", "exact", "corrected")
+        if sc.system.paper_family_problem() is not None:
+            models = ("exact", "corrected")
         closed = sum(v.averaging_seconds(sc, m) for m in models)
         if sweep.workflow == "check":
             total += v.montecarlo_seconds(sc, speed=speed) + closed

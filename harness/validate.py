@@ -597,8 +597,10 @@ def solve_seconds(scene: Scene, solver: str, model: str, grid: int | None, *,
 
 def check_seconds(scene: Scene, *, speed: float | None = None) -> float:
     """Lower bound of ``vifpk check``: the Monte Carlo of the original system, the closed
-    forms and FPKs of the three models (the averaged SDEs are not counted)."""
+    forms and FPKs of the models that apply (the averaged SDEs are not counted)."""
     models = ("paper", "exact", "corrected")
+    if scene.system.paper_family_problem() is not None:
+        models = ("exact", "corrected")
     return (montecarlo_seconds(scene, speed=speed)
             + sum(averaging_seconds(scene, m) for m in models)
             + len(models) * fpk_seconds(400))
