@@ -21,7 +21,7 @@ from vifpk.core.scene import Scene, load_scene
 
 from .check import mc_edges, models_of
 from .compare import compare
-from .io import write_atomic, write_json
+from .io import atomic_path, write_atomic, write_json
 from .run import closed_form, montecarlo_solution
 
 FIGURES = {2: "paper-fig2", 3: "paper-fig3", 4: "paper-fig4", 5: "paper-fig5", 6: "paper-fig6"}
@@ -49,10 +49,9 @@ def _run_variant(scene: Scene, joint: bool) -> dict[str, Any]:
 
 
 def _plot_pdfs(fig_no: int, scene: Scene, runs: list[dict[str, Any]], path: Path) -> None:
-    import matplotlib
+    from .io import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     sw = scene.sweep
     fig, axes = plt.subplots(1, 3, figsize=(13, 4.6))
@@ -81,10 +80,9 @@ def _plot_pdfs(fig_no: int, scene: Scene, runs: list[dict[str, Any]], path: Path
 
 
 def _plot_joint(fig_no: int, scene: Scene, runs: list[dict[str, Any]], path: Path) -> None:
-    import matplotlib
+    from .io import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     sw = scene.sweep
     n = len(runs)
@@ -143,10 +141,8 @@ def draw_figures(out_dir: str | Path, *, numbers: tuple[int, ...] = (2, 3, 4, 5,
             if not quiet:
                 print(f"figure {no}: {v.name} ...", file=sys.stderr, flush=True)
             runs.append(_run_variant(v, no in JOINT))
-        png = out / f"paper-fig{no}.png"
-        tmp = png.with_suffix(".tmp.png")
-        (_plot_joint if no in JOINT else _plot_pdfs)(no, scene, runs, tmp)
-        tmp.replace(png)
+        with atomic_path(out / f"paper-fig{no}.png") as tmp:
+            (_plot_joint if no in JOINT else _plot_pdfs)(no, scene, runs, tmp)
         table[f"figure{no}"] = {
             "varied": scene.sweep.path, "values": list(scene.sweep.values),
             "models": list(runs[0]["closed"]),

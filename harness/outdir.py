@@ -39,7 +39,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-from vifpk.core.scene import SceneError
+from vifpk.core.result import BadInput
 
 try:
     import fcntl
@@ -51,11 +51,11 @@ _AT_FDCWD = -100
 _held: dict[Path, int] = {}  # folders this process holds -> lock fd (re-entrant holding)
 
 
-class FolderBusy(SceneError):
+class FolderBusy(BadInput):
     """Another live run holds the output folder (exit 2: choose another ``--out`` or wait)."""
 
 
-class FolderRefused(SceneError):
+class FolderRefused(BadInput):
     """The output path cannot be replaced: a file, or a folder holding other things."""
 
 

@@ -13,9 +13,9 @@ from pathlib import Path
 
 import pytest
 
-from harness.check import MODELS
 from harness.cli import main
 from harness.sweep import load_sweep, point_key, point_seed, run_sweep
+from vifpk.core.defaults import CHECK_MODELS as MODELS
 
 from .conftest import ROOT
 
@@ -162,7 +162,10 @@ def test_check_sweep_writes_every_variable_of_every_point(canned_check_sweep):
     ds = _values(canned_check_sweep / "sweep.nc")
     assert {"averaging_error_A", "averaging_error_A_err", "L1_floor_A", "mean_A",
             "mean_A_simulation", "converged", "warn_narrow_band", "warn_sticking",
-            "warn_strong_damping", "warn_strong_noise", "warn_not_converged"} <= set(ds)
+            "warn_strong_damping", "warn_strong_noise", "warn_not_converged",
+            "warn_correlated_noise", "recommended_model"} <= set(ds)
+    assert set(ds["recommended_model"].values.ravel().tolist()) <= {"exact", "corrected",
+                                                                       "none"}
     assert ds.sizes == {"system.r": 2, "system.mu": 2, "model": len(MODELS)}
     assert (ds["status"] == "ok").all()
 
