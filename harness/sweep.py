@@ -1013,7 +1013,8 @@ def sweep_seconds(sweep: Sweep, *, speed: float | None = None) -> float:
     the points' times add up; a remote cluster may be faster (confirm with --yes)."""
     from . import validate as v
 
-    models = ("paper", "exact", "corrected")
+    models = sweep.models or (BIFURCATION_MODELS if sweep.workflow == "bifurcation"
+                              else CHECK_MODELS)
     total = 0.0
     for pt in sweep.points:
         sc = pt.scene
