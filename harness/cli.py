@@ -399,6 +399,10 @@ def cmd_workprecision(args: argparse.Namespace) -> int:
     validate.at_least("--repeats", args.repeats, 1, 100)
     validate.output_folder(args.out, "--out", replaced=True)
     scene = _checked_scene(args, mc=True)
+    outside = scene.system.paper_family_problem()
+    if outside is not None:  # its ladders time the paper model's closed form and FPK
+        raise validate.InputError(f"{args.scene}: workprecision times the paper model's "
+                                  f"solvers, which do not apply here: {outside}")
     if scene.montecarlo.dt == "auto":
         raise validate.InputError("montecarlo.dt = 'auto': workprecision times a ladder of "
                                   "fixed steps; give a number with --dt")
