@@ -1024,6 +1024,8 @@ def sweep_seconds(sweep: Sweep, *, speed: float | None = None) -> float:
     from . import validate as v
     from .check import models_of
 
+    wanted = sweep.models or (BIFURCATION_MODELS if sweep.workflow == "bifurcation"
+                              else CHECK_MODELS)
     total = 0.0
     seen: dict[Any, float] = {}
 
@@ -1040,7 +1042,7 @@ def sweep_seconds(sweep: Sweep, *, speed: float | None = None) -> float:
 
     for pt in sweep.points:
         sc = pt.scene
-        models = models_of(sc)[0]
+        models = models_of(sc, wanted)[0]
         closed = sum(v.averaging_seconds(sc, m) for m in models)
         if sweep.workflow == "check":
             total += mc_seconds(sc) + closed
