@@ -556,7 +556,7 @@ def _validate_point(scene: Scene, workflow: str, bifurcation: Mapping[str, Any],
         if workflow == "check" or (workflow == "bifurcation" and bifurcation.get("mc")):
             # with a fixed step the checks depend on [montecarlo] and omega0 only: once each
             mc = scene.montecarlo
-            key = (mc, scene.system.omega0) if mc.dt != "auto" else None
+            key = (mc, scene.system.restoring_law[0]) if mc.dt != "auto" else None  # k1
             if key is None or key not in _CHECKED:
                 validate.montecarlo_settings(scene)
                 if key is not None:
@@ -1022,14 +1022,17 @@ def sweep_seconds(sweep: Sweep, *, speed: float | None = None) -> float:
     them, ~20 closed-form evaluations per model). Local executors share the same cores, so
     the points' times add up; a remote cluster may be faster (confirm with --yes)."""
     from . import validate as v
+    from .check import models_of
 
-    models = ("paper", "exact", "corrected")
+    wanted = sweep.models or (BIFURCATION_MODELS if sweep.workflow == "bifurcation"
+                              else CHECK_MODELS)
     total = 0.0
     seen: dict[Any, float] = {}
 
     def mc_seconds(sc: Scene) -> float:
         # with a fixed step the estimate depends on [montecarlo] and omega0 only
-        key = (sc.montecarlo, sc.system.omega0) if sc.montecarlo.dt != "auto" else None
+        key = ((sc.montecarlo, sc.system.restoring_law[0]) if sc.montecarlo.dt != "auto"
+               else None)  # k1 = omega0^2
         if key is None or key not in seen:
             value = v.montecarlo_seconds(sc, speed=speed)
             if key is None:
@@ -1039,6 +1042,7 @@ def sweep_seconds(sweep: Sweep, *, speed: float | None = None) -> float:
 
     for pt in sweep.points:
         sc = pt.scene
+        models = models_of(sc, wanted)[0]
         closed = sum(v.averaging_seconds(sc, m) for m in models)
         if sweep.workflow == "check":
             total += mc_seconds(sc) + closed
