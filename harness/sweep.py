@@ -80,9 +80,10 @@ WARNING_FLAGS = {"warn_narrow_band": "narrow_band", "warn_sticking": "sticking",
                  "warn_strong_damping": "strong_damping", "warn_strong_noise": "strong_noise",
                  "warn_correlated_noise": "correlated_noise"}
 EXTRA_HINT = "pip install 'vifpk[cluster]'"
-#: the largest grid a sweep file may ask for (building and validating a point's scene costs
-#: ~0.1 ms; a 1000 x 1000 grid was silent for minutes before any work)
-MAX_POINTS = 100_000
+#: the largest grid a sweep file may ask for: building and validating a point's scene costs
+#: ~1-3 ms (measured 2026-11-23: 10000 points in 24 s at load average 10 on 2 cores), so a
+#: 1000 x 1000 grid was silent for many minutes before any work
+MAX_POINTS = 20_000
 
 
 class SweepError(SceneError):
@@ -541,6 +542,9 @@ def make_point(base: Scene, fixed: Mapping[str, Any], *, seed: int, workflow: st
                  fingerprint=fingerprint(workflow, scene, bifurcation, sde=sde, models=models))
 
 
+_CHECKED: set[Any] = set()  # Monte Carlo settings already validated in this process
+
+
 def _validate_point(scene: Scene, workflow: str, bifurcation: Mapping[str, Any], where: str,
                     params: tuple[tuple[str, float], ...]) -> None:
     """A point's scene checked as `vifpk check` / `solve` check theirs before any work
@@ -550,7 +554,13 @@ def _validate_point(scene: Scene, workflow: str, bifurcation: Mapping[str, Any],
     try:
         validate.scene_magnitudes(scene)
         if workflow == "check" or (workflow == "bifurcation" and bifurcation.get("mc")):
-            validate.montecarlo_settings(scene)
+            # with a fixed step the checks depend on [montecarlo] and omega0 only: once each
+            mc = scene.montecarlo
+            key = (mc, scene.system.restoring_law[0]) if mc.dt != "auto" else None  # k1
+            if key is None or key not in _CHECKED:
+                validate.montecarlo_settings(scene)
+                if key is not None:
+                    _CHECKED.add(key)
     except SceneError as exc:
         at = ", ".join(f"{k} = {v:g}" for k, v in params)
         raise SweepError(f"{where}: at the point {at}: {exc}") from None
@@ -1012,18 +1022,34 @@ def sweep_seconds(sweep: Sweep, *, speed: float | None = None) -> float:
     them, ~20 closed-form evaluations per model). Local executors share the same cores, so
     the points' times add up; a remote cluster may be faster (confirm with --yes)."""
     from . import validate as v
+    from .check import models_of
 
-    models = ("paper", "exact", "corrected")
+    wanted = sweep.models or (BIFURCATION_MODELS if sweep.workflow == "bifurcation"
+                              else CHECK_MODELS)
     total = 0.0
+    seen: dict[Any, float] = {}
+
+    def mc_seconds(sc: Scene) -> float:
+        # with a fixed step the estimate depends on [montecarlo] and omega0 only
+        key = ((sc.montecarlo, sc.system.restoring_law[0]) if sc.montecarlo.dt != "auto"
+               else None)  # k1 = omega0^2
+        if key is None or key not in seen:
+            value = v.montecarlo_seconds(sc, speed=speed)
+            if key is None:
+                return value
+            seen[key] = value
+        return seen[key]
+
     for pt in sweep.points:
         sc = pt.scene
+        models = models_of(sc, wanted)[0]
         closed = sum(v.averaging_seconds(sc, m) for m in models)
         if sweep.workflow == "check":
-            total += v.montecarlo_seconds(sc, speed=speed) + closed
+            total += mc_seconds(sc) + closed
         elif sweep.workflow == "averaging":
             total += closed
         elif sweep.bifurcation.get("mc"):
-            total += 4 * v.montecarlo_seconds(sc, speed=speed) + 20 * closed
+            total += 4 * mc_seconds(sc) + 20 * closed
         else:
             total += 20 * closed
     if sweep.mode == "adaptive" and sweep.points:  # the lattice stands for the whole budget
@@ -1035,7 +1061,7 @@ def _clear_temporaries(out: Path) -> None:
     """Remove the temporary files of killed atomic writes (call with the folder held)."""
     for folder in (out, out / "points"):
         if folder.is_dir():
-            for p in folder.glob(".*.tmp"):
+            for p in folder.glob(".*.tmp*"):  # io._temp_beside: .NAME.<hex>.tmp<suffix>
                 p.unlink(missing_ok=True)
 
 

@@ -595,7 +595,10 @@ def solve_seconds(scene: Scene, solver: str, model: str, grid: int | None, *,
 def check_seconds(scene: Scene, models: tuple[str, ...] = CHECK_MODELS, *,
                   speed: float | None = None) -> float:
     """Lower bound of ``vifpk check``: the Monte Carlo of the original system, the closed
-    forms and FPKs of the models (the averaged SDEs are not counted)."""
+    forms and FPKs of the models that apply (the averaged SDEs are not counted): the
+    paper's model is left out of a scene outside its family (it is not run there)."""
+    if scene.system.paper_family_problem() is not None:
+        models = tuple(m for m in models if m != "paper")
     return (montecarlo_seconds(scene, speed=speed)
             + sum(averaging_seconds(scene, m) for m in models)
             + len(models) * fpk_seconds(FPK_CELLS))

@@ -132,7 +132,7 @@ def test_solve_a_shipped_scene_from_an_empty_directory(installed):
 
 
 def test_small_check_and_figure_from_an_empty_directory(installed):
-    small = ["--paths", "32", "--time", "50", "--seed", "1"]
+    small = ["--paths", "64", "--time", "50", "--seed", "1"]
     res = run(installed, installed["vifpk"], "check", "paper-base", "--out", "out", "--quiet",
               *small)
     assert res.returncode == 0, res.stderr
@@ -156,7 +156,7 @@ def test_a_plugin_package_is_listed_solved_and_checked(installed, tmp_path):
     res = run(installed, installed["vifpk"], "solve", "paper-base", "--model", "white-envelope")
     assert res.returncode == 0, res.stderr
     assert "FPK direct solve" in res.stdout
-    small = ["--paths", "32", "--time", "50", "--seed", "1"]
+    small = ["--paths", "64", "--time", "50", "--seed", "1"]
     res = run(installed, installed["vifpk"], "check", "paper-base", "--model", "white-envelope",
               "--model", "exact", "--out", "plugin-check", "--quiet", *small)
     assert res.returncode == 0, res.stderr
