@@ -292,3 +292,31 @@ def test_sweep_over_a_coefficient_loads():
     sw = load_sweep("quintic-k5")
     ks = sorted(p.scene.system.restoring_law[2] for p in sw.points)
     assert ks == [0.0, 0.5, 1.0, 2.0, 4.0]
+
+
+def test_figures_of_your_own_scene_options(capsys, tmp_path):
+    """figures --scene draws any scene (run in the slow tier below); with --figure it is
+    refused before any work; the table takes the two models drawn as its columns."""
+    from harness.cli import main
+    from harness.figures import render_table
+
+    assert main(["figures", "--scene", "systems/quintic", "--figure", "5",
+                 "--out", str(tmp_path / "f")]) == 2
+    assert "--figure: does not apply with --scene" in capsys.readouterr().err
+    l1 = {m: {o: 0.01 for o in ("A", "x1", "x2")} for m in ("exact", "corrected")}
+    text = render_table({"figure-q": {"varied": "system.r", "values": [0.98],
+                                      "models": ["exact", "corrected"], "L1": [l1],
+                                      "L1_floor": [{"A": 0.02}]}})
+    assert "L1(A) exact | L1(A) corrected" in text and "paper" not in text
+    assert "| q | r = 0.98 |" in text
+
+
+@pytest.mark.slow
+def test_figures_of_your_own_scene(tmp_path):
+    from harness.cli import main
+
+    out = tmp_path / "f"
+    assert main(["figures", "--scene", "systems/quintic", "--out", str(out), "--paths", "64",
+                 "--time", "100", "--quiet"]) == 0
+    assert (out / "systems-quintic-joint.png").stat().st_size > 0
+    assert (out / "systems-quintic-pdfs.png").stat().st_size > 0
