@@ -185,6 +185,11 @@ KINDS = {"check report": ("metrics.json",), "sweep": ("points", "sweep.nc"),
          "work-precision run": ("workprecision.json",), "figures": ("figures.json",)}
 
 
+def _temporary(name: str) -> bool:
+    """A temporary file of an atomic write (harness/io.py: ``.NAME.<hex>.tmp<suffix>``)."""
+    return name.startswith(".") and ".tmp" in name
+
+
 def kind_of(names: Collection[str]) -> str | None:
     """The kind of output a folder holding ``names`` is, or None."""
     for kind, marks in KINDS.items():
@@ -204,8 +209,7 @@ def check_replaceable(target: Path, allowed: Collection[str] | None,
         return
     try:
         names = [n for n in os.listdir(target)
-                 if not n.startswith(".partial-") and not (n.startswith(".") and
-                                                           n.endswith(".tmp"))]
+                 if not n.startswith(".partial-") and not _temporary(n)]
     except OSError as exc:
         raise FolderRefused(f"{target}: cannot read it ({exc.strerror})") from None
     found = kind_of(names)

@@ -247,7 +247,7 @@ CLASS_TEXT = {
 }
 
 
-#: one colour per verdict class, in the order of CLASSES (a sequential green-to-red scale,
+#: one colour per verdict class (check.RANK and "not an estimate"; a sequential green-to-red scale,
 #: distinct hues so that SMALL never reads as INDISTINGUISHABLE; grey: no estimate)
 CLASS_COLOURS = {"indistinguishable": "#a6dba0", "small": "#d9f0a3", "moderate": "#fee391",
                  "large": "#fc9272", "not an estimate": "#d9d9d9"}

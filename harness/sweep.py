@@ -1061,7 +1061,7 @@ def _clear_temporaries(out: Path) -> None:
     """Remove the temporary files of killed atomic writes (call with the folder held)."""
     for folder in (out, out / "points"):
         if folder.is_dir():
-            for p in folder.glob(".*.tmp"):
+            for p in folder.glob(".*.tmp*"):  # io._temp_beside: .NAME.<hex>.tmp<suffix>
                 p.unlink(missing_ok=True)
 
 

@@ -471,10 +471,15 @@ def _start_sweep(tmp_path: Path, executor: str) -> tuple[subprocess.Popen, Path]
         # a test run started in the background inherits SIGINT ignored
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     t0 = time.monotonic()
-    while not list((out / "points").glob("*.json")) and time.monotonic() - t0 < 120:
+    while not _records(out) and time.monotonic() - t0 < 120:
         assert proc.poll() is None, proc.communicate()
         time.sleep(0.05)
     return proc, out
+
+
+def _records(out: Path) -> list[Path]:
+    """The finished point records (not the hidden temporary files of a write under way)."""
+    return [p for p in (out / "points").glob("*.json") if not p.name.startswith(".")]
 
 
 def _group(pid: int) -> list[int]:
@@ -499,7 +504,7 @@ def test_signal_stops_the_workers_and_keeps_finished_points(tmp_path, how):
     while _group(proc.pid) and time.monotonic() < deadline:
         time.sleep(0.1)
     assert _group(proc.pid) == []  # no orphan: workers and resource tracker gone
-    kept = len(list((out / "points").glob("*.json")))
+    kept = len(_records(out))
     assert kept >= 1 and not (out / "sweep.nc").exists()
     if name == "SIGKILL":
         return
@@ -666,8 +671,10 @@ def test_headline_verdict_is_the_worst_observable():
 
 
 def test_each_class_has_its_own_colour():
-    from harness.check import CLASSES
+    from harness.check import RANK
     from harness.report import CLASS_COLOURS, _class_css
+
+    CLASSES = [*RANK, "not an estimate"]  # every class verdict_class returns
 
     assert set(CLASS_COLOURS) == set(CLASSES)
     assert len(set(CLASS_COLOURS.values())) == len(CLASSES)
@@ -680,8 +687,9 @@ def test_help_texts_count_the_models():
 
     sub = next(a for a in build_parser()._actions if hasattr(a, "choices") and a.choices)
     helps = {a.dest: a.help for a in sub._choices_actions}
-    assert "both" not in helps["check"] and "every averaged model" in helps["check"]
-    assert "two averaged models" in helps["figures"]
+    assert "both averaged models" not in helps["check"]  # there are three
+    assert all(m in helps["check"] for m in ("paper", "exact", "corrected"))
+    assert "two averaged models" in helps["figures"]  # it draws two
 
 
 def test_bifurcation_prints_words_not_python_reprs(monkeypatch, capsys):
@@ -701,3 +709,17 @@ def test_bifurcation_prints_words_not_python_reprs(monkeypatch, capsys):
     assert "{" not in out and "[" not in out and "'paper'" not in out, out
     assert "paper model: critical mu = none in 0 to 0.05" in out
     assert "models predict paper a crater, exact a peak" in out
+
+
+def test_leftover_temporaries_are_cleared_not_refused(tmp_path, monkeypatch, capsys):
+    """A killed write leaves `.sweep.nc.<hex>.tmp.nc` or `.KEY.json.<hex>.tmp.json`: the next
+    run into the folder clears them (with the lock held) instead of calling them foreign."""
+    from harness.cli import main
+
+    _canned(monkeypatch)
+    out = _sweep_folder(tmp_path / "o")
+    (out / "points" / "0123456789abcdef.json").unlink()
+    (out / ".sweep.nc.0a1b2c3d.tmp.nc").write_text("half\n")
+    (out / "points" / ".0123456789abcdef.json.0a1b2c3d.tmp.json").write_text("{")
+    assert main(["sweep", str(_sweep_file(tmp_path / "in")), "--out", str(out), "--quiet"]) == 0
+    assert not [p for p in out.rglob(".*") if ".tmp" in p.name]
