@@ -37,7 +37,14 @@ from typing import Any
 import numpy as np
 
 from .exact import ExactModel
-from .geometry import Array, amplitude_of_energy, potential, restoring
+from .geometry import (
+    Array,
+    amplitude_of_energy_k,
+    period_k,
+    potential_k,
+    restoring_k,
+    restoring_slope_k,
+)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -84,12 +91,12 @@ def q_frame_density(model: CompoundedModel, A: Array, *, nodes: int = 8) -> Arra
     Normalised to trapezoid mass 1 on A (whose range must hold the mass).
     """
     A = np.asarray(A, dtype=float)
-    w0, a, lam = model.omega0, model.alpha, model.lam
+    k, lam = model.restoring, model.lam
     x, w = np.polynomial.legendre.leggauss(nodes)
     s, w = 0.5 * (x + 1.0), 0.5 * w
     fac = np.exp(-lam * (1.0 - s))
-    Q = potential(A, w0, a)
-    As = amplitude_of_energy(Q[:, None] * fac[None, :], w0, a)
+    Q = potential_k(A, k)
+    As = amplitude_of_energy_k(Q[:, None] * fac[None, :], k)
     et = ExactModel.energy_terms(model, As)
     m_s = ((et["damping"] + et["friction"]) / fac) @ w
     s2 = (et["sigma2"] / fac**2) @ w
@@ -106,7 +113,7 @@ def q_frame_density(model: CompoundedModel, A: Array, *, nodes: int = 8) -> Arra
     top = np.where(np.isfinite(top), top, -np.inf)
     with np.errstate(invalid="ignore"):
         log_pe = top + np.log(np.sum(np.exp(stack - top[None, :]), axis=0))
-    log_pa = np.where(np.isfinite(log_pe), log_pe, -np.inf) + np.log(restoring(A, w0, a))
+    log_pa = np.where(np.isfinite(log_pe), log_pe, -np.inf) + np.log(restoring_k(A, k))
     p = np.exp(log_pa - np.max(log_pa))
     return p / np.trapezoid(p, A)
 
@@ -118,18 +125,19 @@ WALL_TABLE_POINTS = 48
 WALL_FLIGHT_STEPS = 120  # RK4 steps per flight (error ~ (pi / steps)^4 ~ 5e-8 relative)
 
 
-def _flight(E: Array, w0: float, a: float, tau: Array, n: int) -> tuple[Array, Array]:
+def _flight(E: Array, k: tuple[float, ...], tau: Array, n: int) -> tuple[Array, Array]:
     """RK4 over one flight [0, tau] from the wall (x = 0, v = sqrt(2E)) of x, v and the
     fundamental matrix [[dx/dx0, dx/dv0], [dv/dx0, dv/dv0]] of the variational equation
-    x'' = -g(x). Returns the states (m, n + 1, 6) and the steps h (m,)."""
+    x'' = -g(x), g(x) = k1 x + k3 x^3 + ... Returns the states (m, n + 1, 6) and the steps
+    h (m,)."""
     h = tau / n
     y = np.zeros((E.size, 6))
     y[:, 1], y[:, 2], y[:, 5] = np.sqrt(2 * E), 1.0, 1.0
 
     def f(y: Array) -> Array:
         x, v, m00, m01, m10, m11 = y.T
-        gp = w0**2 + 3 * a * x**2
-        return np.stack([v, -(w0**2 * x + a * x**3), m10, m11, -gp * m00, -gp * m01], axis=1)
+        gp = restoring_slope_k(x, k)
+        return np.stack([v, -restoring_k(x, k), m10, m11, -gp * m00, -gp * m01], axis=1)
 
     out, H = [y], h[:, None]
     for _ in range(n):
@@ -143,7 +151,8 @@ def _flight(E: Array, w0: float, a: float, tau: Array, n: int) -> tuple[Array, A
 
 
 def wall_offset(omega0: float, alpha: float, f: float, D: float, alpha1: float, A: Array,
-                *, steps: int = WALL_FLIGHT_STEPS) -> Array:
+                *, steps: int = WALL_FLIGHT_STEPS,
+                restoring: tuple[float, ...] | None = None) -> Array:
     """delta(E(A)): how far correlated noise holds the energy at the wall below the flight
     average (docs/averaging.md section 10.3 (a)), by linear response along one flight.
 
@@ -161,13 +170,12 @@ def wall_offset(omega0: float, alpha: float, f: float, D: float, alpha1: float, 
     the averaged model, hence -1/2). Trapezoid rule on the RK4 nodes. Quasi-static limit
     (alpha = 0, alpha1 -> 0): delta -> f^2 D / (alpha1 omega0^2) (tests/test_corrected.py).
     """
-    from .geometry import period
-
     A = np.atleast_1d(np.asarray(A, dtype=float))
+    k = tuple(restoring) if restoring is not None else (omega0**2, alpha)  # issue 21: any spring
     n = steps
-    E = potential(A, omega0, alpha)
-    tau = 0.5 * period(A, omega0, alpha)
-    Y, h = _flight(E, omega0, alpha, tau, n)
+    E = potential_k(A, k)
+    tau = 0.5 * period_k(A, k)
+    Y, h = _flight(E, k, tau, n)
     t = np.arange(n + 1)[None, :] * h[:, None]
     xd = Y[:, :, 1]
     m00, m01, m10, m11 = (Y[:, :, k] for k in (2, 3, 4, 5))
@@ -192,13 +200,14 @@ def wall_offset(omega0: float, alpha: float, f: float, D: float, alpha1: float, 
 _WALL_TABLES: dict[tuple[float, ...], tuple[Array, Array]] = {}
 
 
-def _wall_table(omega0: float, alpha: float, f: float, D: float, alpha1: float
+def _wall_table(k: tuple[float, ...], f: float, D: float, alpha1: float
                 ) -> tuple[Array, Array]:
-    """(log A, delta) on WALL_TABLE_POINTS log-spaced amplitudes (cached per parameter set)."""
-    key = (omega0, alpha, f, D, alpha1)
+    """(log A, delta) on WALL_TABLE_POINTS log-spaced amplitudes (cached per parameter set;
+    k the spring's coefficients)."""
+    key = (*k, f, D, alpha1)
     if key not in _WALL_TABLES:
         A = np.geomspace(*WALL_TABLE_A, WALL_TABLE_POINTS)
-        _WALL_TABLES[key] = (np.log(A), wall_offset(omega0, alpha, f, D, alpha1, A))
+        _WALL_TABLES[key] = (np.log(A), wall_offset(0.0, 0.0, f, D, alpha1, A, restoring=k))
     return _WALL_TABLES[key]
 
 
@@ -256,7 +265,7 @@ class CorrectedModel(CompoundedModel):
         if not (self.barrier and self.correlated and self.lam > 0):
             return np.zeros_like(A)
         s = self.spectrum
-        la, d = _wall_table(self.omega0, self.alpha, self.f, s.D, s.alpha1)
+        la, d = _wall_table(tuple(self.restoring), self.f, s.D, s.alpha1)
         return np.interp(np.log(np.maximum(A, 1e-300)), la, d)
 
     def energy_terms(self, A: Array) -> dict[str, Array]:
@@ -271,7 +280,7 @@ class CorrectedModel(CompoundedModel):
         E the noise work over a flight is not small against E; the exponential differs from
         E - delta by delta^2 / 2E, below 0.5% of E wherever delta < 0.1 E)."""
         A = np.asarray(A, dtype=float)
-        E = potential(A, self.omega0, self.alpha)
+        E = potential_k(A, self.restoring)
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             out = E * np.exp(-self.wall_offset(A) / E)
         return np.where(E > 0, out, 0.0)
@@ -288,8 +297,8 @@ class CorrectedModel(CompoundedModel):
         """M[i, j] = P(H in cell i of edges_dst (amplitudes) | slow energy at A_src[j]): the
         truncated normal N(E_j, V_j) on H >= 0, integrated over each target cell in energy."""
         A_src = np.asarray(A_src, dtype=float)
-        e_dst = potential(np.asarray(edges_dst, dtype=float), self.omega0, self.alpha)
-        E = potential(A_src, self.omega0, self.alpha)
+        e_dst = potential_k(np.asarray(edges_dst, dtype=float), self.restoring)
+        E = potential_k(A_src, self.restoring)
         sd = np.maximum(self.observation_sd(A_src), 1e-300)
         cdf = _normal_cdf((e_dst[:, None] - E[None, :]) / sd[None, :])
         kept = 1.0 - _normal_cdf(-E / sd)
@@ -323,11 +332,11 @@ def observed_density(model: Any, A: Array, p: Array) -> tuple[Array, Array]:
     A, p = np.asarray(A, dtype=float), np.asarray(p, dtype=float)
     if not getattr(model, "observes", False):
         return A, p
-    w0, a = model.omega0, model.alpha
+    k = model.restoring
     sd = model.observation_sd(A[[0, -1]])
-    E = potential(A[[0, -1]], w0, a)
-    lo = float(amplitude_of_energy(max(E[0] - OBSERVE_REACH * sd[0], 0.0), w0, a))
-    hi = float(amplitude_of_energy(E[1] + OBSERVE_REACH * sd[1], w0, a))
+    E = potential_k(A[[0, -1]], k)
+    lo = float(amplitude_of_energy_k(max(E[0] - OBSERVE_REACH * sd[0], 0.0), k))
+    hi = float(amplitude_of_energy_k(E[1] + OBSERVE_REACH * sd[1], k))
     step = (A[-1] - A[0]) / (A.size - 1)
     down = min(np.ceil((A[0] - lo) / step), np.floor(A[0] / step + 1e-9), A.size)
     up = min(np.ceil((hi - A[-1]) / step), 2 * A.size)
@@ -340,9 +349,8 @@ def observed_log_h(model: Any, A: Array, p: Array) -> Array:
     """log p(y, y') = log(p_A / (g T)) of an observed amplitude density (the microcanonical
     split of section 7 applied to the observed energy); at A = 0, where p_A / g is 0 / 0,
     extrapolated linearly from the next two nodes."""
-    w0, a = model.omega0, model.alpha
     with np.errstate(divide="ignore", invalid="ignore"):
-        lh = np.log(np.maximum(p, 1e-300)) - np.log(restoring(A, w0, a)) - np.log(
+        lh = np.log(np.maximum(p, 1e-300)) - np.log(restoring_k(A, model.restoring)) - np.log(
             model.period(A))
     if A[0] <= 0.0:
         lh[0] = 2 * lh[1] - lh[2]

@@ -1,7 +1,9 @@
 """Stochastic averaging done numerically on the exact Duffing orbit (energy envelope).
 
 Energy H = v^2/2 + U(x) of the original system obeys, between impacts,
-``dH/dt = (c1 - c2 x^2) v^2 - mu |v| + f xi(t) v``, and loses a fraction at each impact.
+``dH/dt = -(d(x) + e(v)) v^2 - mu |v| + f xi(t) v``, and loses a fraction at each impact
+(d(x) = d0 + d2 x^2 + ... and e(v) = e2 v^2 + ... the damping laws, paper: d = -c1 + c2 x^2,
+e = 0; U the potential of the general odd spring, averaging/geometry.py).
 In the transformed coordinate y (x = |y|) the noise term is G xi with G = f s(y) y',
 s = sgn ("sgn", the excitation as it is) or s = 1 ("additive", the paper's assumption).
 Write G = f dY/dt with Y = s(y) y. Averaging over the exact orbit of energy E (period T,
@@ -11,7 +13,7 @@ dE = m_E dt + sigma_E dB with (derivation in docs/averaging.md)::
     sigma_E^2 = 2 pi sum_{n in Z} |G_n|^2 S(n Omega)
               = 4 pi f^2 sum_{n>=1} n^2 Omega^2 Y_n^2 S(n Omega)
     m_E = m_d + (1 / (2 T)) d(T sigma_E^2)/dE            (noise-induced drift)
-    m_d = c1 <v^2> - c2 <x^2 v^2> - mu <|v|> - impact loss rate
+    m_d = -<(d(x) + e(v)) v^2> - mu <|v|> - impact loss rate   (paper: c1 <v^2> - c2 <x^2 v^2>)
     impact loss rate = (2/T) (1 - r^2) E   ("exact" law)   or   (2/T) 2 (1 - r) E   ("transformed")
                        or (2/T) (-ln r^2) E   ("compounded": the corrected model, corrected.py)
 
@@ -43,11 +45,11 @@ import numpy as np
 from .geometry import (
     Array,
     gauss_quarter,
-    nu_exact,
-    potential,
-    restoring,
-    restoring_slope,
-    time_of_theta,
+    nu_k,
+    potential_k,
+    restoring_k,
+    restoring_slope_k,
+    time_of_theta_k,
 )
 from .noise import Spectrum
 
@@ -57,12 +59,16 @@ IMPACT_LAWS = ("exact", "transformed", "compounded")  # a new law: here and ener
 
 @dataclass(frozen=True, kw_only=True)
 class ExactModel:
-    """Exact orbit averages. Options: ``noise`` in NOISE_FORMS, ``impact`` in IMPACT_LAWS."""
+    """Exact orbit averages. Options: ``noise`` in NOISE_FORMS, ``impact`` in IMPACT_LAWS.
 
-    c1: float
-    c2: float
-    omega0: float
-    alpha: float
+    The system's laws as coefficient tuples (issue 21): ``restoring`` k = (k1, k3, ...) for
+    g(x) = k1 x + k3 x^3 + ...; ``damping`` d = (d0, d2, ...) for the force
+    (d0 + d2 x^2 + ...) x'; ``velocity_damping`` e = (e2, e4, ...) for (e2 x'^2 + ...) x'.
+    The paper's c1, c2, omega0, alpha are d0 = -c1, d2 = c2, k1 = omega0^2, k3 = alpha."""
+
+    restoring: tuple[float, ...]
+    damping: tuple[float, ...]
+    velocity_damping: tuple[float, ...] = ()
     mu: float
     r: float
     f: float
@@ -89,21 +95,50 @@ class ExactModel:
             raise ValueError(f"impact must be one of {IMPACT_LAWS}, not {impact!r}")
         s = scene.system
         st = getattr(scene, "averaging", None)
-        return cls(c1=s.c1, c2=s.c2, omega0=s.omega0, alpha=s.alpha, mu=s.mu, r=s.r, f=s.f,
+        return cls(restoring=tuple(s.restoring_law), damping=tuple(s.damping_law),
+                   velocity_damping=tuple(s.velocity_law), mu=s.mu, r=s.r, f=s.f,
                    barrier=s.barrier, spectrum=Spectrum.from_scene(scene),
                    noise=noise if s.barrier else "additive", impact=impact,
                    theta_nodes=theta_nodes or getattr(st, "theta_nodes", 64),
                    harmonics=harmonics or getattr(st, "harmonics", 24))
 
+    # ------------------------------------------------------------------ the paper's names
+    @property
+    def omega0(self) -> float:
+        """sqrt(k1) (the paper's name; k1 >= 0)."""
+        return float(np.sqrt(self.restoring[0]))
+
+    @property
+    def alpha(self) -> float:
+        """k3 (the paper's name; 0 when the spring has no cubic term)."""
+        return float(self.restoring[1]) if len(self.restoring) > 1 else 0.0
+
+    @property
+    def c1(self) -> float:
+        """-d0 (the paper's name)."""
+        return -float(self.damping[0]) if self.damping else 0.0
+
+    @property
+    def c2(self) -> float:
+        """d2 (the paper's name)."""
+        return float(self.damping[1]) if len(self.damping) > 1 else 0.0
+
     # ------------------------------------------------------------------ orbit averages
     def orbit(self, A: Array) -> dict[str, Array]:
-        """Period and time averages along the exact orbit of amplitude A (any shape)."""
+        """Period and time averages along the exact orbit of amplitude A (any shape).
+
+        ``x2jv2`` [j] = <x^{2j} v^2> for each damping term d_{2j}, ``v2jv2`` [j] =
+        <v^{2j+2}> for each velocity-damping term e_{2j+2} (j >= 1); ``v2`` and ``x2v2``
+        as before. With y = A cos(theta), y' = -A nu sin(theta): <h>_t = int h / nu / T."""
         A = np.asarray(A, dtype=float)
-        w0, a = self.omega0, self.alpha
+        k = self.restoring
         m = 2 * self.theta_nodes
         th = np.arange(m) * (np.pi / m)  # trapezoid on one period of pi-periodic integrands
-        nu = nu_exact(A[..., None], th, w0, a)
+        nu = nu_k(A[..., None], th, k)
         s2, c2 = np.sin(th) ** 2, np.cos(th) ** 2
+        rest = A == 0.0
+        if k[0] == 0.0 and np.any(rest):  # no linear spring: nu = 0, T = inf at A = 0
+            nu = np.where(rest[..., None], 1.0, nu)
         T = 2 * np.pi * np.mean(1.0 / nu, axis=-1)
         avg = {
             "T": T,
@@ -111,16 +146,35 @@ class ExactModel:
             "x2v2": A**4 * 2 * np.pi * np.mean(nu * s2 * c2, axis=-1) / T,
             "y2": A**2 * 2 * np.pi * np.mean(c2 / nu, axis=-1) / T,
             "absv": 4.0 * A / T,
-            "E": potential(A, w0, a),
+            "E": potential_k(A, k),
         }
+        if k[0] == 0.0 and np.any(rest):  # every average at the rest point is 0
+            avg["T"] = np.where(rest, np.inf, T)
+        avg["x2jv2"] = [avg["v2"], avg["x2v2"]] + [
+            A ** (2 * j + 2) * 2 * np.pi * np.mean(nu * s2 * c2**j, axis=-1) / T
+            for j in range(2, len(self.damping))]
+        avg["v2jv2"] = [A ** (2 * j + 2) * 2 * np.pi * np.mean(nu ** (2 * j + 1) * s2 ** (j + 1),
+                                                               axis=-1) / T
+                        for j in range(1, len(self.velocity_damping) + 1)]
         return avg
+
+    def damping_rate(self, o: dict[str, Array]) -> Array:
+        """-<(d(x) + e(x')) x'^2> on the orbit: the energy drift of both damping laws.
+        For the paper's laws this is c1 <v^2> - c2 <x^2 v^2> (same operations, same bits)."""
+        d = self.damping
+        out = -d[0] * o["x2jv2"][0] if d else np.zeros_like(o["T"])
+        for j in range(1, len(d)):
+            out = out - d[j] * o["x2jv2"][j]
+        for j, e in enumerate(self.velocity_damping):
+            out = out - e * o["v2jv2"][j]
+        return out
 
     def harmonics_of_Y(self, A: Array, T: Array) -> tuple[Array, Array, Array]:
         """Y_0 and (n, Y_n) for the harmonics that Y = s(y) y carries (quarter-orbit GL)."""
         A = np.asarray(A, dtype=float)
         th, w = gauss_quarter(self.theta_nodes)
-        t = time_of_theta(A, th, self.omega0, self.alpha)  # (..., K)
-        nu = nu_exact(A[..., None], th, self.omega0, self.alpha)
+        t = time_of_theta_k(A, th, self.restoring)  # (..., K)
+        nu = nu_k(A[..., None], th, self.restoring)
         base = (4.0 / T)[..., None] * (w * np.cos(th))[None, :] * A[..., None] / nu
         # cos(n Omega t) at the nodes by the Chebyshev recurrence in n (one cosine per node
         # instead of one per harmonic: 5x faster, the same numbers to ~1e-14 relative):
@@ -189,7 +243,7 @@ class ExactModel:
         else:
             raise ValueError(f"impact must be one of {IMPACT_LAWS}, not {self.impact!r}")
         return {
-            "damping": self.c1 * o["v2"] - self.c2 * o["x2v2"],
+            "damping": self.damping_rate(o),
             "impact": loss,
             "friction": -self.mu * o["absv"],
             "sigma2": self.sigma2_energy(A, o),
@@ -205,9 +259,8 @@ class ExactModel:
         4-point central stencil in A (relative step 1e-3, truncation ~1e-12 relative).
         """
         A = np.asarray(A, dtype=float)
-        w0, a = self.omega0, self.alpha
         et = self.energy_terms(A)
-        g, gp = restoring(A, w0, a), restoring_slope(A, w0, a)
+        g, gp = restoring_k(A, self.restoring), restoring_slope_k(A, self.restoring)
         h = 1e-3 * A
 
         def TS(x: Array) -> Array:
@@ -232,7 +285,7 @@ class ExactModel:
     def diffusion(self, A: Array) -> Array:
         """sigma_A^2 = sigma_E^2 / g^2 (without the drift's derivative stencil)."""
         A = np.asarray(A, dtype=float)
-        return self.sigma2_energy(A) / restoring(A, self.omega0, self.alpha) ** 2
+        return self.sigma2_energy(A) / restoring_k(A, self.restoring) ** 2
 
     def period(self, A: Array) -> Array:
         return self.orbit(np.asarray(A, dtype=float))["T"]
@@ -241,11 +294,13 @@ class ExactModel:
         """(q, log_pre, log_phase_pre): log p_A = log(T g) + int_0^A 2 m_d g / sigma_E^2."""
         A = np.asarray(A, dtype=float)
         et = self.energy_terms(A)
-        g = restoring(A, self.omega0, self.alpha)
+        g = restoring_k(A, self.restoring)
         md = et["damping"] + et["impact"] + et["friction"]
         with np.errstate(divide="ignore", invalid="ignore"):
             q = 2.0 * md * g / et["sigma2"]
             log_pre = np.log(et["T"]) + np.log(g)
+        # k1 = 0 (no linear spring): T -> inf, g -> 0 at A = 0, where p_A vanishes
+        log_pre = np.where(A > 0, log_pre, -np.inf)
         return q, log_pre, np.zeros_like(A)
 
 
@@ -253,15 +308,20 @@ class ExactModel:
 def energy_rates(scene: Any, A: float) -> dict[str, float]:
     """Magnitudes of the energy rates of each effect on the exact orbit of amplitude ``A``
     (plain numbers, for the harness's assumption checks): period ``T``, energy ``E``,
-    ``linear damping`` |c1| <v^2>, ``cubic damping`` c2 <x^2 v^2>, ``impacts`` and ``friction``
+    ``linear damping`` |d0| <v^2> (= |c1| <v^2>), ``cubic damping`` sum_j>=1 |d_2j| <x^2j v^2>
+    (= c2 <x^2 v^2>), ``velocity damping`` sum_j |e_2j| <v^2j+2>, ``impacts`` and ``friction``
     (|m_d| terms of ExactModel.energy_terms) and the noise's ``sigma2_E``."""
     model = ExactModel.from_scene(scene)
     a = np.array([float(A)])
     et = model.energy_terms(a)
     o = model.orbit(a)
     return {"T": float(et["T"][0]), "E": float(et["E"][0]),
-            "linear damping": abs(scene.system.c1) * float(o["v2"][0]),
-            "cubic damping": scene.system.c2 * float(o["x2v2"][0]),
+            "linear damping": abs(model.damping[0]) * float(o["v2"][0]) if model.damping
+            else 0.0,
+            "cubic damping": sum(abs(d) * float(o["x2jv2"][j][0])
+                                 for j, d in enumerate(model.damping) if j >= 1),
+            "velocity damping": sum(abs(e) * float(o["v2jv2"][j][0])
+                                    for j, e in enumerate(model.velocity_damping)),
             "impacts": abs(float(et["impact"][0])),
             "friction": abs(float(et["friction"][0])),
             "sigma2_E": float(et["sigma2"][0])}

@@ -101,3 +101,142 @@ def time_of_theta(A: ArrayLike, theta: ArrayLike, omega0: float, alpha: float,
     sink = np.sin(2.0 * theta[..., None] * k[1:]) / (2.0 * k[1:])  # (..., m, modes)
     t = c[..., :1] * theta + np.einsum("...k,...mk->...m", c[..., 1:], sink)
     return t
+
+
+# --------------------------------------------------------------------------------------------
+# The general odd polynomial spring g(x) = k1 x + k3 x^3 + k5 x^5 + ...,  k = (k1, k3, k5, ...)
+# (issue 21). U(x) = sum_j k_{2j-1} x^{2j} / (2j). The admissible laws (g > 0 on x > 0 and U
+# growing without bound, checked by the scene) give one orbit per energy around x = 0. On the
+# orbit y = A cos(theta) the generalised-harmonic frequency has an exact, cancellation-free
+# form, a polynomial in c = cos^2(theta) (divide U(A) - U(A cos theta) by A^2 sin^2 theta):
+#
+#     nu^2(A, theta) = sum_j k_{2j-1} A^{2j-2} (1 + c + ... + c^{j-1}) / j,
+#
+# (j = 1: k1; j = 2: k3 A^2 (1 + cos^2 theta)/2, the Duffing line above). For k of length
+# <= 2 the functions below evaluate the Duffing closed forms above with omega0^2 = k1, so the
+# paper family's numbers are bit for bit those of the (omega0, alpha) functions.
+def _duffing(k: tuple[float, ...]) -> bool:
+    return len(k) <= 2
+
+
+def _k13(k: tuple[float, ...]) -> tuple[float, float]:
+    return float(k[0]), float(k[1]) if len(k) > 1 else 0.0
+
+
+def potential_k(x: ArrayLike, k: tuple[float, ...]) -> Array:
+    """U(x) = sum_j k_{2j-1} x^{2j} / (2j)."""
+    x = np.asarray(x, dtype=float)
+    if _duffing(k):
+        k1, k3 = _k13(k)
+        return 0.5 * k1 * x**2 + 0.25 * k3 * x**4
+    x2 = x * x
+    out = np.zeros_like(x2)
+    for j in range(len(k), 0, -1):  # Horner in x^2: U = x^2 (k1/2 + x^2 (k3/4 + ...))
+        out = out * x2 + k[j - 1] / (2 * j)
+    return out * x2
+
+
+def restoring_k(x: ArrayLike, k: tuple[float, ...]) -> Array:
+    """g(x) = U'(x) = sum_j k_{2j-1} x^{2j-1}."""
+    x = np.asarray(x, dtype=float)
+    if _duffing(k):
+        k1, k3 = _k13(k)
+        return k1 * x + k3 * x**3
+    x2 = x * x
+    out = np.zeros_like(x2)
+    for j in range(len(k), 0, -1):
+        out = out * x2 + k[j - 1]
+    return out * x
+
+
+def restoring_slope_k(x: ArrayLike, k: tuple[float, ...]) -> Array:
+    """g'(x) = sum_j (2j - 1) k_{2j-1} x^{2j-2}."""
+    x = np.asarray(x, dtype=float)
+    if _duffing(k):
+        k1, k3 = _k13(k)
+        return k1 + 3.0 * k3 * x**2
+    x2 = x * x
+    out = np.zeros_like(x2)
+    for j in range(len(k), 0, -1):
+        out = out * x2 + (2 * j - 1) * k[j - 1]
+    return out
+
+
+def nu_k(A: ArrayLike, theta: ArrayLike, k: tuple[float, ...]) -> Array:
+    """Exact instantaneous frequency nu(A, theta) of the orbit of amplitude A (see above)."""
+    A = np.asarray(A, dtype=float)
+    theta = np.asarray(theta, dtype=float)
+    if _duffing(k):
+        k1, k3 = _k13(k)
+        if k1 > 0.0:
+            w1sq = k1 + 0.75 * k3 * A**2
+            return np.sqrt(w1sq) * np.sqrt(1.0 + 0.25 * k3 * A**2 / w1sq * np.cos(2.0 * theta))
+    c = np.cos(theta) ** 2
+    A2 = A * A
+    partial = np.ones_like(c)  # 1 + c + ... + c^{j-1}
+    cj = np.ones_like(c)
+    total = k[0] * np.ones(np.broadcast(A2, c).shape)
+    Aj = np.ones_like(A2)
+    for j in range(2, len(k) + 1):
+        cj = cj * c
+        partial = partial + cj
+        Aj = Aj * A2
+        total = total + k[j - 1] * Aj * partial / j
+    return np.sqrt(np.maximum(total, 0.0))
+
+
+def amplitude_of_energy_k(E: ArrayLike, k: tuple[float, ...]) -> Array:
+    """A = U^{-1}(E) >= 0. Duffing: the closed form above. Otherwise U is increasing on
+    A >= 0 (scene check), so the root is bracketed and found by bisection to the last bit,
+    polished by two safeguarded Newton steps (stay inside the bracket)."""
+    E = np.maximum(np.asarray(E, dtype=float), 0.0)
+    if _duffing(k):
+        k1, k3 = _k13(k)
+        if k1 > 0.0:
+            return np.sqrt(4.0 * E / (k1 + np.sqrt(k1 * k1 + 4.0 * k3 * E)))
+        return np.sqrt(2.0 * np.sqrt(E / k3))  # pure cubic: U = k3 A^4 / 4
+    lo = np.zeros_like(E)
+    hi = np.ones_like(E)
+    for _ in range(2100):  # doubling: U(hi) >= E (U grows without bound)
+        short = potential_k(hi, k) < E
+        if not short.any():
+            break
+        hi = np.where(short, 2.0 * hi, hi)
+    for _ in range(64):
+        mid = 0.5 * (lo + hi)
+        below = potential_k(mid, k) < E
+        lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
+        if np.all(hi - lo <= 4e-16 * hi):
+            break
+    a = 0.5 * (lo + hi)
+    for _ in range(2):
+        g = restoring_k(a, k)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            step = (potential_k(a, k) - E) / g
+        new = a - np.where(g > 0, step, 0.0)
+        a = np.where((new >= lo) & (new <= hi), new, a)
+    return np.where(E > 0, a, 0.0)
+
+
+def time_of_theta_k(A: ArrayLike, theta: ArrayLike, k: tuple[float, ...],
+                    *, modes: int = 32) -> Array:
+    """t(theta) along the exact orbit of the general spring (as :func:`time_of_theta`)."""
+    A = np.asarray(A, dtype=float)[..., None]
+    n = 2 * modes
+    th = np.arange(n) * (np.pi / n)
+    inv = 1.0 / nu_k(A, th, k)
+    kk = np.arange(modes + 1)
+    cosk = np.cos(2.0 * np.outer(th, kk))
+    c = 2.0 * (inv @ cosk) / n
+    c[..., 0] *= 0.5
+    theta = np.asarray(theta, dtype=float)
+    sink = np.sin(2.0 * theta[..., None] * kk[1:]) / (2.0 * kk[1:])
+    return c[..., :1] * theta + np.einsum("...k,...mk->...m", c[..., 1:], sink)
+
+
+def period_k(A: ArrayLike, k: tuple[float, ...], *, nodes: int = 64) -> Array:
+    """Exact period T(A) = int_0^{2 pi} d theta / nu(A, theta) of the general spring."""
+    A = np.asarray(A, dtype=float)
+    th = np.arange(nodes) * (np.pi / nodes)
+    with np.errstate(divide="ignore"):  # k1 = 0: T = inf at A = 0
+        return 2.0 * np.pi * (1.0 / nu_k(A[..., None], th, k)).mean(axis=-1)

@@ -78,7 +78,15 @@ class PaperModel:
         if b6 not in B6_COEFFICIENTS:
             raise ValueError(f"b6 must be one of {sorted(B6_COEFFICIENTS)}, not {b6!r}")
         s = scene.system
-        return cls(c1=s.c1, c2=s.c2, omega0=s.omega0, alpha=s.alpha, mu=s.mu, r=s.r, f=s.f,
+        problem = s.paper_family_problem() if hasattr(s, "paper_family_problem") else None
+        if problem is not None:
+            raise ValueError(f"model 'paper' does not apply: {problem}")
+        k, d = s.restoring_law, s.damping_law
+        c1 = s.c1 if s.c1 is not None else -d[0]
+        c2 = s.c2 if s.c2 is not None else (d[1] if len(d) > 1 else 0.0)
+        omega0 = s.omega0 if s.omega0 is not None else float(np.sqrt(k[0]))
+        alpha = s.alpha if s.alpha is not None else (k[1] if len(k) > 1 else 0.0)
+        return cls(c1=c1, c2=c2, omega0=omega0, alpha=alpha, mu=s.mu, r=s.r, f=s.f,
                    barrier=s.barrier, spectrum=Spectrum.from_scene(scene), b6=b6)
 
     # ------------------------------------------------------------------ series

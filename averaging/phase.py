@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from .geometry import Array, amplitude_of_energy, potential
+from .geometry import Array, amplitude_of_energy_k, potential_k
 
 
 @dataclass(frozen=True)
@@ -35,9 +35,25 @@ class PhaseDensities:
     raw_mass: dict[str, float]
 
 
-def phase_densities(A: Array, log_h: Array, log_T: Array, *, omega0: float, alpha: float,
-                    barrier: bool, points: int = 201, nodes: int = 128) -> PhaseDensities:
-    """Map h(A) = log p(y, y') (given on the A grid, with log T(A)) to phase space."""
+def phase_densities(A: Array, log_h: Array, log_T: Array, *,
+                    restoring: tuple[float, ...] | None = None, omega0: float | None = None,
+                    alpha: float | None = None, barrier: bool, points: int = 201,
+                    nodes: int = 128) -> PhaseDensities:
+    """Map h(A) = log p(y, y') (given on the A grid, with log T(A)) to phase space.
+
+    The spring: ``restoring`` = (k1, k3, k5, ...), or the paper's ``omega0``, ``alpha``."""
+    if restoring is None:
+        if omega0 is None or alpha is None:
+            raise TypeError("give restoring=(k1, k3, ...) or omega0= and alpha=")
+        restoring = (omega0**2, alpha)
+    k = tuple(restoring)
+
+    def potential(x: Array, *_: float) -> Array:
+        return potential_k(x, k)
+
+    def amplitude_of_energy(E: Array, *_: float) -> Array:
+        return amplitude_of_energy_k(E, k)
+
     A = np.asarray(A, dtype=float)
     spline = CubicSpline(A, log_h)
     lo, hi = float(A[0]), float(A[-1])
@@ -72,6 +88,10 @@ def phase_densities(A: Array, log_h: Array, log_T: Array, *, omega0: float, alph
     # trapezoid mass differs from 1 by the quadrature error on this uneven grid (~1e-5)
     E = potential(A, omega0, alpha)
     p_E = np.exp(log_h + log_T)
+    # no linear spring (k1 = 0): T = inf at A = 0, where p_E ~ T has an integrable
+    # singularity; the E record starts at the first grid point with a finite period
+    finite = np.isfinite(log_T)
+    E, p_E = E[finite], p_E[finite]
     raw = {
         "E": float(np.trapezoid(p_E, E)),
         "x1": float(np.trapezoid(p_x1, x1)),

@@ -71,7 +71,7 @@ def solve(scene: Any, *, model: str = "paper", tail_mass: bool = True, **options
         log_h = observed_log_h(m, A_obs, p_obs)
     t1 = time.perf_counter()
     log_T = np.log(m.period(A_obs))
-    ph = phase_densities(A_obs, log_h, log_T, omega0=sys_.omega0, alpha=sys_.alpha,
+    ph = phase_densities(A_obs, log_h, log_T, restoring=tuple(sys_.restoring_law),
                          barrier=sys_.barrier, points=settings.phase_points)
     t2 = time.perf_counter()
     data = {

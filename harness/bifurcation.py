@@ -71,8 +71,8 @@ def mc_shape(scene: Any, *, z: float = 3.0) -> dict[str, Any]:
     d = res.data["A"]
     A, p, err = d["x"], d["p"], d["err"]
     ok = (p > 5 * err) & (A > 0)
-    g = restoring_force(A[ok], scene.system.omega0, scene.system.alpha)
-    T = orbit_period(A[ok], scene.system.omega0, scene.system.alpha)
+    g = restoring_force(A[ok], scene.system.restoring_law)
+    T = orbit_period(A[ok], scene.system.restoring_law)
     h = np.log(p[ok] / (g * T))
     se = err[ok] / p[ok]
     # the largest significant rise h_j - h_i (i < j), in units of the combined error
@@ -98,16 +98,21 @@ def bifurcation(scene: Any, vary: str, *, lo: float | None = None, hi: float | N
                            "paper_claim": PAPER_CLAIMS[vary]}
     other = "r" if vary == "mu" else "mu"
     out["fixed"] = {other: getattr(scene.system, other),
-                    **{k: getattr(scene.system, k) for k in ("c1", "c2", "alpha", "omega0", "f")},
+                    **{k: v for k, v in scene.system.to_dict().items()
+                       if k not in ("mu", "r", "barrier")},
                     "D": scene.noise.D, "alpha1": scene.noise.alpha1, "noise": scene.noise.kind}
     claim_at = PAPER_CLAIM_FIXED[vary]
     out["paper_claim_fixed"] = claim_at
-    differs = {k: v for k, v in claim_at.items() if not math.isclose(out["fixed"][k], v)}
+    differs = {k: v for k, v in claim_at.items()
+               if not isinstance(out["fixed"].get(k), float)
+               or not math.isclose(out["fixed"][k], v)}
     out["paper_claim_comparable"] = not differs
     if differs:
         out["paper_claim_note"] = (
             "the paper's claim holds " + ", ".join(f"{k} = {v:g}" for k, v in differs.items())
-            + ", this run holds " + ", ".join(f"{k} = {out['fixed'][k]:g}" for k in differs)
+            + ", this run holds " + ", ".join(
+                f"{k} = {out['fixed'][k]:g}" if isinstance(out["fixed"].get(k), float)
+                else f"{k} not set (a law given as a list)" for k in differs)
             + ": the two critical values answer different questions (compare with --set "
             + " ".join(f"system.{k}={v:g}" for k, v in differs.items()) + ")")
     for m in models:

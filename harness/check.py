@@ -35,6 +35,15 @@ MODELS = ("paper", "exact", "corrected")
 OBSERVABLES = ("A", "x1", "x2")
 
 
+def models_of(scene: Any) -> tuple[tuple[str, ...], dict[str, str]]:
+    """The averaged models that apply to the scene's system, and why each other one does
+    not: the paper's model covers only its own family (System.paper_family_problem)."""
+    problem = scene.system.paper_family_problem()
+    if problem is None:
+        return MODELS, {}
+    return tuple(m for m in MODELS if m != "paper"), {"paper": problem}
+
+
 @dataclass(frozen=True)
 class CheckResult:
     scene: Any
@@ -188,15 +197,16 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
     extension. ``tail_mass=False`` skips the closed forms' measurement of the mass beyond
     their grids (a diagnostic of the closed form, about half its cost).
     """
+    models, absent = models_of(scene)
     # closed forms, the original system's Monte Carlo and the metrics; FPK and SDE per model
-    stages = _Stages(3 + len(MODELS) * (int(fpk) + int(sde)), quiet)
+    stages = _Stages(3 + len(models) * (int(fpk) + int(sde)), quiet)
     sol: dict[str, Any] = {}
     closed = {}
     stages("averaged models (closed forms)")
-    for m in MODELS:
+    for m in models:
         closed[m] = closed_form(scene, model=m, tail_mass=tail_mass)
         sol[f"closed:{m}"] = closed[m]
-    for m in MODELS if fpk else ():
+    for m in models if fpk else ():
         stages(f"FPK of the {m} model")
         sol[f"fpk:{m}"] = fpk_solution(scene, model=m, cells=400)
     edges = mc_edges(closed, scene.montecarlo.bins)
@@ -212,7 +222,7 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
             progress=not quiet, **edges)
         sol["mc:original"] = mc
         st = mc.info["settings"]
-        for i, m in enumerate(MODELS if sde else ()):
+        for i, m in enumerate(models if sde else ()):
             stages(f"Monte Carlo of the {m} averaged SDE")
             sol[f"mc:{m}"] = averaged_sde_solution(
                 scene, m, edges=edges, seed=scene.montecarlo.seed + 1 + i, phase=True,
@@ -220,7 +230,7 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
                 paths=st["paths"], blocks=st["blocks"], dt="auto", time=st["time"],
                 burn_in=run_scene.montecarlo.burn_in, sample_every=st["sample_every"])
         sampling = {m: compare(closed[m].data["A"], sol[f"mc:{m}"].data["A"])
-                    for m in MODELS if sde}
+                    for m in models if sde}
         bad = _evidence(mc.info.get("convergence", {}), sampling)
         spent = time.perf_counter() - t_mc
         # extend (twice the burn-in and the sampled time) while the evidence says the run is
@@ -228,14 +238,16 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
         if not bad or extensions >= 3 or spent * 3 > budget - spent:
             break
         extensions += 1
-        stages.total += 1 + (len(MODELS) if sde else 0)
+        stages.total += 1 + (len(models) if sde else 0)
         mcs = run_scene.montecarlo
         run_scene = replace(run_scene, montecarlo=replace(
             mcs, time=2 * st["time"], burn_in=2 * st["burn_in"],
             dt=st["dt"], floor=0.0))
     stages("metrics")
     metrics: dict[str, Any] = {"models": {}}
-    for m in MODELS:
+    if absent:
+        metrics["models_absent"] = dict(absent)
+    for m in models:
         cf = closed[m].data
         entry: dict[str, Any] = {}
         for kind, key in (("discretisation_error", f"fpk:{m}"), ("sampling_error", f"mc:{m}"),
@@ -259,8 +271,9 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
                         "samples outside the range where the averaged models hold their mass "
                         "(not converged, or a different state altogether); its densities there "
                         "are not shown and count in full toward L1")
-    verdicts = [verdict(m, metrics["models"][m], warnings, convergence=conv) for m in MODELS]
-    for m in MODELS:
+    verdicts = [verdict(m, metrics["models"][m], warnings, convergence=conv) for m in models]
+    verdicts += [f"{m} model: not checked, {why}" for m, why in absent.items()]
+    for m in models:
         cls, cause = verdict_class(metrics["models"][m], warnings, convergence=conv)
         metrics["models"][m]["verdict_class"] = cls
         metrics["models"][m]["verdict_cause"] = cause

@@ -27,7 +27,25 @@ SET_HELP = ("override a scene value, e.g. noise.D=0.02 (repeatable; default: non
 QUIET_HELP = "no progress on the terminal (default: progress on stderr)"
 
 
+class _Once(argparse._StoreAction):
+    """A value option given twice is refused (the last would silently win), as ``--set``
+    given twice for one key is."""
+
+    def __call__(self, parser, namespace, values, option_string=None):  # type: ignore[override]
+        seen = namespace.__dict__.setdefault("_given", {})
+        if self.dest in seen:
+            parser.error(f"{option_string} given twice ({seen[self.dest]} and {values}); give "
+                         "it once")
+        seen[self.dest] = values
+        super().__call__(parser, namespace, values, option_string)
+
+
 class _Parser(argparse.ArgumentParser):
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.register("action", None, _Once)
+        self.register("action", "store", _Once)
+
     def error(self, message: str) -> None:  # one line, exit 2
         self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message}\n")
 
@@ -147,6 +165,10 @@ def _checked_scene(args: argparse.Namespace, *, mc: bool) -> Scene:
     validate.scene_magnitudes(scene)
     if mc:
         validate.montecarlo_settings(scene, {k: f"--{k}" for k in _mc_given(args)})
+        if getattr(args, "budget", None) is not None and scene.montecarlo.floor <= 0:
+            raise validate.InputError(f"--budget {args.budget:g}: does not apply without a "
+                                      "target floor (--floor F > 0 or montecarlo.floor): the "
+                                      "budget limits the time spent reaching the floor")
     return scene
 
 
@@ -169,11 +191,19 @@ def cmd_solve(args: argparse.Namespace) -> int:
                                   ">= 4 (cells of the FPK)")
     validate.output_file(args.json, "--json")
     scene = _checked_scene(args, mc=args.solver == "montecarlo")
-    model = args.model or "paper"
+    # default: the paper's model for the paper's family, else the exact model
+    outside = scene.system.paper_family_problem()
+    model = args.model or ("paper" if outside is None else "exact")
+    if args.solver != "montecarlo" and model == "paper" and outside is not None:
+        raise validate.InputError(f"--model paper: {outside}; allowed here: --model exact "
+                                  "or --model corrected")
     if args.solver == "montecarlo" and args.joint and not scene.observables.joint:
         scene = scene.with_values({"observables.joint": True})
-    validate.refuse_costly(validate.solve_seconds(scene, args.solver, model, args.grid),
+    validate.refuse_costly(lambda sp: validate.solve_seconds(scene, args.solver, model,
+                                                             args.grid, speed=sp),
                            "this solve", args.yes)
+    if args.solver == "montecarlo":
+        validate.refuse_oversized(scene)
     if args.solver == "montecarlo":
         result = run_solver(scene, "montecarlo")
     else:
@@ -190,14 +220,8 @@ def cmd_solve(args: argparse.Namespace) -> int:
 
 
 def _finite_or_fail(result: Any, scene: Scene) -> None:
-    """Never exit 0 with NaN: every density of a result must be finite."""
-    import numpy as np
-
-    for key, d in result.data.items():
-        p = d.get("p") if isinstance(d, dict) else None
-        if p is not None and not np.all(np.isfinite(np.asarray(p, dtype=float))):
-            raise SolverFailure(f"the density of {key} is not finite: the solver failed "
-                                f"numerically; likely cause: {validate.most_extreme(scene)}")
+    """Never exit 0 with NaN (validate.finite_result)."""
+    validate.finite_result(result, scene)
 
 
 def _mc_overrides(args: argparse.Namespace) -> dict[str, Any]:
@@ -238,7 +262,9 @@ def cmd_check(args: argparse.Namespace) -> int:
     out = args.out or f"out/{folder_name(scene.name)}"
     if args.out is None:
         validate.output_folder(out, "--out (default)", replaced=True)
-    validate.refuse_costly(validate.check_seconds(scene), "this check", args.yes)
+    validate.refuse_costly(lambda sp: validate.check_seconds(scene, speed=sp), "this check",
+                           args.yes)
+    validate.refuse_oversized(scene)
     prov = _provenance(args)
     # hold the folder from the start: a second run into it is refused before any work
     with outdir.hold(out, run_id=prov["run_id"], allowed=REPORT_FILES, kind="check report"):
@@ -260,21 +286,36 @@ def cmd_bifurcation(args: argparse.Namespace) -> int:
     if args.no_mc:
         validate.refuse_options(_mc_given(args), "with --no-mc (no Monte Carlo is run)")
     validate.output_file(args.json, "--json")
-    scene = _checked_scene(args, mc=not args.no_mc)
-    lo, hi = args.range if args.range else (None, None)
     section, key, (d_lo, d_hi) = VARIABLES[args.vary]
+    for text in args.set:
+        if text.partition("=")[0].strip() == f"{section}.{key}":
+            raise validate.InputError(f"--set {text}: {section}.{key} is the parameter "
+                                      f"--vary {args.vary} searches; give its interval with "
+                                      "--range LO HI instead")
+    scene = _checked_scene(args, mc=not args.no_mc)
+    if scene.system.f == 0.0:
+        raise SolverFailure("f = 0: there is no noise, so no stationary density exists at any "
+                            f"{args.vary}; nothing to search")
+    lo, hi = args.range if args.range else (None, None)
     validate.search_range(args.vary, d_lo if lo is None else lo, d_hi if hi is None else hi,
                           validate.fields_of(section)[key])
+    outside = scene.system.paper_family_problem()
+    if outside is not None and "paper" in (args.model or ()):
+        raise validate.InputError(f"--model paper: {outside}; allowed here: --model exact "
+                                  "or --model corrected")
+    default_models = ("paper", "exact") if outside is None else ("exact",)
     if not args.no_mc:
         # two Monte Carlo checks around each model's critical value (check_points)
-        points = 2 * len(set(args.model or ("paper", "exact")))
-        validate.refuse_costly(points * validate.montecarlo_seconds(scene), "this bifurcation "
+        points = 2 * len(set(args.model or default_models))
+        validate.refuse_oversized(scene)
+        validate.refuse_costly(lambda sp: points * validate.montecarlo_seconds(scene, speed=sp),
+                               "this bifurcation "
                                f"search (Monte Carlo at up to {points} points)", args.yes)
     if not args.quiet:
         print(f"searching the critical {args.vary} (shape criterion on each averaged model)"
               + ("; then Monte Carlo on both sides" if not args.no_mc else "") + " ...",
               file=sys.stderr, flush=True)
-    chosen = {"models": tuple(dict.fromkeys(args.model))} if args.model else {}
+    chosen = {"models": tuple(dict.fromkeys(args.model or default_models))}
     res = bifurcation(scene, args.vary, lo=lo, hi=hi, mc=not args.no_mc, **chosen)
     fixed = ", ".join(f"{k} = {v:g}" if isinstance(v, float) else f"{k} = {v}"
                       for k, v in res["fixed"].items())
@@ -304,14 +345,16 @@ def cmd_figures(args: argparse.Namespace) -> int:
     validate.output_folder(args.out, "--out")
     overrides = _mc_overrides(args)
     options = {k: f"--{k}" for k in _mc_given(args)}
-    seconds = 0.0
+    scenes = []
     for no in args.figure or (2, 3, 4, 5, 6):
         sweep = load_scene(FIGURES[no])  # a shipped scene, as draw_figures loads it
         for scene in (sweep.with_values(overrides) if overrides else sweep).variants():
             validate.scene_magnitudes(scene)
             validate.montecarlo_settings(scene, options)
-            seconds += validate.montecarlo_seconds(scene)
-    validate.refuse_costly(seconds, "these figures", args.yes)
+            validate.refuse_oversized(scene)
+            scenes.append(scene)
+    validate.refuse_costly(lambda sp: sum(validate.montecarlo_seconds(sc, speed=sp)
+                                          for sc in scenes), "these figures", args.yes)
     prov = _provenance(args)
     # figures are replaced one by one (--figure redraws some of them), each atomically; the
     # lock keeps two runs from interleaving in one folder
@@ -347,7 +390,7 @@ def cmd_workprecision(args: argparse.Namespace) -> int:
     out = Path(args.out or f"out/{folder_name(scene.name)}-workprecision")
     if args.out is None:
         validate.output_folder(str(out), "--out (default)")
-    validate.refuse_costly(validate.workprecision_seconds(scene, args.quick),
+    validate.refuse_costly(lambda sp: validate.workprecision_seconds(scene, args.quick, speed=sp),
                            "this work-precision run", args.yes)
     prov = _provenance(args)
     files = ("workprecision.png", "workprecision.md", "workprecision.json")
@@ -382,6 +425,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     if args.out is None:
         validate.output_folder(out, "--out (default)")
     sw.check_sweep_folder(out)
+    validate.refuse_costly(lambda sp: sw.sweep_seconds(sweep, speed=sp),
+                           f"this sweep ({len(sweep.points)} points)", args.yes)
     try:
         res = sw.run_sweep(sweep, out, executor=spec, quiet=args.quiet)
     except sw.WorkerLost as exc:
@@ -529,6 +574,8 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("--out", metavar="DIR", help="output directory (default out/<sweep name>)")
     sw.add_argument("--quiet", action="store_true",
                     help="no progress lines on the terminal (default: one line a point)")
+    sw.add_argument("--yes", action="store_true",
+                    help="run even when the estimated cost exceeds an hour (default: off)")
     sw.set_defaults(func=cmd_sweep)
     return p
 
@@ -559,6 +606,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_BAD_INPUT
     args = parser.parse_args(argv)
     args.argv = ["vifpk", *(sys.argv[1:] if argv is None else argv)]
+    try:
+        validate.environment()
+    except SceneError as exc:
+        print(f"vifpk: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     signals.reset()
     if from_command_line:
         signals.install()
@@ -591,11 +643,38 @@ def main(argv: Sequence[str] | None = None) -> int:
         signals.announce()
         return signals.exit_code()
     except BrokenPipeError:  # e.g. `vifpk solve ... | head -2`: the reader left
+        _silence_stdout()
+        return 141
+    except OSError as exc:  # a full disk, a read-only or vanished folder, `> /dev/full`
+        _silence_stdout()
+        where = f" {exc.filename}" if exc.filename else " the standard output"
+        print(f"vifpk: cannot write{where} ({exc.strerror or exc}); the run's output is "
+              "incomplete", file=sys.stderr)
+        return EXIT_SOLVER
+    except Exception as exc:  # noqa: BLE001 - never a traceback: one line, where it happened
         import os
+        import traceback
 
+        if os.environ.get("VIFPK_TRACEBACK") or not from_command_line:
+            raise  # in-process callers (the Python API, tests) get the exception itself
+        tb = traceback.extract_tb(exc.__traceback__)[-1]
+        where = "/".join(tb.filename.split("/")[-2:])
+        text = str(exc).splitlines()[0][:300] if str(exc) else ""
+        print(f"vifpk: internal error: {type(exc).__name__}: {text} ({where}:{tb.lineno})"
+              f"{_first_warning(caught)}; please report it (VIFPK_TRACEBACK=1 shows the "
+              "traceback)", file=sys.stderr)
+        return EXIT_SOLVER
+
+
+def _silence_stdout() -> None:
+    """Point stdout at /dev/null so the interpreter's final flush stays quiet."""
+    import os
+
+    try:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
-        return 141
+    except (OSError, ValueError):
+        pass
 
 
 if __name__ == "__main__":

@@ -19,7 +19,7 @@ import numpy as np
 
 from vifpk.core.scene import Scene, load_scene
 
-from .check import mc_edges
+from .check import mc_edges, models_of
 from .compare import compare
 from .io import write_atomic, write_json
 from .run import closed_form, montecarlo_solution
@@ -31,8 +31,15 @@ AXIS = {"A": "amplitude A (dimensionless)", "x1": "displacement x1 (dimensionles
         "x2": "velocity x2 (dimensionless)"}
 
 
+def figure_models(scene: Scene) -> tuple[str, str]:
+    """The two averaged models drawn: the paper's and the exact one; outside the paper's
+    family (a --set of system.restoring[2], ...) the exact and the corrected one."""
+    models, _ = models_of(scene)
+    return ("paper", "exact") if "paper" in models else ("exact", "corrected")
+
+
 def _run_variant(scene: Scene, joint: bool) -> dict[str, Any]:
-    closed = {m: closed_form(scene, model=m) for m in ("paper", "exact")}
+    closed = {m: closed_form(scene, model=m) for m in figure_models(scene)}
     edges = mc_edges(closed, scene.montecarlo.bins)
     obs = replace(scene.observables, joint=joint, events=True)
     mc = montecarlo_solution(replace(scene, observables=obs), progress=False, **edges)
@@ -52,7 +59,7 @@ def _plot_pdfs(fig_no: int, scene: Scene, runs: list[dict[str, Any]], path: Path
     for k, (val, run) in enumerate(zip(sw.values, runs, strict=True)):
         col = COLORS[k % len(COLORS)]
         for ax, o in zip(axes, ("A", "x1", "x2"), strict=True):
-            for m, ls in (("paper", "--"), ("exact", "-")):
+            for m, ls in zip(run["closed"], ("--", "-"), strict=True):
                 d = run["closed"][m].data[o]
                 ax.plot(d["x"], d["p"], ls, color=col, lw=1.3,
                         label=f"{sw.key} = {val:g}, {m}" if o == "A" else None)
@@ -65,7 +72,8 @@ def _plot_pdfs(fig_no: int, scene: Scene, runs: list[dict[str, Any]], path: Path
         ax.set_ylabel(f"density p({o}) (dimensionless)")
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=len(runs), fontsize=7, frameon=False)
-    fig.suptitle(f"Figure {fig_no} redrawn: dashed = paper model, solid = exact-orbit model, "
+    m0, m1 = runs[0]["closed"]
+    fig.suptitle(f"Figure {fig_no} redrawn: dashed = {m0} model, solid = {m1} model, "
                  "markers = Monte Carlo of the original system (±2 s.e.)", fontsize=9)
     fig.tight_layout(rect=(0, 0.16, 1, 1))
     fig.savefig(path, dpi=110)
@@ -83,9 +91,8 @@ def _plot_joint(fig_no: int, scene: Scene, runs: list[dict[str, Any]], path: Pat
     fig, axes = plt.subplots(n, 4, figsize=(16, 3.4 * n), squeeze=False,
                              layout="constrained")
     for i, (val, run) in enumerate(zip(sw.values, runs, strict=True)):
-        panels = [("paper model", run["closed"]["paper"].data["joint"]),
-                  ("exact model", run["closed"]["exact"].data["joint"]),
-                  ("Monte Carlo", run["mc"].data["joint"])]
+        panels = [(f"{m} model", r.data["joint"]) for m, r in run["closed"].items()]
+        panels.append(("Monte Carlo", run["mc"].data["joint"]))
         top = max(float(np.max(p["p"])) for _, p in panels)
         xl = (0.0, max(float(np.max(d["x1"])) for _, d in panels))
         vl = max(float(np.max(np.abs(d["x2"]))) for _, d in panels)
@@ -142,8 +149,9 @@ def draw_figures(out_dir: str | Path, *, numbers: tuple[int, ...] = (2, 3, 4, 5,
         tmp.replace(png)
         table[f"figure{no}"] = {
             "varied": scene.sweep.path, "values": list(scene.sweep.values),
+            "models": list(runs[0]["closed"]),
             "L1": [{m: {o: r["metrics"][m][o]["L1"] for o in ("A", "x1", "x2")}
-                    for m in ("paper", "exact")} for r in runs],
+                    for m in r["closed"]} for r in runs],
             "L1_floor": [{o: r["metrics"]["exact"][o]["L1_floor"] for o in ("A", "x1", "x2")}
                          for r in runs],
             "stuck_fraction": [r["mc"].info["events"]["stuck_fraction"]["value"] for r in runs],
@@ -161,9 +169,14 @@ def render_table(table: dict[str, Any]) -> str:
     lines = ["| figure | value | L1(A) paper | L1(A) exact | L1(x1) paper | L1(x1) exact | "
              "L1(x2) paper | L1(x2) exact | MC floor (A) |", "|" + "---|" * 9]
     for name, t in table.items():
+        m0, m1 = t.get("models", ("paper", "exact"))
+        if (m0, m1) != ("paper", "exact"):  # outside the paper's family: its own columns
+            lines += ["", f"| figure | value | L1(A) {m0} | L1(A) {m1} | L1(x1) {m0} | "
+                      f"L1(x1) {m1} | L1(x2) {m0} | L1(x2) {m1} | MC floor (A) |",
+                      "|" + "---|" * 9]
         for v, l1, fl in zip(t["values"], t["L1"], t["L1_floor"], strict=True):
             lines.append(f"| {name[6:]} | {t['varied'].split('.')[1]} = {v:g} | "
-                         f"{l1['paper']['A']:.3f} | {l1['exact']['A']:.3f} | "
-                         f"{l1['paper']['x1']:.3f} | {l1['exact']['x1']:.3f} | "
-                         f"{l1['paper']['x2']:.3f} | {l1['exact']['x2']:.3f} | {fl['A']:.3f} |")
+                         f"{l1[m0]['A']:.3f} | {l1[m1]['A']:.3f} | "
+                         f"{l1[m0]['x1']:.3f} | {l1[m1]['x1']:.3f} | "
+                         f"{l1[m0]['x2']:.3f} | {l1[m1]['x2']:.3f} | {fl['A']:.3f} |")
     return "\n".join(lines) + "\n"

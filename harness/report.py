@@ -23,7 +23,6 @@ from . import outdir, provenance
 from .check import (
     INDISTINGUISHABLE_FACTOR,
     LARGE_L1,
-    MODELS,
     OBSERVABLES,
     SMALL_L1,
     CheckResult,
@@ -54,7 +53,7 @@ def _figure_densities(res: CheckResult) -> bytes:
     sol = res.solutions
     fig, axes = plt.subplots(1, 3, figsize=(13, 4.4))
     for ax, o in zip(axes, OBSERVABLES, strict=True):
-        for k, m in enumerate(MODELS):
+        for k, m in enumerate(res.metrics["models"]):
             col = MODEL_COLORS[k % len(MODEL_COLORS)]
             d = sol[f"closed:{m}"].data[o]
             ax.plot(d["x"], d["p"], color=col, lw=1.6, label=f"{m} model: closed form")
@@ -74,7 +73,7 @@ def _figure_densities(res: CheckResult) -> bytes:
         ax.set_xlabel(LABELS[o])
         ax.set_ylabel(f"density p({o}) (dimensionless)")
     handles, labels = axes[0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="lower center", ncol=len(MODELS) + 1, fontsize=8,
+    fig.legend(handles, labels, loc="lower center", ncol=len(res.metrics["models"]) + 1, fontsize=8,
                frameon=False)
     fig.suptitle(f"{res.scene.name}: stationary densities of the averaged models against "
                  "the original system")
@@ -92,13 +91,14 @@ def _figure_decomposition(res: CheckResult) -> bytes:
     import matplotlib.pyplot as plt
     from matplotlib.patches import Rectangle
 
-    fig, axes = plt.subplots(1, len(MODELS), figsize=(3.7 * len(MODELS), 4.2), sharey=True)
+    models = tuple(res.metrics["models"])
+    fig, axes = plt.subplots(1, len(models), figsize=(3.7 * len(models), 4.2), sharey=True)
     width = 0.25
     smallest = min(max(res.metrics["models"][m][k][o]["L1"], 1e-12)
-                   for m in MODELS for k in KINDS for o in OBSERVABLES)
+                   for m in models for k in KINDS for o in OBSERVABLES)
     bottom = 10.0 ** (np.floor(np.log10(smallest)) - 1)
     colors = ("tab:gray", "tab:cyan", "tab:olive")
-    for ax, m in zip(np.atleast_1d(axes), MODELS, strict=True):
+    for ax, m in zip(np.atleast_1d(axes), models, strict=True):
         entry = res.metrics["models"][m]
         for k, kind in enumerate(KINDS):
             vals = [max(entry[kind][o]["L1"], bottom) for o in OBSERVABLES]
@@ -210,7 +210,8 @@ def _tables(res: CheckResult) -> list[tuple[str, list[str], list[list[str]]]]:
     """Per model, the error decomposition: every metric with its noise floor; a value below
     its floor reads "< floor"; the FPK comparison is deterministic (no floor: "–")."""
     raws = []
-    for m in MODELS:
+    models = tuple(res.metrics["models"])
+    for m in models:
         raw = []
         for kind in KINDS:
             for o in OBSERVABLES:
@@ -226,7 +227,7 @@ def _tables(res: CheckResult) -> list[tuple[str, list[str], list[list[str]]]]:
         raws.append(raw)
     fmts = _column_formats(raws, _TABLE_SPEC)
     return [(f"{m} model: error decomposition", TABLE_HEAD,
-             _format_columns(raw, _TABLE_SPEC, fmts)) for m, raw in zip(MODELS, raws, strict=True)]
+             _format_columns(raw, _TABLE_SPEC, fmts)) for m, raw in zip(models, raws, strict=True)]
 
 
 CLASS_TEXT = {
@@ -245,7 +246,7 @@ def verdict_rows(res: CheckResult) -> list[list[str]]:
     """The ten-second verdict: per model, class, L1(A) +/- error bar, times the noise floor,
     share of the probability mass misplaced (L1 / 2, on L1's 0..2 scale), dominant cause."""
     rows = []
-    for m in MODELS:
+    for m in res.metrics["models"]:
         entry = res.metrics["models"][m]
         e = entry["averaging_error"]["A"]
         floor = e["L1_floor"]

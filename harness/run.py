@@ -70,18 +70,19 @@ def amplitude_density(scene: Any, model: Any, **options: Any) -> Any:
     return density(m, points=scene.averaging.points, tail=scene.averaging.tail)
 
 
-def orbit_period(A: Any, omega0: float, alpha: float) -> Any:
-    """T(A) of the exact Duffing orbit of amplitude A (``averaging.geometry.period``)."""
-    from averaging.geometry import period
+def orbit_period(A: Any, restoring: tuple[float, ...]) -> Any:
+    """T(A) of the exact orbit of amplitude A of the spring g = k1 x + k3 x^3 + ...
+    (``restoring`` = (k1, k3, ...): System.restoring_law; ``averaging.geometry.period_k``)."""
+    from averaging.geometry import period_k
 
-    return period(A, omega0, alpha)
+    return period_k(A, tuple(restoring))
 
 
-def restoring_force(A: Any, omega0: float, alpha: float) -> Any:
-    """g(A) = omega0^2 A + alpha A^3 (``averaging.geometry.restoring``)."""
-    from averaging.geometry import restoring
+def restoring_force(A: Any, restoring: tuple[float, ...]) -> Any:
+    """g(A) = k1 A + k3 A^3 + ... (``averaging.geometry.restoring_k``)."""
+    from averaging.geometry import restoring_k
 
-    return restoring(A, omega0, alpha)
+    return restoring_k(A, tuple(restoring))
 
 
 def energy_rates(scene: Any, A: float) -> dict[str, float]:
@@ -143,14 +144,15 @@ def fpk_solution(scene: Any, *, model: str, cells: int, method: str = "stepping"
 def phase_solution(scene: Any, res: Any, period: Any) -> tuple[dict[str, Any], dict]:
     """An FPK result's p(A) mapped to p(E), p(x1, x2), p(x1), p(x2) as for the closed form,
     with p(y, y') = p_A / (g T); ``period`` gives T(A). Returns (data, raw masses)."""
-    from averaging.geometry import restoring
+    from averaging.geometry import restoring_k
     from averaging.phase import phase_densities
 
     s = scene.system
+    k = tuple(s.restoring_law)
     A, p = res.data["A_cells"]["x"], res.data["A_cells"]["p"]
     log_T = np.log(period(A))
-    log_h = np.log(np.maximum(p, 1e-300)) - np.log(restoring(A, s.omega0, s.alpha)) - log_T
-    ph = phase_densities(A, log_h, log_T, omega0=s.omega0, alpha=s.alpha, barrier=s.barrier,
+    log_h = np.log(np.maximum(p, 1e-300)) - np.log(restoring_k(A, k)) - log_T
+    ph = phase_densities(A, log_h, log_T, restoring=k, barrier=s.barrier,
                          points=scene.averaging.phase_points)
     data = {"A": res.data["A"], "E": {"x": ph.E, "p": ph.p_E}, "x1": {"x": ph.x1, "p": ph.p_x1},
             "x2": {"x": ph.x2, "p": ph.p_x2},
@@ -204,9 +206,9 @@ def averaged_sde_solution(scene: Any, model: Any, *, edges: dict[str, Any], seed
     kw = {k: settings.get(k, getattr(mc, k)) for k in keys}
     m = averaged_model(scene, model) if isinstance(model, str) else model
     s = scene.system
-    extra = ({"omega0": s.omega0, "alpha": s.alpha, "barrier": s.barrier,
+    extra = ({"restoring": tuple(s.restoring_law), "barrier": s.barrier,
               "edges_x": edges["edges_x"], "edges_v": edges["edges_v"]} if phase else None)
-    observe = ({"sd": m.observation_sd, "omega0": s.omega0, "alpha": s.alpha}
+    observe = ({"sd": m.observation_sd, "restoring": tuple(s.restoring_law)}
                if getattr(m, "observes", False) else None)
     return simulate_sde(m.drift, m.diffusion, edges=edges["edges_A"], paths=kw["paths"],
                         blocks=kw["blocks"], dt=kw["dt"], time_=kw["time"],

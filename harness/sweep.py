@@ -53,7 +53,7 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-from vifpk.core.scene import SECTIONS, Scene, SceneError, load_scene
+from vifpk.core.scene import INDEXED, MAX_TERMS, SECTIONS, Scene, SceneError, load_scene
 
 WORKFLOWS = ("check", "averaging", "bifurcation")
 MODES = ("product", "zip", "adaptive")
@@ -76,6 +76,9 @@ WARNING_FLAGS = {"warn_narrow_band": "narrow_band", "warn_sticking": "sticking",
                  "warn_strong_damping": "strong_damping", "warn_strong_noise": "strong_noise",
                  "warn_correlated_noise": "correlated_noise"}
 EXTRA_HINT = "pip install 'vifpk[cluster]'"
+#: the largest grid a sweep file may ask for (building and validating a point's scene costs
+#: ~0.1 ms; a 1000 x 1000 grid was silent for minutes before any work)
+MAX_POINTS = 100_000
 
 
 class SweepError(SceneError):
@@ -172,6 +175,12 @@ def _field_of(where: str, path: str) -> Any:
         raise SweepError(f"{where} {path!r}: unknown key; use section.key with a section in "
                          f"{sorted(SECTIONS)}")
     known = {f.name: f for f in fields(SECTIONS[section])}
+    m = INDEXED.fullmatch(key) if section == "system" else None
+    if m and m.group(1) in known and known[m.group(1)].type.startswith("tuple"):
+        if int(m.group(2)) >= MAX_TERMS:
+            raise SweepError(f"{where} {path!r}: index out of range; allowed: 0 to "
+                             f"{MAX_TERMS - 1}")
+        return _Coefficient()  # one coefficient of a polynomial law: a number
     if key not in known:
         close = difflib.get_close_matches(key, list(known), n=1, cutoff=0.5)
         hint = f"did you mean '{section}.{close[0]}'?" if close else \
@@ -180,6 +189,12 @@ def _field_of(where: str, path: str) -> Any:
     if path in RESERVED:
         raise SweepError(f"{where} {path!r}: not allowed in a sweep; {RESERVED[path]}")
     return known[key]
+
+
+class _Coefficient:
+    """Stands for the field of one coefficient of a law ("system.restoring[2]")."""
+
+    type = "float"
 
 
 def _number(v: Any) -> bool:
@@ -210,6 +225,8 @@ def _values(where: str, spec: Any) -> tuple[float, ...]:
             raise SweepError(f"{where}.num = {num!r}: must be a whole number >= 1")
         if num == 0:
             raise SweepError(f"{where}: empty grid (num = 0)")
+        if num > MAX_POINTS:
+            raise SweepError(f"{where}.num = {num}: out of range; allowed: 1 to {MAX_POINTS}")
         for k in ("start", "stop"):
             if not _number(spec[k]) or not math.isfinite(spec[k]):
                 raise SweepError(f"{where}.{k} = {spec[k]!r}: must be a finite number")
@@ -317,7 +334,7 @@ def load_sweep(path: str | Path) -> Sweep:
     vary = []
     for key, spec in vary_raw.items():
         f = _field_of(f"{src}: [vary]", key)
-        if f.type not in ("float", "float | str"):
+        if f.type not in ("float", "float | str", "float | None"):
             raise SweepError(f"{src}: [vary] {key!r}: only numeric parameters can vary")
         vary.append((key, _range(f"{src}: [vary] {key!r}", spec) if mode == "adaptive"
                      else _values(f"{src}: [vary] {key!r}", spec)))
@@ -352,11 +369,11 @@ def load_sweep(path: str | Path) -> Sweep:
             from .bifurcation import VARIABLES
 
             ok = (isinstance(rng, list) and len(rng) == 2 and all(_number(v) for v in rng)
-                  and rng[0] < rng[1])
+                  and all(math.isfinite(v) for v in rng) and rng[0] < rng[1])
             _, _, (d_lo, d_hi) = VARIABLES[find]
             if not ok:
                 raise SweepError(f"{src}: [bifurcation] range = {rng!r}: must be [lo, hi] "
-                                 "with lo < hi")
+                                 "of finite numbers with lo < hi")
             bif["range"] = [float(rng[0]), float(rng[1])]
             lo_ok = rng[0] >= 0 if find == "mu" else 0 < rng[0]
             if not lo_ok or (find == "r" and rng[1] > 1):
@@ -371,6 +388,11 @@ def load_sweep(path: str | Path) -> Sweep:
     if mode == "product":
         import itertools
 
+        size = math.prod(len(v) for _, v in vary)
+        if size > MAX_POINTS:
+            raise SweepError(f"{src}: [vary]: {' x '.join(str(len(v)) for _, v in vary)} = "
+                             f"{size} points; allowed: up to {MAX_POINTS} points a sweep "
+                             "(split it, or use mode = \"adaptive\")")
         combos = [tuple(zip([k for k, _ in vary], c, strict=True))
                   for c in itertools.product(*(v for _, v in vary))]
     elif mode == "adaptive":
@@ -490,11 +512,27 @@ def make_point(base: Scene, fixed: Mapping[str, Any], *, seed: int, workflow: st
     if scene.sweep is not None:
         raise SweepError(f"{where}: scene: {scene.sweep.path} varies in the base scene; set "
                          "it in [set] or vary it in [vary]")
+    _validate_point(scene, workflow, bifurcation, where, params)
     scene = _named(scene, f"{base.name}[{', '.join(f'{k}={v:g}' for k, v in params)}]")
     key = point_key(params)
     sde = workflow == "check" and sde_check_at(key, first=first)
     return Point(params=params, seed=s, key=key, scene=scene, sde=sde,
                  fingerprint=fingerprint(workflow, scene, bifurcation, sde=sde))
+
+
+def _validate_point(scene: Scene, workflow: str, bifurcation: Mapping[str, Any], where: str,
+                    params: tuple[tuple[str, float], ...]) -> None:
+    """A point's scene checked as `vifpk check` / `solve` check theirs before any work
+    (magnitudes; the Monte Carlo settings where the workflow simulates)."""
+    from . import validate
+
+    try:
+        validate.scene_magnitudes(scene)
+        if workflow == "check" or (workflow == "bifurcation" and bifurcation.get("mc")):
+            validate.montecarlo_settings(scene)
+    except SceneError as exc:
+        at = ", ".join(f"{k} = {v:g}" for k, v in params)
+        raise SweepError(f"{where}: at the point {at}: {exc}") from None
 
 
 def _named(scene: Scene, name: str) -> Scene:
@@ -550,13 +588,13 @@ def _check_point(job: Job) -> dict[str, Any]:
     """The cross-check without the FPK: the averaging error of p(A) of each model."""
     import numpy as np
 
-    from .check import MODELS, cross_check
+    from .check import cross_check
 
     res = cross_check(job.scene, quiet=True, fpk=False, sde=job.sde, tail_mass=False)
     mc = res.solutions["mc:original"]
     conv = res.metrics["monte_carlo"]["convergence"]
     models = {}
-    for m in MODELS:
+    for m in res.metrics["models"]:
         e = res.metrics["models"][m]["averaging_error"]["A"]
         models[m] = {"averaging_error_A": e["L1"], "averaging_error_A_err": e["L1_err"],
                      "L1_floor_A": e["L1_floor"],
@@ -583,11 +621,14 @@ def _check_point(job: Job) -> dict[str, Any]:
 def _averaging_point(job: Job) -> dict[str, Any]:
     """Closed forms of each model (computed once), the L1 between them, the assumption
     warnings that need no simulation (strong damping, narrow band, strong noise)."""
-    from .check import MODELS, assumption_warnings
+    from .check import assumption_warnings, models_of
     from .compare import compare
     from .run import run_solver
+    from .validate import finite_result
 
-    closed = {m: run_solver(job.scene, "averaging", model=m) for m in MODELS}
+    closed = {m: run_solver(job.scene, "averaging", model=m) for m in models_of(job.scene)[0]}
+    for r in closed.values():  # a point is "ok" only with finite numbers, as `solve` exits 3
+        finite_result(r, job.scene)
     warnings = assumption_warnings(job.scene, closed, {})
     flags = _flags(warnings)
     flags.pop("warn_sticking")  # needs the simulation
@@ -935,6 +976,32 @@ def check_sweep_folder(out: str | Path) -> Path:
                              f"its {'point records' if what == 'folder' else name} there; "
                              "move it away or choose another --out")
     return target
+
+
+def sweep_seconds(sweep: Sweep, *, speed: float | None = None) -> float:
+    """Lower bound of the wall time of the sweep's points on this machine (validate.py's
+    estimates: a check point is its Monte Carlo and closed forms, an averaging point its
+    closed forms, a bifurcation point its Monte Carlo checks (two per model) or, without
+    them, ~20 closed-form evaluations per model). Local executors share the same cores, so
+    the points' times add up; a remote cluster may be faster (confirm with --yes)."""
+    from . import validate as v
+
+    models = ("paper", "exact", "corrected")
+    total = 0.0
+    for pt in sweep.points:
+        sc = pt.scene
+        closed = sum(v.averaging_seconds(sc, m) for m in models)
+        if sweep.workflow == "check":
+            total += v.montecarlo_seconds(sc, speed=speed) + closed
+        elif sweep.workflow == "averaging":
+            total += closed
+        elif sweep.bifurcation.get("mc"):
+            total += 4 * v.montecarlo_seconds(sc, speed=speed) + 20 * closed
+        else:
+            total += 20 * closed
+    if sweep.mode == "adaptive" and sweep.points:  # the lattice stands for the whole budget
+        total *= max(sweep.adaptive["points"] / len(sweep.points), 1.0)
+    return total
 
 
 def _clear_temporaries(out: Path) -> None:

@@ -146,8 +146,9 @@ def reproduce_command(scene: Scene) -> str:
     def show(v: Any) -> str:  # as --set parses it: TOML booleans, bare words, floats exact
         return str(v).lower() if isinstance(v, bool) else f"{v}"
 
+    d = scene.to_dict()  # the system's laws in the spelling the scene uses (lists as TOML)
     sets = " ".join(f"--set {sec}.{k}={show(v)}" for sec in ("system", "noise")
-                    for k, v in dataclasses.asdict(getattr(scene, sec)).items())
+                    for k, v in d[sec].items())
     sets += "".join(f" --set montecarlo.{k}={show(getattr(st, k))}"
                     for k in ("blocks", "burn_in", "sample_every", "bins", "floor", "budget"))
     return (f"vifpk solve {_scene_argument(scene)} --solver montecarlo --paths {st.paths} "
@@ -214,7 +215,7 @@ def model_densities(scene: Scene, model: Any) -> dict[str, dict[str, Any]]:
         T = model.period
     else:
         def T(A):
-            return orbit_period(A, s.omega0, s.alpha)
+            return orbit_period(A, s.restoring_law)
     return phase_solution(scene, res, T)[0]
 
 

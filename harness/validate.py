@@ -30,7 +30,7 @@ from __future__ import annotations
 import math
 import os
 import tempfile
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -55,8 +55,44 @@ MC_OPTIONS = {"paths": "paths", "dt": "dt", "time": "time", "seed": "seed", "flo
               "budget": "budget"}
 
 
+MAX_STEPS_PER_SAMPLE = 1e9  # time steps between two samples of a path (dt >= sample_every/1e9)
+
+
 class InputError(SceneError):
     """Bad input found before any work: one line naming the option or field."""
+
+
+def observables(scene: Scene) -> None:
+    """At least one observable of the simulation switched on."""
+    obs = scene.observables
+    names = [f for f in ("A", "x1", "x2", "joint", "moments", "events") if hasattr(obs, f)]
+    if names and not any(getattr(obs, f) for f in names):
+        raise InputError("observables: every observable is off, so the simulation would "
+                         "compute nothing; allowed: at least one of " + ", ".join(
+                             f"observables.{f}" for f in names) + " = true")
+
+
+def numba_threads_available() -> int:
+    """The threads numba can use: NUMBA_NUM_THREADS if set, else the cores."""
+    env = os.environ.get("NUMBA_NUM_THREADS", "").strip()
+    return int(env) if env.isdigit() and int(env) >= 1 else (os.cpu_count() or 1)
+
+
+def environment() -> None:
+    """Environment variables the solvers read: NUMBA_NUM_THREADS a whole number >= 1."""
+    env = os.environ.get("NUMBA_NUM_THREADS")
+    if env is not None and not (env.strip().isdigit() and int(env) >= 1):
+        raise InputError(f"NUMBA_NUM_THREADS={env}: out of range; allowed: a whole number >= 1 "
+                         "(or unset: every core)")
+
+
+def threads(scene: Scene) -> None:
+    """montecarlo.threads within what numba can start (0: all of them)."""
+    n, most = scene.montecarlo.threads, numba_threads_available()
+    if n > most:
+        raise InputError(f"montecarlo.threads = {n} is out of range; allowed: 0 (all) to "
+                         f"{most} (the threads numba may start here: NUMBA_NUM_THREADS or the "
+                         "cores)")
 
 
 # --------------------------------------------------------------------------------------------
@@ -86,27 +122,61 @@ def duplicate_overrides(overrides: Sequence[str]) -> None:
 def scene_magnitudes(scene: Scene) -> None:
     """Non-zero physical parameters within MAGNITUDE (see the module docstring)."""
     lo, hi = MAGNITUDE
+    for sec, key, v in _physical(scene):
+        if v != 0.0 and not lo <= abs(v) <= hi:
+            if "[" in key:
+                raise InputError(f"{sec}.{key} = {v:g} is out of range; allowed: 0 or "
+                                 f"{lo:g} <= |coefficient| <= {hi:g} (beyond, the model's "
+                                 "coefficients over- or underflow double precision)")
+            zero = fields_of(sec)[key].metadata["check"](0.0) is None  # 0 allowed there?
+            raise InputError(f"{sec}.{key} = {v:g} is out of range; allowed: "
+                             f"{'0 or ' if zero else ''}{lo:g} <= |{key}| <= {hi:g} "
+                             "(beyond, the model's coefficients over- or underflow double "
+                             "precision)")
+
+
+def _physical(scene: Scene) -> list[tuple[str, str, float]]:
+    """(section, key, value) of every physical number the scene gives: the PHYSICAL keys it
+    sets and each coefficient of a law given as a list ("restoring[2]")."""
+    out = []
     for sec, keys in PHYSICAL.items():
         obj = getattr(scene, sec)
         for key in keys:
-            v = float(getattr(obj, key))
-            if v != 0.0 and not lo <= abs(v) <= hi:
-                zero = fields_of(sec)[key].metadata["check"](0.0) is None  # 0 allowed there?
-                raise InputError(f"{sec}.{key} = {v:g} is out of range; allowed: "
-                                 f"{'0 or ' if zero else ''}{lo:g} <= |{key}| <= {hi:g} "
-                                 "(beyond, the model's coefficients over- or underflow double "
-                                 "precision)")
+            v = getattr(obj, key)
+            if v is not None:
+                out.append((sec, key, float(v)))
+    for law in ("restoring", "damping", "velocity_damping"):
+        for i, c in enumerate(getattr(scene.system, law)):
+            out.append(("system", f"{law}[{i}]", float(c)))
+    return out
+
+
+def finite_result(result: Any, scene: Scene) -> None:
+    """Never report NaN as a result: every density and summary number of a solver result
+    must be finite, else SolverFailure naming the scene's most extreme magnitude."""
+    import numpy as np
+
+    from .run import SolverFailure
+
+    for key, d in result.data.items():
+        p = d.get("p") if isinstance(d, dict) else None
+        if p is not None and not np.all(np.isfinite(np.asarray(p, dtype=float))):
+            raise SolverFailure(f"the density of {key} is not finite: the solver failed "
+                                f"numerically; likely cause: {most_extreme(scene)}")
+    summary = result.info.get("summary", {}) if isinstance(result.info, dict) else {}
+    bad = [k for k, v in summary.items() if isinstance(v, float) and not math.isfinite(v)]
+    if bad:
+        raise SolverFailure(f"the {bad[0]} of the density is not finite: the solver failed "
+                            f"numerically; likely cause: {most_extreme(scene)}")
 
 
 def most_extreme(scene: Scene) -> str:
     """'noise.D = 1e-90 (the scene's most extreme magnitude)': the field to look at first
     when a run fails numerically (farthest from 1 in log10 among the non-zero parameters)."""
     best, name, value = -1.0, "", 0.0
-    for sec, keys in PHYSICAL.items():
-        for key in keys:
-            v = float(getattr(getattr(scene, sec), key))
-            if v != 0.0 and abs(math.log10(abs(v))) > best:
-                best, name, value = abs(math.log10(abs(v))), f"{sec}.{key}", v
+    for sec, key, v in _physical(scene):
+        if v != 0.0 and abs(math.log10(abs(v))) > best:
+            best, name, value = abs(math.log10(abs(v))), f"{sec}.{key}", v
     return f"{name} = {value:g} (the scene's most extreme magnitude)"
 
 
@@ -136,14 +206,25 @@ def montecarlo_settings(scene: Scene, options: Mapping[str, str] | None = None) 
     options = options or {}
     mc = scene.montecarlo
     if mc.paths < mc.blocks or mc.paths % mc.blocks:
-        lo = max(mc.paths // mc.blocks, 1) * mc.blocks
-        near = sorted({lo, lo + mc.blocks} if mc.paths > mc.blocks else {mc.blocks})
+        lo = max(mc.paths // mc.blocks, 2) * mc.blocks
+        near = sorted({lo, lo + mc.blocks} if mc.paths > 2 * mc.blocks else {lo})
         raise InputError(f"{_name('paths', options)} = {mc.paths} must be a whole multiple of "
                          f"montecarlo.blocks = {mc.blocks} (the batches of the error bars); "
                          f"nearest valid: {' or '.join(str(n) for n in near)}")
+    if mc.paths < 2 * mc.blocks:
+        raise InputError(f"{_name('paths', options)} = {mc.paths} is too few for montecarlo."
+                         f"blocks = {mc.blocks}; allowed: paths >= 2 x blocks = {2 * mc.blocks} "
+                         "(the equilibration check's R-hat compares at least two paths of each "
+                         "starting amplitude)")
+    observables(scene)
+    threads(scene)
+    if mc.dt != "auto" and 0 < float(mc.dt) < mc.sample_every / MAX_STEPS_PER_SAMPLE:
+        raise InputError(f"{_name('dt', options)} = {_g(float(mc.dt))} is too small; allowed: "
+                         f"dt >= montecarlo.sample_every / {MAX_STEPS_PER_SAMPLE:g} = "
+                         f"{_g(mc.sample_every / MAX_STEPS_PER_SAMPLE)}")
     plan = montecarlo_plan(scene)
     h = plan["dt"]
-    w0 = scene.system.omega0
+    w0 = math.sqrt(scene.system.restoring_law[0])  # the small-amplitude frequency
     if h * w0 >= 2.0:
         raise InputError(f"{_name('dt', options)} = {_g(h)} is too large for this scene; "
                          f"allowed: dt < 2 / omega0 = {_g(2.0 / w0)} (the splitting's "
@@ -171,6 +252,7 @@ def montecarlo_settings(scene: Scene, options: Mapping[str, str] | None = None) 
         raise InputError(f"{_name('time', options)} = {_g(mc.time)} would sample "
                          f"{_g(plan['sampled_time'])} (whole windows of whole samples every "
                          f"{_g(step)}); nearest valid: {near}")
+    refuse_unreachable_floor(scene, options)
     if mc.floor > 0 and mc.budget > 0:
         least = _montecarlo_least_seconds(scene)
         if mc.budget < least:
@@ -290,11 +372,13 @@ def output_folder(path: str | None, option: str, *, replaced: bool = False) -> N
 
 # --------------------------------------------------------------------------------------------
 # cost
-def _montecarlo_least_seconds(scene: Scene) -> float:
-    """Lower bound of the wall time of the sampled path-steps plus the pilots' (burn-in
-    "auto" counted at its minimum, 20 time units, the relaxation pilot at 8 windows of 10),
-    at MC_STEPS_PER_CORE on every core; with a target floor, of the first sampled windows
-    only (half of ``time``: montecarlo.sampling_plan), the least such a run does."""
+def _montecarlo_parts(scene: Scene, speed: float | None) -> tuple[float, float, float]:
+    """(seconds of the pilots and the burn-in, of the first sampled windows, of the sampling
+    a target floor needs at least) at ``speed`` path-steps per second per core (default
+    MC_STEPS_PER_CORE, faster than any machine measured) on every core the run uses: burn-in
+    "auto" counted at its minimum (20 time units), the scale pilot at 32 paths x 1200, the
+    relaxation pilot at its shortest (256 paths x 80); with a target floor the first windows
+    are half of ``time`` (montecarlo.sampling_plan), else the sampled time."""
     from .run import montecarlo_plan
 
     mc = scene.montecarlo
@@ -302,27 +386,173 @@ def _montecarlo_least_seconds(scene: Scene) -> float:
     h = plan["dt"]
     burn = 20.0 if mc.burn_in == "auto" else float(mc.burn_in)
     pilots = 32 * 1200.0 + (256 * 80.0 if mc.burn_in == "auto" else 0.0)
-    sampled = mc.time / 2 if mc.floor > 0 else plan["sampled_time"]
-    steps = (mc.paths * (burn + sampled) + pilots) / h
-    cores = mc.threads or os.cpu_count() or 1
-    return steps / (MC_STEPS_PER_CORE * cores)
+    cores = mc.threads or min(numba_threads_available(), os.cpu_count() or 1)
+    per_step = 1.0 / h / ((speed or MC_STEPS_PER_CORE) * cores)
+    first = mc.time / 2 if mc.floor > 0 else plan["sampled_time"]
+    needed = floor_time(scene) if mc.floor > 0 else 0.0
+    return ((mc.paths * burn + pilots) * per_step, mc.paths * first * per_step,
+            mc.paths * needed * per_step)
 
 
-def montecarlo_seconds(scene: Scene) -> float:
-    """Lower bound of the wall time of one Monte Carlo run of the original system (see
-    :func:`_montecarlo_least_seconds`), capped by the budget of a run to a target floor."""
+def _montecarlo_least_seconds(scene: Scene) -> float:
+    """Lower bound of the least wall time a Monte Carlo run does (the pilots, the burn-in
+    and the first sampled windows; see :func:`_montecarlo_parts`)."""
+    fixed, first, _ = _montecarlo_parts(scene, None)
+    return fixed + first
+
+
+def montecarlo_seconds(scene: Scene, *, speed: float | None = None) -> float:
+    """Lower bound of the wall time of one Monte Carlo run of the original system
+    (:func:`_montecarlo_parts`): with a target floor, the sampling is the larger of the
+    first windows and what the floor needs (:func:`floor_time`), cut at ``budget`` seconds
+    when there is one (0: no limit)."""
     mc = scene.montecarlo
-    seconds = _montecarlo_least_seconds(scene)
+    fixed, first, needed = _montecarlo_parts(scene, speed)
+    sampling = max(first, needed)
     if mc.floor > 0 and mc.budget > 0:
-        seconds = min(seconds, mc.budget)
-    return seconds
+        sampling = min(sampling, mc.budget)
+    return fixed + sampling
 
 
-def refuse_costly(seconds: float, what: str, yes: bool) -> None:
-    """Refuse a run estimated above an hour, unless ``--yes``."""
-    if seconds > HOUR and not yes:
+def floor_time(scene: Scene) -> float:
+    """Lower bound of the sampled time per path that reaching the target floor F needs.
+
+    N >= 2 / (pi F^2) independent samples: the floor of a histogram is sqrt(2/pi) sum se_i
+    w_i >= sqrt(2 / (pi N)) (sum sqrt(q_i) >= 1 for bin masses q_i, se_i^2 = q_i / (N w_i^2)
+    at best), and a path gives at most one independent sample a ``sample_every``."""
+    mc = scene.montecarlo
+    return 2.0 / (math.pi * mc.floor**2) * mc.sample_every / mc.paths
+
+
+def refuse_unreachable_floor(scene: Scene, options: Mapping[str, str] | None = None) -> None:
+    """A target floor the budget cannot reach even at the fastest rate is refused up front
+    (the run would stop at its budget, the floor not reached)."""
+    from .run import montecarlo_plan
+
+    mc = scene.montecarlo
+    if not (mc.floor > 0 and mc.budget > 0):
+        return
+    cores = mc.threads or min(numba_threads_available(), os.cpu_count() or 1)
+    h = montecarlo_plan(scene)["dt"]
+    seconds = mc.paths * floor_time(scene) / h / (MC_STEPS_PER_CORE * cores)
+    if seconds > mc.budget:
+        names = options or {}
+        raise InputError(f"{_name('floor', names)} = {mc.floor:g}: needs at least {seconds:.3g}"
+                         f" s of sampling at dt = {h:g}, more than {_name('budget', names)} = "
+                         f"{mc.budget:g} s allows; "
+                         "raise the floor or the budget (0: no limit, then the cost limit "
+                         "applies)")
+
+
+def memory_bytes(scene: Scene) -> float:
+    """Lower bound of the memory one Monte Carlo run allocates: per path its state and random
+    generator (~100 bytes) and the equilibration certificate's window sums (8 bytes a window
+    of the sampled time)."""
+    from .run import montecarlo_plan
+
+    mc = scene.montecarlo
+    plan = montecarlo_plan(scene)
+    windows = max(plan["sampled_time"] / max(plan["sample_interval"], 1e-300) / 16, 1.0)
+    return mc.paths * (100.0 + 8.0 * min(windows, 1e6))
+
+
+def refuse_oversized(scene: Scene, option: str = "--paths") -> None:
+    """A run that cannot fit in this machine's memory is refused even with --yes."""
+    try:
+        total = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):
+        return
+    need = memory_bytes(scene)
+    if need > total:
+        raise InputError(f"{option} {scene.montecarlo.paths}: the simulation needs at least "
+                         f"{need / 2**30:.3g} GiB of memory; this machine has {total / 2**30:.3g}"
+                         " GiB; allowed: fewer paths")
+
+
+def refuse_costly(seconds: float | Callable[[float | None], float], what: str, yes: bool
+                  ) -> None:
+    """Refuse a run estimated above an hour, unless ``--yes``.
+
+    ``seconds`` may be a function of the machine's speed (path-steps per second per core):
+    the estimate at MC_STEPS_PER_CORE (faster than any machine) decides alone when it is
+    already above the hour or far below it; in between, the speed measured on this machine
+    (:func:`machine_speed`, a short calibration, cached) decides."""
+    if yes:
+        return
+    if callable(seconds):
+        fast = seconds(None)
+        if HOUR / CALIBRATE_BELOW < fast <= HOUR:
+            seconds = seconds(machine_speed())
+        else:
+            seconds = fast
+    if seconds > HOUR:
         raise InputError(f"{what}: estimated at least {_duration(seconds)} of computation; "
                          "allowed without --yes: up to 1 hour (reduce the size, or add --yes)")
+
+
+CALIBRATE_BELOW = 8.0  # an estimate at the fastest rate above HOUR / 8 is re-estimated with
+#                        the measured speed (machines measured 1.3-3x below MC_STEPS_PER_CORE)
+
+
+def _cache_file() -> Path:
+    root = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(root) / "vifpk" / "speed.json"
+
+
+def machine_speed() -> float:
+    """Path-steps per second per core of the original system's simulation on this machine.
+
+    ``VIFPK_STEPS_PER_SECOND`` overrides it; else the value cached in
+    ``$XDG_CACHE_HOME/vifpk/speed.json`` (``~/.cache``) for this host and core count; else a
+    short calibration (the base scene, 512 paths x 200 time units on one thread, ~1-5 s with
+    the compile), which is cached with the load average it was taken under."""
+    import json
+    import socket
+
+    env = os.environ.get("VIFPK_STEPS_PER_SECOND")
+    if env:
+        try:
+            if float(env) > 0:
+                return float(env)
+        except ValueError:
+            pass
+        raise InputError(f"VIFPK_STEPS_PER_SECOND={env}: allowed: a number > 0")
+    key = {"host": socket.gethostname(), "cores": os.cpu_count()}
+    path = _cache_file()
+    try:
+        cached = json.loads(path.read_text(encoding="utf-8"))
+        if {k: cached.get(k) for k in key} == key and cached["steps_per_second_per_core"] > 0:
+            return float(cached["steps_per_second_per_core"])
+    except (OSError, ValueError, KeyError, TypeError):
+        pass
+    speed = _calibrate()
+    try:
+        from .io import write_json
+
+        write_json(path, {**key, "steps_per_second_per_core": speed,
+                          "load_average": os.getloadavg()[0],
+                          "how": "harness.validate._calibrate: paper-base, 512 paths, one "
+                                 "thread, 200 time units at dt 0.01"})
+    except OSError:
+        pass  # an unwritable cache: measure again next time
+    return speed
+
+
+def _calibrate() -> float:
+    import sys
+
+    from vifpk.core.scene import load_scene
+
+    from .run import run_solver
+
+    print("vifpk: measuring this machine's simulation speed once (a few seconds; cached in "
+          f"{_cache_file()})", file=sys.stderr, flush=True)
+    scene = load_scene("paper-base").with_values({
+        "montecarlo.paths": 512, "montecarlo.blocks": 32, "montecarlo.time": 200.0,
+        "montecarlo.burn_in": 0.0, "montecarlo.dt": 0.01, "montecarlo.threads": 1,
+        "montecarlo.floor": 0.0})
+    info = run_solver(scene, "montecarlo", progress=False).info
+    return float(info["steps_per_second"]) / max(int(info.get("threads", 1)), 1)
 
 
 def _duration(s: float) -> str:
@@ -354,23 +584,25 @@ def averaging_seconds(scene: Scene, model: str) -> float:
     return AVG_SECONDS_PER_POINT * av.points
 
 
-def solve_seconds(scene: Scene, solver: str, model: str, grid: int | None) -> float:
+def solve_seconds(scene: Scene, solver: str, model: str, grid: int | None, *,
+                  speed: float | None = None) -> float:
     """Lower bound of ``vifpk solve``."""
     if solver == "montecarlo":
-        return montecarlo_seconds(scene)
+        return montecarlo_seconds(scene, speed=speed)
     base = averaging_seconds(scene, model)
     return base + (fpk_seconds(grid or 400) if solver == "fpk" else 0.0)
 
 
-def check_seconds(scene: Scene) -> float:
+def check_seconds(scene: Scene, *, speed: float | None = None) -> float:
     """Lower bound of ``vifpk check``: the Monte Carlo of the original system, the closed
     forms and FPKs of the three models (the averaged SDEs are not counted)."""
     models = ("paper", "exact", "corrected")
-    return (montecarlo_seconds(scene) + sum(averaging_seconds(scene, m) for m in models)
+    return (montecarlo_seconds(scene, speed=speed)
+            + sum(averaging_seconds(scene, m) for m in models)
             + len(models) * fpk_seconds(400))
 
 
-def workprecision_seconds(scene: Scene, quick: bool) -> float:
+def workprecision_seconds(scene: Scene, quick: bool, *, speed: float | None = None) -> float:
     """Lower bound of ``vifpk workprecision``: its Monte Carlo reference run (256 paths x 400
     time units with --quick, else 4096 x 4000, at dt / 2)."""
     from dataclasses import replace
@@ -379,4 +611,4 @@ def workprecision_seconds(scene: Scene, quick: bool) -> float:
     mc = scene.montecarlo
     ref = replace(scene, montecarlo=replace(mc, paths=paths, time=time_, blocks=16,
                                             dt=float(mc.dt) / 2, floor=0.0))
-    return montecarlo_seconds(ref)
+    return montecarlo_seconds(ref, speed=speed)

@@ -332,8 +332,16 @@ def table_markdown(data: dict[str, Any]) -> str:
                      f"{r.get('reference_floor', 0.0):.4f} | {r.get('error', r['L1']):.4f} | "
                      f"{r['bias_L1']:.4f} | {r['mean_A_bias']:+.4f} ± {r['mean_A_bias_err']:.4f} |")
     fit = bv["bias_fit"]
-    lines += ["", f"Bias fit: L1 bias = {fit['C']:.3g} dt^{fit['order']:.2f}; variance constant "
-              f"K = {bv['variance_constant_K']:.3g} (floor = K / sqrt(seconds x dt)).", "",
+    K = bv["variance_constant_K"]
+    k_text = (f"variance constant K = {K:.3g} (floor = K / sqrt(seconds x dt))"
+              if math.isfinite(K) else "variance constant K: not determined (no finished run)")
+    if not (math.isfinite(fit["C"]) and math.isfinite(fit["order"])):
+        # never a table of nan: say why there is no fit
+        lines += ["", "Bias fit: not determined: fewer than two time steps have a bias above "
+                  "their noise floor (the bias is within the noise at these sizes; --quick "
+                  f"ladders are a smoke test); {k_text}. No best dt per budget without it."]
+        return "\n".join(lines) + "\n"
+    lines += ["", f"Bias fit: L1 bias = {fit['C']:.3g} dt^{fit['order']:.2f}; {k_text}.", "",
               "| budget | best dt | predicted L1 |", "|---|---|---|"]
     for b, v in bv["best_dt_for_budget"].items():
         lines.append(f"| {b} | {v['dt']:.3g} | {v['predicted_L1']:.3g} |")

@@ -37,6 +37,7 @@ import numpy as np
 from numba import prange
 
 from ._jit import jit
+from .geometry import amplitude_general, potential
 from .rng import normal, states_from_seed, uniform
 from .simulate import CHUNK_SECONDS, Result, _density, _mean_se
 
@@ -105,27 +106,58 @@ def relaxation_time(drift: Callable[[np.ndarray], np.ndarray],
 
 
 @jit
-def orbit_point(A, w0sq, alpha, s0, s1, s2, s3):
-    """(y, y', state): a time-uniform point of the Duffing orbit of amplitude A.
+def nu_sq_higher(A, c2, khi):
+    """The spring's terms beyond x^3 in nu^2: sum_j k_{2j-1} A^{2j-2} (1 + c2 + ... +
+    c2^{j-1}) / j for j >= 3 (khi = (k5, k7, ...); c2 = cos^2 th)."""
+    out = 0.0
+    part = 1.0 + c2
+    cj = c2
+    Aj = A * A
+    for i in range(khi.shape[0]):
+        j = i + 3
+        cj *= c2
+        part += cj
+        Aj *= A * A
+        out += khi[i] * Aj * part / j
+    return out
+
+
+@jit
+def orbit_point(A, w0sq, alpha, khi, s0, s1, s2, s3):
+    """(y, y', state): a time-uniform point of the orbit of amplitude A.
 
     On the orbit y = A cos(th), y' = -A nu sin(th), d(th)/dt = nu with
-    nu^2 = w0^2 + alpha A^2 (1 + cos^2 th) / 2, so a time-uniform phase has density ~ 1/nu:
-    th uniform, accepted with probability nu_min / nu (>= 1/sqrt(2))."""
-    nu_min = math.sqrt(w0sq + 0.5 * alpha * A * A)
+    nu^2 = w0^2 + alpha A^2 (1 + cos^2 th) / 2 [+ nu_sq_higher], so a time-uniform phase has
+    density ~ 1/nu: th uniform, accepted with probability nu_min / nu (>= 1/sqrt(2) for the
+    Duffing spring). With higher terms nu_min is the least nu^2 over 257 values of cos^2 th
+    in [0, 1], times 0.98 (a polynomial of degree <= 9 in cos^2 th varies far less than
+    that between nodes unless its minimum is near 0: then the acceptance rate, not the law,
+    suffers)."""
+    if khi is None:
+        nu_min = math.sqrt(w0sq + 0.5 * alpha * A * A)
+    else:
+        lo = math.inf
+        for i in range(257):
+            c2 = i / 256.0
+            lo = min(lo, w0sq + 0.5 * alpha * A * A * (1.0 + c2) + nu_sq_higher(A, c2, khi))
+        nu_min = 0.98 * math.sqrt(max(lo, 0.0))
     while True:
         u, s0, s1, s2, s3 = uniform(s0, s1, s2, s3)
         a, s0, s1, s2, s3 = uniform(s0, s1, s2, s3)
         th = 2.0 * math.pi * u
         c = math.cos(th)
-        nu = math.sqrt(w0sq + 0.5 * alpha * A * A * (1.0 + c * c))
+        nu2 = w0sq + 0.5 * alpha * A * A * (1.0 + c * c)
+        if khi is not None:
+            nu2 += nu_sq_higher(A, c * c, khi)
+        nu = math.sqrt(nu2)
         if a * nu <= nu_min:
             return A * c, -A * nu * math.sin(th), s0, s1, s2, s3
 
 
 @jit(parallel=True)
 def run_sde_blocks(states, n_paths, n_burn, n_samples, stride, h, a_tab, b_tab, dA_tab,
-                   z0, a_lo, a_inv, hist_A, sums, barrier, w0sq, alpha, x_lo, x_inv, hist_x,
-                   v_lo, v_inv, hist_v, obs_tab, ow0sq, oalpha):
+                   z0, a_lo, a_inv, hist_A, sums, barrier, w0sq, alpha, khi, x_lo, x_inv, hist_x,
+                   v_lo, v_inv, hist_v, obs_tab, ow0sq, oalpha, okhi):
     """Per block: histogram of A and sums (A, A^2, samples, reflections) after burn-in.
     a_tab = 2 A m(A) - sigma^2(A), b_tab = sigma(A) on the grid A_j = j dA_tab.
     With hist_x / hist_v, each sample also records a time-uniform point of the orbit of
@@ -176,14 +208,20 @@ def run_sde_blocks(states, n_paths, n_burn, n_samples, stride, h, a_tab, b_tab, 
                     else:
                         w = u - j
                         sd = (1.0 - w) * obs_tab[j] + w * obs_tab[j + 1]
-                    E = 0.5 * ow0sq * A * A + 0.25 * oalpha * A * A * A * A
+                    if okhi is None:
+                        E = 0.5 * ow0sq * A * A + 0.25 * oalpha * A * A * A * A
+                    else:
+                        E = potential(A, ow0sq, oalpha, okhi)
                     while True:
                         z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
                         Eo = E + sd * z
                         if Eo >= 0.0:
                             break
-                    A = math.sqrt(4.0 * Eo / (ow0sq + math.sqrt(ow0sq * ow0sq
-                                                                 + 4.0 * oalpha * Eo)))
+                    if okhi is None:
+                        A = math.sqrt(4.0 * Eo / (ow0sq + math.sqrt(ow0sq * ow0sq
+                                                                     + 4.0 * oalpha * Eo)))
+                    else:  # the amplitude of energy Eo: the orbit through x = 0, v^2/2 = Eo
+                        A = amplitude_general(0.0, math.sqrt(2.0 * Eo), ow0sq, oalpha, okhi)
                 i = int((A - a_lo) * a_inv)
                 if 0 <= i < hist_A.shape[1]:
                     hist_A[b, i] += 1.0
@@ -191,7 +229,7 @@ def run_sde_blocks(states, n_paths, n_burn, n_samples, stride, h, a_tab, b_tab, 
                 sums[b, 1] += A * A
                 sums[b, 2] += 1.0
                 if hist_x is not None:
-                    y, yp, s0, s1, s2, s3 = orbit_point(A, w0sq, alpha, s0, s1, s2, s3)
+                    y, yp, s0, s1, s2, s3 = orbit_point(A, w0sq, alpha, khi, s0, s1, s2, s3)
                     if barrier and y < 0.0:
                         y = -y
                         yp = -yp
@@ -204,6 +242,17 @@ def run_sde_blocks(states, n_paths, n_burn, n_samples, stride, h, a_tab, b_tab, 
         states[b, 0], states[b, 1], states[b, 2], states[b, 3] = s0, s1, s2, s3
 
 
+def _spring(d: dict[str, Any]) -> tuple[float, float, np.ndarray | None]:
+    """(w0sq, alpha, khi) of the kernels from {"restoring": (k1, k3, ...)} or the paper's
+    {"omega0", "alpha"}; khi = (k5, ...) or None (trailing zeros dropped)."""
+    k = (tuple(float(c) for c in d["restoring"]) if "restoring" in d
+         else (float(d["omega0"]) ** 2, float(d["alpha"])))
+    k = k + (0.0,) * (2 - len(k))
+    while len(k) > 2 and k[-1] == 0.0:
+        k = k[:-1]
+    return k[0], k[1], (np.array(k[2:]) if len(k) > 2 else None)
+
+
 def simulate_sde(drift: Callable[[np.ndarray], np.ndarray],
                  diffusion: Callable[[np.ndarray], np.ndarray], *, edges: np.ndarray,
                  A_table: float | None = None, table_points: int = 4001, paths: int = 1024,
@@ -214,12 +263,14 @@ def simulate_sde(drift: Callable[[np.ndarray], np.ndarray],
                  observe: dict[str, Any] | None = None) -> Result:
     """Histogram of A for the averaged SDE with batch error bars (blocks are the batches).
 
-    phase: optional ``{"omega0", "alpha", "barrier", "edges_x", "edges_v"}`` to also record
+    phase: optional ``{"restoring" (k1, k3, ...) or "omega0" and "alpha", "barrier",
+    "edges_x", "edges_v"}`` to also record
     x1, x2 from time-uniform points of the orbit of each sampled amplitude.
     burn_in: a time, or "auto": BURN_FACTOR x relaxation_time(drift, diffusion).
     dt: a step, or "auto": the largest sample_every / k not above tau / STEPS_PER_TAU (tau the
     relaxation time; sample_every / 10 when tau is not finite).
-    observe: optional ``{"sd": callable, "omega0", "alpha"}``: an observation map on the
+    observe: optional ``{"sd": callable, "restoring" or "omega0" and "alpha"}``: an
+    observation map on the
     sampled energy (sd(A) the rms of a normal fluctuation of U(A), truncated at U >= 0), as
     the model applies to its closed form (averaging.corrected.CorrectedModel.observe)."""
     edges = np.asarray(edges, dtype=float)
@@ -245,11 +296,11 @@ def simulate_sde(drift: Callable[[np.ndarray], np.ndarray],
     if observe is not None:
         o_sd = np.asarray(observe["sd"](inner), float)
         obs_tab = np.concatenate([[o_sd[0]], o_sd])
-        obs_geo = (float(observe["omega0"]) ** 2, float(observe["alpha"]))
+        obs_geo = _spring(observe)
         if not np.all(np.isfinite(obs_tab)):
             raise ValueError("the observation map's sd is not finite on the table")
     else:
-        obs_tab, obs_geo = np.zeros(0), (1.0, 0.0)
+        obs_tab, obs_geo = np.zeros(0), (1.0, 0.0, None)
     if not (np.all(np.isfinite(a_tab)) and np.all(np.isfinite(b_tab))):
         raise ValueError("drift or diffusion is not finite on the table")
     states = states_from_seed(seed, blocks)
@@ -263,18 +314,18 @@ def simulate_sde(drift: Callable[[np.ndarray], np.ndarray],
     if phase is not None:
         ex = np.asarray(phase["edges_x"], dtype=float)
         ev = np.asarray(phase["edges_v"], dtype=float)
-        geo = (bool(phase["barrier"]), float(phase["omega0"]) ** 2, float(phase["alpha"]))
+        geo = (bool(phase["barrier"]), *_spring(phase))
         hx, hv = np.zeros((blocks, ex.size - 1)), np.zeros((blocks, ev.size - 1))
     else:
         ex = ev = np.array([0.0, 1.0])
-        geo = (True, 1.0, 0.0)
+        geo = (True, 1.0, 0.0, None)
         hx = hv = None
 
     def call(st, n_p, n_b, n_s, stride_, hA, sm, hx_, hv_):
         run_sde_blocks(st, n_p, n_b, n_s, stride_, dt, a_tab, b_tab, grid[1] - grid[0], z0,
-                       edges[0], 1.0 / (edges[1] - edges[0]), hA, sm, geo[0], geo[1], geo[2],
+                       edges[0], 1.0 / (edges[1] - edges[0]), hA, sm, *geo,
                        ex[0], 1.0 / (ex[1] - ex[0]), hx_, ev[0], 1.0 / (ev[1] - ev[0]), hv_,
-                       obs_tab, obs_geo[0], obs_geo[1])
+                       obs_tab, *obs_geo)
 
     t0 = time.perf_counter()
     call(states[:1].copy(), 1, 1, 1, 1, np.zeros((1, edges.size - 1)), np.zeros((1, 4)),

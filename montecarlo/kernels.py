@@ -22,8 +22,15 @@ One step of size h is the Strang splitting (weak order 2 on the smooth sub-syste
 - C(h): the exact OU update xi <- a xi + sqrt(D/alpha1 (1 - a^2)) N, a = e^{-alpha1 h}.
   (C(h/2) C(h/2) of consecutive steps merge: xi lives at the middle of each step.)
 
-Switched-off effects are ``None`` (mu, r, alpha1 for white noise, unrequested histograms):
-numba prunes those branches at compile time.
+The general system (issue 21) adds, each ``None`` when the scene does not have it:
+``khi`` = (k5, k7, ...) to the spring, g += x^5 (k5 + k7 x^2 + ...); ``dhi`` = (d4, d6, ...) to
+the damping coefficient, k += x^4 (d4 + d6 x^2 + ...) (k = d0 + d2 x^2 = c2 x^2 - c1 as above);
+``ev`` = (e2, e4, ...) the velocity damping (e2 v^2 + ...) v, taken as its own sub-flow
+V(h/2) around B (velocity_decay; the composition stays symmetric, so Strang's order holds).
+
+Switched-off effects are ``None`` (mu, r, alpha1 for white noise, unrequested histograms,
+higher-order terms): numba prunes those branches at compile time, so the paper's scenes run
+the same machine code as before the general terms existed.
 """
 
 from __future__ import annotations
@@ -33,7 +40,7 @@ import math
 from numba import prange
 
 from ._jit import jit
-from .geometry import amplitude
+from .geometry import amplitude_general, poly_x2
 from .rng import normal
 
 # columns of the per-block event array
@@ -132,9 +139,27 @@ def impact_loss(v_before: float, impacts: int, chatter: int, r: float) -> float:
     return 0.5 * (1.0 - r * r) * v_before * v_before
 
 
+@jit
+def velocity_decay(v: float, tau: float, ev) -> float:
+    """Exact v after tau under v' = -e(v) v, e(v) = ev[0] v^2 + ev[1] v^4 + ... (the
+    velocity-damping sub-flow). One term: v / sqrt(1 + 2 e2 v^2 tau) (closed form; for
+    e2 < 0 it blows up where the flow does). More terms: one classical RK4 step (local
+    error O(tau^5), beyond the splitting's weak order 2)."""
+    if ev.shape[0] == 1:
+        return v / math.sqrt(1.0 + 2.0 * ev[0] * v * v * tau)
+    k1 = -poly_x2(ev, v * v) * v * v * v
+    w = v + 0.5 * tau * k1
+    k2 = -poly_x2(ev, w * w) * w * w * w
+    w = v + 0.5 * tau * k2
+    k3 = -poly_x2(ev, w * w) * w * w * w
+    w = v + tau * k3
+    k4 = -poly_x2(ev, w * w) * w * w * w
+    return v + tau * (k1 + 2.0 * k2 + 2.0 * k3 + k4) / 6.0
+
+
 @jit(parallel=True)
 def run_paths(rng, state, n_steps, step0, n_burn, stride, h,
-              c1, c2, w0sq, alpha, f, D, mu, r, alpha1,
+              c1, c2, w0sq, alpha, f, D, mu, r, alpha1, khi, dhi, ev,
               a_lo, a_inv, hist_A, x_lo, x_inv, hist_x, v_lo, v_inv, hist_v, hist_joint,
               moments, events, energy, spw, windows):
     """Advance every path of every block by ``n_steps`` steps (global step indices
@@ -156,7 +181,8 @@ def run_paths(rng, state, n_steps, step0, n_burn, stride, h,
 
     energy[b, p] columns (time integrals over the sampled time, Strang sub-flow by sub-flow):
     EN_INPUT the work of the noise (OU: f xi v, trapezoid over B; white: the kick's exact
-    change of v^2/2), EN_DAMP (c2 x^2 - c1) v^2, EN_FRICTION mu |v| (trapezoid over B),
+    change of v^2/2), EN_DAMP (c2 x^2 - c1) v^2 [+ the exact kinetic energy each velocity-
+    damping sub-flow removes], EN_FRICTION mu |v| (trapezoid over B),
     EN_IMPACT the kinetic energy lost at impacts, (1 - r^2) v^2 / 2 each, and v^2 / 2 when
     the chatter guard rests the mass."""
     n_blocks = state.shape[0]
@@ -189,6 +215,17 @@ def run_paths(rng, state, n_steps, step0, n_burn, stride, h,
                     at_wall = x == 0.0
                 k = c2 * x * x - c1
                 g = (w0sq + alpha * x * x) * x
+                if khi is not None:
+                    x2 = x * x
+                    g += poly_x2(khi, x2) * x2 * x2 * x
+                if dhi is not None:
+                    x2 = x * x
+                    k += poly_x2(dhi, x2) * x2 * x2
+                if ev is not None:
+                    vv = v
+                    v = velocity_decay(v, half, ev)
+                    if energy is not None and n >= n_burn:
+                        energy[b, p, EN_DAMP] += 0.5 * (vv * vv - v * v)
                 vb = v
                 if alpha1 is not None:
                     v, stuck = velocity_flow(v, h, -g + f * xi, k, mu, at_wall)
@@ -205,6 +242,11 @@ def run_paths(rng, state, n_steps, step0, n_burn, stride, h,
                     vd = v
                     stuck = st1 + st2
                 ve = v
+                if ev is not None:
+                    v = velocity_decay(ve, half, ev)
+                    if energy is not None and n >= n_burn:
+                        energy[b, p, EN_DAMP] += 0.5 * (ve * ve - v * v)
+                    ve = v
                 x, v, imp2, ch2 = drift(x, v, half, r, press, h)
                 xi_used = xi
                 if alpha1 is not None:
@@ -235,7 +277,7 @@ def run_paths(rng, state, n_steps, step0, n_burn, stride, h,
                 if (n - n_burn + 1) % stride != 0:
                     continue
                 events[b, EV_SAMPLES] += 1.0
-                A = amplitude(x, v, w0sq, alpha)
+                A = amplitude_general(x, v, w0sq, alpha, khi)
                 if windows is not None:
                     w = ((n - n_burn + 1) // stride - 1) // spw
                     if w < windows.shape[2]:

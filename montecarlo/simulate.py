@@ -97,17 +97,51 @@ def block_seeds(seed: int, blocks: int, per_block: int = 1, key: int = 0) -> np.
     return out
 
 
+def _laws(system: Any) -> tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]]:
+    """(k, d, e): the spring (k1, k3, ...), damping (d0, d2, ...) and velocity damping
+    (e2, ...) coefficients, trailing zeros dropped, k and d padded to two terms. A system
+    with the paper's names only (omega0, alpha, c1, c2) gives k = (omega0^2, alpha),
+    d = (-c1, c2)."""
+    if hasattr(system, "restoring_law"):
+        k, d = tuple(system.restoring_law), tuple(system.damping_law)
+        e = tuple(system.velocity_law)
+    else:
+        k = (float(system.omega0) ** 2, float(system.alpha))
+        d, e = (-float(system.c1), float(system.c2)), ()
+
+    def trim(c: tuple[float, ...], keep: int) -> tuple[float, ...]:
+        c = tuple(float(v) for v in c)
+        while len(c) > keep and c[-1] == 0.0:
+            c = c[:-1]
+        return c + (0.0,) * (keep - len(c))
+
+    return trim(k, 2), trim(d, 2), trim(e, 0)
+
+
 def _params(system: Any, noise: Any) -> dict[str, Any]:
     """Kernel physics arguments; a switched-off effect is None (pruned at compile time)."""
     if noise.kind not in NOISE_KINDS:
         raise ValueError(f"noise kind must be one of {NOISE_KINDS}, not {noise.kind!r}")
+    k, d, e = _laws(system)
     return {
-        "c1": float(system.c1), "c2": float(system.c2), "w0sq": float(system.omega0) ** 2,
-        "alpha": float(system.alpha), "f": float(system.f), "D": float(noise.D),
+        "c1": -d[0], "c2": d[1], "w0sq": k[0], "alpha": k[1],
+        "khi": np.array(k[2:]) if len(k) > 2 else None,
+        "dhi": np.array(d[2:]) if len(d) > 2 else None,
+        "ev": np.array(e) if e else None,
+        "f": float(system.f), "D": float(noise.D),
         "mu": float(system.mu) if system.mu > 0 else None,
         "r": float(system.r) if getattr(system, "barrier", True) else None,
         "alpha1": float(noise.alpha1) if noise.kind == "ou" else None,
     }
+
+
+def _potential(x: Any, phys: dict[str, Any]) -> Any:
+    """U(x) of the kernel's spring (geometry.potential, vectorised)."""
+    w0sq, alpha = phys["w0sq"], phys["alpha"]
+    u = 0.5 * w0sq * x * x + 0.25 * alpha * x**4  # (the paper's form, operation for operation)
+    for i, c in enumerate(phys["khi"] if phys["khi"] is not None else ()):
+        u = u + c / (2 * i + 6) * x ** (2 * i + 6)
+    return u
 
 
 def effects(system: Any, noise: Any) -> dict[str, bool | str]:
@@ -143,7 +177,7 @@ def _kernel(arr: _Arrays, phys: dict[str, Any], h: float, n_steps: int, step0: i
     ea, ex, ev = hi["edges_A"], hi["edges_x"], hi["edges_v"]
     K.run_paths(arr.rng, arr.state, n_steps, step0, n_burn, stride, h,
                 phys["c1"], phys["c2"], phys["w0sq"], phys["alpha"], phys["f"], phys["D"],
-                phys["mu"], phys["r"], phys["alpha1"],
+                phys["mu"], phys["r"], phys["alpha1"], phys["khi"], phys["dhi"], phys["ev"],
                 ea[0], 1.0 / (ea[1] - ea[0]), hi["A"], ex[0], 1.0 / (ex[1] - ex[0]), hi["x"],
                 ev[0], 1.0 / (ev[1] - ev[0]), hi["v"], hi["joint"], arr.moments, arr.events,
                 arr.energy, spw, windows)
@@ -152,7 +186,9 @@ def _kernel(arr: _Arrays, phys: dict[str, Any], h: float, n_steps: int, step0: i
 def _diverged(h: float, what: str) -> SimulationDiverged:
     return SimulationDiverged(
         f"the Monte Carlo blew up ({what}) at dt = {h:g}: the time step is most likely too "
-        "large for this scene; try a smaller --dt (e.g. 0.01) or --dt auto")
+        f"large for this scene; try a smaller --dt (e.g. {h / 4:g}) or --dt auto; if a "
+        "smaller step blows up too, the amplitude grows without bound (negative damping "
+        "c1 > 0 not held by c2, impacts or friction) and no stationary density exists")
 
 
 class _Stepper:
@@ -212,10 +248,8 @@ def _starts(amplitudes: np.ndarray, phys: dict[str, Any], gen: np.random.Generat
             ) -> np.ndarray:
     """(x, v, xi) on the conservative orbit of each amplitude, at a uniform random phase;
     xi from the stationary OU law."""
-    w0sq, alpha = phys["w0sq"], phys["alpha"]
-
     def U(x: np.ndarray) -> np.ndarray:
-        return 0.5 * w0sq * x * x + 0.25 * alpha * x**4
+        return _potential(x, phys)
 
     th = gen.uniform(0.0, 2 * math.pi, amplitudes.shape)
     x = amplitudes * np.cos(th)
@@ -378,7 +412,7 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
         a_hint = float(edges["edges_A"][-1]) if "edges_A" in edges else 1.0
         a_hi = _pilot_scale(phys, h, st.seed, step, a_hint)
         if not edges:
-            vmax = math.sqrt(2 * (0.5 * phys["w0sq"] * a_hi**2 + 0.25 * phys["alpha"] * a_hi**4))
+            vmax = math.sqrt(2 * _potential(a_hi, phys))
             edges = {"edges_A": np.linspace(0.0, a_hi, st.bins + 1),
                      "edges_x": np.linspace(0.0 if phys["r"] is not None else -a_hi, a_hi,
                                             st.bins + 1),
@@ -392,6 +426,12 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
             burn_in = float(st.burn_in)
         pilot_s = time.perf_counter() - t1
 
+        if not burn_in / h < 2.0**53:  # beyond any run (and numba's integers)
+            raise SimulationDiverged(
+                f"the relaxation pilot measured a relaxation time of {burn_in / BURN_FACTOR:.3g}"
+                f" (burn-in {burn_in:.3g} = {burn_in / h:.3g} steps of dt = {h:g}): the paths "
+                "barely forget their start (most likely the noise is too weak to mix them: "
+                "check noise.D and f); give montecarlo.burn_in explicitly to run anyway")
         n_burn = int(round(burn_in / h))
         win_steps = spw * stride
         gen = np.random.default_rng(np.random.SeedSequence(st.seed, spawn_key=(1 << 24,)))

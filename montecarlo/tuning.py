@@ -39,7 +39,8 @@ def auto_dt(target_floor: float | None, phys: dict[str, Any]) -> float:
     """Largest dt with predicted bias C dt^p <= BIAS_FRACTION x target (see module)."""
     F = target_floor if target_floor and target_floor > 0 else DEFAULT_FLOOR
     dt = (BIAS_FRACTION * F / BIAS_C) ** (1.0 / BIAS_P)
-    period = 2 * math.pi / math.sqrt(phys["w0sq"])
+    # no linear spring (k1 = 0): no small-amplitude period to resolve, only DT_RANGE
+    period = 2 * math.pi / math.sqrt(phys["w0sq"]) if phys["w0sq"] > 0 else math.inf
     dt = min(dt, period / 100.0, DT_RANGE[1])
     return float(max(dt, DT_RANGE[0]))
 

@@ -30,10 +30,12 @@ MC = ("--solver", "montecarlo")
 # (id, args, needle); "{tmp}" is the case's own folder, "{file}" an existing file in it,
 # "{scene:BODY}" a scene file with BODY in it
 CATALOGUE = [
-    ("paths-3", ["solve", BASE, *MC, "--paths", "3"], "nearest valid: 32"),
+    ("paths-3", ["solve", BASE, *MC, "--paths", "3"], "nearest valid: 64"),
     ("paths-16", ["solve", BASE, *MC, "--paths", "16"], "--paths (montecarlo.paths) = 16"),
     ("paths-31", ["solve", BASE, *MC, "--paths", "31"], "whole multiple of montecarlo.blocks"),
-    ("paths-33", ["solve", BASE, *MC, "--paths", "33"], "nearest valid: 32 or 64"),
+    ("paths-33", ["solve", BASE, *MC, "--paths", "33"], "nearest valid: 64"),
+    ("paths-65", ["solve", BASE, *MC, "--paths", "65"], "nearest valid: 64 or 96"),
+    ("paths-32", ["solve", BASE, *MC, "--paths", "32"], "allowed: paths >= 2 x blocks = 64"),
     ("paths-minus-64", ["solve", BASE, *MC, "--paths", "-64"], "--paths = -64 is out of range"),
     ("dt-0-figures", ["figures", "--dt", "0", "--out", "{tmp}/f"], "--dt = 0.0 is out of range"),
     ("repeats-huge", ["workprecision", BASE, "--repeats", "1000000000", "--out", "{tmp}/w"],
@@ -78,7 +80,7 @@ CATALOGUE = [
     ("cost-grid", ["solve", BASE, "--solver", "fpk", "--grid", "10000000"], "--yes"),
     ("check-out-file", ["check", BASE, "--out", "{file}"], "exists and is not a folder"),
     ("check-out-proc", ["check", BASE, "--out", "/proc/vifpk"], "cannot write in /proc"),
-    ("check-paths", ["check", BASE, "--paths", "33"], "nearest valid: 32 or 64"),
+    ("check-paths", ["check", BASE, "--paths", "33"], "nearest valid: 64"),
     ("check-cost", ["check", BASE, "--paths", "1e9"], "this check: estimated"),
     ("range-nan", ["bifurcation", BASE, "--vary", "mu", "--range", "nan", "1"],
      "LO = nan is outside the valid values of system.mu"),

@@ -10,6 +10,7 @@ the test (the input must be refused first). The signal tests are subprocesses on
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -37,6 +38,12 @@ def _sweep_file(folder: Path, text: str = SWEEP, name: str = "s.toml") -> Path:
     p = folder / name
     p.write_text(text)
     return p
+
+
+def _scene(folder: Path, body: str) -> str:
+    p = folder / "scene.toml"
+    p.write_text(body)
+    return str(p)
 
 
 def _check_report(folder: Path) -> Path:
@@ -175,10 +182,74 @@ def _setup_cases():
         # E: deep nesting
         ("sweep-deep", deep, "nested too deeply"),
         ("scene-deep", deep_scene, "nested too deeply"),
+        # E: values numba, math or the grids would fail on
+        ("threads-100", lambda t: ["solve", BASE, *MC, "--set", "montecarlo.threads=100"],
+         "montecarlo.threads = 100 is out of range; allowed: 0 (all) to"),
+        ("tail-1e300", lambda t: ["solve", BASE, "--set", "averaging.tail=1e300"],
+         "allowed: 0 < tail <= 0.001"),
+        ("tail-0.5", lambda t: ["solve", BASE, "--set", "averaging.tail=0.5"],
+         "averaging.tail = 0.5 is out of range"),
+        ("dt-5e-324", lambda t: ["solve", BASE, *MC, "--dt", "5e-324"],
+         "is too small; allowed: dt >= montecarlo.sample_every / 1e+09"),
+        ("paths-32-rhat", lambda t: ["solve", BASE, *MC, "--paths", "32"],
+         "paths >= 2 x blocks = 64"),
+        ("scene-top-sweep", lambda t: ["solve", _scene(t, "sweep = 1\n[system]\nr = 0.9\n")],
+         "unknown key 'sweep'"),
+        ("bif-range-inf", lambda t: ["sweep", str(_sweep_file(t, (
+            'scene = "tiny"\nworkflow = "bifurcation"\n[bifurcation]\nfind = "mu"\n'
+            'range = [0.0, inf]\n[vary]\n"system.r" = [0.95]\n')))], "finite numbers"),
+        ("sweep-point-magnitude", lambda t: ["sweep", str(_sweep_file(t, SWEEP.replace(
+            "[0.95, 0.97]", "[0.95]\n\"noise.D\" = [0.01, 1e-200]")))],
+         "at the point system.r = 0.95, noise.D = 1e-200: noise.D = 1e-200 is out of range"),
+        ("sweep-point-mc", lambda t: ["sweep", str(_sweep_file(t, (
+            'scene = "tiny"\n[vary]\n"montecarlo.dt" = [0.01, 0.03]\n')))],
+         "montecarlo.dt = 0.03 must divide"),
+        # F: ignored input is refused
+        ("budget-no-floor", lambda t: ["solve", BASE, *MC, "--budget", "10"],
+         "--budget 10: does not apply without a target floor"),
+        ("model-twice", lambda t: ["solve", BASE, "--model", "exact", "--model", "paper"],
+         "--model given twice (exact and paper)"),
+        ("paths-twice", lambda t: ["solve", BASE, *MC, "--paths", "64", "--paths", "128"],
+         "--paths given twice"),
+        ("solver-twice", lambda t: ["solve", BASE, "--solver", "fpk", "--solver=averaging"],
+         "--solver given twice"),
+        ("bif-set-varied", lambda t: ["bifurcation", BASE, "--vary", "mu", "--set",
+                                      "system.mu=0.01"], "is the parameter --vary mu searches"),
+        ("no-observables", lambda t: ["solve", _scene(t, "[observables]\nA = false\n"
+                                                      "x1 = false\nx2 = false\nmoments = false"
+                                                      "\nevents = false\n"), *MC],
+         "every observable is off"),
+        # D: the cost guard
+        ("floor-5", lambda t: ["solve", BASE, *MC, "--floor", "5"], "0 <= floor < 2"),
+        ("floor-no-budget", lambda t: ["solve", BASE, *MC, "--floor", "1e-5", "--budget", "0"],
+         "this solve: estimated at least"),
+        ("floor-unreachable", lambda t: ["solve", BASE, *MC, "--dt", "auto", "--floor", "1e-9"],
+         "needs at least"),
+        ("paths-memory", lambda t: ["solve", BASE, *MC, "--paths", "1e12", "--yes"],
+         "GiB of memory"),
+        ("check-floor-no-budget", lambda t: ["check", BASE, "--floor", "1e-5", "--budget", "0"],
+         "this check: estimated at least"),
+        ("sweep-1000x1000", lambda t: ["sweep", str(_sweep_file(t, (
+            'scene = "paper-base"\nworkflow = "averaging"\n[vary]\n"system.r" = {start = 0.9,'
+            ' stop = 1.0, num = 1000}\n"system.mu" = {start = 0.0, stop = 0.01, num = 1000}\n'
+        )))], "1000 x 1000 = 1000000 points; allowed: up to 100000"),
+        ("sweep-num-huge", lambda t: ["sweep", str(_sweep_file(t, (
+            'scene = "tiny"\n[vary]\n"system.r" = {start = 0.9, stop = 1.0, num = 1000000000}'
+            '\n')))], "num = 1000000000: out of range"),
+        ("sweep-100x100", lambda t: ["sweep", str(_sweep_file(t, (
+            'scene = "paper-base"\nworkflow = "check"\n[vary]\n"system.r" = {start = 0.9, '
+            'stop = 1.0, num = 100}\n"system.mu" = {start = 0.0, stop = 0.01, num = 100}\n'
+        ))), "--out", str(t / "o")], "this sweep (10000 points): estimated at least"),
     ]
 
 
 CASES = _setup_cases()
+
+
+@pytest.fixture(autouse=True)
+def _known_speed(monkeypatch):
+    """The cost guard at a fixed machine speed: no calibration run inside a test."""
+    monkeypatch.setenv("VIFPK_STEPS_PER_SECOND", "2e7")
 
 
 def _snapshot(folder: Path) -> dict[str, bytes]:
@@ -215,7 +286,10 @@ def test_refused_before_any_work(case, no_computation, tmp_path, monkeypatch, ca
     monkeypatch.chdir(tmp_path)
     args = case[1](tmp_path)
     before = _snapshot(tmp_path)
-    code = main(args)
+    try:
+        code = main(args)
+    except SystemExit as exc:  # argparse's own errors (one line, exit 2)
+        code = exc.code
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2, err
     assert len(err) == 1 and case[2] in err[0], err
@@ -386,3 +460,106 @@ def test_sigterm_on_check_is_like_ctrl_c(tmp_path):
     assert proc.returncode == 143, err
     assert err.strip().splitlines() == ["vifpk: terminated (SIGTERM); nothing was written"]
     assert sorted(os.listdir(tmp_path)) == []
+
+
+# --------------------------------------------------------------------------------------------
+# E: failures that are found only while computing exit 3 with one line
+def test_numba_threads_zero_in_the_environment(monkeypatch, capsys, no_computation):
+    from harness.cli import main
+
+    monkeypatch.setenv("NUMBA_NUM_THREADS", "0")
+    assert main(["solve", BASE]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["vifpk: error: NUMBA_NUM_THREADS=0: out of range; allowed: a whole number "
+                   ">= 1 (or unset: every core)"]
+
+
+def test_bifurcation_without_noise_exits_3(tmp_path, capsys, no_computation):
+    from harness.cli import main
+
+    assert main(["bifurcation", _scene(tmp_path, "[system]\nf = 0.0\n"), "--vary", "mu",
+                 "--no-mc"]) == 3
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "f = 0: there is no noise" in err[0]
+
+
+def test_full_disk_on_stdout_exits_3_one_line(tmp_path):
+    """`vifpk solve S > /dev/full`: one line, exit 3, no traceback."""
+    with open("/dev/full", "w") as full:
+        res = subprocess.run([sys.executable, "-m", "harness", "solve", str(DATA / "tiny.toml")],
+                             stdout=full, stderr=subprocess.PIPE, text=True, env=ENV,
+                             cwd=tmp_path, timeout=120)
+    assert res.returncode == 3, res.stderr
+    assert res.stderr.strip().splitlines() == [
+        "vifpk: cannot write the standard output (No space left on device); the run's output "
+        "is incomplete"]
+
+
+@pytest.mark.numpy_errors_ok
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")
+def test_averaging_sweep_point_with_nonsense_numbers_fails():
+    """D = 1e-90 (inside the magnitude box) overflows the closed forms: `solve` exits 3 on it,
+    and the sweep records the point as failed (numerical), never "ok" with nonsense."""
+    from harness.sweep import Job, run_point
+    from vifpk.core.scene import load_scene
+
+    scene = load_scene(DATA / "tiny.toml").with_values({"noise.D": 1e-90})
+    rec = run_point(Job(key="k", fingerprint="f", params=(("noise.D", 1e-90),), seed=1,
+                        workflow="averaging", scene=scene, bifurcation={}))
+    assert rec["status"] == "failed" and rec["failure"] == "numerical", rec
+    assert "noise.D = 1e-90" in rec["message"]
+
+
+def test_workprecision_prints_no_nan_fit():
+    """A bias fit the ladder cannot determine is said in words, not printed as nan."""
+    import math
+
+    from harness.workprecision import table_markdown
+
+    data = {"seconds_to_reach": {"closed form (paper)": {"1e-2": 0.1, "1e-3": math.nan}},
+            "mc_bias_variance": {"paths": 64, "time": 10.0, "ladder": [
+                {"dt": 0.02, "seconds": 1.0, "L1": 0.1, "floor": 0.1, "reference_floor": 0.01,
+                 "error": 0.1, "bias_L1": 0.0, "mean_A_bias": 0.0, "mean_A_bias_err": 0.01}],
+                "variance_constant_K": 0.02, "bias_fit": {"C": math.nan, "order": math.nan},
+                "best_dt_for_budget": {"1 s": {"dt": math.nan, "predicted_L1": math.nan}}}}
+    text = table_markdown(data)
+    assert "nan" not in text and "Bias fit: not determined" in text
+    assert "not reached" in text
+
+
+# --------------------------------------------------------------------------------------------
+# D: the measured speed of this machine
+def test_machine_speed_is_measured_once_and_cached(tmp_path, monkeypatch):
+    from harness import validate
+
+    monkeypatch.delenv("VIFPK_STEPS_PER_SECOND")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    calls = []
+    monkeypatch.setattr(validate, "_calibrate", lambda: calls.append(1) or 1.5e7)
+    assert validate.machine_speed() == 1.5e7 and validate.machine_speed() == 1.5e7
+    assert calls == [1]
+    cached = json.loads((tmp_path / "vifpk" / "speed.json").read_text())
+    assert cached["steps_per_second_per_core"] == 1.5e7 and cached["cores"] == os.cpu_count()
+
+
+def test_cost_between_the_bounds_uses_the_measured_speed(monkeypatch):
+    """At the fastest rate a run looks like 20 minutes; at this machine's measured speed
+    (3x slower) it is an hour: refused; the estimate above an hour at the fastest rate needs
+    no measurement; far below it neither."""
+    from harness import validate
+
+    speeds = []
+
+    def estimate(sp):
+        speeds.append(sp)
+        return 1200.0 * validate.MC_STEPS_PER_CORE / (sp or validate.MC_STEPS_PER_CORE)
+
+    monkeypatch.setenv("VIFPK_STEPS_PER_SECOND", str(validate.MC_STEPS_PER_CORE / 3.5))
+    with pytest.raises(validate.InputError, match="estimated at least 70 minutes"):
+        validate.refuse_costly(estimate, "this run", False)
+    assert speeds == [None, validate.MC_STEPS_PER_CORE / 3.5]
+    validate.refuse_costly(lambda sp: 60.0, "this run", False)
+    validate.refuse_costly(lambda sp: 1e9, "this run", True)  # --yes
+    monkeypatch.setenv("VIFPK_STEPS_PER_SECOND", "fast")
+    with pytest.raises(validate.InputError, match="VIFPK_STEPS_PER_SECOND=fast"):
+        validate.refuse_costly(estimate, "this run", False)

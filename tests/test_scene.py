@@ -50,7 +50,7 @@ def test_sweep_expands():
         ({"system": {"c1": math.inf}}, "c1 = inf"),
         ({"system": {"f": "one"}}, "f = 'one' must be a finite number"),
         ({"noise": {"kind": "pink"}}, "one of 'ou', 'white'"),
-        ({"system": {"restitution": 0.9}}, "unknown key; allowed"),
+        ({"system": {"bounce_law": 0.9}}, "unknown key; allowed"),
         ({"system": {"mu_": 0.1}}, "did you mean 'mu'?"),
         ({"noize": {}}, "unknown key 'noize'; did you mean 'noise'?"),
         ({"system": {"mu": [0.1], "r": [0.9]}}, "only one parameter may vary"),

@@ -157,7 +157,11 @@ def main() -> None:
     ap.add_argument("--shipped", action="store_true", help="also the shipped scene variants")
     ap.add_argument("--mechanism", action="store_true", help="only the MECHANISM experiments")
     ap.add_argument("--out", default=None)
+    ap.add_argument("--table", nargs="+", help="print the markdown table of these result files")
     args = ap.parse_args()
+    if args.table:
+        table(args.table)
+        return
     cache = Path(args.cache)
     cache.mkdir(parents=True, exist_ok=True)
     out_path = Path(args.out) if args.out else None
@@ -193,6 +197,47 @@ def main() -> None:
             tmp = out_path.with_suffix(".tmp")
             tmp.write_text(json.dumps(results, indent=1, sort_keys=True))
             tmp.replace(out_path)
+
+
+
+
+def table(paths: list[Path]) -> None:
+    """Markdown table of stored rows (later files override earlier ones for the same scene):
+    L1(A) (mean shift) of exact, compounded, corrected, the floor, dt, and what check would
+    recommend from these numbers (harness.check.recommend with the scene's warnings)."""
+    from harness.check import assumption_warnings, recommend
+
+    rows: dict[str, dict] = {}
+    for p in paths:
+        for key, r in json.loads(Path(p).read_text()).items():
+            rows[key.split(" @")[0]] = r
+    print("| scene | exact | compounded | corrected | floor | dt | check recommends |")
+    print("|---|---|---|---|---|---|---|")
+    for name, scene in all_scenes():
+        if name not in rows:
+            continue
+        r = rows[name]
+        M = r["models"]
+        val = validity(scene)
+        closed = {"exact": averaging.solve(scene, model="exact")}
+        mc_info = {"events": {"stuck_fraction": {"value": r.get("stuck_fraction", 0.0)}}}
+        warns = assumption_warnings(scene, closed, mc_info, val)
+        canned = {"models": {m: {"averaging_error": {"A": {"L1": M[m]["L1"],
+                                                            "L1_floor": r["L1_floor"]}},
+                                 "sampling_ok": True} for m in ("exact", "corrected")}}
+        rec, line = recommend(canned, warns, val)
+        body = line.split(" -- ", 1)[1]
+        if rec == "none" and "fail here (" in body:
+            why = body.split("fail here (", 1)[1].split(")")[0]
+        else:
+            why = body.split(" (")[0]
+            if "energy-at-the-wall" in body:
+                why += "; corrected's wall term out of range"
+            if "correlated-noise regime" in body:
+                why += "; correlated-noise regime"
+        cells = " | ".join(f"{M[m]['L1']:.3f} ({M[m]['mean_diff']:+.3f})"
+                           for m in ("exact", "compounded", "corrected"))
+        print(f"| {name} | {cells} | {r['L1_floor']:.4f} | {r['dt']:g} | **{rec}**: {why} |")
 
 
 if __name__ == "__main__":

@@ -18,6 +18,7 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import math
+import re
 import tomllib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, fields, replace
@@ -46,6 +47,17 @@ def _positive(v: float) -> str | None:
 
 def _nonneg(v: float) -> str | None:
     return None if math.isfinite(v) and v >= 0 else "a finite number >= 0"
+
+
+def _tail(v: float) -> str | None:
+    """The probability mass the amplitude grid may leave beyond A_max: a small tolerance (a
+    tail of 0.5 would cut half the density off the grid)."""
+    return None if math.isfinite(v) and 0.0 < v <= 1e-3 else "0 < tail <= 0.001"
+
+
+def _floor(v: float) -> str | None:
+    """A target L1 noise floor: an L1 distance between densities is at most 2."""
+    return None if math.isfinite(v) and 0.0 <= v < 2.0 else "0 <= floor < 2 (0: none)"
 
 
 def _restitution(v: float) -> str | None:
@@ -96,18 +108,159 @@ def _meta(check: Check, doc: str) -> dict[str, Any]:
 
 
 # --------------------------------------------------------------------------------------------
+MAX_TERMS = 10  # polynomial laws: up to 10 coefficients (a restoring force of degree 19)
+
+
+def _coefficients(allow_empty: bool) -> Check:
+    def check(v: Any) -> str | None:
+        ok = (isinstance(v, tuple) and (allow_empty or len(v) >= 1) and len(v) <= MAX_TERMS
+              and all(isinstance(c, float) and math.isfinite(c) for c in v))
+        lo = 0 if allow_empty else 1
+        return None if ok else f"a list of {lo} to {MAX_TERMS} finite numbers"
+
+    return check
+
+
+# the paper's names of polynomial coefficients: name -> (law, index, value -> coefficient)
+ALIASES: dict[str, tuple[str, int, Callable[[float], float]]] = {
+    "omega0": ("restoring", 0, lambda v: v * v),
+    "alpha": ("restoring", 1, lambda v: v),
+    "c1": ("damping", 0, lambda v: -v),
+    "c2": ("damping", 1, lambda v: v),
+}
+
+
 @dataclass(frozen=True, kw_only=True)
 class System:
-    """Oscillator parameters (paper eq. 17). ``barrier = false`` removes the impact wall."""
+    """Oscillator parameters. ``barrier = false`` removes the impact wall. The general system
+    (issue 21; the paper's eq. 17 is d = -c1 + c2 x^2, g = omega0^2 x + alpha x^3, e = 0)::
 
-    c1: float = field(default=0.025, metadata=_meta(_finite, "negative: positive linear damping"))
-    c2: float = field(default=0.05, metadata=_meta(_nonneg, "Van der Pol cubic damping"))
-    omega0: float = field(default=1.0, metadata=_meta(_positive, "linear natural frequency"))
-    alpha: float = field(default=0.6, metadata=_meta(_nonneg, "Duffing hardening"))
+        x'' + (d0 + d2 x^2 + d4 x^4 + ...) x' + (e2 x'^2 + e4 x'^4 + ...) x'
+            + k1 x + k3 x^3 + k5 x^5 + ... + mu sgn(x') = f xi(t)
+
+    ``restoring = [k1, k3, ...]``, ``damping = [d0, d2, ...]``, ``velocity_damping =
+    [e2, e4, ...]``; the paper's names are the same coefficients (k1 = omega0^2, k3 = alpha,
+    d0 = -c1, d2 = c2) and a scene gives one spelling of each law. The law actually used is
+    :attr:`restoring_law`, :attr:`damping_law`, :attr:`velocity_law`; a paper name is None
+    when its law is given as a list."""
+
+    c1: float | None = field(default=0.025, metadata=_meta(
+        _finite, "negative: positive linear damping (d0 = -c1)"))
+    c2: float | None = field(default=0.05, metadata=_meta(
+        _nonneg, "Van der Pol cubic damping (d2 = c2)"))
+    omega0: float | None = field(default=1.0, metadata=_meta(
+        _positive, "linear natural frequency (k1 = omega0^2)"))
+    alpha: float | None = field(default=0.6, metadata=_meta(
+        _nonneg, "Duffing hardening (k3 = alpha)"))
+    restoring: tuple[float, ...] = field(default=(), metadata=_meta(
+        _coefficients(False), "[k1, k3, k5, ...]: g(x) = k1 x + k3 x^3 + ...; g > 0 on x > 0 "
+        "and the last non-zero k > 0"))
+    damping: tuple[float, ...] = field(default=(), metadata=_meta(
+        _coefficients(False), "[d0, d2, ...]: force (d0 + d2 x^2 + ...) x'; d0 > 0 dissipates"))
+    velocity_damping: tuple[float, ...] = field(default=(), metadata=_meta(
+        _coefficients(True), "[e2, e4, ...]: Rayleigh force (e2 x'^2 + e4 x'^4 + ...) x'"))
     mu: float = field(default=0.001, metadata=_meta(_nonneg, "Coulomb friction amplitude"))
     r: float = field(default=0.96, metadata=_meta(_restitution, "restitution at x = 0"))
     f: float = field(default=1.0, metadata=_meta(_finite, "noise gain (not given in paper)"))
     barrier: bool = field(default=True, metadata=_meta(_bool, "impact barrier at x = 0"))
+
+    def __post_init__(self) -> None:
+        # a law given as a list: its paper names do not apply (None, never a stale default)
+        if self.restoring:
+            object.__setattr__(self, "omega0", None)
+            object.__setattr__(self, "alpha", None)
+        if self.damping:
+            object.__setattr__(self, "c1", None)
+            object.__setattr__(self, "c2", None)
+
+    @property
+    def restoring_law(self) -> tuple[float, ...]:
+        """(k1, k3, k5, ...) of g(x) = k1 x + k3 x^3 + ... (k1 = omega0^2, k3 = alpha)."""
+        if self.restoring:
+            return self.restoring
+        assert self.omega0 is not None and self.alpha is not None
+        return (self.omega0**2, self.alpha)
+
+    @property
+    def damping_law(self) -> tuple[float, ...]:
+        """(d0, d2, ...) of the force (d0 + d2 x^2 + ...) x' (d0 = -c1, d2 = c2)."""
+        if self.damping:
+            return self.damping
+        assert self.c1 is not None and self.c2 is not None
+        return (-self.c1, self.c2)
+
+    @property
+    def velocity_law(self) -> tuple[float, ...]:
+        """(e2, e4, ...) of the force (e2 x'^2 + e4 x'^4 + ...) x' (empty: none)."""
+        return self.velocity_damping
+
+    def paper_family_problem(self) -> str | None:
+        """None when the system is in the family of the paper's averaged model (a cubic
+        spring with k1 > 0, damping -c1 + c2 x^2, no velocity damping), else why not."""
+        k = _trim(self.restoring_law)
+        d = _trim(self.damping_law)
+        if len(k) > 2:
+            return (f"system.restoring has a x^{2 * len(k) - 1} term; the paper's model "
+                    "covers only g = omega0^2 x + alpha x^3")
+        if not k or k[0] <= 0.0 or (len(k) > 1 and k[1] < 0.0):
+            return ("the paper's model needs omega0 > 0 and alpha >= 0 (k1 > 0, k3 >= 0); "
+                    f"system.restoring = {list(self.restoring_law)}")
+        if len(d) > 2:
+            return (f"system.damping has a x^{2 * len(d) - 2} x' term; the paper's model "
+                    "covers only (c2 x^2 - c1) x'")
+        if len(d) > 1 and d[1] < 0.0:
+            return "the paper's model needs c2 >= 0 (d2 >= 0)"
+        if any(e != 0.0 for e in self.velocity_law):
+            return "system.velocity_damping is set; the paper's model has no velocity damping"
+        return None
+
+    def to_dict(self) -> dict[str, Any]:
+        """The keys as given: a law as a list, or by its paper names (never both)."""
+        out: dict[str, Any] = {}
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if v is None or (isinstance(v, tuple) and not v):
+                continue
+            out[f.name] = list(v) if isinstance(v, tuple) else v
+        return out
+
+
+def _trim(c: tuple[float, ...]) -> tuple[float, ...]:
+    """Coefficients without trailing zeros."""
+    n = len(c)
+    while n and c[n - 1] == 0.0:
+        n -= 1
+    return tuple(c[:n])
+
+
+def restoring_problem(k: tuple[float, ...]) -> str | None:
+    """None when g(x) = k1 x + k3 x^3 + ... gives one well: U grows without bound (the last
+    non-zero k > 0) and g(x) > 0 for every x > 0 (no other equilibrium, so every energy has
+    one orbit around x = 0); else why not, in words. g(x) = x P(x^2) with P(y) = k1 + k3 y +
+    ...: P's real roots y > 0 (numpy.roots, imaginary part below 1e-9 of the modulus) are the
+    zeros of g."""
+    import numpy as np
+
+    t = _trim(k)
+    if not t:
+        return "all coefficients are 0 (no spring: no orbit to average over)"
+    if t[-1] < 0.0:
+        return (f"U(x) does not grow without bound (the x^{2 * len(t) - 1} coefficient "
+                f"{t[-1]:g} < 0: a softening spring with no bound lets the mass escape); "
+                "allowed: the last non-zero coefficient > 0")
+    if t[0] < 0.0:
+        return f"k1 = {t[0]:g} < 0 makes x = 0 unstable; allowed: k1 >= 0"
+    roots = np.roots(list(reversed(t))) if len(t) > 1 else np.array([])
+    y = [r.real for r in roots if abs(r.imag) <= 1e-9 * abs(r) and r.real > 0.0]
+    if t[0] == 0.0:
+        nz = next(c for c in t if c != 0.0)
+        if nz < 0.0:
+            return "the lowest non-zero coefficient is < 0: x = 0 is unstable"
+    if y:
+        x = math.sqrt(min(y))
+        return (f"g(x) vanishes at x = {x:.4g} (a second equilibrium: the spring softens "
+                "through its bound); allowed: g(x) > 0 for every x > 0")
+    return None
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -124,7 +277,7 @@ class AveragingSettings:
     """Numerical settings of the averaged models (closed form and exact orbit averages)."""
 
     points: int = field(default=801, metadata=_meta(_int_at_least(17), "grid points in A"))
-    tail: float = field(default=1e-10, metadata=_meta(_positive, "mass allowed beyond A_max"))
+    tail: float = field(default=1e-10, metadata=_meta(_tail, "mass allowed beyond A_max"))
     theta_nodes: int = field(default=64, metadata=_meta(_int_at_least(8), "GL nodes a quarter"))
     harmonics: int = field(default=24, metadata=_meta(_int_at_least(4), "orbit harmonics"))
     # at most 4001: memory grows as phase_points^2 (12.7 GB and 53 s measured at 20001)
@@ -150,7 +303,7 @@ class MonteCarloSettings:
     bins: int = field(default=100, metadata=_meta(_int_between(4, 100_000), "histogram bins"))
     threads: int = field(default=0, metadata=_meta(_int_at_least(0), "0: all cores"))
     floor: float = field(default=0.0, metadata=_meta(
-        _nonneg, "target L1 noise floor of p(A); 0: sample exactly `time`"))
+        _floor, "target L1 noise floor of p(A); 0: sample exactly `time`"))
     budget: float = field(default=600.0, metadata=_meta(
         _nonneg, "wall seconds allowed to reach the floor; 0: no limit"))
 
@@ -228,7 +381,10 @@ class Scene:
             if section not in SECTIONS or not key:
                 raise SceneError(f"{path}: unknown field; use section.key with a section in "
                                  f"{sorted(SECTIONS)}")
-            raw.setdefault(section, {})[key] = value
+            if section == "system":
+                _set_system(raw.setdefault("system", {}), path, key, value)
+            else:
+                raw.setdefault(section, {})[key] = value
         if self.sweep is not None and self.sweep.path not in values:
             raw[self.sweep.section][self.sweep.key] = list(self.sweep.values)
         return scene_from_dict(raw, source=self.source or "<overrides>")
@@ -237,7 +393,8 @@ class Scene:
         """Plain, JSON-ready dictionary (the ``scene`` entry of the solution JSON)."""
         d: dict[str, Any] = {"name": self.name, "description": self.description}
         for sec in SECTIONS:
-            d[sec] = dataclasses.asdict(getattr(self, sec))
+            d[sec] = (self.system.to_dict() if sec == "system"
+                      else dataclasses.asdict(getattr(self, sec)))
         if self.sweep is not None:
             d["sweep"] = {"field": self.sweep.path, "values": list(self.sweep.values)}
             d[self.sweep.section][self.sweep.key] = list(self.sweep.values)
@@ -245,6 +402,46 @@ class Scene:
 
 
 # --------------------------------------------------------------------------------------------
+INDEXED = re.compile(r"(\w+)\[(\d+)\]")
+
+
+def _set_system(raw: dict[str, Any], path: str, key: str, value: Any) -> None:
+    """Apply ``system.key = value`` to a raw system table. ``key`` may index a law
+    ("restoring[2]": the k5 coefficient; the list grows with zeros) or be a paper name; either
+    spelling works whichever one the scene was written in."""
+    m = INDEXED.fullmatch(key)
+    name, index = (m.group(1), int(m.group(2))) if m else (key, None)
+    laws = {law for law, _, _ in ALIASES.values()} | {"velocity_damping"}
+    if index is not None and name not in laws:
+        raise SceneError(f"{path}: only {sorted(laws)} take an index")
+    if name in ALIASES and ALIASES[name][0] in raw:
+        law, index, to_coefficient = ALIASES[name]
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise SceneError(f"{path} = {value!r} must be a finite number")
+        _coerce(path, System, name, float(value))
+        name, value = law, to_coefficient(float(value))
+    if name in laws:
+        names = [a for a, (law, _, _) in ALIASES.items() if law == name]
+        if any(a in raw for a in names):  # written with the paper's names: convert
+            sys_ = scene_from_dict({"system": raw}, source=path).system
+            raw[name] = list(sys_.restoring_law if name == "restoring" else sys_.damping_law)
+            for a in names:
+                raw.pop(a, None)
+        if index is None:
+            raw[name] = value
+            return
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise SceneError(f"{path} = {value!r} must be a finite number")
+        coeffs = list(raw.get(name, []))
+        if index >= MAX_TERMS:
+            raise SceneError(f"{path}: index out of range; allowed: 0 to {MAX_TERMS - 1}")
+        coeffs += [0.0] * (index + 1 - len(coeffs))
+        coeffs[index] = float(value)
+        raw[name] = coeffs
+        return
+    raw[name] = value
+
+
 def _suggest(word: str, options: list[str]) -> str:
     close = difflib.get_close_matches(word, options, n=1, cutoff=0.5)
     if close:
@@ -256,7 +453,14 @@ def _coerce(where: str, cls: type, name: str, value: Any) -> Any:
     """Validate one value; ``where`` is "file: section.key" (with [i] for list entries)."""
     f = next(f for f in fields(cls) if f.name == name)
     check: Check = f.metadata["check"]
-    if isinstance(f.default, bool):
+    if isinstance(f.default, tuple):  # a polynomial law: a list of numbers
+        if not isinstance(value, list | tuple):
+            raise SceneError(f"{where} = {value!r} must be {check(None)}")
+        for i, c in enumerate(value):
+            if isinstance(c, bool) or not isinstance(c, int | float) or not math.isfinite(c):
+                raise SceneError(f"{where}[{i}] = {c!r} must be a finite number")
+        value = tuple(float(c) for c in value)
+    elif isinstance(f.default, bool):
         pass
     elif f.metadata["check"].__name__ == "auto":  # a number or "auto"
         if isinstance(value, int | float) and not isinstance(value, bool):
@@ -267,7 +471,8 @@ def _coerce(where: str, cls: type, name: str, value: Any) -> Any:
         value = float(value)
     problem = check(value)
     if problem is not None:
-        raise SceneError(f"{where} = {value!r} is out of range; allowed: {problem}")
+        shown = list(value) if isinstance(value, tuple) else value
+        raise SceneError(f"{where} = {shown!r} is out of range; allowed: {problem}")
     return value
 
 
@@ -281,8 +486,9 @@ def scene_from_dict(raw: Mapping[str, Any], *, source: str = "<dict>") -> Scene:
     """Build and validate a Scene from a parsed TOML document."""
     top = {"name", "description", *SECTIONS}
     for key in raw:
-        if key == "sweep":
-            continue
+        if key == "sweep" and isinstance(raw[key], Mapping) and set(raw[key]) <= {"field",
+                                                                                 "values"}:
+            continue  # written by Scene.to_dict beside the varied list; the list rules
         if key not in top:
             raise SceneError(f"{source}: unknown key '{key}'; {_suggest(key, sorted(top))}")
     name = raw.get("name", Path(source).stem if source else "scene")
@@ -304,7 +510,8 @@ def scene_from_dict(raw: Mapping[str, Any], *, source: str = "<dict>") -> Scene:
             where = f"{source}: {sec}"
             if key not in known:
                 raise SceneError(f"{where}.{key}: unknown key; {_suggest(key, known)}")
-            if isinstance(value, list):
+            if isinstance(value, list) and not isinstance(
+                    next(f for f in fields(cls) if f.name == key).default, tuple):
                 if sec not in SWEEPABLE:
                     raise SceneError(f"{where}.{key}: a list is only allowed in "
                                      f"{sorted(SWEEPABLE)} (the varied parameter)")
@@ -321,8 +528,32 @@ def scene_from_dict(raw: Mapping[str, Any], *, source: str = "<dict>") -> Scene:
                 kwargs[key] = vals[0]
             else:
                 kwargs[key] = _coerce(f"{where}.{key}", cls, key, value)
+        if cls is System:
+            _check_laws(f"{source}: system", table, kwargs)
         parts[sec] = cls(**kwargs)
     return Scene(name=name, description=description, sweep=sweep, source=source, **parts)
+
+
+def _check_laws(where: str, table: Mapping[str, Any], kwargs: Mapping[str, Any]) -> None:
+    """One spelling per law; the restoring law gives one well (restoring_problem)."""
+    for name, (law, index, _) in ALIASES.items():
+        if name in table and law in table:
+            raise SceneError(f"{where}.{name} and {where.split(': ')[-1]}.{law} both set the "
+                             f"{law} law; give one (the paper's {name} is the coefficient "
+                             f"{law}[{index}] = {_alias_formula(name)})")
+    k = kwargs.get("restoring") or (kwargs.get("omega0", 1.0) ** 2, kwargs.get("alpha", 0.6))
+    if isinstance(kwargs.get("alpha"), list | tuple) or isinstance(kwargs.get("omega0"),
+                                                                   list | tuple):
+        return  # a sweep: each value is checked by Scene.variants
+    problem = restoring_problem(tuple(k))
+    if problem is not None:
+        key = "restoring" if "restoring" in table else "alpha"
+        raise SceneError(f"{where}.{key} = {list(k) if key == 'restoring' else kwargs.get(key)}"
+                         f": {problem}")
+
+
+def _alias_formula(name: str) -> str:
+    return {"omega0": "omega0^2", "alpha": "alpha", "c1": "-c1", "c2": "c2"}[name]
 
 
 def shipped_scenes() -> Traversable:
