@@ -45,7 +45,7 @@ def validity(scene: Any) -> dict[str, Any]:
     T, E = et["T"], et["E"]
     cm = CorrectedModel.from_scene(scene)
     out: dict[str, Any] = {"quantiles": list(QUANTILES), "amplitudes": A.tolist(),
-                           "lambda": float(cm.lam)}
+                           "lambda": float(cm.lam) + 0.0}  # no -0.0 for r = 1
     out["band"] = ((ex.spectrum.alpha1 * T / (2 * np.pi)).tolist()
                    if ex.spectrum.kind == "ou" else None)
     out["wall"] = (cm.wall_offset(A) / E).tolist()

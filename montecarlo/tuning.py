@@ -28,7 +28,8 @@ from typing import Any
 
 import numpy as np
 
-BURN_FACTOR = 6.0
+from vifpk.core.defaults import BURN_FACTOR  # noqa: F401  (re-exported; its one home)
+
 BIAS_C, BIAS_P = 0.173, 1.11
 BIAS_FRACTION = 0.5
 DT_RANGE = (0.0025, 0.04)

@@ -422,8 +422,8 @@ def test_blow_up_raises_naming_the_time_step(base):
 def test_numpy_reference_is_the_same_scheme(base):
     """The benchmark's NumPy implementation must simulate the same scheme: stuck fraction and
     impact rate agree within 4 combined batch standard errors (friction-heavy scene)."""
+    from montecarlo.plan import physics as _params
     from montecarlo.reference import simulate_numpy
-    from montecarlo.simulate import _params
 
     sc = vary(base, mu=0.1)
     r = run(sc, paths=256, blocks=16, dt=0.01, time=200, burn_in=50,

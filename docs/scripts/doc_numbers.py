@@ -80,7 +80,10 @@ def render(n: dict[str, Any]) -> dict[str, str]:
             f"(noise floor {p['L1_floor']:.3f}),\nalmost all of it because it drops the sgn(y) "
             f"factor of the transformed excitation; the same\naveraging done on the exact orbit "
             f"with that factor kept is off by {e['L1']:.2f} (`vifpk check`, {n['date']}).\n"),
-        "check-time": (f"The main job below took {run} (docs/scripts/doc_numbers.py).\n"),
+        "check-time": (f"The main job below took {run} (docs/scripts/doc_numbers.py).\n"
+                       "The first run after an install also compiles the numba kernels "
+                       "(cached afterwards), and a\nmachine shared with other work takes "
+                       "longer. vifpk needs Python >= 3.11.\n"),
         "verdicts": f"\n{v}\n\n",
         "base": (
             f"The base scene ({n['date']}, default settings, `{n['command']}`, {run}):\n\n{v}\n\n"

@@ -55,6 +55,8 @@ PROBES: dict[str, dict] = {
     "posdamp c1=-0.01 r=0.99 a1=1": {"system.c1": -0.01, "system.r": 0.99,
                                      "noise.alpha1": 1.0},
     "w0=1 a1=0.5": {"noise.alpha1": 0.5},
+    "posdamp c1=-0.02 r=0.95": {"system.c1": -0.02, "system.r": 0.95},
+    "posdamp c1=-0.02 r=0.95 D=0.005": {"system.c1": -0.02, "system.r": 0.95, "noise.D": 0.005},
     "impact r=0.9 a1=1.5": {"system.r": 0.9, "noise.alpha1": 1.5},
     "impact r=0.85 a1=4": {"system.r": 0.85, "noise.alpha1": 4.0},
     "friction mu=0.006 a1=1.2 w0=1.5": {"system.mu": 0.006, "noise.alpha1": 1.2,
@@ -78,6 +80,8 @@ MECHANISM: dict[str, dict] = {
     "impact r=0.85 a1=1 k=1/2": {**HALF, "system.r": 0.925, "noise.alpha1": 1.0},
     "posdamp c1=-0.01 r=0.99 a1=1 k=1/2": {**HALF, "system.c1": -0.005, "system.r": 0.995,
                                            "noise.alpha1": 1.0},
+    "posdamp c1=-0.02 r=0.95 k=1/2": {**HALF, "system.c1": -0.01, "system.r": 0.975},
+    "posdamp c1=-0.02 r=0.95 r=1": {"system.c1": -0.02, "system.r": 1.0},
     "posdamp c1=-0.01 a1=1 r=1": {"system.c1": -0.01, "system.r": 1.0, "noise.alpha1": 1.0},
 }
 SHIPPED = [("paper-base", 0), ("paper-fig2", 0), ("paper-fig2", 2), ("paper-fig3", 0),
@@ -86,9 +90,13 @@ SHIPPED = [("paper-base", 0), ("paper-fig2", 0), ("paper-fig2", 2), ("paper-fig3
 
 
 def all_scenes():
-    """The shipped scene variants, then the probes."""
+    """The shipped scene variants, the user-defined-system families (scenes/systems), then the
+    probes."""
     for name, i in SHIPPED:
         sc = load_scene(ROOT / "scenes" / f"{name}.toml").variants()[i]
+        yield sc.name, sc
+    for path in sorted((ROOT / "scenes" / "systems").glob("*.toml")):  # issue 21 families
+        sc = load_scene(path)
         yield sc.name, sc
     base = load_scene(ROOT / "scenes" / "paper-base.toml")
     for name, over in {**PROBES, **MECHANISM}.items():
@@ -142,8 +150,7 @@ def band_ratio(scene, dens) -> dict[str, float]:
     c = np.concatenate([[0.0], np.cumsum(0.5 * (p[1:] + p[:-1]) * np.diff(A))])
     c /= c[-1]
     q = np.interp([0.1, 0.5, 0.9], c, A)
-    from averaging.geometry import period
-    Om = 2 * np.pi / period(q, scene.system.omega0, scene.system.alpha)
+    Om = 2 * np.pi / averaging.build_model(scene, "exact").period(q)
     return {f"alpha1_over_Omega_q{k}": float(scene.noise.alpha1 / o)
             for k, o in zip((10, 50, 90), Om, strict=True)}
 
