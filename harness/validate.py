@@ -253,7 +253,6 @@ def montecarlo_settings(scene: Scene, options: Mapping[str, str] | None = None) 
         raise InputError(f"{_name('time', options)} = {_g(mc.time)} would sample "
                          f"{_g(plan.sampled_time)} (whole windows of whole samples every "
                          f"{_g(step)}); nearest valid: {near}")
-    refuse_unreachable_floor(scene, options)
     if mc.floor > 0 and mc.budget > 0:
         least = _montecarlo_least_seconds(scene)
         if mc.budget < least:
@@ -261,6 +260,7 @@ def montecarlo_settings(scene: Scene, options: Mapping[str, str] | None = None) 
                              "pilots, the burn-in and the first sampling windows (at least "
                              f"{least:.2g} s here, a lower bound from their path-steps); "
                              f"allowed: at least {least:.2g} s, or 0 for no limit")
+    refuse_unreachable_floor(scene, options)
 
 
 def search_range(vary: str, lo: float, hi: float, field: Any) -> None:
