@@ -723,3 +723,17 @@ def test_leftover_temporaries_are_cleared_not_refused(tmp_path, monkeypatch, cap
     (out / "points" / ".0123456789abcdef.json.0a1b2c3d.tmp.json").write_text("{")
     assert main(["sweep", str(_sweep_file(tmp_path / "in")), "--out", str(out), "--quiet"]) == 0
     assert not [p for p in out.rglob(".*") if ".tmp" in p.name]
+
+
+def test_not_equilibrated_is_said_on_the_terminal_with_json(tmp_path, capsys):
+    """--json hides the summary: a simulation flagged NOT equilibrated says so on stderr."""
+    from harness.cli import main
+
+    out = tmp_path / "mc.json"
+    assert main(["solve", str(DATA / "tiny.toml"), *MC, "--paths", "32", "--time", "20",
+                 "--set", "montecarlo.blocks=16", "--set", "montecarlo.burn_in=0",
+                 "--json", str(out)]) == 0
+    err = capsys.readouterr().err
+    conv = json.loads(out.read_text())["info"]["convergence"]
+    assert conv["equilibrated"] is False, conv  # burn-in 0 over 20 time units
+    assert "vifpk: warning: the simulation is NOT equilibrated" in err
