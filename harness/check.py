@@ -140,7 +140,8 @@ def assumption_warnings(scene: Any, closed: dict[str, Any], mc_info: dict[str, A
     w = 2 * math.pi / T
     # the energy rate of each effect in magnitude: on a limit cycle the linear feed and the
     # cubic damping cancel on average, yet each changes the energy within the cycle
-    parts = {k: rates[k] for k in ("linear damping", "cubic damping", "impacts", "friction")}
+    parts = {k: rates.get(k, 0.0) for k in ("linear damping", "cubic damping",
+                                             "velocity damping", "impacts", "friction")}
     rate = sum(parts.values()) / E
     if rate * T > 0.5:
         main = max(parts, key=lambda k: parts[k])

@@ -224,6 +224,11 @@ def cmd_solve(args: argparse.Namespace) -> int:
         print(f"wrote {args.json}", file=sys.stderr)
     else:
         print(_summary(result))
+    conv = result.info.get("convergence", {}) if args.solver == "montecarlo" else {}
+    if conv.get("equilibrated") is False:  # said on the terminal, not only inside the JSON
+        print(f"vifpk: warning: the simulation is NOT equilibrated ({conv.get('reason', '')}); "
+              "its densities are not yet the stationary ones: raise --time or --paths, or give "
+              "--floor", file=sys.stderr)
     return 0 if result.info["status"]["ok"] else EXIT_SOLVER
 
 

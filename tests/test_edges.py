@@ -488,9 +488,8 @@ def _group(pid: int) -> list[int]:
             if int(g) == pid and not st.startswith("Z")]
 
 
-@pytest.mark.parametrize("how", ["SIGINT-group",
-                                 pytest.param("SIGTERM-pid", marks=pytest.mark.slow),
-                                 pytest.param("SIGKILL-pid", marks=pytest.mark.slow)])
+@pytest.mark.slow  # subprocesses that spawn workers: ~10 s each on 2 cores
+@pytest.mark.parametrize("how", ["SIGINT-group", "SIGTERM-pid", "SIGKILL-pid"])
 def test_signal_stops_the_workers_and_keeps_finished_points(tmp_path, how):
     """processes:2: Ctrl-C on the process group, SIGTERM or SIGKILL on the sweep: no process
     of the sweep is left running; the finished points stay; the message says so (130, 143);
@@ -528,6 +527,7 @@ def test_ctrl_c_on_a_dask_sweep_leaves_no_worker(tmp_path):
     assert "Traceback" not in err and "finished point" in err
 
 
+@pytest.mark.slow  # a subprocess check: ~5 s
 def test_sigterm_on_check_is_like_ctrl_c(tmp_path):
     """check on SIGTERM: exit 143 with the one message, no .lock, nothing written."""
     proc = subprocess.Popen([sys.executable, "-m", "harness", "check", str(DATA / "tiny.toml"),
@@ -723,3 +723,17 @@ def test_leftover_temporaries_are_cleared_not_refused(tmp_path, monkeypatch, cap
     (out / "points" / ".0123456789abcdef.json.0a1b2c3d.tmp.json").write_text("{")
     assert main(["sweep", str(_sweep_file(tmp_path / "in")), "--out", str(out), "--quiet"]) == 0
     assert not [p for p in out.rglob(".*") if ".tmp" in p.name]
+
+
+def test_not_equilibrated_is_said_on_the_terminal_with_json(tmp_path, capsys):
+    """--json hides the summary: a simulation flagged NOT equilibrated says so on stderr."""
+    from harness.cli import main
+
+    out = tmp_path / "mc.json"
+    assert main(["solve", str(DATA / "tiny.toml"), *MC, "--paths", "32", "--time", "20",
+                 "--set", "montecarlo.blocks=16", "--set", "montecarlo.burn_in=0",
+                 "--json", str(out)]) == 0
+    err = capsys.readouterr().err
+    conv = json.loads(out.read_text())["info"]["convergence"]
+    assert conv["equilibrated"] is False, conv  # burn-in 0 over 20 time units
+    assert "vifpk: warning: the simulation is NOT equilibrated" in err
