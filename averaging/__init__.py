@@ -1,11 +1,12 @@
 """Averaged amplitude models of the vibro-impact oscillator (closed form and exact averages).
 
-``solve(scene, model="paper"|"exact"|"corrected")`` returns ``Result(data, info)``;
-``build_model`` gives the drift m(A) and diffusion sigma^2(A) that the FPK and the averaged-SDE
-Monte Carlo use.
+``solve(scene, model=NAME)`` returns ``Result(data, info)`` (vifpk.core.result) for any
+registered model with a closed form (vifpk.core.registry: ``paper``, ``exact``, ``corrected``,
+plugins); ``build_model`` gives the drift m(A) and diffusion sigma^2(A) that the FPK and the
+averaged-SDE Monte Carlo use.
 """
 
-from .solve import MODELS, Result, build_model, solve
+from .solve import NoClosedForm, build_model, has_closed_form, solve
 from .stationary import NoStationaryDensity
 
-__all__ = ["MODELS", "NoStationaryDensity", "Result", "build_model", "solve"]
+__all__ = ["NoClosedForm", "NoStationaryDensity", "build_model", "has_closed_form", "solve"]

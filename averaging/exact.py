@@ -42,6 +42,8 @@ from typing import Any
 
 import numpy as np
 
+from vifpk.core.registry import IMPACT_LAWS
+
 from .geometry import (
     Array,
     gauss_quarter,
@@ -53,8 +55,13 @@ from .geometry import (
 )
 from .noise import Spectrum
 
+# IMPACT_LAWS (vifpk.core.registry): a new law there and in ExactModel.energy_terms
+#: relative size of a negative sigma_E^2 that is rounding (the two terms' cancellation): on
+#: the shipped scenes the ratio sigma_E^2 / (size of the terms) stays >= 2.6e-4 (alpha1-wide,
+#: A = 2e-6), so 1e-9 leaves only rounding to clamp
+SIGMA2_ROUNDOFF = 1e-9
+
 NOISE_FORMS = ("sgn", "additive")
-IMPACT_LAWS = ("exact", "transformed", "compounded")  # a new law: here and energy_terms
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -195,7 +202,13 @@ class ExactModel:
         return Y0, n.astype(float), Yn
 
     def sigma2_energy(self, A: Array, orbit: dict[str, Array] | None = None) -> Array:
-        """sigma_E^2(E(A)) of the averaged energy equation."""
+        """sigma_E^2(E(A)) of the averaged energy equation.
+
+        For OU noise it is a difference, c/2 (<y^2> - Y0^2) - a2 sum_n Y_n^2 S(n Omega), of two
+        terms that nearly cancel when the band is wide; the true value is >= 0 (a spectral
+        density), so a negative result within SIGMA2_ROUNDOFF of the terms' size is rounding
+        and is set to 0. A larger negative value means too few ``harmonics``: ArithmeticError
+        (one line naming A), never a silent clamp."""
         A = np.asarray(A, dtype=float)
         o = self.orbit(A) if orbit is None else orbit
         f2 = self.f**2
@@ -208,7 +221,14 @@ class ExactModel:
         rest = np.sum(Yn**2 * S(n * Omega[..., None]), axis=-1)
         if self.noise == "sgn":
             rest = rest + self._kink_tail(o, Omega, n[-1])
-        total = c * 0.5 * (o["y2"] - Y0**2) - a2 * rest
+        head = c * 0.5 * (o["y2"] - Y0**2)
+        total = head - a2 * rest
+        bad = total < -SIGMA2_ROUNDOFF * (np.abs(head) + np.abs(a2 * rest))
+        if np.any(bad):
+            at = float(np.asarray(A)[bad].flat[0]) if np.ndim(A) else float(A)
+            raise ArithmeticError(
+                f"exact model: sigma_E^2 < 0 at A = {at:.4g} beyond rounding (the harmonic sum "
+                f"is truncated too early); raise averaging.harmonics (now {self.harmonics})")
         return 4.0 * np.pi * f2 * np.maximum(total, 0.0)
 
     def _kink_tail(self, o: dict[str, Array], Omega: Array, n_last: float) -> Array:

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-NOISE_KINDS = ("ou", "white")
+from vifpk.core.registry import NOISE_KINDS, one_of
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -31,8 +31,7 @@ class Spectrum:
     alpha1: float
 
     def __post_init__(self) -> None:
-        if self.kind not in NOISE_KINDS:
-            raise ValueError(f"noise kind must be one of {NOISE_KINDS}, not {self.kind!r}")
+        one_of("noise kind", self.kind, NOISE_KINDS)
 
     @classmethod
     def from_scene(cls, scene: Any) -> Spectrum:

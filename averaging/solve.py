@@ -1,8 +1,12 @@
-"""Entry point: solve(scene, model=...) -> Result(data, info).
+"""Entry point: solve(scene, model=...) -> Result(data, info) (vifpk.core.result).
 
 ``data`` maps an observable name to a density record ``{"x": grid, "p": density}``
 (``"joint"`` holds ``{"x1", "x2", "p"}``); ``info`` holds timings, grid sizes, diagnostics,
-versions and a status with a human message.
+versions and a status (``Status.record()``).
+
+The model is any registered averaged model (vifpk.core.registry: vifpk's own in
+pyproject.toml, and every ``vifpk.models`` plugin) that has a closed form: a
+``log_stationary_parts(A)`` and a ``period(A)`` (averaging/stationary.py).
 """
 
 from __future__ import annotations
@@ -10,47 +14,38 @@ from __future__ import annotations
 import math
 import platform
 import time
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 import scipy
 
-from .corrected import (
-    CompoundedModel,
-    CorrectedModel,
-    observed_density,
-    observed_log_h,
-)
-from .exact import ExactModel
-from .paper import PaperModel
+from vifpk.core import registry
+from vifpk.core.result import Result, Status
+
+from .corrected import observed_density, observed_log_h
 from .phase import phase_densities
 from .stationary import NoStationaryDensity, amplitude_density, describe
 
-MODELS = ("paper", "exact", "compounded", "corrected")
+
+class NoClosedForm(ValueError):
+    """The model gives no ``log_stationary_parts`` or no ``period``: no closed form here."""
 
 
-class Result(NamedTuple):
-    data: dict[str, dict[str, Any]]
-    info: dict[str, Any]
+def build_model(scene: Any, model: str = "paper", **options: Any) -> Any:
+    """The registered averaged model named ``model`` for the scene (options: see each
+    model); an unknown name raises ValueError listing the registered ones."""
+    return registry.build_model(scene, model, **options)
 
 
-def build_model(scene: Any, model: str = "paper", **options: Any
-                ) -> PaperModel | ExactModel | CompoundedModel | CorrectedModel:
-    """The averaged model named ``model`` for the scene (options: see each model)."""
-    if model == "paper":
-        return PaperModel.from_scene(scene, **options)
-    if model == "exact":
-        return ExactModel.from_scene(scene, **options)
-    if model == "compounded":
-        return CompoundedModel.from_scene(scene, **options)
-    if model == "corrected":
-        return CorrectedModel.from_scene(scene, **options)
-    raise ValueError(f"model must be one of {MODELS}, not {model!r}")
+def has_closed_form(m: Any) -> bool:
+    """Whether a model object gives what the closed form needs (averaging/stationary.py)."""
+    return all(callable(getattr(m, k, None)) for k in ("log_stationary_parts", "period"))
 
 
-def solve(scene: Any, *, model: str = "paper", tail_mass: bool = True, **options: Any
+def solve(scene: Any, *, model: Any = "paper", tail_mass: bool = True, **options: Any
           ) -> Result:
-    """Stationary densities of the averaged model for a (duck-typed) scene.
+    """Stationary densities of the averaged model (a registered name, or a model object with
+    a closed form) for a (duck-typed) scene.
 
     ``tail_mass=False``: no measurement of the mass beyond the grid (diagnostics.tail_mass is
     None; stationary.amplitude_density). Raises NoStationaryDensity when the averaged FPK has
@@ -63,7 +58,10 @@ def solve(scene: Any, *, model: str = "paper", tail_mass: bool = True, **options
         raise NoStationaryDensity(
             "f = 0: there is no noise, so the averaged FPK has no stationary density "
             "(the amplitude relaxes to a deterministic attractor)")
-    m = build_model(scene, model, **options)
+    m = build_model(scene, model, **options) if isinstance(model, str) else model
+    if not has_closed_form(m):
+        raise NoClosedForm(f"model {model!r} gives no log_stationary_parts(A) and period(A): "
+                           "it has no closed form (its p(A) comes from the FPK)")
     amp = amplitude_density(m, points=settings.points, tail=settings.tail, tail_mass=tail_mass)
     A_obs, p_obs, log_h = amp.A, amp.p, amp.log_h
     if getattr(m, "observes", False):  # the observed (not the slow) energy: section 10.3 (b)
@@ -85,7 +83,7 @@ def solve(scene: Any, *, model: str = "paper", tail_mass: bool = True, **options
     ok = all(np.all(np.isfinite(d["p"])) and np.min(d["p"]) >= 0.0 for d in data.values())
     info = {
         "solver": "averaging",
-        "model": model,
+        "model": model if isinstance(model, str) else type(model).__name__,
         "options": {k: v for k, v in m.__dict__.items()
                     if k in ("b6", "noise", "impact", "theta_nodes", "harmonics")},
         "grid": {"points": int(A_obs.size), "A_min": float(A_obs[0]), "A_max": float(A_obs[-1]),
@@ -98,9 +96,8 @@ def solve(scene: Any, *, model: str = "paper", tail_mass: bool = True, **options
         "summary": {k: summary[k] for k in ("mean", "mode", "std")},
         "seconds": {"amplitude": t1 - t0, "phase": t2 - t1, "total": t2 - t0},
         "versions": versions(),
-        "status": {"ok": bool(ok and math.isfinite(summary["mean"])),
-                   "message": "stationary density computed" if ok
-                   else "density has non-finite or negative values"},
+        "status": (Status.DENSITY if ok and math.isfinite(summary["mean"])
+                   else Status.NOT_FINITE).record(),
     }
     return Result(data=data, info=info)
 

@@ -27,8 +27,8 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 import montecarlo as mc  # noqa: E402
+from montecarlo.plan import physics as _params  # noqa: E402
 from montecarlo.reference import simulate_numpy  # noqa: E402
-from montecarlo.simulate import _params  # noqa: E402
 from vifpk.core.scene import MonteCarloSettings, Scene  # noqa: E402
 
 DEFAULTS = mc.Settings(**asdict(MonteCarloSettings()), certificate=False)

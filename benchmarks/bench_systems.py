@@ -2,11 +2,13 @@
 base scene with this tree's kernel against a baseline commit's kernel, IN ONE RUN, and the
 speed of the scenes that switch the new terms on.
 
-    python benchmarks/bench_systems.py [--baseline REF] [--rounds 3]
+    python benchmarks/bench_systems.py [--baseline REF] [--candidate REF] [--rounds 3]
     # writes benchmarks/results/systems.json
 
-The baseline (default: the commit before the general laws, 826b833) is exported with
-``git archive`` into a temporary folder; each measurement runs in a fresh interpreter whose
+The baseline (default: main just before the general laws landed, cb059f2) and the candidate
+(default: this working tree; f7e5f2c is the landing itself, whose montecarlo/ differs from
+cb059f2 by the general laws alone) are exported with ``git archive`` into a temporary
+folder; each measurement runs in a fresh interpreter whose
 ``sys.path`` starts with one tree (so each tree's numba cache is its own), one thread, after a
 warm-up call; the trees alternate round by round so that a change of machine load hits both
 alike, and the best of the rounds is kept (the least disturbed). The load average before and
@@ -30,7 +32,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 OUT = ROOT / "benchmarks" / "results" / "systems.json"
-BASELINE = "826b833"
+BASELINE = "cb059f2"
 
 WORKER = r"""
 import json, sys, time
@@ -69,6 +71,7 @@ SCENES = {
 
 def export(ref: str, dest: Path) -> Path:
     """The baseline tree (montecarlo, harness or vifpk: whatever the commit has) in dest."""
+    dest.mkdir(parents=True)
     archive = dest / "tree.tar"
     subprocess.run(["git", "-C", str(ROOT), "archive", "-o", str(archive), ref], check=True)
     with tarfile.open(archive) as t:
@@ -89,15 +92,17 @@ def measure(tree: Path, name: str, spec: object) -> dict[str, float]:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--baseline", default=BASELINE)
+    ap.add_argument("--candidate", default=None, help="a commit (default: this working tree)")
     ap.add_argument("--rounds", type=int, default=3)
     args = ap.parse_args()
     load0 = os.getloadavg()
     t_start = time.time()
     with tempfile.TemporaryDirectory() as tmp:
-        base_tree = export(args.baseline, Path(tmp))
+        base_tree = export(args.baseline, Path(tmp) / "baseline")
+        cand = ROOT if args.candidate is None else export(args.candidate, Path(tmp) / "cand")
         rows: dict[str, dict[str, list[float]]] = {}
         for _ in range(args.rounds):
-            for label, tree in (("baseline", base_tree), ("this tree", ROOT)):
+            for label, tree in (("baseline", base_tree), ("candidate", cand)):
                 r = measure(tree, "paper-base", "paper-base")
                 row = rows.setdefault(f"paper-base, {label}", {"rates": [], "checksum": []})
                 row["rates"].append(r["steps_per_second"])
@@ -105,16 +110,19 @@ def main() -> None:
             for name, spec in SCENES.items():
                 if name == "paper-base":
                     continue
-                r = measure(ROOT, name, spec)
-                rows.setdefault(f"{name}, this tree", {"rates": [], "checksum": []})[
+                r = measure(cand, name, spec)
+                rows.setdefault(f"{name}, candidate", {"rates": [], "checksum": []})[
                     "rates"].append(r["steps_per_second"])
     load1 = os.getloadavg()
     best = {k: max(v["rates"]) for k, v in rows.items()}
     ref = best["paper-base, baseline"]
     result = {
         "command": "python benchmarks/bench_systems.py" + (
-            f" --baseline {args.baseline}" if args.baseline != BASELINE else ""),
-        "baseline": args.baseline, "rounds": args.rounds,
+            f" --baseline {args.baseline}" if args.baseline != BASELINE else "") + (
+            f" --candidate {args.candidate}" if args.candidate else "") + (
+            f" --rounds {args.rounds}" if args.rounds != 3 else ""),
+        "baseline": args.baseline, "candidate": args.candidate or "working tree",
+        "rounds": args.rounds,
         "machine": {"python": platform.python_version(), "cpu_count": os.cpu_count()},
         "load_average_before": load0, "load_average_after": load1,
         "wall_seconds": time.time() - t_start,

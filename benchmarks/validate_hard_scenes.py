@@ -21,9 +21,10 @@ import time
 from pathlib import Path
 from typing import Any
 
-from harness.check import MODELS, cross_check, output_problems
+from harness.check import cross_check, output_problems
 from harness.io import write_atomic
 from harness.provenance import collect
+from vifpk.core.defaults import CHECK_MODELS as MODELS
 from vifpk.core.scene import load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -63,7 +64,7 @@ def main(names: list[str]) -> int:
                "L1_A": {m: met["models"][m]["averaging_error"]["A"]["L1"] for m in MODELS},
                "L1_floor_A": met["models"]["exact"]["averaging_error"]["A"]["L1_floor"],
                "classes": {m: met["models"][m]["verdict_class"] for m in MODELS},
-               "warnings": [w.split(":")[0] for w in res.warnings],
+               "warnings": [w.title for w in res.warnings],
                "problems": output_problems(res)}
         rows.append(row)
         print(f"{row['scene']:14s} {wall:7.1f} s  " + "  ".join(

@@ -15,22 +15,20 @@ import math
 import platform
 import time
 from collections.abc import Callable, Sequence
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 import scipy
 from scipy.interpolate import CubicSpline
+
+from vifpk.core.defaults import FPK_CELLS
+from vifpk.core.result import Result, Status
 
 from .scheme import ORDER, Array, Discretisation, discretise
 from .stepper import FPKFailure, run
 
 Coefficient = Callable[[Array], Array] | tuple[Array, Array]
 A_LIMIT = 1e4
-
-
-class Result(NamedTuple):
-    data: dict[str, dict[str, Any]]
-    info: dict[str, Any]
 
 
 def as_function(c: Coefficient, name: str) -> Callable[[Array], Array]:
@@ -98,7 +96,7 @@ def _data(disc: Discretisation, p: Array) -> tuple[dict[str, Any], float]:
     return {"A": {"x": x, "p": y}, "A_cells": {"x": disc.centres, "p": p}}, mass
 
 
-def stationary(drift: Coefficient, diffusion: Coefficient, *, cells: int = 400,
+def stationary(drift: Coefficient, diffusion: Coefficient, *, cells: int = FPK_CELLS,
                method: str = "stepping", stepper: str = "bdf", lo: float | None = None,
                hi: float | None = None, tail: float = 1e-10, steady: float = 1e-9,
                rtol: float = 1e-9) -> Result:
@@ -159,13 +157,12 @@ def stationary(drift: Coefficient, diffusion: Coefficient, *, cells: int = 400,
         "mass_with_walls_before_normalisation": mass_walls, "tail_mass": outside,
     })
     ok = bool(np.all(np.isfinite(p)) and np.min(p) >= 0)
-    info["status"] = {"ok": ok, "message": "stationary density computed" if ok
-                      else "density is negative or not finite"}
+    info["status"] = (Status.DENSITY if ok else Status.NOT_FINITE).record()
     return Result(data=data, info=info)
 
 
 def transient(drift: Coefficient, diffusion: Coefficient, *, p0: Callable[[Array], Array],
-              times: Sequence[float], cells: int = 400, lo: float = 0.0, hi: float,
+              times: Sequence[float], cells: int = FPK_CELLS, lo: float = 0.0, hi: float,
               stepper: str = "bdf", rtol: float = 1e-9) -> Result:
     """Snapshots p(A, t) at ``times`` from the initial density p0(A) (normalised here)."""
     t0 = time.perf_counter()
@@ -189,6 +186,7 @@ def transient(drift: Coefficient, diffusion: Coefficient, *, p0: Callable[[Array
                         "min": out["min_value"], "checks": out["checks"]},
         "seconds": {"total": time.perf_counter() - t0, "stepping": out["seconds"]},
         "versions": _versions(),
-        "status": {"ok": True, "message": f"{len(got)} snapshots"},
+        "status": (Status.SNAPSHOTS if np.all(np.isfinite(P)) else Status.NOT_FINITE
+                   ).record(f"{len(got)} snapshots"),
     }
     return Result(data=data, info=info)

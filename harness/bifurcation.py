@@ -27,6 +27,8 @@ from typing import Any
 import numpy as np
 from scipy.optimize import brentq
 
+from vifpk.core.defaults import BIFURCATION_MODELS
+
 from .run import amplitude_density, montecarlo_solution, orbit_period, restoring_force
 
 VARIABLES = {"mu": ("system", "mu", (0.0, 0.05)), "r": ("system", "r", (0.9, 1.0))}
@@ -85,9 +87,14 @@ def mc_shape(scene: Any, *, z: float = 3.0) -> dict[str, Any]:
 
 
 def bifurcation(scene: Any, vary: str, *, lo: float | None = None, hi: float | None = None,
-                models: tuple[str, ...] = ("paper", "exact"), mc: bool = True,
+                models: tuple[str, ...] | None = None, mc: bool = True,
                 offset: float = 0.1) -> dict[str, Any]:
-    """Critical values for each model and, optionally, the MC shape on both sides of each."""
+    """Critical values for each model and, optionally, the MC shape on both sides of each.
+    ``models``: by default BIFURCATION_MODELS, without ``paper`` outside the paper model's
+    family (System.paper_family_problem)."""
+    if models is None:
+        models = tuple(m for m in BIFURCATION_MODELS
+                       if m != "paper" or scene.system.paper_family_problem() is None)
     if vary not in VARIABLES:
         raise ValueError(f"--vary must be one of {sorted(VARIABLES)}")
     d_lo, d_hi = VARIABLES[vary][2]

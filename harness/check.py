@@ -21,6 +21,9 @@ from typing import Any
 
 import numpy as np
 
+from vifpk.core.defaults import CHECK_MODELS, FPK_CELLS
+from vifpk.core.result import WarningRecord
+
 from .compare import compare
 from .run import (
     averaged_sde_solution,
@@ -31,17 +34,19 @@ from .run import (
     validity,
 )
 
-MODELS = ("paper", "exact", "corrected")
 OBSERVABLES = ("A", "x1", "x2")
 
 
-def models_of(scene: Any) -> tuple[tuple[str, ...], dict[str, str]]:
-    """The averaged models that apply to the scene's system, and why each other one does
-    not: the paper's model covers only its own family (System.paper_family_problem)."""
+def models_of(scene: Any, models: tuple[str, ...] = CHECK_MODELS
+              ) -> tuple[tuple[str, ...], dict[str, str]]:
+    """Of ``models`` (registered names; default CHECK_MODELS), the ones that apply to the
+    scene's system, and why each other one does not: the paper's model covers only its own
+    family (System.paper_family_problem)."""
+    models = tuple(dict.fromkeys(models))
     problem = scene.system.paper_family_problem()
-    if problem is None:
-        return MODELS, {}
-    return tuple(m for m in MODELS if m != "paper"), {"paper": problem}
+    if problem is None or "paper" not in models:
+        return models, {}
+    return tuple(m for m in models if m != "paper"), {"paper": problem}
 
 
 @dataclass(frozen=True)
@@ -49,10 +54,11 @@ class CheckResult:
     scene: Any
     solutions: dict[str, Any]  # name -> Result(data, info)
     metrics: dict[str, Any]
-    warnings: list[str]
+    warnings: list[WarningRecord]
     verdicts: list[str]
     provenance: dict[str, Any] | None = None  # harness.provenance.collect(); set by the writer
     recommendation: str = ""  # one line: the model to trust here and why (recommend())
+    models: tuple[str, ...] = CHECK_MODELS  # the averaged models checked, in report order
 
 
 class _Stages:
@@ -103,13 +109,10 @@ def mc_edges(closed: dict[str, Any], bins: int) -> dict[str, np.ndarray]:
             "edges_v": np.linspace(-1.1 * v_max, 1.1 * v_max, bins + 1)}
 
 
-#: The kind of each warning check writes: the words its sentence starts with -> a code.
-#: Code that acts on a warning's kind (the sweep's flags) asks warning_kind, so that a
-#: reworded sentence fails loudly instead of silently clearing a flag elsewhere.
-WARNING_KINDS = {"strong damping:": "strong_damping", "narrow-band noise:": "narrow_band",
-                 "sticking-dominated motion:": "sticking", "strong noise:": "strong_noise",
-                 "correlated noise:": "correlated_noise",
-                 "the simulation of the original system puts": "outside_range"}
+#: The kinds of warning check writes (WarningRecord.kind): code acts on the kind (the
+#: sweep's flags, advisory or not), people read the text.
+WARNING_KINDS = ("strong_damping", "narrow_band", "sticking", "strong_noise", "correlated_noise",
+                 "outside_range")
 
 
 #: advisory kinds: the averaging assumptions hold, but the measured O(eps) remainder of the
@@ -118,17 +121,9 @@ WARNING_KINDS = {"strong damping:": "strong_damping", "narrow-band noise:": "nar
 ADVISORY = ("correlated_noise",)
 
 
-def warning_kind(text: str) -> str:
-    """The code of one of check's warnings (WARNING_KINDS); ValueError for any other text."""
-    for start, kind in WARNING_KINDS.items():
-        if text.startswith(start):
-            return kind
-    raise ValueError(f"not a warning of harness.check: {text[:60]!r}")
-
-
 def assumption_warnings(scene: Any, closed: dict[str, Any], mc_info: dict[str, Any],
-                        val: dict[str, Any] | None = None) -> list[str]:
-    """Sentences naming each averaging assumption that clearly fails for this scene.
+                        val: dict[str, Any] | None = None) -> list[WarningRecord]:
+    """Records (kind, sentence) naming each averaging assumption that clearly fails here.
 
     Stochastic averaging needs (i) weak damping and weak noise relative to the restoring
     force (quasi-conservative: the energy changes little over one period), (ii) a noise
@@ -145,48 +140,68 @@ def assumption_warnings(scene: Any, closed: dict[str, Any], mc_info: dict[str, A
     w = 2 * math.pi / T
     # the energy rate of each effect in magnitude: on a limit cycle the linear feed and the
     # cubic damping cancel on average, yet each changes the energy within the cycle
-    parts = {k: rates[k] for k in ("linear damping", "cubic damping", "impacts", "friction")}
+    parts = {k: rates.get(k, 0.0) for k in ("linear damping", "cubic damping",
+                                             "velocity damping", "impacts", "friction")}
     rate = sum(parts.values()) / E
     if rate * T > 0.5:
         main = max(parts, key=lambda k: parts[k])
-        out.append(f"strong damping: at the mean amplitude {A:.3g} the energy changes by "
-                   f"{rate * T:.2f} of itself per period (mostly {main}), so the energy is not "
-                   "nearly conserved over one cycle, which averaging assumes")
+        out.append(WarningRecord(
+            "strong_damping",
+            f"strong damping: at the mean amplitude {A:.3g} the energy changes by "
+            f"{rate * T:.2f} of itself per period (mostly {main}), so the energy is not "
+            "nearly conserved over one cycle, which averaging assumes"))
     band = (val or {}).get("band")
     if n.kind == "ou" and band is not None and min(band) < BAND_MIN:
         lo, hi = min(band), max(band)
-        out.append(f"narrow-band noise: bandwidth alpha1 = {n.alpha1:g} is {lo:.2g}-{hi:.2g} x "
-                   "the oscillation frequency over the bulk of p(E) (10%-90% energies), below "
-                   f"{BAND_MIN:g}; the noise is not wide-band against the oscillation, which the "
-                   "Stratonovich-Khasminskii limit requires")
+        out.append(WarningRecord(
+            "narrow_band",
+            f"narrow-band noise: bandwidth alpha1 = {n.alpha1:g} is {lo:.2g}-{hi:.2g} x "
+            "the oscillation frequency over the bulk of p(E) (10%-90% energies), below "
+            f"{BAND_MIN:g}; the noise is not wide-band against the oscillation, which the "
+            "Stratonovich-Khasminskii limit requires"))
     elif n.kind == "ou" and band is None and n.alpha1 < BAND_MIN * w:
-        out.append(f"narrow-band noise: bandwidth alpha1 = {n.alpha1:g} is below {BAND_MIN:g} x "
-                   f"the oscillation frequency ({w:.3g}) at the mean amplitude; the noise is not "
-                   "wide-band against the oscillation, which the Stratonovich-Khasminskii limit "
-                   "requires")
+        out.append(WarningRecord(
+            "narrow_band",
+            f"narrow-band noise: bandwidth alpha1 = {n.alpha1:g} is below {BAND_MIN:g} x "
+            f"the oscillation frequency ({w:.3g}) at the mean amplitude; the noise is not "
+            "wide-band against the oscillation, which the Stratonovich-Khasminskii limit "
+            "requires"))
     corr = (val or {}).get("correlation")
     if corr is not None and corr[1] > CORRELATION_MAX:
-        out.append(f"correlated noise: over one correlation time 1/alpha1 the noise changes the "
-                   f"energy by {100 * math.sqrt(corr[1]):.0f}% (rms) at the median energy "
-                   f"(sigma_E^2 / (alpha1 E^2) = {corr[1]:.3f} > {CORRELATION_MAX:g}); there the "
-                   "better of exact and corrected was measured at L1(A) = 0.017-0.066, against "
-                   "at most 0.028 below the threshold (docs/report.md)")
+        out.append(WarningRecord(
+            "correlated_noise",
+            f"correlated noise: over one correlation time 1/alpha1 the noise changes the "
+            f"energy by {100 * math.sqrt(corr[1]):.0f}% (rms) at the median energy "
+            f"(sigma_E^2 / (alpha1 E^2) = {corr[1]:.3f} > {CORRELATION_MAX:g}); there the "
+            "better of exact and corrected was measured at L1(A) = 0.017-0.066, against at "
+            "most 0.028 below the threshold (docs/report.md)"))
     stuck = mc_info.get("events", {}).get("stuck_fraction", {}).get("value", 0.0)
     if stuck > 0.1:
-        out.append(f"sticking-dominated motion: the mass is stuck {100 * stuck:.0f}% of the time "
-                   "in the simulation; averaging over free oscillations does not describe it")
+        out.append(WarningRecord(
+            "sticking",
+            f"sticking-dominated motion: the mass is stuck {100 * stuck:.0f}% of the time "
+            "in the simulation; averaging over free oscillations does not describe it"))
     if A > 0:
         ratio = rates["sigma2_E"] * T / E**2
         if ratio > 0.5:
-            out.append(f"strong noise: over one period the noise changes the energy by "
-                       f"{100 * math.sqrt(ratio):.0f}% (rms) at the mean amplitude; averaging "
-                       "assumes it changes little")
+            out.append(WarningRecord(
+                "strong_noise",
+                f"strong noise: over one period the noise changes the energy by "
+                f"{100 * math.sqrt(ratio):.0f}% (rms) at the mean amplitude; averaging "
+                "assumes it changes little"))
     return out
 
 
 def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool = True,
-                tail_mass: bool = True) -> CheckResult:
+                tail_mass: bool = True, models: tuple[str, ...] = CHECK_MODELS) -> CheckResult:
     """Run every solver on a concrete scene and compute the error decomposition.
+
+    ``models``: registered averaged models (vifpk.core.registry), in report order (those that
+    do not apply to the scene are named in ``models_absent``); the Monte Carlo of model i's
+    averaged SDE is seeded with the scene's seed + 1 + i. A model with no closed form (a
+    plugin giving only drift and diffusion) has the FPK direct solve as its reference
+    density (harness.run.closed_form), so no FPK is measured against it (no
+    ``discretisation_error``; its entry holds ``reference`` instead).
 
     ``fpk=False`` skips the FPK of each model (no ``discretisation_error``): a sweep point
     needs only the averaging error, and the FPK is the costliest part of a check.
@@ -197,7 +212,7 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
     extension. ``tail_mass=False`` skips the closed forms' measurement of the mass beyond
     their grids (a diagnostic of the closed form, about half its cost).
     """
-    models, absent = models_of(scene)
+    models, absent = models_of(scene, models)
     # closed forms, the original system's Monte Carlo and the metrics; FPK and SDE per model
     stages = _Stages(3 + len(models) * (int(fpk) + int(sde)), quiet)
     sol: dict[str, Any] = {}
@@ -206,9 +221,12 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
     for m in models:
         closed[m] = closed_form(scene, model=m, tail_mass=tail_mass)
         sol[f"closed:{m}"] = closed[m]
-    for m in models if fpk else ():
+    # the FPK of a model measured against its closed form (none: nothing to measure against)
+    with_fpk = [m for m in models if fpk and closed[m].info.get("closed_form", True)]
+    stages.total -= len(models) - len(with_fpk) if fpk else 0
+    for m in with_fpk:
         stages(f"FPK of the {m} model")
-        sol[f"fpk:{m}"] = fpk_solution(scene, model=m, cells=400)
+        sol[f"fpk:{m}"] = fpk_solution(scene, model=m, cells=FPK_CELLS)
     edges = mc_edges(closed, scene.montecarlo.bins)
     t_mc = time.perf_counter()
     budget = scene.montecarlo.budget or math.inf
@@ -256,6 +274,8 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
                 entry[kind] = {o: compare(cf[o], sol[key].data[o]) for o in OBSERVABLES}
         entry["sampling_ok"] = (_sampling_ok(entry["sampling_error"]["A"])
                                 if "sampling_error" in entry else None)
+        if not closed[m].info.get("closed_form", True):
+            entry["reference"] = closed[m].info["method"]
         metrics["models"][m] = entry
     conv = dict(mc.info.get("convergence", {}))
     conv["extensions"] = extensions
@@ -267,10 +287,12 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
     outside = mc.info.get("events", {}).get("outside_fraction", {})
     worst = max(outside.values(), default=0.0)
     if worst > 1e-3:
-        warnings.append(f"the simulation of the original system puts {100 * worst:.1f}% of its "
-                        "samples outside the range where the averaged models hold their mass "
-                        "(not converged, or a different state altogether); its densities there "
-                        "are not shown and count in full toward L1")
+        warnings.append(WarningRecord(
+            "outside_range",
+            f"the simulation of the original system puts {100 * worst:.1f}% of its "
+            "samples outside the range where the averaged models hold their mass "
+            "(not converged, or a different state altogether); its densities there "
+            "are not shown and count in full toward L1"))
     verdicts = [verdict(m, metrics["models"][m], warnings, convergence=conv) for m in models]
     verdicts += [f"{m} model: not checked, {why}" for m, why in absent.items()]
     for m in models:
@@ -284,7 +306,8 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
     metrics["recommendation"] = rec_line
     metrics["validity"] = val
     metrics["verdicts"] = verdicts
-    metrics["warnings"] = warnings
+    metrics["warnings"] = [w.text for w in warnings]
+    metrics["warning_kinds"] = [w.kind for w in warnings]
     metrics["monte_carlo"] = {k: mc.info[k] for k in ("settings", "effects", "events", "L1_floor",
                                                      "seed", "atoms", "relaxation")
                               if k in mc.info}
@@ -301,7 +324,7 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
         "threads": mc.info.get("threads"),
     }
     return CheckResult(scene=scene, solutions=sol, metrics=metrics, warnings=warnings,
-                       verdicts=verdicts, recommendation=rec_line)
+                       verdicts=verdicts, recommendation=rec_line, models=models)
 
 
 def output_problems(result: CheckResult) -> list[str]:
@@ -362,7 +385,6 @@ def _evidence(conv: dict[str, Any], sampling: dict[str, dict[str, float]]) -> li
 INDISTINGUISHABLE_FACTOR = 2.0  # L1 < 2 x noise floor: cannot be told from zero
 SMALL_L1 = 0.1  # at most 5% of the probability mass misplaced
 LARGE_L1 = 0.3  # at least 15% of the probability mass misplaced
-CLASSES = ("indistinguishable", "small", "moderate", "large", "not an estimate")
 DOMINANCE = 3.0  # a cause dominates when it is 3 x every other part of the decomposition
 
 
@@ -397,7 +419,7 @@ def worst_observable(entry: dict[str, Any]) -> str:
     return max(errs, key=key)
 
 
-def verdict_class(entry: dict[str, Any], warnings: list[str], *,
+def verdict_class(entry: dict[str, Any], warnings: list[WarningRecord], *,
                   convergence: dict[str, Any] | None = None) -> tuple[str, str]:
     """(class, dominant cause) of one model's averaging error, over EVERY observable measured.
 
@@ -412,9 +434,9 @@ def verdict_class(entry: dict[str, Any], warnings: list[str], *,
     conv = convergence or {}
     if conv.get("equilibrated") is False or entry.get("sampling_ok") is False:
         return "not an estimate", "the Monte Carlo has not converged"
-    failing = [w for w in warnings if warning_kind(w) not in ADVISORY]
+    failing = [w for w in warnings if w.kind not in ADVISORY]
     if failing:
-        names = [w.split(":")[0] for w in failing]
+        names = [w.title for w in failing]
         return "not an estimate", "failing averaging assumptions (" + ", ".join(names) + ")"
     o = worst_observable(entry)
     e = entry["averaging_error"][o]
@@ -441,7 +463,7 @@ def verdict_class(entry: dict[str, Any], warnings: list[str], *,
     return cls, cause + where
 
 
-def verdict(model: str, entry: dict[str, Any], warnings: list[str], *,
+def verdict(model: str, entry: dict[str, Any], warnings: list[WarningRecord], *,
             convergence: dict[str, Any] | None = None) -> str:
     """One line: the class (the worst over the observables), the averaging error of p(A) with
     its error bar, what it means against the noise floor and against the 0..2 scale of L1,
@@ -486,7 +508,7 @@ WALL_MAX = 0.2  # corrected trusted only while delta / E <= this at the 10% ener
 CORRELATION_MAX = 0.045  # advisory: sigma_E^2 / (alpha1 E^2) at the median energy
 
 
-def recommend(metrics: dict[str, Any], warnings: list[str], val: dict[str, Any], *,
+def recommend(metrics: dict[str, Any], warnings: list[WarningRecord], val: dict[str, Any], *,
               convergence: dict[str, Any] | None = None) -> tuple[str, str]:
     """(model, one line): the averaged model to trust for this scene and why, or "none".
 
@@ -511,10 +533,10 @@ def recommend(metrics: dict[str, Any], warnings: list[str], val: dict[str, Any],
     best = min(e, key=lambda m: e[m]["L1"])
     desc = ", ".join(f"{m} {e[m]['L1']:.3f}" for m in e)
     floor = max(x["L1_floor"] for x in e.values())
-    failing = [w for w in warnings if warning_kind(w) not in ADVISORY]
-    advisory = [w for w in warnings if warning_kind(w) in ADVISORY]
+    failing = [w for w in warnings if w.kind not in ADVISORY]
+    advisory = [w for w in warnings if w.kind in ADVISORY]
     if failing:
-        kinds = ", ".join(warning_kind(w).replace("_", " ") for w in failing)
+        kinds = ", ".join(w.title for w in failing)
         return "none", (head + f"none -- averaging assumptions fail here ({kinds}); the "
                         f"measured L1(A) ({desc}, floor {floor:.3f}) is not an approximation "
                         "error to rely on elsewhere")

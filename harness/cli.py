@@ -13,10 +13,14 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
+from vifpk.core import registry
+from vifpk.core.defaults import BIFURCATION_MODELS, BURN_FACTOR, CHECK_MODELS, FPK_CELLS
+from vifpk.core.registry import SOLVERS
+from vifpk.core.result import BadInput
 from vifpk.core.scene import Scene, SceneError, load_scene
 
 from . import validate
-from .run import SOLVERS, SolverFailure, run_solver, solution_record
+from .run import SolverFailure, run_solver, solution_record
 
 EXIT_BAD_INPUT = 2
 EXIT_SOLVER = 3
@@ -106,7 +110,8 @@ def _mc_summary(info: dict[str, Any]) -> str:
     if conv.get("equilibrated") is not None:
         burn = f"burn-in {conv['burn_in']:g}"
         if "relaxation_time" in conv:
-            burn += f" = 6 x measured relaxation time {conv['relaxation_time']:.3g}"
+            burn += (f" = {BURN_FACTOR:g} x measured relaxation time "
+                     f"{conv['relaxation_time']:.3g}")
         if conv["equilibrated"]:
             lines.append(f"  equilibrated: yes (R-hat {conv['rhat']:.4f} <= "
                          f"{conv['rhat_limit']:.4f}, drift {conv['drift_z']:+.1f} s.e., ESS "
@@ -134,6 +139,9 @@ def _summary(result: Any) -> str:
     s, d = info["summary"], info["diagnostics"]
     lines = [
         f"{info['solver']} ({info.get('model', '-')}): {info['status']['message']}",
+        *([f"  method: {info['method']}"] if info.get("closed_form") is False else []),
+        *([f"  period T(A): {info['period']}"] if str(info.get("period", "model")) != "model"
+          else []),
         f"  amplitude A: mean {s['mean']:.6g}, mode {s['mode']:.6g}, std {s['std']:.6g}",
         f"  grid: {info['grid'].get('points', info['grid'].get('cells'))} points on "
         f"[{info['grid']['A_min']:.4g}, {info['grid']['A_max']:.4g}]",
@@ -216,6 +224,11 @@ def cmd_solve(args: argparse.Namespace) -> int:
         print(f"wrote {args.json}", file=sys.stderr)
     else:
         print(_summary(result))
+    conv = result.info.get("convergence", {}) if args.solver == "montecarlo" else {}
+    if conv.get("equilibrated") is False:  # said on the terminal, not only inside the JSON
+        print(f"vifpk: warning: the simulation is NOT equilibrated ({conv.get('reason', '')}); "
+              "its densities are not yet the stationary ones: raise --time or --paths, or give "
+              "--floor", file=sys.stderr)
     return 0 if result.info["status"]["ok"] else EXIT_SOLVER
 
 
@@ -262,13 +275,14 @@ def cmd_check(args: argparse.Namespace) -> int:
     out = args.out or f"out/{folder_name(scene.name)}"
     if args.out is None:
         validate.output_folder(out, "--out (default)", replaced=True)
-    validate.refuse_costly(lambda sp: validate.check_seconds(scene, speed=sp), "this check",
-                           args.yes)
+    models = tuple(dict.fromkeys(args.model)) if args.model else CHECK_MODELS
+    validate.refuse_costly(lambda sp: validate.check_seconds(scene, models, speed=sp),
+                           "this check", args.yes)
     validate.refuse_oversized(scene)
     prov = _provenance(args)
     # hold the folder from the start: a second run into it is refused before any work
     with outdir.hold(out, run_id=prov["run_id"], allowed=REPORT_FILES, kind="check report"):
-        result = cross_check(scene, quiet=args.quiet)
+        result = cross_check(scene, quiet=args.quiet, models=models)
         files = write_report(result, out, prov=prov)
     for v in result.verdicts:
         print(v)
@@ -303,7 +317,8 @@ def cmd_bifurcation(args: argparse.Namespace) -> int:
     if outside is not None and "paper" in (args.model or ()):
         raise validate.InputError(f"--model paper: {outside}; allowed here: --model exact "
                                   "or --model corrected")
-    default_models = ("paper", "exact") if outside is None else ("exact",)
+    default_models = (BIFURCATION_MODELS if outside is None
+                      else tuple(m for m in BIFURCATION_MODELS if m != "paper"))
     if not args.no_mc:
         # two Monte Carlo checks around each model's critical value (check_points)
         points = 2 * len(set(args.model or default_models))
@@ -351,6 +366,27 @@ def cmd_figures(args: argparse.Namespace) -> int:
     overrides = _mc_overrides(args)
     options = {k: f"--{k}" for k in _mc_given(args)}
     scenes = []
+    if args.scene is not None:  # your own scene: its PDFs and joint density, any system
+        from .figures import as_sweep, draw_scene_figures
+
+        if args.figure:
+            validate.refuse_options(["figure"], "with --scene (the paper's figures are "
+                                    "drawn from their own scenes)")
+        own = load_scene(args.scene)
+        own = own.with_values(overrides) if overrides else own
+        for scene in as_sweep(own).variants():
+            validate.scene_magnitudes(scene)
+            validate.montecarlo_settings(scene, options)
+            validate.refuse_oversized(scene)
+            scenes.append(scene)
+        validate.refuse_costly(lambda sp: sum(validate.montecarlo_seconds(sc, speed=sp)
+                                              for sc in scenes), "these figures", args.yes)
+        prov = _provenance(args)
+        with outdir.hold(args.out, run_id=prov["run_id"]):
+            table = draw_scene_figures(args.out, own, quiet=args.quiet, prov=prov)
+        print(render_table(table), end="")
+        print(f"figures: {args.out}/{own.name}-joint.png, {args.out}/{own.name}-pdfs.png")
+        return 0
     for no in args.figure or (2, 3, 4, 5, 6):
         sweep = load_scene(FIGURES[no])  # a shipped scene, as draw_figures loads it
         for scene in (sweep.with_values(overrides) if overrides else sweep).variants():
@@ -389,6 +425,10 @@ def cmd_workprecision(args: argparse.Namespace) -> int:
     validate.at_least("--repeats", args.repeats, 1, 100)
     validate.output_folder(args.out, "--out", replaced=True)
     scene = _checked_scene(args, mc=True)
+    outside = scene.system.paper_family_problem()
+    if outside is not None:  # its ladders time the paper model's closed form and FPK
+        raise validate.InputError(f"{args.scene}: workprecision times the paper model's "
+                                  f"solvers, which do not apply here: {outside}")
     if scene.montecarlo.dt == "auto":
         raise validate.InputError("montecarlo.dt = 'auto': workprecision times a ladder of "
                                   "fixed steps; give a number with --dt")
@@ -493,6 +533,30 @@ def _dt_value(text: str) -> float | str:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number or 'auto'") from None
 
 
+def _model_name(text: str) -> str:
+    """A registered averaged model (vifpk.core.registry); else one line listing them."""
+    names = registry.model_names()
+    if text not in names:
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is not a registered model; registered: {', '.join(names)} "
+            "(vifpk models lists them; docs/plugins.md adds one)")
+    return text
+
+
+def cmd_models(args: argparse.Namespace) -> int:
+    """List the registered averaged models: name, who registered it, its entry point."""
+    entries = registry.models()
+    width = max(len(e.name) for e in entries)
+    for e in entries:
+        tags = [t for t, on in (("check default", e.name in CHECK_MODELS),
+                                ("built-in", e.builtin)) if on]
+        print(f"{e.name:<{width}}  {e.value}  ({e.distribution}"
+              + (f"; {', '.join(tags)}" if tags else "") + ")")
+    for c in registry.model_conflicts():
+        print(f"warning: model registered twice: {c}", file=sys.stderr)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     from .provenance import vifpk_version
 
@@ -505,28 +569,31 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--solver", choices=SOLVERS, default="averaging",
                    help="averaging: closed form of an averaged model; fpk: its Fokker-Planck "
                         "equation; montecarlo: the original system (default: %(default)s)")
-    s.add_argument("--model", choices=("paper", "exact", "corrected"),
-                   help="averaged model for --solver averaging|fpk: the paper's printed one, "
-                        "the exact-orbit one, or the exact one with discrete (compounded) "
-                        "impact losses (default: paper)")
+    s.add_argument("--model", type=_model_name, metavar="NAME",
+                   help="averaged model for --solver averaging|fpk: any registered one, "
+                        "built-in or a plugin's (`vifpk models` lists them, docs/plugins.md; "
+                        "default: paper)")
     s.add_argument("--json", metavar="OUT",
                    help="write the solution record to OUT (default: print a summary)")
     s.add_argument("--grid", type=_whole_number, metavar="N",
-                   help="FPK: number of cells, >= 4 (default: 400)")
+                   help=f"FPK: number of cells, >= 4 (default: {FPK_CELLS})")
     _add_mc_options(s)
     s.add_argument("--joint", action="store_true",
                    help="include the joint PDF in the JSON (default: off)")
     s.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
                    help=SET_HELP)
     s.set_defaults(func=cmd_solve)
-    c = sub.add_parser("check", help="cross-check every averaged model (paper, exact, "
-                                     "corrected; exact and corrected outside the paper's "
-                                     "family) against the Monte Carlo of the original system "
-                                     "and write an error report")
+    c = sub.add_parser("check", help="cross-check the averaged models (default: "
+                                     f"{', '.join(CHECK_MODELS)}; outside the paper's family "
+                                     "without paper) against the Monte Carlo of the original "
+                                     "system and write an error report")
     c.add_argument("scene", help="scene TOML file (or the name of a shipped scene)")
     c.add_argument("--out", metavar="DIR", help="report directory (default: out/<scene name>)")
     c.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
                    help=SET_HELP)
+    c.add_argument("--model", action="append", type=_model_name, metavar="NAME",
+                   help="an averaged model to check, any registered one (repeat for several; "
+                        f"default: {', '.join(CHECK_MODELS)})")
     c.add_argument("--quiet", action="store_true", help=QUIET_HELP)
     _add_mc_options(c)
     c.set_defaults(func=cmd_check)
@@ -538,9 +605,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "value, and the output names it)")
     b.add_argument("--range", nargs=2, type=float, metavar=("LO", "HI"),
                    help="search interval (default: mu 0 0.05, r 0.9 1)")
-    b.add_argument("--model", action="append", choices=("paper", "exact", "corrected"),
-                   help="an averaged model whose critical value to find (repeat for several; "
-                        "default: paper and exact)")
+    b.add_argument("--model", action="append", type=_model_name, metavar="NAME",
+                   help="an averaged model whose critical value to find, any registered one "
+                        f"(repeat for several; default: {', '.join(BIFURCATION_MODELS)})")
     b.add_argument("--json", metavar="OUT", help="write the result as JSON (default: none)")
     b.add_argument("--no-mc", action="store_true",
                    help="skip the Monte Carlo check (default: run it on both sides)")
@@ -557,6 +624,10 @@ def build_parser() -> argparse.ArgumentParser:
                         "(default: %(default)s)")
     f.add_argument("--figure", type=int, action="append", choices=(2, 3, 4, 5, 6),
                    help="only this figure (repeatable; default: all of 2-6)")
+    f.add_argument("--scene", metavar="SCENE",
+                   help="instead of the paper's figures, draw the PDFs and the joint density "
+                        "of this scene (any system; a list-valued parameter gives a row per "
+                        "value): SCENE-pdfs.png, SCENE-joint.png")
     f.add_argument("--quiet", action="store_true", help=QUIET_HELP)
     _add_mc_options(f)
     f.set_defaults(func=cmd_figures)
@@ -585,6 +656,9 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("--yes", action="store_true",
                     help="run even when the estimated cost exceeds an hour (default: off)")
     sw.set_defaults(func=cmd_sweep)
+    ms = sub.add_parser("models", help="list the registered averaged models (built-in and "
+                                       "plugins, docs/plugins.md)")
+    ms.set_defaults(func=cmd_models)
     return p
 
 
@@ -629,7 +703,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             code = int(args.func(args))
             sys.stdout.flush()  # a closed pipe shows here, not at exit
             return code
-    except SceneError as exc:
+    except BadInput as exc:  # a scene field, an option, an output folder
         print(f"vifpk: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except SolverFailure as exc:

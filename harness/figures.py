@@ -17,11 +17,11 @@ from typing import Any
 
 import numpy as np
 
-from vifpk.core.scene import Scene, load_scene
+from vifpk.core.scene import Scene, Sweep, load_scene
 
 from .check import mc_edges, models_of
 from .compare import compare
-from .io import write_atomic, write_json
+from .io import atomic_path, write_atomic, write_json
 from .run import closed_form, montecarlo_solution
 
 FIGURES = {2: "paper-fig2", 3: "paper-fig3", 4: "paper-fig4", 5: "paper-fig5", 6: "paper-fig6"}
@@ -49,10 +49,9 @@ def _run_variant(scene: Scene, joint: bool) -> dict[str, Any]:
 
 
 def _plot_pdfs(fig_no: int, scene: Scene, runs: list[dict[str, Any]], path: Path) -> None:
-    import matplotlib
+    from .io import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     sw = scene.sweep
     fig, axes = plt.subplots(1, 3, figsize=(13, 4.6))
@@ -73,7 +72,7 @@ def _plot_pdfs(fig_no: int, scene: Scene, runs: list[dict[str, Any]], path: Path
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=len(runs), fontsize=7, frameon=False)
     m0, m1 = runs[0]["closed"]
-    fig.suptitle(f"Figure {fig_no} redrawn: dashed = {m0} model, solid = {m1} model, "
+    fig.suptitle(f"{_title(fig_no, scene)}: dashed = {m0} model, solid = {m1} model, "
                  "markers = Monte Carlo of the original system (±2 s.e.)", fontsize=9)
     fig.tight_layout(rect=(0, 0.16, 1, 1))
     fig.savefig(path, dpi=110)
@@ -81,10 +80,9 @@ def _plot_pdfs(fig_no: int, scene: Scene, runs: list[dict[str, Any]], path: Path
 
 
 def _plot_joint(fig_no: int, scene: Scene, runs: list[dict[str, Any]], path: Path) -> None:
-    import matplotlib
+    from .io import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     sw = scene.sweep
     n = len(runs)
@@ -120,10 +118,57 @@ def _plot_joint(fig_no: int, scene: Scene, runs: list[dict[str, Any]], path: Pat
         ax.set_ylabel("p(0, x2)", fontsize=8)
     handles, labels = axes[0, 3].get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside lower center", ncol=3, fontsize=8, frameon=False)
-    fig.suptitle(f"Figure {fig_no} redrawn: joint PDF p(x1, x2) and its section at x1 = 0",
+    fig.suptitle(f"{_title(fig_no, scene)}: joint PDF p(x1, x2) and its section at x1 = 0",
                  fontsize=10)
     fig.savefig(path, dpi=100)
     plt.close(fig)
+
+
+def _title(fig_no: int, scene: Scene) -> str:
+    return f"Figure {fig_no} redrawn" if fig_no else scene.name
+
+
+def as_sweep(scene: Scene) -> Scene:
+    """A scene with one varied parameter as it is; a concrete scene as a 'sweep' of one
+    value of its restitution (the figures are drawn a row per value)."""
+    if scene.sweep is not None:
+        return scene
+    return replace(scene, sweep=Sweep(section="system", key="r", values=(scene.system.r,)))
+
+
+def draw_scene_figures(out_dir: str | Path, scene: Scene, *, quiet: bool = False,
+                       prov: dict[str, Any] | None = None) -> dict[str, Any]:
+    """The figures of Figures 2-6 for any scene (issue 21: your own oscillator): the PDFs of
+    A, x1, x2 (NAME-pdfs.png) and the joint PDF p(x1, x2) with its section at x1 = 0
+    (NAME-joint.png), two averaged models (figure_models) against the Monte Carlo, a row per
+    value of the scene's varied parameter; figures.json/.md hold the L1 distances."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    sw = as_sweep(scene)
+    runs = []
+    for v in sw.variants():
+        if not quiet:
+            print(f"{sw.name}: {v.name} ...", file=sys.stderr, flush=True)
+        runs.append(_run_variant(v, True))
+    with atomic_path(out / f"{scene.name}-joint.png") as tmp:
+        _plot_joint(0, sw, runs, tmp)
+    with atomic_path(out / f"{scene.name}-pdfs.png") as tmp:
+        _plot_pdfs(0, sw, runs, tmp)
+    table = {f"figure-{scene.name}": {
+        "varied": sw.sweep.path, "values": list(sw.sweep.values),
+        "models": list(runs[0]["closed"]),
+        "L1": [{m: {o: r["metrics"][m][o]["L1"] for o in ("A", "x1", "x2")}
+                for m in r["closed"]} for r in runs],
+        "L1_floor": [{o: r["metrics"]["exact"][o]["L1_floor"] for o in ("A", "x1", "x2")}
+                     for r in runs],
+        "stuck_fraction": [r["mc"].info["events"]["stuck_fraction"]["value"] for r in runs]}}
+    if prov is None:
+        from .provenance import collect
+
+        prov = collect()
+    write_json(out / "figures.json", dict(table, provenance=prov))
+    write_atomic(out / "figures.md", render_table(table))
+    return table
 
 
 def draw_figures(out_dir: str | Path, *, numbers: tuple[int, ...] = (2, 3, 4, 5, 6),
@@ -143,10 +188,8 @@ def draw_figures(out_dir: str | Path, *, numbers: tuple[int, ...] = (2, 3, 4, 5,
             if not quiet:
                 print(f"figure {no}: {v.name} ...", file=sys.stderr, flush=True)
             runs.append(_run_variant(v, no in JOINT))
-        png = out / f"paper-fig{no}.png"
-        tmp = png.with_suffix(".tmp.png")
-        (_plot_joint if no in JOINT else _plot_pdfs)(no, scene, runs, tmp)
-        tmp.replace(png)
+        with atomic_path(out / f"paper-fig{no}.png") as tmp:
+            (_plot_joint if no in JOINT else _plot_pdfs)(no, scene, runs, tmp)
         table[f"figure{no}"] = {
             "varied": scene.sweep.path, "values": list(scene.sweep.values),
             "models": list(runs[0]["closed"]),
@@ -166,16 +209,19 @@ def draw_figures(out_dir: str | Path, *, numbers: tuple[int, ...] = (2, 3, 4, 5,
 
 
 def render_table(table: dict[str, Any]) -> str:
-    lines = ["| figure | value | L1(A) paper | L1(A) exact | L1(x1) paper | L1(x1) exact | "
-             "L1(x2) paper | L1(x2) exact | MC floor (A) |", "|" + "---|" * 9]
+    """One markdown table; a new header wherever the two models drawn change (outside the
+    paper's family they are exact and corrected)."""
+    lines: list[str] = []
+    head = None
     for name, t in table.items():
         m0, m1 = t.get("models", ("paper", "exact"))
-        if (m0, m1) != ("paper", "exact"):  # outside the paper's family: its own columns
-            lines += ["", f"| figure | value | L1(A) {m0} | L1(A) {m1} | L1(x1) {m0} | "
-                      f"L1(x1) {m1} | L1(x2) {m0} | L1(x2) {m1} | MC floor (A) |",
-                      "|" + "---|" * 9]
+        if (m0, m1) != head:
+            lines += ([""] if lines else []) + [
+                f"| figure | value | L1(A) {m0} | L1(A) {m1} | L1(x1) {m0} | L1(x1) {m1} | "
+                f"L1(x2) {m0} | L1(x2) {m1} | MC floor (A) |", "|" + "---|" * 9]
+            head = (m0, m1)
         for v, l1, fl in zip(t["values"], t["L1"], t["L1_floor"], strict=True):
-            lines.append(f"| {name[6:]} | {t['varied'].split('.')[1]} = {v:g} | "
+            lines.append(f"| {name[6:].lstrip('-')} | {t['varied'].split('.')[1]} = {v:g} | "
                          f"{l1[m0]['A']:.3f} | {l1[m1]['A']:.3f} | "
                          f"{l1[m0]['x1']:.3f} | {l1[m1]['x1']:.3f} | "
                          f"{l1[m0]['x2']:.3f} | {l1[m1]['x2']:.3f} | {fl['A']:.3f} |")

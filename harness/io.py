@@ -1,19 +1,25 @@
-"""Atomic output: write to a temporary file beside the target, then rename.
+"""Atomic output: write to a temporary file beside the target, then rename; and figures.
 
 A run interrupted half-way leaves the previous file (or none), never a truncated one. The
 temporary file is created with mode 0666 minus the umask (like any ``open``), not with
-``tempfile``'s 0600, so the file that lands has the mode every other output has.
-Whole folders (the check report) are written as a unit by :mod:`harness.outdir`.
+``tempfile``'s 0600, so the file that lands has the mode every other output has. Every
+single-file output goes through :func:`atomic_path` (bytes and text through
+:func:`write_atomic`); whole folders (the check report) are written as a unit by
+:mod:`harness.outdir`.
+
+Figures: :func:`pyplot` selects the non-interactive Agg backend (the one place that does) and
+:func:`png_bytes` renders a figure with its PNG text metadata (matplotlib's ``metadata=``).
 """
 
 from __future__ import annotations
 
+import io
 import json
 import math
 import os
 import secrets
-import struct
-import zlib
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -35,33 +41,42 @@ def jsonable(obj: Any) -> Any:
     return obj
 
 
-def temp_beside(path: Path) -> tuple[Path, int]:
+def _temp_beside(path: Path) -> tuple[Path, int]:
     """A new hidden temporary file beside ``path`` (its folder created), opened for writing:
-    (its path, the file descriptor). Mode 0666 minus the umask, as any ``open``."""
+    (its path, the file descriptor). Mode 0666 minus the umask, as any ``open``. The name
+    keeps ``path``'s suffix, for writers that read the format from it."""
     path.parent.mkdir(parents=True, exist_ok=True)
     while True:
-        tmp = path.parent / f".{path.name}.{secrets.token_hex(4)}.tmp"
+        tmp = path.parent / f".{path.name}.{secrets.token_hex(4)}.tmp{path.suffix}"
         try:
             return tmp, os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
         except FileExistsError:
             continue
 
 
-def write_atomic(path: str | Path, data: bytes | str) -> Path:
-    """Write ``data`` to ``path`` atomically (same-directory temp file + os.replace)."""
+@contextmanager
+def atomic_path(path: str | Path) -> Iterator[Path]:
+    """A temporary file beside ``path`` for the block to write (by name: netCDF, savefig,
+    numpy); renamed onto ``path`` when the block ends, removed if it raises."""
     path = Path(path)
-    raw = data.encode("utf-8") if isinstance(data, str) else data
-    tmp, fd = temp_beside(path)
+    tmp, fd = _temp_beside(path)
+    os.close(fd)
     try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(raw)
-            fh.flush()
-            os.fsync(fh.fileno())
+        yield tmp
         os.replace(tmp, path)
     except BaseException:
-        Path(tmp).unlink(missing_ok=True)
+        tmp.unlink(missing_ok=True)
         raise
-    return path
+
+
+def write_atomic(path: str | Path, data: bytes | str) -> Path:
+    """Write ``data`` to ``path`` atomically (:func:`atomic_path`), synced to disk first."""
+    raw = data.encode("utf-8") if isinstance(data, str) else data
+    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
+        fh.write(raw)
+        fh.flush()
+        os.fsync(fh.fileno())
+    return Path(path)
 
 
 def dumps(obj: Any) -> str:
@@ -74,14 +89,20 @@ def write_json(path: str | Path, obj: Any) -> Path:
     return write_atomic(path, dumps(obj))
 
 
-def png_with_text(png: bytes, text: dict[str, str]) -> bytes:
-    """A PNG with ``tEXt`` chunks (keyword, Latin-1 text) inserted after its header chunk, so an
-    image carries the run id of the report it belongs to (PNG spec, section 11.3.4.3)."""
-    if png[:8] != b"\x89PNG\r\n\x1a\n":
-        raise ValueError("not a PNG")
-    end = 8 + 12 + struct.unpack(">I", png[8:12])[0]  # signature + IHDR (length, type, crc)
-    chunks = b""
-    for key, value in text.items():
-        body = b"tEXt" + key.encode("latin-1") + b"\0" + value.encode("latin-1", "replace")
-        chunks += struct.pack(">I", len(body) - 4) + body + struct.pack(">I", zlib.crc32(body))
-    return png[:end] + chunks + png[end:]
+def pyplot() -> Any:
+    """``matplotlib.pyplot`` on the non-interactive Agg backend (vifpk draws to files only)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def png_bytes(fig: Any, *, text: dict[str, str] | None = None, **savefig: Any) -> bytes:
+    """The figure as PNG bytes, closed; ``text``: PNG text chunks (e.g. the run id of the
+    report it belongs to), written by matplotlib's ``savefig(metadata=...)``."""
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", metadata=text, **savefig)
+    pyplot().close(fig)
+    return buf.getvalue()

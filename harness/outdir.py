@@ -39,7 +39,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-from vifpk.core.scene import SceneError
+from vifpk.core.result import BadInput
 
 try:
     import fcntl
@@ -51,11 +51,11 @@ _AT_FDCWD = -100
 _held: dict[Path, int] = {}  # folders this process holds -> lock fd (re-entrant holding)
 
 
-class FolderBusy(SceneError):
+class FolderBusy(BadInput):
     """Another live run holds the output folder (exit 2: choose another ``--out`` or wait)."""
 
 
-class FolderRefused(SceneError):
+class FolderRefused(BadInput):
     """The output path cannot be replaced: a file, or a folder holding other things."""
 
 
@@ -185,6 +185,11 @@ KINDS = {"check report": ("metrics.json",), "sweep": ("points", "sweep.nc"),
          "work-precision run": ("workprecision.json",), "figures": ("figures.json",)}
 
 
+def _temporary(name: str) -> bool:
+    """A temporary file of an atomic write (harness/io.py: ``.NAME.<hex>.tmp<suffix>``)."""
+    return name.startswith(".") and ".tmp" in name
+
+
 def kind_of(names: Collection[str]) -> str | None:
     """The kind of output a folder holding ``names`` is, or None."""
     for kind, marks in KINDS.items():
@@ -204,8 +209,7 @@ def check_replaceable(target: Path, allowed: Collection[str] | None,
         return
     try:
         names = [n for n in os.listdir(target)
-                 if not n.startswith(".partial-") and not (n.startswith(".") and
-                                                           n.endswith(".tmp"))]
+                 if not n.startswith(".partial-") and not _temporary(n)]
     except OSError as exc:
         raise FolderRefused(f"{target}: cannot read it ({exc.strerror})") from None
     found = kind_of(names)

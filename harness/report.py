@@ -12,7 +12,6 @@ from __future__ import annotations
 import base64
 import dataclasses
 import html
-import io
 import math
 from pathlib import Path
 from typing import Any
@@ -27,7 +26,7 @@ from .check import (
     SMALL_L1,
     CheckResult,
 )
-from .io import dumps, png_with_text
+from .io import dumps, png_bytes
 
 LABELS = {"A": "amplitude A (dimensionless)", "x1": "displacement x1 (dimensionless)",
           "x2": "velocity x2 (dimensionless)"}
@@ -40,28 +39,31 @@ KIND_TEXT = {"discretisation_error": "discretisation (FPK vs closed form)",
 MODEL_COLORS = ("tab:red", "tab:blue", "tab:green", "tab:purple", "tab:orange")
 
 
-def _figure_densities(res: CheckResult) -> bytes:
+def _figure_densities(res: CheckResult, text: dict[str, str] | None = None) -> bytes:
     """Every density of the check, each kind drawn its own way so none hides another:
     closed form (solid line), its FPK (open circles), the Monte Carlo of its averaged SDE
     (dashed steps), in one colour per model; the Monte Carlo of the original system in black
     with +/- 2 s.e. bars. One legend for all panels."""
-    import matplotlib
+    from .io import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     sol = res.solutions
     fig, axes = plt.subplots(1, 3, figsize=(13, 4.4))
     for ax, o in zip(axes, OBSERVABLES, strict=True):
         for k, m in enumerate(res.metrics["models"]):
             col = MODEL_COLORS[k % len(MODEL_COLORS)]
-            d = sol[f"closed:{m}"].data[o]
-            ax.plot(d["x"], d["p"], color=col, lw=1.6, label=f"{m} model: closed form")
-            f = sol[f"fpk:{m}"].data[o]
-            every = max(len(f["x"]) // 25, 1)
-            ax.plot(f["x"], f["p"], ls="none", marker="o", mfc="none", ms=5, mew=0.9,
-                    color=col, markevery=(k * every // 2, every),
-                    label=f"{m} model: FPK (400 cells)")
+            closed = sol[f"closed:{m}"]
+            d = closed.data[o]
+            ax.plot(d["x"], d["p"], color=col, lw=1.6,
+                    label=f"{m} model: " + ("closed form" if closed.info.get("closed_form", True)
+                                            else "FPK direct (no closed form)"))
+            if f"fpk:{m}" in sol:
+                f = sol[f"fpk:{m}"].data[o]
+                every = max(len(f["x"]) // 25, 1)
+                ax.plot(f["x"], f["p"], ls="none", marker="o", mfc="none", ms=5, mew=0.9,
+                        color=col, markevery=(k * every // 2, every),
+                        label=f"{m} model: FPK ({sol[f'fpk:{m}'].info['grid']['cells']} cells)")
             if f"mc:{m}" in sol and o in sol[f"mc:{m}"].data:
                 s = sol[f"mc:{m}"].data[o]
                 ax.plot(s["x"], s["p"], ls="--", lw=1.0, drawstyle="steps-mid", color=col,
@@ -73,34 +75,37 @@ def _figure_densities(res: CheckResult) -> bytes:
         ax.set_xlabel(LABELS[o])
         ax.set_ylabel(f"density p({o}) (dimensionless)")
     handles, labels = axes[0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="lower center", ncol=len(res.metrics["models"]) + 1, fontsize=8,
+    fig.legend(handles, labels, loc="lower center", ncol=len(res.metrics["models"]) + 1,
+               fontsize=8,
                frameon=False)
     fig.suptitle(f"{res.scene.name}: stationary densities of the averaged models against "
                  "the original system")
     fig.tight_layout(rect=(0, 0.13, 1, 1))
-    return _png(fig)
+    return _png(fig, text)
 
 
-def _figure_decomposition(res: CheckResult) -> bytes:
+def _figure_decomposition(res: CheckResult, text: dict[str, str] | None = None) -> bytes:
     """Bars: the L1 distance of each part of the decomposition, with +/- 1 s.e. error bars
     (black, capped). Grey hatched boxes: the Monte Carlo noise floor, from the bottom of the
     axis up to the floor (a bar inside its box is noise)."""
-    import matplotlib
+    from .io import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
     from matplotlib.patches import Rectangle
 
     models = tuple(res.metrics["models"])
     fig, axes = plt.subplots(1, len(models), figsize=(3.7 * len(models), 4.2), sharey=True)
     width = 0.25
     smallest = min(max(res.metrics["models"][m][k][o]["L1"], 1e-12)
-                   for m in models for k in KINDS for o in OBSERVABLES)
+                   for m in models for k in KINDS for o in OBSERVABLES
+                   if k in res.metrics["models"][m])
     bottom = 10.0 ** (np.floor(np.log10(smallest)) - 1)
     colors = ("tab:gray", "tab:cyan", "tab:olive")
     for ax, m in zip(np.atleast_1d(axes), models, strict=True):
         entry = res.metrics["models"][m]
         for k, kind in enumerate(KINDS):
+            if kind not in entry:  # no closed form: no discretisation error
+                continue
             vals = [max(entry[kind][o]["L1"], bottom) for o in OBSERVABLES]
             errs = [entry[kind][o].get("L1_err", 0.0) for o in OBSERVABLES]
             xs = np.arange(3) + (k - 1) * width
@@ -125,16 +130,11 @@ def _figure_decomposition(res: CheckResult) -> bytes:
     labels.append("MC noise floor (hatched: below it, noise)")
     fig.legend(handles, labels, loc="lower center", ncol=2, fontsize=8, frameon=False)
     fig.tight_layout(rect=(0, 0.13, 1, 1))
-    return _png(fig)
+    return _png(fig, text)
 
 
-def _png(fig: Any) -> bytes:
-    import matplotlib.pyplot as plt
-
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110)
-    plt.close(fig)
-    return buf.getvalue()
+def _png(fig: Any, text: dict[str, str] | None) -> bytes:
+    return png_bytes(fig, text=text, dpi=110)
 
 
 def _column_format(values: list[float]) -> str:
@@ -214,6 +214,8 @@ def _tables(res: CheckResult) -> list[tuple[str, list[str], list[list[str]]]]:
     for m in models:
         raw = []
         for kind in KINDS:
+            if kind not in res.metrics["models"][m]:  # no closed form: no FPK measured
+                continue
             for o in OBSERVABLES:
                 e = res.metrics["models"][m][kind][o]
                 has = e.get("L1_floor", 0.0) > 0
@@ -227,7 +229,8 @@ def _tables(res: CheckResult) -> list[tuple[str, list[str], list[list[str]]]]:
         raws.append(raw)
     fmts = _column_formats(raws, _TABLE_SPEC)
     return [(f"{m} model: error decomposition", TABLE_HEAD,
-             _format_columns(raw, _TABLE_SPEC, fmts)) for m, raw in zip(models, raws, strict=True)]
+             _format_columns(raw, _TABLE_SPEC, fmts))
+            for m, raw in zip(models, raws, strict=True)]
 
 
 CLASS_TEXT = {
@@ -244,7 +247,7 @@ CLASS_TEXT = {
 }
 
 
-#: one colour per verdict class, in the order of CLASSES (a sequential green-to-red scale,
+#: one colour per verdict class (check.RANK and "not an estimate"; a sequential green-to-red scale,
 #: distinct hues so that SMALL never reads as INDISTINGUISHABLE; grey: no estimate)
 CLASS_COLOURS = {"indistinguishable": "#a6dba0", "small": "#d9f0a3", "moderate": "#fee391",
                  "large": "#fc9272", "not an estimate": "#d9d9d9"}
@@ -319,7 +322,7 @@ def render_markdown(res: CheckResult, figures: dict[str, str]) -> str:
         out += ["", f"**{res.recommendation}**"]
     if res.warnings:
         out += ["", "## Warnings: averaging assumptions that fail here", ""]
-        out += [f"- {w}" for w in res.warnings]
+        out += [f"- {w.text}" for w in res.warnings]
     out += ["", "## Densities", "", f"![densities]({figures['densities']})", "",
             "## Error decomposition", "", f"![decomposition]({figures['decomposition']})", ""]
     for title, head, rows in _tables(res):
@@ -386,7 +389,7 @@ def render_html(res: CheckResult, pngs: dict[str, bytes]) -> str:
         parts.append(f'<p class="recommendation"><b>{e(res.recommendation)}</b></p>')
     if res.warnings:
         parts.append("<h2>Warnings: averaging assumptions that fail here</h2><ul>")
-        parts += [f'<li class="warn">{e(w)}</li>' for w in res.warnings]
+        parts += [f'<li class="warn">{e(w.text)}</li>' for w in res.warnings]
         parts.append("</ul>")
     parts += ["<h2>Densities</h2>", img("densities"), "<h2>Error decomposition</h2>",
               img("decomposition")]
@@ -428,9 +431,9 @@ def write_report(res: CheckResult, out_dir: str | Path, *,
     run_id = prov["run_id"]
 
     def fill(tmp: Path) -> None:
-        pngs = {"densities": _figure_densities(res), "decomposition": _figure_decomposition(res)}
-        pngs = {k: png_with_text(b, {"vifpk run id": run_id, "Software": f"vifpk {prov['vifpk']}"})
-                for k, b in pngs.items()}
+        text = {"vifpk run id": run_id, "Software": f"vifpk {prov['vifpk']}"}
+        pngs = {"densities": _figure_densities(res, text),
+                "decomposition": _figure_decomposition(res, text)}
         (tmp / "figures").mkdir()
         figs = {}
         for k, b in pngs.items():

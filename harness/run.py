@@ -8,66 +8,117 @@ harness or each other: data flows one way, scene -> solver -> record -> comparis
 
 from __future__ import annotations
 
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 
-SOLVERS = ("averaging", "fpk", "montecarlo")
+from vifpk.core.defaults import FPK_CELLS, REFERENCE_CELLS
+from vifpk.core.registry import SOLVERS, one_of
+from vifpk.core.result import Result
 
 
 class SolverFailure(RuntimeError):
     """A solver could not produce a trustworthy result; the message says why (one line)."""
 
 
-class Solution(NamedTuple):
-    data: dict[str, dict[str, Any]]
-    info: dict[str, Any]
-
-
 def run_solver(scene: Any, solver: str, *, model: str = "paper", grid: int | None = None,
                **options: Any) -> Any:
-    """Run one solver on a concrete scene and return its Result(data, info)."""
+    """Run one solver on a concrete scene and return its Result(data, info).
+
+    ``--solver averaging`` of a model with no closed form (a plugin that gives only drift
+    and diffusion) is :func:`closed_form`'s FPK direct solve, and its info says so."""
     import averaging
     import fpk
 
+    one_of("solver", solver, SOLVERS)
     try:
         if solver == "averaging":
-            return averaging.solve(scene, model=model, **options)
+            return closed_form(scene, model=model, **options)
         if solver == "fpk":
-            return fpk_solution(scene, model=model, cells=grid or 400, **options)
-        if solver == "montecarlo":
-            return montecarlo_solution(scene, **options)
+            return fpk_solution(scene, model=model, cells=grid or FPK_CELLS, **options)
+        return montecarlo_solution(scene, **options)
     except (averaging.NoStationaryDensity, fpk.FPKFailure, fpk.CoefficientError) as exc:
         raise SolverFailure(str(exc)) from None
-    raise ValueError(f"solver must be one of {SOLVERS}, not {solver!r}")
 
 
 # ----------------------------------------------------------------------- averaged models
-def closed_form(scene: Any, *, model: str, **options: Any) -> Any:
-    """The averaged model's closed-form stationary densities (``averaging.solve``); a scene
-    with none raises SolverFailure."""
+def closed_form(scene: Any, *, model: Any, tail_mass: bool = True, **options: Any) -> Any:
+    """The averaged model's stationary densities: its closed form (``averaging.solve``) when
+    the model gives one (``log_stationary_parts`` and ``period``), else the FPK direct solve of
+    its drift and diffusion on REFERENCE_CELLS cells, mapped to phase space
+    (``info["closed_form"]`` is False and ``info["method"]`` says which). ``model``: a
+    registered name or a model object; ``tail_mass=False`` skips the closed form's measurement
+    of the mass beyond its grid. A scene with no stationary density raises SolverFailure."""
     import averaging
 
+    m = averaged_model(scene, model, **options)
     try:
-        return averaging.solve(scene, model=model, **options)
+        if averaging.has_closed_form(m):
+            res = averaging.solve(scene, model=m, tail_mass=tail_mass)
+            res.info.update(model=model_label(model), closed_form=True)
+            return res
+        res = fpk_solution(scene, model=m, cells=REFERENCE_CELLS, method="direct")
     except averaging.NoStationaryDensity as exc:
         raise SolverFailure(str(exc)) from None
+    res.info.update(model=model_label(model), closed_form=False,
+                    method=f"FPK direct solve, {REFERENCE_CELLS} cells (the model gives no "
+                           "closed form: no log_stationary_parts/period)")
+    return res
 
 
-def averaged_model(scene: Any, model: str, **options: Any) -> Any:
-    """The averaged model named ``model``: an object with drift(A), diffusion(A), period(A)."""
+def model_label(model: Any) -> str:
+    """A model's name in outputs: the registered name, or the class name of an object."""
+    return model if isinstance(model, str) else type(model).__name__
+
+
+def averaged_model(scene: Any, model: Any, **options: Any) -> Any:
+    """The averaged model named ``model`` (any registered name, vifpk.core.registry) or a
+    model object itself: something with drift(A), diffusion(A) and maybe period(A)."""
     import averaging
 
-    return averaging.build_model(scene, model, **options)
+    if isinstance(model, str):
+        return averaging.build_model(scene, model, **options)
+    for attr in ("drift", "diffusion"):
+        if not callable(getattr(model, attr, None)):
+            raise TypeError(f"model must be a registered name or provide {attr}(A) "
+                            "(the averaged-model protocol, docs/testing.md)")
+    return model
+
+
+def model_period(scene: Any, m: Any) -> tuple[Any, str]:
+    """(T(A), where it comes from): the model's ``period`` if it gives one, else the period of
+    the scene's exact orbit (the averaged-model protocol's default, docs/testing.md)."""
+    if callable(getattr(m, "period", None)):
+        return m.period, "model"
+    s = scene.system
+
+    def T(A: Any) -> Any:
+        return orbit_period(A, s.restoring_law)
+
+    return T, "exact orbit (the model gives no period)"
 
 
 def amplitude_density(scene: Any, model: Any, **options: Any) -> Any:
-    """p(A) alone (``averaging.stationary.amplitude_density``: fields A, p, log_h) of the model
-    named ``model`` (or a model object), on the scene's [averaging] grid settings."""
+    """p(A) alone (``averaging.stationary.AmplitudeDensity``: fields A, p, log_h) of the model
+    named ``model`` (or a model object), on the scene's [averaging] grid settings; a model with
+    no closed form gets it from the FPK direct solve (REFERENCE_CELLS cells)."""
+    import averaging
+    from averaging.stationary import AmplitudeDensity
     from averaging.stationary import amplitude_density as density
 
-    m = averaged_model(scene, model, **options) if isinstance(model, str) else model
-    return density(m, points=scene.averaging.points, tail=scene.averaging.tail)
+    m = averaged_model(scene, model, **options)
+    if averaging.has_closed_form(m):
+        return density(m, points=scene.averaging.points, tail=scene.averaging.tail)
+    res = fpk_stationary(m.drift, m.diffusion, cells=REFERENCE_CELLS, method="direct")
+    A, p = res.data["A_cells"]["x"], res.data["A_cells"]["p"]
+    s = scene.system
+    T, _ = model_period(scene, m)
+    with np.errstate(divide="ignore"):
+        log_p = np.log(p)
+    log_h = log_p - np.log(restoring_force(A, s.restoring_law)) - np.log(T(A))
+    return AmplitudeDensity(A=A, p=p, log_p=log_p, log_h=log_h,
+                            tail_mass=float(res.info["diagnostics"].get("tail_mass", 0.0)),
+                            scans=0)
 
 
 def orbit_period(A: Any, restoring: tuple[float, ...]) -> Any:
@@ -111,16 +162,17 @@ def fpk_stationary(drift: Any, diffusion: Any, **options: Any) -> Any:
         raise SolverFailure(str(exc)) from None
 
 
-def fpk_solution(scene: Any, *, model: str, cells: int, method: str = "stepping",
-                  **options: Any) -> Solution:
-    """FPK on the averaged model's m and sigma^2, mapped to phase space like the closed form."""
+def fpk_solution(scene: Any, *, model: Any, cells: int, method: str = "stepping",
+                  **options: Any) -> Result:
+    """FPK on the averaged model's m and sigma^2, mapped to phase space like the closed form
+    (with the model's period, or the exact orbit's: ``info["period"]`` says which)."""
     import averaging
     import fpk
 
     if scene.system.f == 0.0:
         raise averaging.NoStationaryDensity(
             "f = 0: there is no noise, so the averaged FPK has no stationary density")
-    m = averaging.build_model(scene, model, **options)
+    m = averaged_model(scene, model, **options)
     res = fpk.stationary(m.drift, m.diffusion, cells=cells, method=method)
     if getattr(m, "observes", False):  # the observed energy, as the closed form
         from averaging.corrected import observed_density
@@ -129,16 +181,18 @@ def fpk_solution(scene: Any, *, model: str, cells: int, method: str = "stepping"
         for key in ("A", "A_cells"):
             x, p = observed_density(m, res.data[key]["x"], res.data[key]["p"])
             obs[key] = {"x": x, "p": p}
-        res = Solution(data=dict(res.data, **obs), info=res.info)
-    data, raw_mass = phase_solution(scene, res, m.period)
+        res = Result(data=dict(res.data, **obs), info=res.info)
+    period, period_from = model_period(scene, m)
+    data, raw_mass = phase_solution(scene, res, period)
     info = dict(res.info)
-    info["model"] = model
+    info["model"] = model_label(model)
+    info["period"] = period_from
     xa, pa = data["A"]["x"], data["A"]["p"]
     mean = float(np.trapezoid(xa * pa, xa))
     info["summary"] = {"mean": mean, "mode": float(xa[int(np.argmax(pa))]),
                        "std": float(np.sqrt(max(np.trapezoid((xa - mean) ** 2 * pa, xa), 0)))}
     info["diagnostics"] = dict(info["diagnostics"], phase_mass_before_normalisation=raw_mass)
-    return Solution(data=data, info=info)
+    return Result(data=data, info=info)
 
 
 def phase_solution(scene: Any, res: Any, period: Any) -> tuple[dict[str, Any], dict]:
@@ -160,7 +214,7 @@ def phase_solution(scene: Any, res: Any, period: Any) -> tuple[dict[str, Any], d
     return data, ph.raw_mass
 
 
-def montecarlo_solution(scene: Any, *, progress: bool = True, **edges: Any) -> Solution:
+def montecarlo_solution(scene: Any, *, progress: bool = True, **edges: Any) -> Result:
     """The Monte Carlo of the original system with the scene's settings and observables.
 
     ``edges``: optional histogram edges (``edges_A``, ``edges_x``, ``edges_v``); by default
@@ -184,7 +238,7 @@ def montecarlo_solution(scene: Any, *, progress: bool = True, **edges: Any) -> S
     mom = info.get("moments", {}).get("A", {}).get("mean")
     if mom is not None:
         info["summary"] = {"mean": mom["value"], "mean_err": mom["err"]}
-    return Solution(data=res.data, info=info)
+    return Result(data=res.data, info=info)
 
 
 def averaged_sde_solution(scene: Any, model: Any, *, edges: dict[str, Any], seed: int,
@@ -204,7 +258,7 @@ def averaged_sde_solution(scene: Any, model: Any, *, edges: dict[str, Any], seed
     if unknown:
         raise ValueError(f"unknown averaged-SDE settings {sorted(unknown)}; allowed: {keys}")
     kw = {k: settings.get(k, getattr(mc, k)) for k in keys}
-    m = averaged_model(scene, model) if isinstance(model, str) else model
+    m = averaged_model(scene, model)
     s = scene.system
     extra = ({"restoring": tuple(s.restoring_law), "barrier": s.barrier,
               "edges_x": edges["edges_x"], "edges_v": edges["edges_v"]} if phase else None)
@@ -246,32 +300,13 @@ def follow_floor(scene: Any, *, pinned: bool) -> Any:
     return scene.with_values({"montecarlo.dt": "auto"})
 
 
-def montecarlo_plan(scene: Any) -> dict[str, Any]:
-    """What the Monte Carlo would do with the scene's settings, before running it: the time
-    step (``dt`` or the "auto" one), the sampling interval, the sampled time (whole windows of
-    whole samples: montecarlo.sampling_plan) and the nearest times it samples exactly."""
+def montecarlo_plan(scene: Any) -> Any:
+    """What the Monte Carlo would do with the scene's settings, before running it
+    (``montecarlo.plan``: the time step, the sampling interval, the sampled time, the nearest
+    times it samples exactly, the path-steps including the pilots'), as a ``montecarlo.Plan``."""
     import montecarlo
-    from montecarlo.simulate import _params
 
-    mc = scene.montecarlo
-    target = float(mc.floor) if mc.floor else 0.0
-    h = montecarlo.step_size(mc.dt, target, _params(scene.system, scene.noise), mc.sample_every)
-    stride, spw, n_win = montecarlo.sampling_plan(mc.time, mc.sample_every, h, target)
-    interval = stride * h
-
-    def sampled(n: int) -> float:
-        s, w, k = montecarlo.sampling_plan(n * interval, mc.sample_every, h, 0.0)
-        return k * w * s * h
-
-    n = max(int(mc.time / interval), 1)
-    exact = sorted({m for m in range(max(n - 40, 1), n + 42) if
-                    abs(sampled(m) - m * interval) <= 1e-9 * m * interval}
-                   | {16 * (n // 16 + 1)} | ({16 * (n // 16)} if n >= 16 else set()))
-    below = [m for m in exact if m * interval <= mc.time]
-    above = [m for m in exact if m * interval > mc.time]
-    nearest = [m * interval for m in (below[-1:] + above[:1])]
-    return {"dt": h, "stride": stride, "sample_interval": interval,
-            "sampled_time": n_win * spw * interval, "nearest_times": nearest}
+    return montecarlo.plan(scene.system, scene.noise, scene.montecarlo)
 
 
 def solution_record(scene: Any, solver: str, model: str | None, result: Any, *,

@@ -7,6 +7,9 @@ the varied parameters::
     workflow = "check"            # "check" | "averaging" (closed forms only) | "bifurcation"
     mode = "product"              # or "zip"
     seed = 7                      # optional; default the base scene's montecarlo.seed
+    models = ["paper", "mine"]    # optional: registered averaged models (vifpk.core.registry);
+                                  # default: the workflow's own (check, averaging: CHECK_MODELS;
+                                  # bifurcation: BIFURCATION_MODELS, vifpk.core.defaults)
     [vary]
     "system.r" = [0.95, 0.96, 0.97, 0.98]
     "system.mu" = {start = 0.0, stop = 0.004, num = 5}
@@ -53,12 +56,13 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
+from vifpk.core.defaults import BIFURCATION_MODELS, CHECK_MODELS
 from vifpk.core.scene import INDEXED, MAX_TERMS, SECTIONS, Scene, SceneError, load_scene
 
 WORKFLOWS = ("check", "averaging", "bifurcation")
 MODES = ("product", "zip", "adaptive")
 TOP_KEYS = ("scene", "workflow", "mode", "seed", "name", "description", "vary", "set",
-            "bifurcation", "adaptive")
+            "bifurcation", "adaptive", "models")
 ADAPTIVE_KEYS = ("points", "model", "batch", "resolution")
 #: points of an adaptive batch unless [adaptive] batch says otherwise: a property of the sweep
 #: file, not of the executor, so that the points do not depend on where they run
@@ -71,14 +75,15 @@ FIND = {"mu": "system.mu", "r": "system.r"}
 RESERVED = {"montecarlo.seed": "set the sweep's seed with the top-level key `seed`",
             "montecarlo.budget": "sweeps run without a wall-clock budget (a budget makes a "
                                  "point depend on the machine's speed); use montecarlo.floor"}
-#: warnings of the cross-check as flags: variable name -> the warning's kind (check.WARNING_KINDS)
+#: warnings of the cross-check as flags: variable name -> the warning's kind (WarningRecord.kind)
 WARNING_FLAGS = {"warn_narrow_band": "narrow_band", "warn_sticking": "sticking",
                  "warn_strong_damping": "strong_damping", "warn_strong_noise": "strong_noise",
                  "warn_correlated_noise": "correlated_noise"}
 EXTRA_HINT = "pip install 'vifpk[cluster]'"
-#: the largest grid a sweep file may ask for (building and validating a point's scene costs
-#: ~0.1 ms; a 1000 x 1000 grid was silent for minutes before any work)
-MAX_POINTS = 100_000
+#: the largest grid a sweep file may ask for: building and validating a point's scene costs
+#: ~1-3 ms (measured 2026-11-23: 10000 points in 24 s at load average 10 on 2 cores), so a
+#: 1000 x 1000 grid was silent for many minutes before any work
+MAX_POINTS = 20_000
 
 
 class SweepError(SceneError):
@@ -125,6 +130,7 @@ class Sweep:
     #: mode "adaptive": points, model, batch, resolution ([adaptive]); vary then holds the
     #: ranges as (start, stop), and ``points`` the initial lattice (run_adaptive adds the rest)
     adaptive: Mapping[str, Any] = field(default_factory=dict)
+    models: tuple[str, ...] | None = None  # None: the workflow's default models
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -152,15 +158,18 @@ def point_seed(seed: int, params: tuple[tuple[str, float], ...]) -> int:
 
 
 def fingerprint(workflow: str, scene: Scene, bifurcation: Mapping[str, Any], *,
-                sde: bool = False) -> str:
+                sde: bool = False, models: tuple[str, ...] | None = None) -> str:
     """sha256 of everything a point's result depends on (the scene includes the seed; ``sde``:
-    the point runs the averaged SDEs' Monte Carlo, SDE_CHECK_EVERY)."""
+    the point runs the averaged SDEs' Monte Carlo, SDE_CHECK_EVERY; the models only when the
+    sweep names them, so a sweep without ``models`` keeps its records)."""
     d = scene.to_dict()
     d.pop("name", None)
     d.pop("description", None)
-    what = {"workflow": workflow, "scene": d, "bifurcation": dict(bifurcation)}
+    what: dict[str, Any] = {"workflow": workflow, "scene": d, "bifurcation": dict(bifurcation)}
     if workflow == "check":
         what["sde_check"] = bool(sde)
+    if models is not None:
+        what["models"] = list(models)
     blob = json.dumps(what, sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()
 
@@ -323,6 +332,20 @@ def load_sweep(path: str | Path) -> Sweep:
     seed = raw.get("seed", base.montecarlo.seed)
     if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
         raise SweepError(f"{src}: seed = {seed!r}: must be a whole number >= 0")
+    models = raw.get("models")
+    if models is not None:
+        from vifpk.core.registry import model_names
+
+        known = model_names()
+        if (not isinstance(models, list) or not models
+                or not all(isinstance(m, str) for m in models)):
+            raise SweepError(f"{src}: models = {models!r}: a list of model names; registered: "
+                             + ", ".join(known))
+        for m in models:
+            if m not in known:
+                raise SweepError(f"{src}: models: {m!r} is not a registered model; "
+                                 "registered: " + ", ".join(known))
+        models = tuple(dict.fromkeys(models))
     name = raw.get("name", Path(p.name).stem)
     description = raw.get("description", "")
     if not isinstance(name, str) or not name or not isinstance(description, str):
@@ -338,7 +361,7 @@ def load_sweep(path: str | Path) -> Sweep:
             raise SweepError(f"{src}: [vary] {key!r}: only numeric parameters can vary")
         vary.append((key, _range(f"{src}: [vary] {key!r}", spec) if mode == "adaptive"
                      else _values(f"{src}: [vary] {key!r}", spec)))
-    adaptive = _adaptive_table(src, raw, mode, workflow, len(vary))
+    adaptive = _adaptive_table(src, raw, mode, workflow, len(vary), models or CHECK_MODELS)
     if mode == "zip" and len({len(v) for _, v in vary}) > 1:
         lens = ", ".join(f"{k}: {len(v)}" for k, v in vary)
         raise SweepError(f"{src}: mode = 'zip' needs lists of one length ({lens})")
@@ -415,11 +438,11 @@ def load_sweep(path: str | Path) -> Sweep:
     if workflow != "averaging" and floor and not pinned:
         fixed["montecarlo.dt"] = "auto"
     points = [make_point(base, fixed, seed=seed, workflow=workflow, bifurcation=bif,
-                         params=params, first=i == 0, where=src)
+                         params=params, first=i == 0, where=src, models=models)
               for i, params in enumerate(combos)]
     return Sweep(path=str(p), text=text, name=name, workflow=workflow, mode=mode, seed=seed,
                  vary=tuple(vary), fixed=fixed, bifurcation=bif, base=base,
-                 points=tuple(points), adaptive=adaptive)
+                 points=tuple(points), adaptive=adaptive, models=models)
 
 
 def _range(where: str, spec: Any) -> tuple[float, float]:
@@ -435,8 +458,8 @@ def _range(where: str, spec: Any) -> tuple[float, float]:
     return float(spec["start"]), float(spec["stop"])
 
 
-def _adaptive_table(src: str, raw: Mapping[str, Any], mode: str, workflow: str, dims: int
-                    ) -> dict[str, Any]:
+def _adaptive_table(src: str, raw: Mapping[str, Any], mode: str, workflow: str, dims: int,
+                    models: tuple[str, ...] = CHECK_MODELS) -> dict[str, Any]:
     """The validated [adaptive] table (empty unless mode = "adaptive")."""
     table = raw.get("adaptive")
     if mode != "adaptive":
@@ -455,8 +478,6 @@ def _adaptive_table(src: str, raw: Mapping[str, Any], mode: str, workflow: str, 
         if key not in ADAPTIVE_KEYS:
             raise SweepError(f"{src}: [adaptive] {key}: unknown key; allowed: "
                              + ", ".join(ADAPTIVE_KEYS))
-    from .check import MODELS
-
     def whole(key: str, lo: int, default: int | None = None) -> int:
         v = table.get(key, default)
         if v is None:
@@ -466,8 +487,8 @@ def _adaptive_table(src: str, raw: Mapping[str, Any], mode: str, workflow: str, 
         return v
 
     model = table.get("model")
-    if model not in MODELS:
-        raise SweepError(f"{src}: [adaptive] model = {model!r}: allowed: " + ", ".join(MODELS))
+    if model not in models:  # one of the models the sweep's checks run
+        raise SweepError(f"{src}: [adaptive] model = {model!r}: allowed: " + ", ".join(models))
     return {"points": whole("points", 3), "model": model,
             "batch": whole("batch", 1, ADAPTIVE_BATCH),
             "resolution": whole("resolution", 3, ADAPTIVE_RESOLUTION)}
@@ -496,7 +517,8 @@ def sde_check_at(key: str, *, first: bool) -> bool:
 
 def make_point(base: Scene, fixed: Mapping[str, Any], *, seed: int, workflow: str,
                bifurcation: Mapping[str, Any], params: tuple[tuple[str, float], ...],
-               first: bool = False, where: str = "sweep") -> Point:
+               first: bool = False, where: str = "sweep",
+               models: tuple[str, ...] | None = None) -> Point:
     """The point of a sweep at ``params`` (varied values by name): its scene (the base scene
     with ``fixed`` and ``params`` set, no wall-clock budget, its own seed), key and
     fingerprint. SweepError (naming the point) when the scene is out of range there."""
@@ -517,7 +539,10 @@ def make_point(base: Scene, fixed: Mapping[str, Any], *, seed: int, workflow: st
     key = point_key(params)
     sde = workflow == "check" and sde_check_at(key, first=first)
     return Point(params=params, seed=s, key=key, scene=scene, sde=sde,
-                 fingerprint=fingerprint(workflow, scene, bifurcation, sde=sde))
+                 fingerprint=fingerprint(workflow, scene, bifurcation, sde=sde, models=models))
+
+
+_CHECKED: set[Any] = set()  # Monte Carlo settings already validated in this process
 
 
 def _validate_point(scene: Scene, workflow: str, bifurcation: Mapping[str, Any], where: str,
@@ -529,7 +554,13 @@ def _validate_point(scene: Scene, workflow: str, bifurcation: Mapping[str, Any],
     try:
         validate.scene_magnitudes(scene)
         if workflow == "check" or (workflow == "bifurcation" and bifurcation.get("mc")):
-            validate.montecarlo_settings(scene)
+            # with a fixed step the checks depend on [montecarlo] and omega0 only: once each
+            mc = scene.montecarlo
+            key = (mc, scene.system.restoring_law[0]) if mc.dt != "auto" else None  # k1
+            if key is None or key not in _CHECKED:
+                validate.montecarlo_settings(scene)
+                if key is not None:
+                    _CHECKED.add(key)
     except SceneError as exc:
         at = ", ".join(f"{k} = {v:g}" for k, v in params)
         raise SweepError(f"{where}: at the point {at}: {exc}") from None
@@ -555,6 +586,7 @@ class Job:
     scene: Scene
     bifurcation: Mapping[str, Any]
     sde: bool = True  # check: run the averaged SDEs' Monte Carlo (Point.sde)
+    models: tuple[str, ...] | None = None  # None: the workflow's default models
 
 
 def run_point(job: Job) -> dict[str, Any]:
@@ -577,10 +609,12 @@ def run_point(job: Job) -> dict[str, Any]:
     return rec
 
 
-def _flags(warnings: list[str]) -> dict[str, bool]:
-    from .check import warning_kind
+def _models(job: Job, default: tuple[str, ...]) -> tuple[str, ...]:
+    return job.models if job.models is not None else default
 
-    kinds = {warning_kind(w) for w in warnings}
+
+def _flags(warnings: list[Any]) -> dict[str, bool]:
+    kinds = {w.kind for w in warnings}
     return {k: v in kinds for k, v in WARNING_FLAGS.items()}
 
 
@@ -590,7 +624,8 @@ def _check_point(job: Job) -> dict[str, Any]:
 
     from .check import cross_check
 
-    res = cross_check(job.scene, quiet=True, fpk=False, sde=job.sde, tail_mass=False)
+    res = cross_check(job.scene, quiet=True, fpk=False, sde=job.sde, tail_mass=False,
+                      models=_models(job, CHECK_MODELS))
     mc = res.solutions["mc:original"]
     conv = res.metrics["monte_carlo"]["convergence"]
     models = {}
@@ -615,7 +650,7 @@ def _check_point(job: Job) -> dict[str, Any]:
             "extensions": conv.get("extensions", 0),
             "flags": {**_flags(res.warnings), "warn_not_converged": not converged},
             "recommended_model": res.metrics["recommended_model"],
-            "warnings": res.warnings, "verdicts": res.verdicts}
+            "warnings": [w.text for w in res.warnings], "verdicts": res.verdicts}
 
 
 def _averaging_point(job: Job) -> dict[str, Any]:
@@ -626,7 +661,8 @@ def _averaging_point(job: Job) -> dict[str, Any]:
     from .run import run_solver
     from .validate import finite_result
 
-    closed = {m: run_solver(job.scene, "averaging", model=m) for m in models_of(job.scene)[0]}
+    closed = {m: run_solver(job.scene, "averaging", model=m)
+              for m in models_of(job.scene, _models(job, CHECK_MODELS))[0]}
     for r in closed.values():  # a point is "ok" only with finite numbers, as `solve` exits 3
         finite_result(r, job.scene)
     warnings = assumption_warnings(job.scene, closed, {})
@@ -634,7 +670,7 @@ def _averaging_point(job: Job) -> dict[str, Any]:
     flags.pop("warn_sticking")  # needs the simulation
     out: dict[str, Any] = {"models": {m: {"mean_A": r.info["summary"]["mean"]}
                                       for m, r in closed.items()},
-                           "flags": flags, "warnings": warnings}
+                           "flags": flags, "warnings": [w.text for w in warnings]}
     if "paper" in closed and "exact" in closed:
         out["L1_paper_exact_A"] = compare(closed["paper"].data["A"],
                                           closed["exact"].data["A"])["L1"]
@@ -647,7 +683,8 @@ def _bifurcation_point(job: Job) -> dict[str, Any]:
 
     b = job.bifurcation
     lo, hi = b["range"] if b.get("range") else (None, None)
-    res = bifurcation(job.scene, b["find"], lo=lo, hi=hi, mc=b["mc"])
+    res = bifurcation(job.scene, b["find"], lo=lo, hi=hi, mc=b["mc"],
+                      models=_models(job, BIFURCATION_MODELS))
     checks = [{"value": c["value"], "crater": c["monte_carlo"]["shape"] == "crater",
                "agrees": c["agrees"]} for c in res.get("mc_check", [])]
     return {"models": {m: {"critical": c} for m, c in res["critical"].items()},
@@ -934,7 +971,7 @@ def finished(sweep: Sweep, out: Path) -> dict[str, dict[str, Any]]:
 def _job(sweep: Sweep, pt: Point) -> Job:
     return Job(key=pt.key, fingerprint=pt.fingerprint, params=pt.params, seed=pt.seed,
                workflow=sweep.workflow, scene=pt.scene, bifurcation=sweep.bifurcation,
-               sde=pt.sde)
+               sde=pt.sde, models=sweep.models)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -985,18 +1022,34 @@ def sweep_seconds(sweep: Sweep, *, speed: float | None = None) -> float:
     them, ~20 closed-form evaluations per model). Local executors share the same cores, so
     the points' times add up; a remote cluster may be faster (confirm with --yes)."""
     from . import validate as v
+    from .check import models_of
 
-    models = ("paper", "exact", "corrected")
+    wanted = sweep.models or (BIFURCATION_MODELS if sweep.workflow == "bifurcation"
+                              else CHECK_MODELS)
     total = 0.0
+    seen: dict[Any, float] = {}
+
+    def mc_seconds(sc: Scene) -> float:
+        # with a fixed step the estimate depends on [montecarlo] and omega0 only
+        key = ((sc.montecarlo, sc.system.restoring_law[0]) if sc.montecarlo.dt != "auto"
+               else None)  # k1 = omega0^2
+        if key is None or key not in seen:
+            value = v.montecarlo_seconds(sc, speed=speed)
+            if key is None:
+                return value
+            seen[key] = value
+        return seen[key]
+
     for pt in sweep.points:
         sc = pt.scene
+        models = models_of(sc, wanted)[0]
         closed = sum(v.averaging_seconds(sc, m) for m in models)
         if sweep.workflow == "check":
-            total += v.montecarlo_seconds(sc, speed=speed) + closed
+            total += mc_seconds(sc) + closed
         elif sweep.workflow == "averaging":
             total += closed
         elif sweep.bifurcation.get("mc"):
-            total += 4 * v.montecarlo_seconds(sc, speed=speed) + 20 * closed
+            total += 4 * mc_seconds(sc) + 20 * closed
         else:
             total += 20 * closed
     if sweep.mode == "adaptive" and sweep.points:  # the lattice stands for the whole budget
@@ -1008,7 +1061,7 @@ def _clear_temporaries(out: Path) -> None:
     """Remove the temporary files of killed atomic writes (call with the folder held)."""
     for folder in (out, out / "points"):
         if folder.is_dir():
-            for p in folder.glob(".*.tmp"):
+            for p in folder.glob(".*.tmp*"):  # io._temp_beside: .NAME.<hex>.tmp<suffix>
                 p.unlink(missing_ok=True)
 
 
@@ -1164,7 +1217,8 @@ def run_adaptive(sweep: Sweep, out: str | Path, *, executor: ExecutorSpec,
                 else:
                     pt = make_point(sweep.base, sweep.fixed, seed=sweep.seed,
                                     workflow=sweep.workflow, bifurcation=sweep.bifurcation,
-                                    params=adaptive_params(sweep.vary, u), where=sweep.name)
+                                    params=adaptive_params(sweep.vary, u), where=sweep.name,
+                                    models=sweep.models)
                 pts.append(replace(pt, batch=batch_no))
             recs: dict[str, dict[str, Any]] = {}
             todo = []
@@ -1372,16 +1426,10 @@ def write_netcdf(ds: Any, path: Path) -> Path:
     """Write a Dataset atomically (temporary file beside it, then rename). The temporary file
     is created with mode 0666 minus the umask, as every other output (netCDF keeps the mode of
     the file it overwrites; ``tempfile`` would give 0600)."""
-    from .io import temp_beside
+    from .io import atomic_path
 
-    tmp, fd = temp_beside(path)
-    os.close(fd)
-    try:
+    with atomic_path(path) as tmp:
         ds.to_netcdf(tmp, engine="netcdf4")
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
     return path
 
 

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import base64
 import html
-import io
 import json
 from pathlib import Path
 from typing import Any
@@ -29,12 +28,9 @@ FLAG_VARS = ("warn_narrow_band", "warn_sticking", "warn_strong_damping", "warn_s
 
 
 def _png(fig: Any) -> str:
-    import matplotlib.pyplot as plt
+    from .io import png_bytes
 
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
-    plt.close(fig)
-    return base64.b64encode(buf.getvalue()).decode()
+    return base64.b64encode(png_bytes(fig, dpi=110, bbox_inches="tight")).decode()
 
 
 def _axis(ds: Any, name: str) -> tuple[np.ndarray, str]:
@@ -61,10 +57,9 @@ def _flagged(ds: Any) -> np.ndarray:
 
 def _map_figure(ds: Any, var: str, title: str, *, contour: bool) -> str:
     """Colour maps of ``var`` (dims: two parameters and model), models side by side."""
-    import matplotlib
+    from .io import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
     from matplotlib.patches import Rectangle
 
     px, py = [d for d in ds[var].dims if d != "model"]
@@ -165,10 +160,9 @@ def _scattered_map_figure(ds: Any, var: str, title: str) -> str:
 
 
 def _curve_figure(ds: Any, var: str, err: str | None, title: str) -> str:
-    import matplotlib
+    from .io import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     dims = [d for d in ds[var].dims if d != "model"]
     fig, ax = plt.subplots(figsize=(6, 3.8), constrained_layout=True)
@@ -196,10 +190,9 @@ def _curve_figure(ds: Any, var: str, err: str | None, title: str) -> str:
 
 
 def _bifurcation_figure(ds: Any) -> str:
-    import matplotlib
+    from .io import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     dims = [d for d in ds["critical"].dims if d != "model"]
     fig, ax = plt.subplots(figsize=(6.4, 4.2), constrained_layout=True)

@@ -10,15 +10,18 @@ A density is a record ``{"x", "p"}`` (smooth) or ``{"x", "p", "edges", "err"}`` 
 histogram with batch standard errors), or an ``(x, p)`` pair. When a side is a histogram its
 sampling noise floor for the chosen metric is added to the tolerance automatically.
 
-``model`` in :func:`assert_averaging_error` is ``"paper"``, ``"exact"`` or any object with the
-**averaged-model protocol**::
+``model`` in :func:`assert_averaging_error` is the name of a registered model (``"paper"``,
+``"exact"``, ``"corrected"`` or a ``vifpk.models`` plugin, docs/plugins.md) or any object
+with the **averaged-model protocol**::
 
     drift(A: ndarray) -> ndarray        # m(A) of dA = m dt + sigma dB, for A > 0
     diffusion(A: ndarray) -> ndarray    # sigma^2(A) > 0
     period(A: ndarray) -> ndarray       # optional: T(A) for p(x1, x2) = p(E)/T (default: exact)
 
-Its stationary p(A) comes from the generic FPK direct solve, and p(x1), p(x2) from the same
-phase-space mapping as the closed forms.
+A model with a closed form (``log_stationary_parts`` and ``period``, averaging/stationary.py)
+is solved in closed form; any other gets its stationary p(A) from the generic FPK direct solve
+(REFERENCE_CELLS = 800 cells, vifpk.core.defaults), and p(x1), p(x2) from the same phase-space
+mapping as the closed forms.
 
 Monte Carlo references of the original system are cached on disk (``cache_dir()``: the
 ``--vifpk-cache`` pytest option, else ``$VIFPK_CACHE``, else ``~/.cache/vifpk``) under a key
@@ -40,7 +43,7 @@ import numpy as np
 from vifpk.core.scene import Scene, load_scene
 
 from .compare import compare, is_histogram
-from .io import jsonable, write_atomic
+from .io import atomic_path, jsonable, write_atomic
 
 METRICS = ("L1", "hellinger", "ks")
 _STATE: dict[str, Any] = {"cache": None, "refresh": False, "stats": {"hits": 0, "misses": 0}}
@@ -189,9 +192,8 @@ def mc_reference(scene: Any, **montecarlo: Any) -> Reference:
     folder.mkdir(parents=True, exist_ok=True)
     arrays = {f"{o}__{k}": np.asarray(v) for o, rec in res.data.items() if o != "joint"
               for k, v in rec.items()}
-    tmp = folder / f".{key}.{os.getpid()}.npz"
-    np.savez(tmp, **arrays)
-    os.replace(tmp, npz)
+    with atomic_path(npz) as tmp:
+        np.savez(tmp, **arrays)
     info = {"settings": res.info["settings"], "seed": res.info["seed"]["root"],
             "scene": sc.to_dict(), "command": reproduce_command(sc), "key": key}
     write_atomic(meta, json.dumps(jsonable(info), indent=1))
@@ -199,24 +201,12 @@ def mc_reference(scene: Any, **montecarlo: Any) -> Reference:
 
 
 def model_densities(scene: Scene, model: Any) -> dict[str, dict[str, Any]]:
-    """p(A), p(x1), p(x2) of an averaged model: closed form for "paper"/"exact", else the
-    FPK direct solve of the user's m and sigma^2 mapped to phase space."""
-    from .run import closed_form, fpk_stationary, orbit_period, phase_solution
+    """p(A), p(x1), p(x2) of an averaged model (a registered name, or an object with the
+    averaged-model protocol): its closed form when it has one, else the FPK direct solve of its
+    m and sigma^2 mapped to phase space (``harness.run.closed_form``)."""
+    from .run import closed_form
 
-    if isinstance(model, str):
-        return closed_form(scene, model=model).data
-    for attr in ("drift", "diffusion"):
-        if not callable(getattr(model, attr, None)):
-            raise TypeError(f"model must be 'paper', 'exact' or provide {attr}(A) "
-                            "(see harness.testing.AveragedModel)")
-    s = scene.system
-    res = fpk_stationary(model.drift, model.diffusion, cells=800, method="direct")
-    if callable(getattr(model, "period", None)):
-        T = model.period
-    else:
-        def T(A):
-            return orbit_period(A, s.restoring_law)
-    return phase_solution(scene, res, T)[0]
+    return closed_form(scene, model=model).data
 
 
 def assert_averaging_error(scene: Any, model: Any, *, below: float, observable: str = "A",

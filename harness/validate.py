@@ -9,7 +9,7 @@ exits with code 2; nothing has been computed or written by then.
 The checks, and where each bound comes from:
 
 - options that do not apply to the chosen solver or command are refused, not ignored;
-- Monte Carlo (the arithmetic of ``montecarlo.simulate``, asked through ``run.montecarlo_plan``
+- Monte Carlo (the arithmetic of ``montecarlo.plan``, asked through ``run.montecarlo_plan``
   so that it is never restated here): ``paths`` a whole multiple of ``blocks``; ``dt`` a whole
   fraction of ``sample_every`` and below the splitting's linear stability limit
   ``dt omega0 < 2`` (Stormer-Verlet on x'' = -omega0^2 x); ``burn_in`` and ``time`` whole
@@ -34,6 +34,7 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from vifpk.core.defaults import CHECK_MODELS, FPK_CELLS
 from vifpk.core.scene import SECTIONS, Scene, SceneError
 
 HOUR = 3600.0
@@ -223,7 +224,7 @@ def montecarlo_settings(scene: Scene, options: Mapping[str, str] | None = None) 
                          f"dt >= montecarlo.sample_every / {MAX_STEPS_PER_SAMPLE:g} = "
                          f"{_g(mc.sample_every / MAX_STEPS_PER_SAMPLE)}")
     plan = montecarlo_plan(scene)
-    h = plan["dt"]
+    h = plan.dt
     w0 = math.sqrt(scene.system.restoring_law[0])  # the small-amplitude frequency
     if h * w0 >= 2.0:
         raise InputError(f"{_name('dt', options)} = {_g(h)} is too large for this scene; "
@@ -243,16 +244,15 @@ def montecarlo_settings(scene: Scene, options: Mapping[str, str] | None = None) 
             raise InputError(f"montecarlo.burn_in = {_g(float(mc.burn_in))} is not a whole "
                              f"number of steps of dt = {_g(h)}; nearest valid: "
                              f"{_g(k * h)} or {_g((k + 1) * h)}")
-    step = plan["sample_interval"]
+    step = plan.sample_interval
     if mc.time < step * (1 - REL):
         raise InputError(f"{_name('time', options)} = {_g(mc.time)} is shorter than one "
                          f"sampling interval; allowed: time >= {_g(step)}")
-    if mc.floor <= 0 and abs(plan["sampled_time"] - mc.time) > REL * mc.time:
-        near = " or ".join(_g(v) for v in plan["nearest_times"])
+    if mc.floor <= 0 and abs(plan.sampled_time - mc.time) > REL * mc.time:
+        near = " or ".join(_g(v) for v in plan.nearest_times)
         raise InputError(f"{_name('time', options)} = {_g(mc.time)} would sample "
-                         f"{_g(plan['sampled_time'])} (whole windows of whole samples every "
+                         f"{_g(plan.sampled_time)} (whole windows of whole samples every "
                          f"{_g(step)}); nearest valid: {near}")
-    refuse_unreachable_floor(scene, options)
     if mc.floor > 0 and mc.budget > 0:
         least = _montecarlo_least_seconds(scene)
         if mc.budget < least:
@@ -260,6 +260,7 @@ def montecarlo_settings(scene: Scene, options: Mapping[str, str] | None = None) 
                              "pilots, the burn-in and the first sampling windows (at least "
                              f"{least:.2g} s here, a lower bound from their path-steps); "
                              f"allowed: at least {least:.2g} s, or 0 for no limit")
+    refuse_unreachable_floor(scene, options)
 
 
 def search_range(vary: str, lo: float, hi: float, field: Any) -> None:
@@ -377,23 +378,19 @@ def output_folder(path: str | None, option: str, *, replaced: bool = False) -> N
 def _montecarlo_parts(scene: Scene, speed: float | None) -> tuple[float, float, float]:
     """(seconds of the pilots and the burn-in, of the first sampled windows, of the sampling
     a target floor needs at least) at ``speed`` path-steps per second per core (default
-    MC_STEPS_PER_CORE, faster than any machine measured) on every core the run uses: burn-in
-    "auto" counted at its minimum (20 time units), the scale pilot at 32 paths x 1200, the
-    relaxation pilot at its shortest (256 paths x 80); with a target floor the first windows
-    are half of ``time`` (montecarlo.sampling_plan), else the sampled time."""
+    MC_STEPS_PER_CORE, faster than any machine measured) on every core the run uses, from the
+    Monte Carlo's own plan (montecarlo.plan: burn-in "auto" at its minimum, the pilots' sizes);
+    with a target floor the first windows are half of ``time``, else the sampled time."""
     from .run import montecarlo_plan
 
     mc = scene.montecarlo
     plan = montecarlo_plan(scene)
-    h = plan["dt"]
-    burn = 20.0 if mc.burn_in == "auto" else float(mc.burn_in)
-    pilots = 32 * 1200.0 + (256 * 80.0 if mc.burn_in == "auto" else 0.0)
     cores = mc.threads or min(numba_threads_available(), os.cpu_count() or 1)
-    per_step = 1.0 / h / ((speed or MC_STEPS_PER_CORE) * cores)
-    first = mc.time / 2 if mc.floor > 0 else plan["sampled_time"]
+    per_step = 1.0 / plan.dt / ((speed or MC_STEPS_PER_CORE) * cores)
+    first = mc.time / 2 if mc.floor > 0 else plan.sampled_time
     needed = floor_time(scene) if mc.floor > 0 else 0.0
-    return ((mc.paths * burn + pilots) * per_step, mc.paths * first * per_step,
-            mc.paths * needed * per_step)
+    return ((mc.paths * plan.burn_in + plan.pilot_path_time) * per_step,
+            mc.paths * first * per_step, mc.paths * needed * per_step)
 
 
 def _montecarlo_least_seconds(scene: Scene) -> float:
@@ -435,7 +432,7 @@ def refuse_unreachable_floor(scene: Scene, options: Mapping[str, str] | None = N
     if not (mc.floor > 0 and mc.budget > 0):
         return
     cores = mc.threads or min(numba_threads_available(), os.cpu_count() or 1)
-    h = montecarlo_plan(scene)["dt"]
+    h = montecarlo_plan(scene).dt
     seconds = mc.paths * floor_time(scene) / h / (MC_STEPS_PER_CORE * cores)
     if seconds > mc.budget:
         names = options or {}
@@ -454,7 +451,7 @@ def memory_bytes(scene: Scene) -> float:
 
     mc = scene.montecarlo
     plan = montecarlo_plan(scene)
-    windows = max(plan["sampled_time"] / max(plan["sample_interval"], 1e-300) / 16, 1.0)
+    windows = max(plan.sampled_time / max(plan.sample_interval, 1e-300) / 16, 1.0)
     return mc.paths * (100.0 + 8.0 * min(windows, 1e6))
 
 
@@ -592,16 +589,19 @@ def solve_seconds(scene: Scene, solver: str, model: str, grid: int | None, *,
     if solver == "montecarlo":
         return montecarlo_seconds(scene, speed=speed)
     base = averaging_seconds(scene, model)
-    return base + (fpk_seconds(grid or 400) if solver == "fpk" else 0.0)
+    return base + (fpk_seconds(grid or FPK_CELLS) if solver == "fpk" else 0.0)
 
 
-def check_seconds(scene: Scene, *, speed: float | None = None) -> float:
+def check_seconds(scene: Scene, models: tuple[str, ...] = CHECK_MODELS, *,
+                  speed: float | None = None) -> float:
     """Lower bound of ``vifpk check``: the Monte Carlo of the original system, the closed
-    forms and FPKs of the three models (the averaged SDEs are not counted)."""
-    models = ("paper", "exact", "corrected")
+    forms and FPKs of the models that apply (the averaged SDEs are not counted): the
+    paper's model is left out of a scene outside its family (it is not run there)."""
+    if scene.system.paper_family_problem() is not None:
+        models = tuple(m for m in models if m != "paper")
     return (montecarlo_seconds(scene, speed=speed)
             + sum(averaging_seconds(scene, m) for m in models)
-            + len(models) * fpk_seconds(400))
+            + len(models) * fpk_seconds(FPK_CELLS))
 
 
 def workprecision_seconds(scene: Scene, quick: bool, *, speed: float | None = None) -> float:

@@ -282,10 +282,9 @@ def seconds_to_reach(solvers: dict[str, list[dict[str, Any]]]) -> dict[str, dict
 
 
 def plot(data: dict[str, Any], path: Any) -> None:
-    import matplotlib
+    from .io import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     fig, ax = plt.subplots(figsize=(8, 5.5))
     floors = []

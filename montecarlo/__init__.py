@@ -2,18 +2,16 @@
 OU or white noise), and of an averaged 1-D amplitude SDE. Imports no other vifpk package.
 """
 
+from .plan import Plan, physics, plan, sampling_plan, step_size
 from .simulate import (
                        OBSERVABLES,
                        BudgetExhausted,
-                       Result,
                        Settings,
                        SimulationDiverged,
                        block_seeds,
                        effects,
-                       sampling_plan,
                        simulate,
-                       step_size,
 )
 
-__all__ = ["OBSERVABLES", "BudgetExhausted", "Result", "Settings", "SimulationDiverged",
-           "block_seeds", "effects", "sampling_plan", "simulate", "step_size"]
+__all__ = ["OBSERVABLES", "BudgetExhausted", "Plan", "Settings", "SimulationDiverged",
+           "block_seeds", "effects", "physics", "plan", "sampling_plan", "simulate", "step_size"]

@@ -36,13 +36,15 @@ import numba
 import numpy as np
 from numba import prange
 
+from vifpk.core.defaults import BURN_FACTOR, FPK_CELLS
+from vifpk.core.result import Result, Status
+
 from ._jit import jit
 from .geometry import amplitude_general, potential
 from .rng import normal, states_from_seed, uniform
-from .simulate import CHUNK_SECONDS, Result, _density, _mean_se
+from .simulate import CHUNK_SECONDS, _density, _mean_se
 
 ORDER = 1
-BURN_FACTOR = 6.0  # as for the original system (tuning.py): burn-in = 6 x relaxation time
 #: dt = "auto": the largest sample_every / k not above tau / STEPS_PER_TAU. The averaged SDE
 #: lives on the slow time scale of the amplitude (tau ~ 90 on the paper's base scene), not on
 #: the oscillation's, which sets the original system's step. Measured on paper-base
@@ -55,7 +57,7 @@ LOG_DEPTH = 60.0  # relaxation_time: cells where pi > e^-60 of its peak
 
 def relaxation_time(drift: Callable[[np.ndarray], np.ndarray],
                     diffusion: Callable[[np.ndarray], np.ndarray], top: float,
-                    cells: int = 400, depth: float = LOG_DEPTH) -> float:
+                    cells: int = FPK_CELLS, depth: float = LOG_DEPTH) -> float:
     """Slowest relaxation time 1 / lambda_1 of THIS SDE, from its own generator
     L f = (1/pi) (pi sigma^2 / 2 f')' (pi the stationary density, reflecting ends), discretised
     on ``cells`` cells and symmetrised by sqrt(pi): a tridiagonal eigenproblem.
@@ -365,7 +367,8 @@ def simulate_sde(drift: Callable[[np.ndarray], np.ndarray],
         "reflections_per_sample": float(sums[:, 3].sum() / sums[:, 2].sum()),
         "seconds": {"compile": compile_s, "run": run_s, "total": compile_s + run_s},
         "steps": steps, "steps_per_second": steps / run_s if run_s > 0 else math.nan,
-        "status": {"ok": bool(np.all(np.isfinite(d["p"]))), "message": "simulated"},
+        "status": (Status.SIMULATED if np.all(np.isfinite(d["p"])) else Status.NOT_FINITE
+                   ).record(),
     }
     data = {"A": {"x": 0.5 * (edges[1:] + edges[:-1]), "p": d["p"], "edges": edges,
                   "err": d["err"]}}

@@ -32,20 +32,31 @@ from typing import Any, NamedTuple
 import numba
 import numpy as np
 
+from vifpk.core.defaults import BURN_FACTOR
+from vifpk.core.result import Result, Status
+
 from . import kernels as K
 from .certificate import certificate
-from .tuning import BURN_FACTOR, auto_dt, fit_relaxation
+from .plan import (
+    MIN_AUTO_BURN_IN,
+    RELAX_MAX_TIME,
+    RELAX_PAIRS,
+    RELAX_SEGMENT,
+    RELAX_WINDOW,
+    SCALE_BLOCKS,
+    SCALE_BURN_IN,
+    SCALE_PER_BLOCK,
+    SCALE_SAMPLE_EVERY,
+    SCALE_SAMPLES,
+    sampling_plan,
+    step_size,
+)
+from .plan import physics as _params
+from .tuning import fit_relaxation
 
 OBSERVABLES = ("A", "x1", "x2", "joint", "moments", "events", "energy")
-NOISE_KINDS = ("ou", "white")
-WINDOWS = 16  # at least 16 sampled windows (the certificate's draws along each path)
 CHUNK_SECONDS = 0.4  # wall time of one kernel call: Ctrl-C is seen between calls
 START_LOW = 0.05  # lowest start amplitude, as a fraction of the pilot's largest
-
-
-class Result(NamedTuple):
-    data: dict[str, dict[str, Any]]
-    info: dict[str, Any]
 
 
 class SimulationDiverged(RuntimeError):
@@ -95,44 +106,6 @@ def block_seeds(seed: int, blocks: int, per_block: int = 1, key: int = 0) -> np.
         words[~words.any(axis=1), 0] = 1  # the all-zero state is a fixed point
         out[b] = words
     return out
-
-
-def _laws(system: Any) -> tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]]:
-    """(k, d, e): the spring (k1, k3, ...), damping (d0, d2, ...) and velocity damping
-    (e2, ...) coefficients, trailing zeros dropped, k and d padded to two terms. A system
-    with the paper's names only (omega0, alpha, c1, c2) gives k = (omega0^2, alpha),
-    d = (-c1, c2)."""
-    if hasattr(system, "restoring_law"):
-        k, d = tuple(system.restoring_law), tuple(system.damping_law)
-        e = tuple(system.velocity_law)
-    else:
-        k = (float(system.omega0) ** 2, float(system.alpha))
-        d, e = (-float(system.c1), float(system.c2)), ()
-
-    def trim(c: tuple[float, ...], keep: int) -> tuple[float, ...]:
-        c = tuple(float(v) for v in c)
-        while len(c) > keep and c[-1] == 0.0:
-            c = c[:-1]
-        return c + (0.0,) * (keep - len(c))
-
-    return trim(k, 2), trim(d, 2), trim(e, 0)
-
-
-def _params(system: Any, noise: Any) -> dict[str, Any]:
-    """Kernel physics arguments; a switched-off effect is None (pruned at compile time)."""
-    if noise.kind not in NOISE_KINDS:
-        raise ValueError(f"noise kind must be one of {NOISE_KINDS}, not {noise.kind!r}")
-    k, d, e = _laws(system)
-    return {
-        "c1": -d[0], "c2": d[1], "w0sq": k[0], "alpha": k[1],
-        "khi": np.array(k[2:]) if len(k) > 2 else None,
-        "dhi": np.array(d[2:]) if len(d) > 2 else None,
-        "ev": np.array(e) if e else None,
-        "f": float(system.f), "D": float(noise.D),
-        "mu": float(system.mu) if system.mu > 0 else None,
-        "r": float(system.r) if getattr(system, "barrier", True) else None,
-        "alpha1": float(noise.alpha1) if noise.kind == "ou" else None,
-    }
 
 
 def _potential(x: Any, phys: dict[str, Any]) -> Any:
@@ -268,15 +241,16 @@ _DUMMY = {"edges_A": np.array([0.0, 1.0]), "edges_x": np.array([0.0, 1.0]),
 
 def _pilot_scale(phys: dict[str, Any], h: float, seed: int, step: _Stepper,
                  a_hint: float) -> float:
-    """The largest amplitude seen by 32 paths from small starts over 200 + 1000 time units,
-    times 1.25 (the histogram ranges and the top of the over-dispersed starts)."""
+    """The largest amplitude seen by the scale pilot (plan.py: 32 paths from small starts over
+    200 + 1000 time units), times 1.25 (the histogram ranges and the top of the over-dispersed
+    starts)."""
     gen = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(1 << 20,)))
-    amps = np.full((8, 4), 0.1 * a_hint)
-    arr = _arrays(block_seeds(seed, 8, 4, key=1 << 21), _starts(amps, phys, gen), _DUMMY,
-                  ("moments",))
-    n_burn = int(round(200.0 / h))
-    stride = max(int(round(0.5 / h)), 1)
-    step.run(arr, n_burn + 2000 * stride, 0, n_burn, stride)
+    amps = np.full((SCALE_BLOCKS, SCALE_PER_BLOCK), 0.1 * a_hint)
+    arr = _arrays(block_seeds(seed, SCALE_BLOCKS, SCALE_PER_BLOCK, key=1 << 21),
+                  _starts(amps, phys, gen), _DUMMY, ("moments",))
+    n_burn = int(round(SCALE_BURN_IN / h))
+    stride = max(int(round(SCALE_SAMPLE_EVERY / h)), 1)
+    step.run(arr, n_burn + SCALE_SAMPLES * stride, 0, n_burn, stride)
     amax = 1.25 * float(np.max(arr.moments[..., K.MO_MAXA]))
     if not math.isfinite(amax):
         raise _diverged(h, "non-finite amplitude in the pilot run")
@@ -284,9 +258,10 @@ def _pilot_scale(phys: dict[str, Any], h: float, seed: int, step: _Stepper,
 
 
 def _relaxation(phys: dict[str, Any], h: float, seed: int, step: _Stepper, a_hi: float,
-                sample_every: float, pairs: int = 128, max_time: float = 20000.0
-                ) -> dict[str, Any]:
-    """tau from pairs started low and high with common random numbers (tuning.py)."""
+                sample_every: float, pairs: int = RELAX_PAIRS,
+                max_time: float = RELAX_MAX_TIME) -> dict[str, Any]:
+    """tau from pairs started low and high with common random numbers (tuning.py); the
+    pilot's sizes are plan.py's."""
     gen = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(1 << 22,)))
     amps = np.empty((2, pairs))
     amps[0], amps[1] = START_LOW * a_hi, a_hi
@@ -296,12 +271,12 @@ def _relaxation(phys: dict[str, Any], h: float, seed: int, step: _Stepper, a_hi:
     rng = np.concatenate([rng, rng.copy()])
     arr = _arrays(rng, state, _DUMMY, ())
     stride = max(int(round(sample_every / h)), 1)
-    spw = max(int(round(10.0 / (stride * h))), 1)  # windows of ~10 time units
+    spw = max(int(round(RELAX_WINDOW / (stride * h))), 1)  # windows of ~RELAX_WINDOW
     win_steps = spw * stride
     win_time = win_steps * h
     n_win_max = int(max_time / win_time)
     windows = np.zeros((2, pairs, n_win_max))
-    seg = max(int(200.0 / win_time), 4)  # windows per segment
+    seg = max(int(RELAX_SEGMENT / win_time), 4)  # windows per segment
     done = 0
     t_d = np.empty(0)
     d = se = np.empty(0)
@@ -335,39 +310,6 @@ def _floor_A(arr: _Arrays) -> float:
     e = arr.hist["edges_A"]
     return _density(arr.hist["A"], np.maximum(arr.events[:, K.EV_SAMPLES], 1.0),
                     np.diff(e))["L1_floor"]
-
-
-def step_size(dt: float | str, target: float, phys: dict[str, Any], sample_every: float
-              ) -> float:
-    """The time step: ``dt``, or for "auto" the largest whole fraction sample_every / k of
-    sample_every not above tuning.auto_dt (so that samples fall on steps exactly)."""
-    if dt != "auto":
-        return float(dt)
-    h = auto_dt(target, phys)
-    return sample_every / math.ceil(sample_every / h * (1 - 1e-12))
-
-
-def sampling_plan(time_: float, sample_every: float, h: float, target: float
-                  ) -> tuple[int, int, int]:
-    """(steps between samples, samples per window, windows) of a run.
-
-    The n = time_ / (stride h) samples of each path are cut into the fewest windows from
-    WINDOWS to 2 WINDOWS that divide n exactly (n windows of one sample below WINDOWS), so
-    the sampled time is exactly ``time_`` whenever n is whole and has such a divisor (every
-    multiple of 16 to 32 samples; harness.validate refuses the others, naming the nearest).
-    Failing that, WINDOWS windows of n // WINDOWS samples, and what is left is not sampled.
-    With a target floor the run starts with WINDOWS // 2 windows of n // WINDOWS samples."""
-    stride = max(int(round(sample_every / h)), 1)
-    n = max(int(time_ / (stride * h) * (1 + 1e-12)), 1)
-    if target > 0:
-        return stride, max(n // WINDOWS, 1), WINDOWS // 2
-    if n < WINDOWS:
-        return stride, 1, n
-    for n_win in range(WINDOWS, 2 * WINDOWS + 1):
-        if n % n_win == 0:
-            return stride, n // n_win, n_win
-    spw = n // WINDOWS
-    return stride, spw, n // spw
 
 
 def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> Result:
@@ -421,7 +363,7 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
         if st.burn_in == "auto":
             _label(bar, "monte carlo: relaxation pilot")
             relax = _relaxation(phys, h, st.seed, step, a_hi, st.sample_every)
-            burn_in = max(BURN_FACTOR * relax["tau"], 20.0)
+            burn_in = max(BURN_FACTOR * relax["tau"], MIN_AUTO_BURN_IN)
         else:
             burn_in = float(st.burn_in)
         pilot_s = time.perf_counter() - t1
@@ -577,7 +519,7 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
     ok = all(np.all(np.isfinite(d["p"])) for d in data.values())
     if not ok:
         raise _diverged(h, "non-finite histogram")
-    info["status"] = {"ok": True, "message": "simulated"}
+    info["status"] = Status.SIMULATED.record()
     return Result(data=data, info=info)
 
 

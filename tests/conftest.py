@@ -65,11 +65,11 @@ def canned_check(tiny_check, monkeypatch):
     render without computing. Returns the canned result."""
     import harness.check
 
-    def canned(scene, *, quiet=False, fpk=True, sde=True, tail_mass=True):
+    def canned(scene, *, quiet=False, fpk=True, sde=True, tail_mass=True, models=None):
         res = replace(tiny_check, scene=scene, metrics=copy.deepcopy(tiny_check.metrics))
         if not fpk or not sde:
-            drop = ([f"fpk:{m}" for m in harness.check.MODELS] if not fpk else []) + \
-                   ([f"mc:{m}" for m in harness.check.MODELS] if not sde else [])
+            drop = ([f"fpk:{m}" for m in res.models] if not fpk else []) + \
+                   ([f"mc:{m}" for m in res.models] if not sde else [])
             res = replace(res, solutions={k: v for k, v in res.solutions.items()
                                           if k not in drop})
             for entry in res.metrics["models"].values():

@@ -177,3 +177,25 @@ def test_run_rejects_an_unknown_solver(base):
 
     with pytest.raises(ValueError, match="solver must be one of"):
         run_solver(base, "oracle")
+
+
+# ------------------------------------------------- docs/architecture.md names every module
+def _rooms() -> dict[str, set[str]]:
+    """room -> the module file names its table row in docs/architecture.md names."""
+    import re
+
+    rows = {}
+    for line in (ROOT / "docs" / "architecture.md").read_text(encoding="utf-8").splitlines():
+        m = re.match(r"\| `([\w/]+)/` \| (.*?) \|", line)
+        if m:
+            rows[m.group(1)] = set(re.findall(r"`(\w+\.py)`", m.group(2)))
+    return rows
+
+
+@pytest.mark.parametrize("room", ["vifpk", "vifpk/core", *SOLVERS, "harness"])
+def test_architecture_names_every_module_and_no_other(room: str):
+    named = _rooms()[room]
+    actual = {p.name for p in (ROOT / room).glob("*.py")} - {"__init__.py"} | (
+        {"__init__.py"} if room == "vifpk" else set())
+    assert named == actual, (f"docs/architecture.md, room {room}/: missing "
+                             f"{sorted(actual - named)}, not existing {sorted(named - actual)}")

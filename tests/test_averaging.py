@@ -338,3 +338,23 @@ def test_no_stationary_density_is_reported(base):
         solve(vary(base, f=0.0))
     with pytest.raises(NoStationaryDensity, match="does not decay"):
         solve(vary(base, c1=0.2, c2=0.0, r=1.0, mu=0.0))
+
+
+def test_exact_sigma2_negative_beyond_rounding_raises_not_clamps(base, monkeypatch):
+    """sigma_E^2 is a spectral density (>= 0); it is computed as a difference of two nearly
+    equal terms, so a negative value of rounding size is set to 0 and a larger one (a harmonic
+    sum truncated too early, simulated here by doubling the harmonics) raises one line."""
+    from averaging.exact import ExactModel
+
+    m = ExactModel.from_scene(base)
+    A = np.array([0.3, 0.8])
+    assert np.all(m.sigma2_energy(A) > 0)
+    harmonics = ExactModel.harmonics_of_Y
+
+    def doubled(self, *a):
+        y0, n, yn = harmonics(self, *a)
+        return y0, n, 2 * yn
+
+    monkeypatch.setattr(ExactModel, "harmonics_of_Y", doubled)
+    with pytest.raises(ArithmeticError, match=r"sigma_E\^2 < 0 at A = .*averaging.harmonics"):
+        m.sigma2_energy(A)

@@ -131,7 +131,7 @@ def test_budget_spent_before_the_first_window_exits_3_with_one_line(monkeypatch,
     from harness import validate
 
     monkeypatch.setattr(validate, "MC_STEPS_PER_CORE", math.inf)
-    code = main(["solve", BASE, "--solver", "montecarlo", "--paths", "32", "--floor", "1e-4",
+    code = main(["solve", BASE, "--solver", "montecarlo", "--paths", "64", "--floor", "1e-4",
                  "--budget", "1e-6", "--set", "montecarlo.burn_in=20"])
     err = capsys.readouterr().err
     assert code == 3, err

@@ -10,7 +10,7 @@ from harness.cli import main
 
 def test_figures_command(tmp_path: Path):
     out = tmp_path / "figs"
-    assert main(["figures", "--out", str(out), "--figure", "6", "--paths", "32", "--time", "50",
+    assert main(["figures", "--out", str(out), "--figure", "6", "--paths", "64", "--time", "50",
                  "--quiet"]) == 0
     assert (out / "paper-fig6.png").stat().st_size > 10_000
     table = json.loads((out / "figures.json").read_text())

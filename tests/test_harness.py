@@ -172,9 +172,10 @@ def test_recommend_within_the_noise_follows_the_wall_term_validity():
 
 def test_recommend_none_when_assumptions_fail_or_unconverged_or_large():
     from harness.check import recommend
+    from vifpk.core.result import WarningRecord
 
-    narrow = ("narrow-band noise: bandwidth alpha1 = 0.2 is 0.2-0.2 x the oscillation "
-              "frequency over the bulk of p(E)")
+    narrow = WarningRecord("narrow_band", "narrow-band noise: bandwidth alpha1 = 0.2 is 0.2-0.2 x "
+                           "the oscillation frequency over the bulk of p(E)")
     m, line = recommend(_canned({"exact": 0.01, "corrected": 0.01}), [narrow], VAL)
     assert m == "none" and "narrow band" in line
     m, line = recommend(_canned({"exact": 0.01, "corrected": 0.01}), [], VAL,
@@ -186,10 +187,12 @@ def test_recommend_none_when_assumptions_fail_or_unconverged_or_large():
 
 def test_advisory_warning_keeps_the_recommendation_and_the_estimate():
     """correlated noise is advisory: the verdict stays an estimate and a model is named."""
-    from harness.check import recommend, verdict_class, warning_kind
+    from harness.check import ADVISORY, recommend, verdict_class
+    from vifpk.core.result import WarningRecord
 
-    w = "correlated noise: over one correlation time 1/alpha1 the noise changes the energy"
-    assert warning_kind(w) == "correlated_noise"
+    w = WarningRecord("correlated_noise", "correlated noise: over one correlation time 1/alpha1 "
+                      "the noise changes the energy")
+    assert w.kind in ADVISORY
     m, line = recommend(_canned({"exact": 0.05, "corrected": 0.02}), [w], VAL)
     assert m == "corrected" and "correlated-noise regime" in line
     entry = {"averaging_error": {"A": {"L1": 0.05, "L1_floor": 0.01, "L1_err": 0.001}},

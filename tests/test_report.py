@@ -46,7 +46,9 @@ def test_not_an_estimate_keeps_the_convergence_wording():
     assert "the simulation has not converged" in line and "R-hat 1.2" in line
     line = verdict("exact", _entry(0.3, sampling_ok=False), [])
     assert "the simulation has not converged" in line
-    w = ["strong damping: at the mean amplitude ..."]
+    from vifpk.core.result import WarningRecord
+
+    w = [WarningRecord("strong_damping", "strong damping: at the mean amplitude ...")]
     cls, cause = verdict_class(_entry(0.3), w)
     assert cls == "not an estimate" and "strong damping" in cause
     assert "NOT an estimate" in verdict("exact", _entry(0.3), w)

@@ -159,7 +159,7 @@ def test_overrides_name_the_title_and_the_default_folder(run, tmp_path: Path, mo
     import harness.check
 
     monkeypatch.setattr(harness.check, "cross_check",
-                        lambda scene, quiet: dataclasses.replace(run["res"], scene=scene))
+                        lambda scene, quiet, **_: dataclasses.replace(run["res"], scene=scene))
     monkeypatch.chdir(tmp_path)
     assert main(["check", TINY, "--set", "system.mu=0.01", "--quiet"]) == 0
     folder = tmp_path / "out" / "tiny+system.mu=0.01"

@@ -13,9 +13,9 @@ from pathlib import Path
 
 import pytest
 
-from harness.check import MODELS
 from harness.cli import main
 from harness.sweep import load_sweep, point_key, point_seed, run_sweep
+from vifpk.core.defaults import CHECK_MODELS as MODELS
 
 from .conftest import ROOT
 
@@ -199,14 +199,14 @@ def test_interrupted_sweep_resumes_with_only_the_rest(tmp_path):
                             # a test run started in the background inherits SIGINT ignored
                             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     t0 = time.monotonic()
-    while len(list((out / "points").glob("*.json"))) < 2 and time.monotonic() - t0 < 120:
+    while len(list((out / "points").glob("[!.]*.json"))) < 2 and time.monotonic() - t0 < 120:
         time.sleep(0.02)
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=120)
     assert proc.returncode == 130, err
     assert "run the same command again" in err
     assert not (out / "sweep.nc").exists()
-    kept = {p.stem: p.stat().st_mtime_ns for p in (out / "points").glob("*.json")}
+    kept = {p.stem: p.stat().st_mtime_ns for p in (out / "points").glob("[!.]*.json")}
     sweep = load_sweep(AVERAGING)
     assert 2 <= len(kept) < len(sweep.points), "the sweep ended before it was interrupted"
     res = run_sweep(sweep, out, executor="processes:2", quiet=True, report=False)
@@ -236,7 +236,7 @@ def test_killed_dask_worker_loses_and_duplicates_no_point(tmp_path):
         while killed is None and time.monotonic() - t0 < 120:
             busy = [w for w, keys in client.processing().items()
                     if any(str(k).startswith("vifpk-") for k in keys)]
-            if busy and list((tmp_path / "points").glob("*.json")):
+            if busy and list((tmp_path / "points").glob("[!.]*.json")):
                 pid = client.run(os.getpid, workers=[busy[0]])[busy[0]]
                 os.kill(pid, signal.SIGKILL)
                 killed = busy[0]
@@ -246,7 +246,7 @@ def test_killed_dask_worker_loses_and_duplicates_no_point(tmp_path):
     run = result["run"]
     keys = [p.key for p in sweep.points]
     assert sorted(run.computed) == sorted(keys)  # each exactly once
-    assert sorted(p.stem for p in (tmp_path / "points").glob("*.json")) == sorted(keys)
+    assert sorted(p.stem for p in (tmp_path / "points").glob("[!.]*.json")) == sorted(keys)
     assert (_values(tmp_path / "sweep.nc")["status"] == "ok").all()
 
 

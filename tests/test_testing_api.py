@@ -124,6 +124,7 @@ def test_cache_is_hit_and_refreshed(pytester):
 def test_example_runs(tmp_path):
     example = tmp_path / "test_my_model.py"
     shutil.copy(ROOT / "docs" / "examples" / "test_my_model.py", example)
+    shutil.copytree(ROOT / "docs" / "examples" / "plugin", tmp_path / "plugin")  # its model
     res = subprocess.run([sys.executable, "-m", "pytest", str(example), "-q", "-s",
                           "--vifpk-cache", str(tmp_path / "c"), "-p", "no:cacheprovider"],
                          capture_output=True, text=True, cwd=tmp_path, timeout=600)

@@ -132,7 +132,7 @@ def test_solve_a_shipped_scene_from_an_empty_directory(installed):
 
 
 def test_small_check_and_figure_from_an_empty_directory(installed):
-    small = ["--paths", "32", "--time", "50", "--seed", "1"]
+    small = ["--paths", "64", "--time", "50", "--seed", "1"]
     res = run(installed, installed["vifpk"], "check", "paper-base", "--out", "out", "--quiet",
               *small)
     assert res.returncode == 0, res.stderr
@@ -141,3 +141,28 @@ def test_small_check_and_figure_from_an_empty_directory(installed):
               "--quiet", *small)
     assert res.returncode == 0, res.stderr
     assert list((installed["cwd"] / "figs").glob("paper-fig2*.png"))
+
+
+def test_a_plugin_package_is_listed_solved_and_checked(installed, tmp_path):
+    """docs/examples/plugin installed with pip beside the wheel: its model works like a
+    built-in one, without editing vifpk (issue 19.2). Runs last: it adds to the venv."""
+    src = tmp_path / "plugin"
+    shutil.copytree(ROOT / "docs" / "examples" / "plugin", src)
+    subprocess.run([str(installed["python"]), "-m", "pip", "install", "-q", "--no-deps",
+                    str(src)], check=True, timeout=600, env=_env(installed["bin"]))
+    res = run(installed, installed["vifpk"], "models")
+    assert res.returncode == 0, res.stderr
+    assert "white-envelope" in res.stdout and "vifpk-white-envelope" in res.stdout
+    res = run(installed, installed["vifpk"], "solve", "paper-base", "--model", "white-envelope")
+    assert res.returncode == 0, res.stderr
+    assert "FPK direct solve" in res.stdout
+    small = ["--paths", "64", "--time", "50", "--seed", "1"]
+    res = run(installed, installed["vifpk"], "check", "paper-base", "--model", "white-envelope",
+              "--model", "exact", "--out", "plugin-check", "--quiet", *small)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.startswith("white-envelope model:")
+    metrics = (installed["cwd"] / "plugin-check" / "metrics.json").read_text()
+    assert '"white-envelope"' in metrics
+    res = run(installed, installed["python"], "-c", "import vifpk; "
+              "print(vifpk.model_names())")
+    assert res.returncode == 0 and "white-envelope" in res.stdout, res.stderr

@@ -10,12 +10,28 @@ from __future__ import annotations
 from importlib import import_module
 from typing import Any
 
-# public name -> (module, attribute)
+# public name -> (module, attribute); docs/api.md documents each
 _API: dict[str, tuple[str, str]] = {
+    # scenes
     "Scene": ("vifpk.core.scene", "Scene"),
     "SceneError": ("vifpk.core.scene", "SceneError"),
     "load_scene": ("vifpk.core.scene", "load_scene"),
     "scene_from_dict": ("vifpk.core.scene", "scene_from_dict"),
+    "scene": ("vifpk.api", "scene"),
+    # workflows
+    "solve": ("vifpk.api", "solve"),
+    "check": ("vifpk.api", "check"),
+    "sweep": ("vifpk.api", "sweep"),
+    # results
+    "Result": ("vifpk.core.result", "Result"),
+    "Status": ("vifpk.core.result", "Status"),
+    # the model registry
+    "model_names": ("vifpk.core.registry", "model_names"),
+    "models": ("vifpk.core.registry", "models"),
+    "build_model": ("vifpk.core.registry", "build_model"),
+    # tolerance tests (numpy.testing style)
+    "assert_density_close": ("harness.testing", "assert_density_close"),
+    "assert_averaging_error": ("harness.testing", "assert_averaging_error"),
 }
 
 __all__ = sorted(_API)

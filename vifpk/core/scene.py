@@ -27,8 +27,11 @@ from importlib.resources.abc import Traversable
 from pathlib import Path
 from typing import Any
 
+from .registry import NOISE_KINDS
+from .result import BadInput
 
-class SceneError(ValueError):
+
+class SceneError(BadInput):
     """A scene that cannot be used; the message is one line naming the field."""
 
 
@@ -267,7 +270,7 @@ def restoring_problem(k: tuple[float, ...]) -> str | None:
 class Noise:
     """Excitation xi(t): OU ("real") noise with bandwidth alpha1, or Gaussian white noise."""
 
-    kind: str = field(default="ou", metadata=_meta(_one_of("ou", "white"), "noise model"))
+    kind: str = field(default="ou", metadata=_meta(_one_of(*NOISE_KINDS), "noise model"))
     D: float = field(default=0.01, metadata=_meta(_positive, "intensity: E[W W] = 2 D delta"))
     alpha1: float = field(default=2.0, metadata=_meta(_positive, "OU bandwidth"))
 

@@ -1,0 +1,151 @@
+"""The registries (vifpk.core.registry) and model plugins by entry point (docs/plugins.md).
+
+A plugin is made visible without pip: a ``*.dist-info`` folder (METADATA + entry_points.txt)
+on ``sys.path`` is what an installed distribution is to ``importlib.metadata``, so a
+subprocess with that folder on PYTHONPATH sees the example plugin
+(docs/examples/plugin/) exactly as after ``pip install``. tests/test_wheel.py installs it
+with pip into a fresh virtual environment (slow tier).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from vifpk.core import registry
+
+from .conftest import ROOT
+
+PLUGIN = ROOT / "docs" / "examples" / "plugin"
+
+
+def test_builtin_models_are_the_pyproject_entry_points_in_order():
+    table = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["entry-points"]
+    declared = tuple(table[registry.MODEL_GROUP])
+    assert registry.model_names()[:len(declared)] == declared
+    assert {"paper", "exact", "corrected"} <= set(declared)
+    assert all(registry.model_entry(n).builtin for n in declared)
+
+
+def test_check_and_bifurcation_defaults_are_registered_models():
+    from vifpk.core.defaults import BIFURCATION_MODELS, CHECK_MODELS
+
+    assert set(CHECK_MODELS) | set(BIFURCATION_MODELS) <= set(registry.model_names())
+
+
+def test_unknown_model_names_the_registered_ones(base):
+    with pytest.raises(registry.UnknownName) as err:
+        registry.build_model(base, "no-such-model")
+    msg = str(err.value)
+    assert "\n" not in msg and "'no-such-model'" in msg
+    assert all(repr(n) in msg for n in registry.model_names())
+
+
+def test_a_registered_factory_that_cannot_load_is_named(monkeypatch, base):
+    bad = registry.ModelEntry("broken", "no_such_module_xyz:build", "someone")
+    monkeypatch.setattr(registry, "_entries", lambda: ((bad,), ()))
+    with pytest.raises(registry.UnknownName, match="'broken'.*no_such_module_xyz:build.*"
+                                                    "someone"):
+        registry.build_model(base, "broken")
+
+
+def test_one_of_is_the_one_wording():
+    assert registry.one_of("noise kind", "ou", registry.NOISE_KINDS) == "ou"
+    with pytest.raises(ValueError, match=r"noise kind must be one of \('ou', 'white'\), "
+                                         "not 'pink'"):
+        registry.one_of("noise kind", "pink", registry.NOISE_KINDS)
+
+
+def test_status_members_carry_their_messages():
+    from vifpk.core.result import Status
+
+    rec = Status.NOT_FINITE.record("x2")
+    assert rec == {"ok": False, "message": "density is negative or not finite (x2)",
+                   "code": "not_finite"}
+    assert all(s.message and s.code for s in Status)
+    assert len({s.code for s in Status}) == len(Status)
+
+
+# ------------------------------------------------------------------ a plugin, end to end
+@pytest.fixture(scope="module")
+def plugin_path(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A folder that makes the example plugin 'installed' for importlib.metadata: its module
+    and a dist-info with the entry points of its pyproject.toml."""
+    where = tmp_path_factory.mktemp("plugin")
+    meta = tomllib.loads((PLUGIN / "pyproject.toml").read_text())
+    project = meta["project"]
+    info = where / f"{project['name'].replace('-', '_')}-{project['version']}.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {project['name']}\n"
+                                   f"Version: {project['version']}\n")
+    lines = [f"[{group}]"] if (group := registry.MODEL_GROUP) else []
+    lines += [f"{k} = {v}" for k, v in project["entry-points"][group].items()]
+    (info / "entry_points.txt").write_text("\n".join(lines) + "\n")
+    (where / "vifpk_white_envelope.py").write_text(
+        (PLUGIN / "vifpk_white_envelope.py").read_text())
+    return where
+
+
+def _cli(plugin_path: Path, *args: str, cwd: Path = ROOT) -> subprocess.CompletedProcess[str]:
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(plugin_path), str(ROOT)]),
+               NUMBA_NUM_THREADS="1")
+    return subprocess.run([sys.executable, "-m", "harness", *args], cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=600)
+
+
+def test_a_plugin_is_listed_and_solved_like_a_builtin(plugin_path: Path, tmp_path: Path):
+    res = _cli(plugin_path, "models")
+    assert res.returncode == 0, res.stderr
+    line = next(ln for ln in res.stdout.splitlines() if ln.startswith("white-envelope"))
+    assert "vifpk_white_envelope:WhiteNoiseEnvelope" in line and "vifpk-white-envelope" in line
+    for solver in ("averaging", "fpk"):
+        out = tmp_path / f"{solver}.json"
+        res = _cli(plugin_path, "solve", "paper-base", "--model", "white-envelope",
+                   "--solver", solver, "--json", str(out))
+        assert res.returncode == 0, res.stderr
+        rec = json.loads(out.read_text())
+        assert rec["model"] == "white-envelope"
+        for obs in ("A", "x1", "x2"):
+            x, p = np.asarray(rec["pdf"][obs]["x"]), np.asarray(rec["pdf"][obs]["p"])
+            assert np.all(np.isfinite(p)) and p.min() >= 0
+            assert abs(np.trapezoid(p, x) - 1) < 1e-6
+        # no closed form and no period: the record says what it used instead
+        assert rec["info"]["period"].startswith("exact orbit")
+    assert rec["info"]["status"]["ok"]
+    res = _cli(plugin_path, "solve", "paper-base", "--model", "white-envelope")
+    assert res.returncode == 0, res.stderr
+    assert "FPK direct solve, 800 cells" in res.stdout and "period T(A): exact orbit" in res.stdout
+
+
+def test_an_unknown_model_exits_2_listing_the_plugins_too(plugin_path: Path):
+    for cmd in ("solve", "check", "bifurcation"):
+        extra = ["--vary", "mu"] if cmd == "bifurcation" else []
+        res = _cli(plugin_path, cmd, "paper-base", "--model", "nope", *extra)
+        assert res.returncode == 2
+        assert res.stderr.count("\n") == 1, res.stderr
+        assert "white-envelope" in res.stderr and "corrected" in res.stderr
+
+
+def test_the_plugin_model_in_harness_testing_and_bifurcation(plugin_path: Path):
+    """In-process: the registry read again with the plugin on sys.path."""
+    sys.path.insert(0, str(plugin_path))
+    registry.refresh()
+    try:
+        from harness.bifurcation import shape_index
+        from harness.testing import model_densities
+        from vifpk.core.scene import load_scene
+
+        scene = load_scene("paper-base")
+        d = model_densities(scene, "white-envelope")
+        assert abs(np.trapezoid(d["A"]["p"], d["A"]["x"]) - 1) < 1e-9
+        assert np.isfinite(shape_index(scene, "white-envelope"))
+    finally:
+        sys.path.remove(str(plugin_path))
+        registry.refresh()

@@ -1,0 +1,24 @@
+"""Defaults that more than one module uses: each written here once.
+
+A default that belongs to one module stays there; one that two modules share (a solver and
+the harness that estimates its cost, a workflow and the command line that documents it) lives
+here, with where it comes from.
+"""
+
+from __future__ import annotations
+
+#: Cells of the FPK of an averaged model when none is asked for (``vifpk solve --solver fpk``,
+#: the cross-check's discretisation error, ``fpk.stationary``); docs/fpk.md measures its error
+#: (second order in the cell width, tests/test_fpk.py).
+FPK_CELLS = 400
+#: Cells of the FPK direct solve that gives p(A) of a model with no closed form (a plugin
+#: giving only drift and diffusion): twice FPK_CELLS, so the reference is the finer grid.
+REFERENCE_CELLS = 800
+#: Burn-in = BURN_FACTOR x the relaxation time tau (montecarlo/tuning.py: the start's offset
+#: from equilibrium decays as exp(-t / tau), so e^-6 = 2.5e-3 of it is left).
+BURN_FACTOR = 6.0
+#: The averaged models a cross-check (and a sweep of cross-checks) runs when none is named,
+#: in this order: report columns and the per-model Monte Carlo seeds follow it.
+CHECK_MODELS = ("paper", "exact", "corrected")
+#: The models a bifurcation search runs when none is named (the paper's and the exact one).
+BIFURCATION_MODELS = ("paper", "exact")

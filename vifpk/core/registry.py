@@ -1,0 +1,157 @@
+"""Registries: the names of solvers, noise kinds, impact laws and averaged models.
+
+Each list is written here once; every package reads it from here (a solver checks its input
+against it, the scene schema validates against it, the command line offers it).
+
+Averaged models are registered by entry point, in the group ``vifpk.models``::
+
+    [project.entry-points."vifpk.models"]
+    mymodel = "mypackage.model:build"      # build(scene, **options) -> model
+
+The object a factory returns follows the averaged-model protocol (docs/testing.md):
+``drift(A)`` and ``diffusion(A)`` (arrays in, arrays out), optionally ``period(A)`` and
+``log_stationary_parts(A)`` (a closed form, averaging/stationary.py). vifpk's own models
+(``paper``, ``exact``, ``corrected``) are registered the same way in vifpk's pyproject.toml,
+so a new built-in model is its own file plus one line there.
+
+In a source checkout (``pyproject.toml`` beside this package: the repository, installed
+editable or only on ``sys.path``) vifpk's own registrations are read from that file, so a
+model added there is seen without reinstalling; installed metadata gives everyone else's.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from collections.abc import Callable
+from dataclasses import dataclass
+from functools import cache
+from importlib import import_module, metadata
+from pathlib import Path
+from typing import Any
+
+#: The solvers ``harness.run.run_solver`` knows, in the order the CLI offers them.
+SOLVERS = ("averaging", "fpk", "montecarlo")
+#: Kinds of excitation xi(t): Ornstein-Uhlenbeck ("real") noise, Gaussian white noise.
+NOISE_KINDS = ("ou", "white")
+#: Impact laws of the exact averaged model (averaging/exact.py, ``energy_terms``).
+IMPACT_LAWS = ("exact", "transformed", "compounded")
+
+MODEL_GROUP = "vifpk.models"
+DISTRIBUTION = "vifpk"
+
+
+class UnknownName(ValueError):
+    """A name that is not registered; the message is one line listing the registered ones."""
+
+
+def one_of(what: str, name: Any, allowed: tuple[str, ...] | list[str]) -> str:
+    """``name`` if it is in ``allowed``, else UnknownName("<what> must be one of (...), not
+    'x'") -- the one wording of every unknown-kind error."""
+    if name not in allowed:
+        raise UnknownName(f"{what} must be one of {tuple(allowed)}, not {name!r}")
+    return name
+
+
+# ----------------------------------------------------------------------------- models
+@dataclass(frozen=True)
+class ModelEntry:
+    """One registered averaged model: its name, ``module:attribute`` and who registered it."""
+
+    name: str
+    value: str
+    distribution: str
+
+    @property
+    def builtin(self) -> bool:
+        return self.distribution == DISTRIBUTION
+
+    def load(self) -> Callable[..., Any]:
+        module, _, attr = self.value.partition(":")
+        obj: Any = import_module(module.strip())
+        for part in attr.strip().split(".") if attr else ():
+            obj = getattr(obj, part)
+        return obj
+
+
+def _source_pyproject() -> Path | None:
+    """vifpk's own pyproject.toml when this package runs from a source checkout."""
+    p = Path(__file__).resolve().parents[2] / "pyproject.toml"
+    if not p.is_file():
+        return None
+    try:
+        raw = tomllib.loads(p.read_text(encoding="utf-8"))
+    except (OSError, tomllib.TOMLDecodeError):
+        return None
+    return p if raw.get("project", {}).get("name") == DISTRIBUTION else None
+
+
+@cache
+def _entries() -> tuple[tuple[ModelEntry, ...], tuple[str, ...]]:
+    """(entries, conflicts): vifpk's own models first (in pyproject order from a source
+    checkout, by name from metadata), then other distributions' by name. A name registered
+    twice keeps its first entry; the clash is reported in ``conflicts``."""
+    own: list[ModelEntry] = []
+    others: list[ModelEntry] = []
+    src = _source_pyproject()
+    if src is not None:
+        raw = tomllib.loads(src.read_text(encoding="utf-8"))
+        table = raw["project"].get("entry-points", {}).get(MODEL_GROUP, {})
+        own = [ModelEntry(k, v, DISTRIBUTION) for k, v in table.items()]
+    for ep in metadata.entry_points(group=MODEL_GROUP):
+        dist = ep.dist.metadata["Name"] if ep.dist is not None else "?"
+        if dist == DISTRIBUTION:
+            if src is None:
+                own.append(ModelEntry(ep.name, ep.value, dist))
+        else:
+            others.append(ModelEntry(ep.name, ep.value, dist))
+    if src is None:
+        own.sort(key=lambda e: e.name)
+    found: dict[str, ModelEntry] = {}
+    conflicts = []
+    for e in own + sorted(others, key=lambda e: (e.name, e.distribution)):
+        if e.name in found:
+            conflicts.append(f"{e.name!r} from {e.distribution} (kept the one from "
+                             f"{found[e.name].distribution})")
+        else:
+            found[e.name] = e
+    return tuple(found.values()), tuple(conflicts)
+
+
+def models() -> tuple[ModelEntry, ...]:
+    """Every registered averaged model: vifpk's own first, then plugins by name."""
+    return _entries()[0]
+
+
+def model_names() -> tuple[str, ...]:
+    return tuple(e.name for e in models())
+
+
+def model_conflicts() -> tuple[str, ...]:
+    """Names registered by more than one distribution (the first registration is used)."""
+    return _entries()[1]
+
+
+def model_entry(name: str) -> ModelEntry:
+    """The registered model ``name``; UnknownName listing the registered names otherwise."""
+    for e in models():
+        if e.name == name:
+            return e
+    raise UnknownName(f"model must be one of {model_names()}, not {name!r}")
+
+
+def build_model(scene: Any, name: str, **options: Any) -> Any:
+    """The averaged model ``name`` for ``scene``: its factory called as
+    ``factory(scene, **options)``. A factory that cannot be loaded raises UnknownName naming
+    the entry point."""
+    entry = model_entry(name)
+    try:
+        factory = entry.load()
+    except (ImportError, AttributeError) as exc:
+        raise UnknownName(f"model {name!r}: its entry point {entry.value!r} (from "
+                          f"{entry.distribution}) cannot be loaded: {exc}") from None
+    return factory(scene, **options)
+
+
+def refresh() -> None:
+    """Forget the registry read so far (after installing a plugin in a running process)."""
+    _entries.cache_clear()

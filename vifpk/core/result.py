@@ -1,0 +1,61 @@
+"""One result type for every solver, the status it ends in, and warnings as records.
+
+``Result(data, info)``: ``data`` maps an observable to a density record ``{"x", "p"}`` (a
+Monte Carlo histogram adds ``"edges"``, ``"err"``); ``info`` holds settings, timings,
+diagnostics and ``info["status"]``, the JSON form of a :class:`Status` (``Status.record``).
+
+:class:`Status` members carry their message (as diffrax's ``RESULTS`` do), so the words of an
+outcome are written once and code asks ``status.ok`` instead of reading sentences.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import Enum
+from typing import Any, NamedTuple
+
+
+class BadInput(ValueError):
+    """Input that cannot be used (a scene field, an option, an output folder): the message is
+    one line naming it and what is allowed; the command line exits with code 2."""
+
+
+class Result(NamedTuple):
+    """A solver's output: densities by observable, and what the run did (``info``)."""
+
+    data: dict[str, dict[str, Any]]
+    info: dict[str, Any]
+
+
+class Status(Enum):
+    """How a solver run ended: ``code`` (a stable word), ``message`` (for people), ``ok``."""
+
+    DENSITY = ("density", "stationary density computed", True)
+    SNAPSHOTS = ("snapshots", "transient snapshots computed", True)
+    SIMULATED = ("simulated", "simulated", True)
+    NOT_FINITE = ("not_finite", "density is negative or not finite", False)
+
+    def __init__(self, code: str, message: str, ok: bool):
+        self.code, self.message, self.ok = code, message, ok
+
+    def record(self, detail: str = "") -> dict[str, Any]:
+        """The JSON form stored as ``info["status"]``: ``{"ok", "message", "code"}``."""
+        message = f"{self.message} ({detail})" if detail else self.message
+        return {"ok": self.ok, "message": message, "code": self.code}
+
+
+@dataclass(frozen=True)
+class WarningRecord:
+    """A warning a workflow raises about its result: a stable ``kind`` (what code acts on)
+    and a ``text`` (what people read). ``str()`` is the text."""
+
+    kind: str
+    text: str
+
+    def __str__(self) -> str:
+        return self.text
+
+    @property
+    def title(self) -> str:
+        """The kind in words ("strong_damping" -> "strong damping")."""
+        return self.kind.replace("_", " ")
