@@ -627,7 +627,8 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--scene", metavar="SCENE",
                    help="instead of the paper's figures, draw the PDFs and the joint density "
                         "of this scene (any system; a list-valued parameter gives a row per "
-                        "value): SCENE-pdfs.png, SCENE-joint.png")
+                        "value): SCENE-pdfs.png, SCENE-joint.png "
+                        "(default: none, the paper's Figures 2-6)")
     f.add_argument("--quiet", action="store_true", help=QUIET_HELP)
     _add_mc_options(f)
     f.set_defaults(func=cmd_figures)
