@@ -365,37 +365,36 @@ def cmd_figures(args: argparse.Namespace) -> int:
     validate.output_folder(args.out, "--out")
     overrides = _mc_overrides(args)
     options = {k: f"--{k}" for k in _mc_given(args)}
-    scenes = []
+
+    def checked(*sweeps: Any) -> None:
+        """Every scene the figures will simulate (``--set`` applied), checked and priced
+        before any work."""
+        scenes = [scene for sweep in sweeps
+                  for scene in (sweep.with_values(overrides) if overrides else sweep).variants()]
+        for scene in scenes:
+            validate.scene_magnitudes(scene)
+            validate.montecarlo_settings(scene, options)
+            validate.refuse_oversized(scene)
+        validate.refuse_costly(lambda sp: sum(validate.montecarlo_seconds(sc, speed=sp)
+                                              for sc in scenes), "these figures", args.yes)
+
     if args.scene is not None:  # your own scene: its PDFs and joint density, any system
         from .figures import as_sweep, draw_scene_figures
 
         if args.figure:
             validate.refuse_options(["figure"], "with --scene (the paper's figures are "
                                     "drawn from their own scenes)")
-        own = load_scene(args.scene)
-        own = own.with_values(overrides) if overrides else own
-        for scene in as_sweep(own).variants():
-            validate.scene_magnitudes(scene)
-            validate.montecarlo_settings(scene, options)
-            validate.refuse_oversized(scene)
-            scenes.append(scene)
-        validate.refuse_costly(lambda sp: sum(validate.montecarlo_seconds(sc, speed=sp)
-                                              for sc in scenes), "these figures", args.yes)
+        base = load_scene(args.scene)
+        checked(as_sweep(base))
+        own = base.with_values(overrides) if overrides else base
         prov = _provenance(args)
         with outdir.hold(args.out, run_id=prov["run_id"]):
             table = draw_scene_figures(args.out, own, quiet=args.quiet, prov=prov)
         print(render_table(table), end="")
         print(f"figures: {args.out}/{own.name}-joint.png, {args.out}/{own.name}-pdfs.png")
         return 0
-    for no in args.figure or (2, 3, 4, 5, 6):
-        sweep = load_scene(FIGURES[no])  # a shipped scene, as draw_figures loads it
-        for scene in (sweep.with_values(overrides) if overrides else sweep).variants():
-            validate.scene_magnitudes(scene)
-            validate.montecarlo_settings(scene, options)
-            validate.refuse_oversized(scene)
-            scenes.append(scene)
-    validate.refuse_costly(lambda sp: sum(validate.montecarlo_seconds(sc, speed=sp)
-                                          for sc in scenes), "these figures", args.yes)
+    checked(*(load_scene(FIGURES[no])  # shipped scenes, as draw_figures loads them
+              for no in args.figure or (2, 3, 4, 5, 6)))
     prov = _provenance(args)
     # figures are replaced one by one (--figure redraws some of them), each atomically; the
     # lock keeps two runs from interleaving in one folder

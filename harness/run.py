@@ -272,18 +272,17 @@ def averaged_sde_solution(scene: Any, model: Any, *, edges: dict[str, Any], seed
 
 def file_sets(path: str, section: str, key: str) -> bool:
     """Whether the scene file (a path or a shipped name) sets ``[section] key`` itself."""
-    import tomllib
     from pathlib import Path
 
-    from vifpk.core.scene import find_scene
+    from vifpk.core.scene import SceneError, find_scene, read_toml
 
     p = Path(path)
     found: Any = p if p.is_file() else find_scene(path)
     if found is None:
         return False
     try:
-        raw = tomllib.loads(found.read_text(encoding="utf-8-sig"))
-    except (OSError, ValueError, RecursionError):
+        raw = read_toml(found)[1]
+    except SceneError:
         return False
     table = raw.get(section)
     return isinstance(table, dict) and key in table

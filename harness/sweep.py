@@ -49,7 +49,6 @@ import math
 import os
 import sys
 import time
-import tomllib
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field, fields
@@ -282,7 +281,7 @@ def _resolve_scene(name: Any, sweep_path: Any) -> Scene:
 def load_sweep(path: str | Path) -> Sweep:
     """Read and validate a sweep file (a path, or the bare name of a shipped sweep), building
     every point's scene (SweepError on any problem, one line naming the key)."""
-    from vifpk.core.scene import shipped_name, shipped_scenes
+    from vifpk.core.scene import read_toml, shipped_name, shipped_scenes
 
     p: Any = Path(path)
     try:
@@ -296,16 +295,7 @@ def load_sweep(path: str | Path) -> Sweep:
         if not shipped_name(str(path)) or "/" in str(path) or not cand.is_file():
             raise SweepError(f"{path}: no such sweep file")
         p = cand
-    try:
-        text = p.read_text(encoding="utf-8-sig")  # a UTF-8 BOM is fine, as in scene files
-        raw = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise SweepError(f"{p.name}: not valid TOML: {exc}") from None
-    except RecursionError:
-        raise SweepError(f"{p.name}: not valid TOML: arrays or tables nested too deeply"
-                         ) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SweepError(f"{p.name}: cannot read: {exc}") from None
+    text, raw = read_toml(p, SweepError)
     src = p.name
     for key in raw:
         if key not in TOP_KEYS:

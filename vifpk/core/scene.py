@@ -631,13 +631,19 @@ def load_scene(path: str | Path | Traversable) -> Scene:
             hint = f"did you mean '{close[0]}'?" if close else "shipped: " + ", ".join(names)
             raise SceneError(f"{path}: no such scene file or shipped scene; {hint}")
         p = found
+    return scene_from_dict(read_toml(p)[1], source=p.name)
+
+
+def read_toml(p: Path | Traversable, error: type[SceneError] = SceneError
+              ) -> tuple[str, dict[str, Any]]:
+    """The text and the parsed TOML of a scene or sweep file (a UTF-8 BOM is fine); ``error``
+    (one line naming the file) when it cannot be read or parsed, deep nesting included."""
     try:
-        raw = tomllib.loads(p.read_text(encoding="utf-8-sig"))  # a UTF-8 BOM is fine
+        text = p.read_text(encoding="utf-8-sig")
+        return text, tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise SceneError(f"{p.name}: not valid TOML: {exc}") from None
+        raise error(f"{p.name}: not valid TOML: {exc}") from None
     except RecursionError:
-        raise SceneError(f"{p.name}: not valid TOML: arrays or tables nested too deeply"
-                         ) from None
+        raise error(f"{p.name}: not valid TOML: arrays or tables nested too deeply") from None
     except (OSError, UnicodeDecodeError) as exc:
-        raise SceneError(f"{p.name}: cannot read: {exc}") from None
-    return scene_from_dict(raw, source=p.name)
+        raise error(f"{p.name}: cannot read: {exc}") from None
