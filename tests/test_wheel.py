@@ -51,12 +51,13 @@ def installed(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
 
 def running_site_dirs() -> list[str]:
     """The site-packages folders of the interpreter running the tests, in its order: those of
-    its own prefix (a virtualenv's), of its base when the venv includes them, the user's, and
-    any a ``.pth`` added; never the repository (the sources must not shadow the wheel)."""
+    its own prefix (a virtualenv's, which may live inside the repository: CI's .venv does), of
+    its base when the venv includes them, the user's, and any a ``.pth`` added. Never the
+    repository's source folders (they would shadow the wheel): only folders named
+    site-packages or dist-packages are kept, and a folder listed in a ``.pth`` is not a site
+    folder, so the editable install's own ``.pth`` and finder in there are not processed."""
     dirs = [p for p in sys.path if Path(p).name in ("site-packages", "dist-packages")]
-    root = ROOT.resolve()
-    return [p for p in dict.fromkeys(dirs)
-            if Path(p).is_dir() and not Path(p).resolve().is_relative_to(root)]
+    return [p for p in dict.fromkeys(dirs) if Path(p).is_dir()]
 
 
 def _see_running_packages(py: Path) -> None:
