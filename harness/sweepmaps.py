@@ -55,6 +55,26 @@ def _flagged(ds: Any) -> np.ndarray:
     return np.any([np.asarray(ds[k].values) == 1 for k in names], axis=0)
 
 
+def _verdict_boundary(ax: Any, inside: np.ndarray, known: np.ndarray, xe: np.ndarray,
+                      ye: np.ndarray) -> None:
+    """The validity boundary of a grid as the cell edges between a point within the noise
+    (L1 < 2 x floor) and one outside it: on a coarse, noisy grid an interpolated contour
+    breaks into short dashes between isolated points, while the cells are what was measured.
+    ``inside`` and ``known`` are (y, x) arrays; the edge grids ``xe``, ``ye`` bound them."""
+    segs = []
+    both = known[:, :-1] & known[:, 1:]
+    for j, i in zip(*np.nonzero(both & (inside[:, :-1] != inside[:, 1:])), strict=True):
+        segs.append([(xe[i + 1], ye[j]), (xe[i + 1], ye[j + 1])])
+    both = known[:-1, :] & known[1:, :]
+    for j, i in zip(*np.nonzero(both & (inside[:-1, :] != inside[1:, :])), strict=True):
+        segs.append([(xe[i], ye[j + 1]), (xe[i + 1], ye[j + 1])])
+    if segs:
+        from matplotlib.collections import LineCollection
+
+        ax.add_collection(LineCollection(segs, colors="white", linewidths=2,
+                                         capstyle="projecting"))
+
+
 def _map_figure(ds: Any, var: str, title: str, *, contour: bool) -> str:
     """Colour maps of ``var`` (dims: two parameters and model), models side by side."""
     from .io import pyplot
@@ -87,11 +107,8 @@ def _map_figure(ds: Any, var: str, title: str, *, contour: bool) -> str:
         if contour and "L1_floor_A" in ds and min(x.size, y.size) >= 2:
             fl = np.asarray(ds["L1_floor_A"].sel(model=m).transpose(py, px).values, float)
             ratio = z / fl
-            if np.isfinite(ratio).any() and np.nanmin(ratio) < WITHIN_NOISE < np.nanmax(ratio):
-                cs = ax.contour(x, y, ratio, levels=[WITHIN_NOISE], colors="white",
-                                linewidths=2)
-                ax.clabel(cs, fmt={WITHIN_NOISE: f"{WITHIN_NOISE:g} x floor"}, fontsize=8)
             inside = ratio < WITHIN_NOISE
+            _verdict_boundary(ax, inside, np.isfinite(ratio), xe, ye)
             gx, gy = np.meshgrid(x, y)
             ax.plot(gx[inside], gy[inside], "o", mfc="none", mec="white", ms=5, ls="none")
         if flags is not None:
@@ -234,9 +251,11 @@ def figures(ds: Any) -> list[tuple[str, str]]:
                         "point.", _scattered_map_figure(ds, "averaging_error_A", "L1 of p(A)")))
         elif two:
             out.append(("Averaging error L1 of p(A) against the simulated original system. "
-                        "White contour and circles: within the Monte Carlo noise (L1 < 2 x "
-                        "noise floor), averaging holds. Hatched: an assumption warning or no "
-                        "convergence. Red cross: failed point.",
+                        "White circles: within the Monte Carlo noise (L1 < 2 x noise floor), "
+                        "averaging holds; white lines: the cell edges between such a point and "
+                        "one outside it (the validity boundary at the grid's resolution). "
+                        "Hatched: an assumption warning or no convergence. Red cross: failed "
+                        "point.",
                         _map_figure(ds, "averaging_error_A", "L1 of p(A)", contour=True)))
         elif len(params) == 1 or ds.attrs.get("mode") == "zip":
             out.append(("Averaging error L1 of p(A) with its error bar; dotted: 2 x noise "

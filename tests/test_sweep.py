@@ -266,3 +266,31 @@ def test_failed_point_is_recorded_and_the_sweep_goes_on(tmp_path, capsys):
     assert again.computed == () and len(again.failed) == 1  # a numerical failure is a result
     page = (out / "report.html").read_text()
     assert "data:image/png;base64," in page and "src='http" not in page
+
+
+def test_the_grid_map_boundary_is_the_cell_edges_between_verdicts():
+    """An isolated cell within the noise is enclosed by exactly its four edges (the maps drew
+    an interpolated contour that broke into dashes on coarse grids; issue 20 G); an unknown
+    (failed) neighbour draws no edge."""
+    import numpy as np
+
+    from harness.io import pyplot
+    from harness.sweepmaps import _edges, _verdict_boundary
+
+    plt = pyplot()
+
+    inside = np.zeros((3, 3), bool)
+    inside[1, 1] = True
+    xe, ye = _edges(np.array([1.0, 2.0, 3.0])), _edges(np.array([10.0, 20.0, 30.0]))
+    fig, ax = plt.subplots()
+    _verdict_boundary(ax, inside, np.ones((3, 3), bool), xe, ye)
+    (lines,) = ax.collections
+    segs = {tuple(map(tuple, np.round(s, 9))) for s in lines.get_segments()}
+    assert segs == {((1.5, 15.0), (1.5, 25.0)), ((2.5, 15.0), (2.5, 25.0)),
+                    ((1.5, 15.0), (2.5, 15.0)), ((1.5, 25.0), (2.5, 25.0))}
+    known = np.ones((3, 3), bool)
+    known[1, 2] = False
+    ax.clear()
+    _verdict_boundary(ax, inside, known, xe, ye)
+    assert len(ax.collections[0].get_segments()) == 3
+    plt.close(fig)
