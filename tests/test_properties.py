@@ -5,7 +5,7 @@ the right mass in phase space before the code normalises it (conftest.phase_mass
 from __future__ import annotations
 
 import numpy as np
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from averaging import solve
@@ -29,12 +29,16 @@ params = st.fixed_dictionaries({
 def check(scene, model: str, **options) -> None:
     result = solve(scene, model=model, **options)
     # a narrow ring (small D on a limit cycle) needs a phase grid finer than the default 201
-    # points (13% off at D = 1e-5, tests/test_averaging.py): resolve the density's width by
-    # 5 points, which the trapezoid error below assumes
-    h = result.data["A"]["x"][-1] / (scene.averaging.phase_points - 1)
-    std = result.info["summary"]["std"]
-    if std < 5 * h:
-        scene = vary(scene, phase_points=int(min(3201, 5 * result.data["A"]["x"][-1] / std)))
+    # points (13% off at D = 1e-5, tests/test_averaging.py), and a density squeezed against
+    # A = 0 (strong friction, tiny noise) an amplitude grid finer than 801: resolve the
+    # density's width by 10 points on both grids, which the trapezoid error below assumes
+    # (hypothesis found c2 = 0.5, mu = 0.0625, D = 1e-4, f = 0.25, alpha1 = 12: gap 7.7e-3 at 5
+    # phase points a width and 6 amplitude points, 2.0e-3 at 10 on both, 8.7e-4 at 15)
+    top, std = result.data["A"]["x"][-1], result.info["summary"]["std"]
+    grids = {k: int(min(4001, 10 * top / std)) for k in ("points", "phase_points")
+             if std < 10 * top / (getattr(scene.averaging, k) - 1)}
+    if grids:
+        scene = vary(scene, **grids)
         result = solve(scene, model=model, **options)
     for key in ("A", "x1", "x2", "E"):
         d = result.data[key]
@@ -47,6 +51,8 @@ def check(scene, model: str, **options) -> None:
 
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(params)
+@example({"c1": 0.0, "c2": 0.5, "alpha": 0.0, "mu": 0.0625, "r": 1.0, "D": 1e-4,
+          "alpha1": 12.0, "kind": "ou", "f": 0.25})  # squeezed against A = 0 (see check)
 def test_paper_model_densities(base, p):
     check(vary(base, **p), "paper")
 
