@@ -120,3 +120,26 @@ def phase_mass_gap(scene: Scene, result, model: str) -> float:
 
 
 pytest_plugins = ["pytester"]
+
+
+@pytest.fixture
+def no_computation(monkeypatch):
+    """Replace every entry point of real work by one that fails the test (the catalogues of
+    bad input in test_cli_validation.py and test_edges.py: refused before any work)."""
+    import harness.bifurcation
+    import harness.check
+    import harness.cli
+    import harness.figures
+    import harness.run
+    import harness.sweep
+    import harness.workprecision
+
+    def forbidden(*a, **k):
+        raise AssertionError("computation started before the input was checked")
+
+    for mod, name in ((harness.cli, "run_solver"), (harness.run, "run_solver"),
+                      (harness.run, "montecarlo_solution"), (harness.run, "fpk_solution"),
+                      (harness.check, "cross_check"), (harness.bifurcation, "bifurcation"),
+                      (harness.figures, "draw_figures"), (harness.sweep, "run_point"),
+                      (harness.workprecision, "run_workprecision")):
+        monkeypatch.setattr(mod, name, forbidden)

@@ -168,27 +168,6 @@ def test_bad_input_exit_2_one_line_nothing_written(subprocess_results, case_id):
     assert after == before  # nothing written (the probe file is gone too)
 
 
-@pytest.fixture
-def no_computation(monkeypatch):
-    """Replace every entry point of real work by one that fails the test."""
-    import harness.bifurcation
-    import harness.check
-    import harness.cli
-    import harness.figures
-    import harness.run
-    import harness.workprecision
-
-    def forbidden(*a, **k):
-        raise AssertionError("computation started before the input was checked")
-
-    for mod, name in ((harness.cli, "run_solver"), (harness.run, "run_solver"),
-                      (harness.run, "montecarlo_solution"), (harness.run, "fpk_solution"),
-                      (harness.check, "cross_check"), (harness.bifurcation, "bifurcation"),
-                      (harness.figures, "draw_figures"),
-                      (harness.workprecision, "run_workprecision")):
-        monkeypatch.setattr(mod, name, forbidden)
-
-
 @pytest.mark.parametrize("case", CATALOGUE, ids=IDS)
 def test_bad_input_is_refused_before_any_computation(no_computation, tmp_path, capsys,
                                                      monkeypatch, case):

@@ -330,28 +330,6 @@ def _snapshot(folder: Path) -> dict[str, bytes]:
             for p in sorted(folder.rglob("*"))}
 
 
-@pytest.fixture
-def no_computation(monkeypatch):
-    """Replace every entry point of real work by one that fails the test."""
-    import harness.bifurcation
-    import harness.check
-    import harness.cli
-    import harness.figures
-    import harness.run
-    import harness.sweep
-    import harness.workprecision
-
-    def forbidden(*a, **k):
-        raise AssertionError("computation started before the input was checked")
-
-    for mod, name in ((harness.cli, "run_solver"), (harness.run, "run_solver"),
-                      (harness.run, "montecarlo_solution"), (harness.run, "fpk_solution"),
-                      (harness.check, "cross_check"), (harness.bifurcation, "bifurcation"),
-                      (harness.figures, "draw_figures"), (harness.sweep, "run_point"),
-                      (harness.workprecision, "run_workprecision")):
-        monkeypatch.setattr(mod, name, forbidden)
-
-
 @pytest.mark.parametrize("case", CASES, ids=[c[0] for c in CASES])
 def test_refused_before_any_work(case, no_computation, tmp_path, monkeypatch, capsys):
     from harness.cli import main
