@@ -69,6 +69,11 @@ CATALOGUE = [
     ("joint-no-json", ["solve", BASE, "--joint"], "--joint: does not apply without --json"),
     ("set-twice", ["solve", BASE, "--set", "system.r=0.9", "--set", "system.r=0.95"],
      "--set system.r: given twice"),
+    # two spellings of one coefficient (a scene file refuses them too; the last used to win)
+    ("set-alias-and-law", ["solve", BASE, "--set", "system.restoring=[1, 0.3]", "--set",
+                           "system.alpha=0.2"], "--set system.alpha: sets the restoring law"),
+    ("set-alias-and-index", ["solve", BASE, "--set", "system.c1=0.1", "--set",
+                             "system.damping[0]=-0.1"], "--set system.damping[0]: sets the "),
     ("json-folder", ["solve", BASE, "--json", "{tmp}"], "--json {tmp}: is a folder"),
     ("json-proc", ["solve", BASE, "--json", "/proc/vifpk.json"], "cannot write in /proc"),
     ("scene-folder", ["solve", "{tmp}"], "is a folder; give a scene file"),
