@@ -20,7 +20,7 @@ from vifpk.core.result import BadInput
 from vifpk.core.scene import Scene, SceneError, load_scene
 
 from . import validate
-from .run import SolverFailure, run_solver, solution_record
+from .run import SolverFailure, cost_limit, run_solver, solution_record
 
 EXIT_BAD_INPUT = 2
 EXIT_SOLVER = 3
@@ -171,6 +171,7 @@ def _checked_scene(args: argparse.Namespace, *, mc: bool) -> Scene:
     """The concrete scene with the options applied, every check done (validate.py)."""
     scene = _apply_mc_options(concrete_scene(args.scene, args.set), args)
     validate.scene_magnitudes(scene)
+    validate.stationary_density(scene)
     if mc:
         validate.montecarlo_settings(scene, {k: f"--{k}" for k in _mc_given(args)})
         if getattr(args, "budget", None) is not None and scene.montecarlo.floor <= 0:
@@ -187,8 +188,10 @@ def cmd_solve(args: argparse.Namespace) -> int:
         validate.refuse_options([k for k in ("grid", "model") if getattr(args, k) is not None],
                                 "to --solver montecarlo (it simulates the original system)")
     else:
-        validate.refuse_options(_mc_given(args), f"to --solver {args.solver} (Monte Carlo "
-                                "options apply to --solver montecarlo)")
+        validate.refuse_options(_mc_given(args) + (["allow_unequilibrated"] if
+                                                   args.allow_unequilibrated else []),
+                                f"to --solver {args.solver} (Monte Carlo options apply to "
+                                "--solver montecarlo)")
         if args.solver == "averaging" and args.grid is not None:
             validate.refuse_options(["grid"], "to --solver averaging (its grid is "
                                     "averaging.points; --grid sets the FPK's cells)")
@@ -213,23 +216,51 @@ def cmd_solve(args: argparse.Namespace) -> int:
     if args.solver == "montecarlo":
         validate.refuse_oversized(scene)
     if args.solver == "montecarlo":
-        result = run_solver(scene, "montecarlo")
+        # priced again once the relaxation pilot has measured an automatic burn-in
+        with cost_limit(validate.run_cost_limit(scene, args.yes)):
+            result = run_solver(scene, "montecarlo")
     else:
         result = run_solver(scene, args.solver, model=model, grid=args.grid)
     _finite_or_fail(result, scene)
+    conv = result.info.get("convergence", {}) if args.solver == "montecarlo" else {}
+    stuck = _not_equilibrated(conv) if not args.allow_unequilibrated else ""
     if args.json:
         model = None if args.solver == "montecarlo" else model
         write_json(args.json, solution_record(scene, args.solver, model, result,
                                               joint=args.joint, provenance=_provenance(args)))
-        print(f"wrote {args.json}", file=sys.stderr)
+        if not stuck:
+            print(f"wrote {args.json}", file=sys.stderr)
     else:
         print(_summary(result))
-    conv = result.info.get("convergence", {}) if args.solver == "montecarlo" else {}
+    if stuck:  # one line, exit 3; the output is written, its certificate inside
+        kept = f"{args.json} was written" if args.json else "the summary above was printed"
+        print(f"vifpk: the simulation is NOT equilibrated: {stuck}; {kept} with its "
+              "certificate; --allow-unequilibrated accepts it (exit 0)", file=sys.stderr)
+        return EXIT_SOLVER
     if conv.get("equilibrated") is False:  # said on the terminal, not only inside the JSON
         print(f"vifpk: warning: the simulation is NOT equilibrated ({conv.get('reason', '')}); "
               "its densities are not yet the stationary ones: raise --time or --paths, or give "
               "--floor", file=sys.stderr)
     return 0 if result.info["status"]["ok"] else EXIT_SOLVER
+
+
+def _not_equilibrated(conv: dict[str, Any]) -> str:
+    """'' unless the equilibration certificate's R-hat or drift failed (the densities still
+    carry the start: montecarlo/certificate.py), else those diagnostics and the remedy in
+    words. A too small effective sample size alone is not one: the error bars say it."""
+    failed = conv.get("failed") or ()
+    said = []
+    if "rhat" in failed:
+        said.append(f"R-hat across starting amplitudes {conv['rhat']:.3f} > "
+                    f"{conv['rhat_limit']:.3f} (the paths still remember where they started)")
+    if "drift" in failed:
+        said.append(f"the mean amplitude drifts by {conv['drift_z']:+.1f} standard errors "
+                    f"(limit {conv['drift_limit']:g}) over the sampled time")
+    if not said:
+        return ""
+    return (" and ".join(said) + f" after a burn-in of {conv.get('burn_in', 0):g}: give a "
+            "longer burn-in (--set montecarlo.burn_in=T, or auto: from the measured relaxation"
+            " time) or a longer --time")
 
 
 def _finite_or_fail(result: Any, scene: Scene) -> None:
@@ -282,7 +313,8 @@ def cmd_check(args: argparse.Namespace) -> int:
     prov = _provenance(args)
     # hold the folder from the start: a second run into it is refused before any work
     with outdir.hold(out, run_id=prov["run_id"], allowed=REPORT_FILES, kind="check report"):
-        result = cross_check(scene, quiet=args.quiet, models=models)
+        with cost_limit(validate.run_cost_limit(scene, args.yes)):
+            result = cross_check(scene, quiet=args.quiet, models=models)
         files = write_report(result, out, prov=prov)
     for v in result.verdicts:
         print(v)
@@ -373,6 +405,7 @@ def cmd_figures(args: argparse.Namespace) -> int:
                   for scene in (sweep.with_values(overrides) if overrides else sweep).variants()]
         for scene in scenes:
             validate.scene_magnitudes(scene)
+            validate.stationary_density(scene)
             validate.montecarlo_settings(scene, options)
             validate.refuse_oversized(scene)
         validate.refuse_costly(lambda sp: sum(validate.montecarlo_seconds(sc, speed=sp)
@@ -579,6 +612,10 @@ def build_parser() -> argparse.ArgumentParser:
     _add_mc_options(s)
     s.add_argument("--joint", action="store_true",
                    help="include the joint PDF in the JSON (default: off)")
+    s.add_argument("--allow-unequilibrated", action="store_true",
+                   help="Monte Carlo: exit 0 with a warning when the equilibration "
+                        "certificate's R-hat or drift fails (default: exit 3, the output "
+                        "still written)")
     s.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
                    help=SET_HELP)
     s.set_defaults(func=cmd_solve)

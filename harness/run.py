@@ -8,17 +8,37 @@ harness or each other: data flows one way, scene -> solver -> record -> comparis
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
 from typing import Any
 
 import numpy as np
 
 from vifpk.core.defaults import FPK_CELLS, REFERENCE_CELLS
 from vifpk.core.registry import SOLVERS, one_of
-from vifpk.core.result import Result
+from vifpk.core.result import CostRefused, Result
 
 
 class SolverFailure(RuntimeError):
     """A solver could not produce a trustworthy result; the message says why (one line)."""
+
+
+# (seconds allowed, path-steps per second on every core the run uses): the cost guard of the
+# command that runs the Monte Carlo (harness.validate.run_cost_limit); None: no limit
+_COST_LIMIT: ContextVar[tuple[float, float] | None] = ContextVar("cost_limit", default=None)
+
+
+@contextmanager
+def cost_limit(limit: tuple[float, float] | None) -> Iterator[None]:
+    """Within it, a Monte Carlo of the original system with an automatic burn-in is priced
+    again once its relaxation pilot has measured the burn-in: above ``seconds`` at ``rate``
+    path-steps per second it stops before the burn-in (CostRefused, exit 2)."""
+    token = _COST_LIMIT.set(limit)
+    try:
+        yield
+    finally:
+        _COST_LIMIT.reset(token)
 
 
 def run_solver(scene: Any, solver: str, *, model: str = "paper", grid: int | None = None,
@@ -221,19 +241,28 @@ def montecarlo_solution(scene: Any, *, progress: bool = True, **edges: Any) -> R
     the Monte Carlo picks its ranges from a pilot run, independently of the other solvers.
     """
     import dataclasses
+    import math
 
     import montecarlo
 
     if scene.system.f == 0.0:
         raise SolverFailure("f = 0: there is no noise; the Monte Carlo would only relax to a "
                             "deterministic attractor, so there is no stationary density")
+    limit = _COST_LIMIT.get()
     settings = montecarlo.Settings(**dataclasses.asdict(scene.montecarlo),
                                    observables=scene.observables.names(), progress=progress,
-                                   edges=edges)
+                                   edges=edges,
+                                   max_path_steps=limit[0] * limit[1] if limit else math.inf)
     try:
         res = montecarlo.simulate(scene.system, scene.noise, settings)
     except (montecarlo.SimulationDiverged, montecarlo.BudgetExhausted) as exc:
         raise SolverFailure(str(exc)) from None
+    except CostRefused as exc:
+        if limit is None:
+            raise
+        from .validate import priced_burn_in
+
+        raise CostRefused(priced_burn_in(exc.numbers, *limit), **exc.numbers) from None
     info = dict(res.info)
     mom = info.get("moments", {}).get("A", {}).get("mean")
     if mom is not None:

@@ -543,6 +543,7 @@ def _validate_point(scene: Scene, workflow: str, bifurcation: Mapping[str, Any],
 
     try:
         validate.scene_magnitudes(scene)
+        validate.stationary_density(scene)
         if workflow == "check" or (workflow == "bifurcation" and bifurcation.get("mc")):
             # with a fixed step the checks depend on [montecarlo] and omega0 only: once each
             mc = scene.montecarlo

@@ -157,6 +157,24 @@ def scene_magnitudes(scene: Scene) -> None:
                              "precision)")
 
 
+def stationary_density(scene: Scene) -> None:
+    """A scene whose energy grows without bound has no stationary density: refused before any
+    work, naming the fields (vifpk.core.scene.energy_balance derives the large-amplitude
+    balance; a tie of gains and losses at the top degree is left to the solvers)."""
+    from vifpk.core.scene import energy_balance
+
+    bal = energy_balance(scene.system)
+    if not bal.grows:
+        return
+    if bal.gains:
+        allowed = (f"a loss of a degree above A^{bal.degree} (e.g. a positive damping or "
+                   "velocity_damping term of higher degree), or no gain at that degree")
+    else:
+        allowed = ("a damping or velocity_damping law whose leading term is > 0, "
+                   "system.mu > 0, or system.r < 1 with the barrier")
+    raise InputError(f"system: no stationary density: {bal.text}; allowed: {allowed}")
+
+
 def _physical(scene: Scene) -> list[tuple[str, str, float]]:
     """(section, key, value) of every physical number the scene gives: the PHYSICAL keys it
     sets and each coefficient of a law given as a list ("restoring[2]")."""
@@ -510,6 +528,32 @@ def refuse_costly(seconds: float | Callable[[float | None], float], what: str, y
                          "allowed without --yes: up to 1 hour (reduce the size, or add --yes)")
 
 
+def run_cost_limit(scene: Scene, yes: bool) -> tuple[float, float] | None:
+    """(seconds, path-steps per second) for harness.run.cost_limit: the hour the guard allows
+    without ``--yes`` at this machine's speed on the run's cores, the one refuse_costly
+    applies up front. The speed is the cached calibration (or VIFPK_STEPS_PER_SECOND), never
+    faster than MC_STEPS_PER_CORE; with none cached, MC_STEPS_PER_CORE (so that only a run
+    certainly above the hour is stopped). None with ``--yes`` (no limit)."""
+    if yes:
+        return None
+    mc = scene.montecarlo
+    cores = mc.threads or min(numba_threads_available(), os.cpu_count() or 1)
+    speed = min(cached_speed() or MC_STEPS_PER_CORE, MC_STEPS_PER_CORE)
+    return HOUR, speed * cores
+
+
+def priced_burn_in(numbers: Mapping[str, float], seconds: float, rate: float) -> str:
+    """The one line of a run refused once its relaxation pilot has measured the burn-in
+    (montecarlo's CostRefused numbers: relaxation_time, burn_in, path_steps)."""
+    return (f"the relaxation pilot measured a relaxation time of "
+            f"{numbers['relaxation_time']:.3g}, so the automatic burn-in is "
+            f"{numbers['burn_in']:.3g} time units and the run {numbers['path_steps']:.3g} "
+            f"path-steps: estimated at least {_duration(numbers['path_steps'] / rate)} at "
+            f"{rate / 1e6:.3g} M path-steps/s; allowed without --yes: up to "
+            f"{_duration(seconds)}; give --yes, a fixed burn-in (--set montecarlo.burn_in=T), "
+            "or stronger noise (a larger noise.D or system.f: the paths mix faster)")
+
+
 CALIBRATE_BELOW = 8.0  # an estimate at the fastest rate above HOUR / 8 is re-estimated with
 #                        the measured speed (machines measured 1.3-3x below MC_STEPS_PER_CORE)
 
@@ -526,6 +570,29 @@ def machine_speed() -> float:
     ``$XDG_CACHE_HOME/vifpk/speed.json`` (``~/.cache``) for this host and core count; else a
     short calibration (the base scene, 512 paths x 200 time units on one thread, ~1-5 s with
     the compile), which is cached with the load average it was taken under."""
+    import socket
+
+    known = cached_speed()
+    if known is not None:
+        return known
+    key = {"host": socket.gethostname(), "cores": os.cpu_count()}
+    path = _cache_file()
+    speed = _calibrate()
+    try:
+        from .io import write_json
+
+        write_json(path, {**key, "steps_per_second_per_core": speed,
+                          "load_average": os.getloadavg()[0],
+                          "how": "harness.validate._calibrate: paper-base, 512 paths, one "
+                                 "thread, 200 time units at dt 0.01"})
+    except OSError:
+        pass  # an unwritable cache: measure again next time
+    return speed
+
+
+def cached_speed() -> float | None:
+    """VIFPK_STEPS_PER_SECOND, else the speed cached for this host and core count (see
+    :func:`machine_speed`), else None: nothing is measured here."""
     import json
     import socket
 
@@ -538,24 +605,13 @@ def machine_speed() -> float:
             pass
         raise InputError(f"VIFPK_STEPS_PER_SECOND={env}: allowed: a number > 0")
     key = {"host": socket.gethostname(), "cores": os.cpu_count()}
-    path = _cache_file()
     try:
-        cached = json.loads(path.read_text(encoding="utf-8"))
+        cached = json.loads(_cache_file().read_text(encoding="utf-8"))
         if {k: cached.get(k) for k in key} == key and cached["steps_per_second_per_core"] > 0:
             return float(cached["steps_per_second_per_core"])
     except (OSError, ValueError, KeyError, TypeError):
         pass
-    speed = _calibrate()
-    try:
-        from .io import write_json
-
-        write_json(path, {**key, "steps_per_second_per_core": speed,
-                          "load_average": os.getloadavg()[0],
-                          "how": "harness.validate._calibrate: paper-base, 512 paths, one "
-                                 "thread, 200 time units at dt 0.01"})
-    except OSError:
-        pass  # an unwritable cache: measure again next time
-    return speed
+    return None
 
 
 def _calibrate() -> float:

@@ -73,10 +73,12 @@ def certificate(windows: np.ndarray, samples_per_window: int, var_A: float,
     """Diagnostics from per-path window sums of A, windows[block, path, window].
 
     Returns a JSON-ready dict with ``equilibrated`` (bool), ``reason`` (why not; "" when
-    equilibrated), ``rhat``, ``rhat_limit``, ``drift_z``, ``ess`` and the design."""
+    equilibrated), ``failed`` (the diagnostics that failed: "rhat", "drift", "ess"),
+    ``rhat``, ``rhat_limit``, ``drift_z``, ``ess`` and the design."""
     means = windows / samples_per_window  # mean A per path and window
     blocks, paths, n_win = means.shape
     reasons = []
+    failed = []
     # 1. start groups: path index p in every block shares the start amplitude
     first = means[:, :, 0].T  # [group = start, draw = block]
     rh = rank_rhat(first) if blocks >= 2 and paths >= 2 else math.nan
@@ -85,6 +87,7 @@ def certificate(windows: np.ndarray, samples_per_window: int, var_A: float,
         reasons.append(f"rank-normalised R-hat across starting amplitudes is {rh:.3f} > "
                        f"{lim:.3f} in the first sampled window: the paths still remember "
                        "where they started (burn-in too short)")
+        failed.append("rhat")
     # 2. drift of the block means between the first and the last quarter of the windows
     q = max(n_win // 4, 1)
     block_means = means.mean(axis=1)  # [block, window]
@@ -94,6 +97,7 @@ def certificate(windows: np.ndarray, samples_per_window: int, var_A: float,
     if n_win >= 2 and not abs(drift_z) <= DRIFT_Z:
         reasons.append(f"the block means of A drift by {d.mean():+.3g} ({drift_z:+.1f} standard "
                        f"errors) from the first to the last quarter of the sampled time")
+        failed.append("drift")
     # 3. effective sample size of the mean of A (batch means over the blocks)
     per_block = means.mean(axis=(1, 2))
     se = float(per_block.std(ddof=1) / math.sqrt(blocks))
@@ -101,9 +105,11 @@ def certificate(windows: np.ndarray, samples_per_window: int, var_A: float,
     if not ess >= MIN_ESS:
         reasons.append(f"effective sample size of the mean amplitude is {ess:.0f} < "
                        f"{MIN_ESS:.0f}")
+        failed.append("ess")
     return {
         "equilibrated": not reasons,
         "reason": "; ".join(reasons),
+        "failed": failed,
         "rhat": rh, "rhat_limit": lim,
         "rhat_method": "rank-normalised (bulk and folded) across start groups, first window "
                        "(Vehtari et al. 2021)",

@@ -33,7 +33,8 @@ import numba
 import numpy as np
 
 from vifpk.core.defaults import BURN_FACTOR
-from vifpk.core.result import Result, Status
+from vifpk.core.result import CostRefused, Result, Status
+from vifpk.core.scene import energy_balance
 
 from . import kernels as K
 from .certificate import certificate
@@ -77,7 +78,10 @@ class Settings:
     dt: a step, or "auto" (tuning.auto_dt for the target floor); burn_in: a time, or "auto"
     (BURN_FACTOR x the relaxation time measured by a pilot); floor: target L1 noise floor of
     p(A), 0 for none (then exactly ``time`` is sampled); budget: wall seconds for reaching the
-    floor (0: no limit)."""
+    floor (0: no limit); max_path_steps: the path-steps the burn-in and the (first) sampled
+    windows may take once an "auto" burn-in is measured (inf: no limit), else
+    vifpk.core.result.CostRefused is raised before the burn-in starts (the caller's cost
+    guard prices the run with the measured burn-in)."""
 
     paths: int
     dt: float | str
@@ -93,6 +97,7 @@ class Settings:
     observables: tuple[str, ...] = ("A", "x1", "x2", "joint", "moments", "events")
     progress: bool = True
     certificate: bool = True
+    max_path_steps: float = math.inf
     edges: dict[str, Any] = field(default_factory=dict, compare=False)
 
 
@@ -156,20 +161,42 @@ def _kernel(arr: _Arrays, phys: dict[str, Any], h: float, n_steps: int, step0: i
                 arr.energy, spw, windows)
 
 
-def _diverged(h: float, what: str) -> SimulationDiverged:
+def _diverged(h: float, what: str, cause: str = "") -> SimulationDiverged:
+    """One line: what blew up, then the likely cause. ``cause``: the scene's large-amplitude
+    energy balance when it says the energy may grow without bound (``_growth``): that comes
+    first, before any advice on the time step."""
+    step = (f"try a smaller --dt (e.g. {h / 4:g}) or --dt auto; if a smaller step blows up "
+            "too, the amplitude grows without bound and no stationary density exists")
+    if cause:
+        return SimulationDiverged(f"the Monte Carlo blew up ({what}) at dt = {h:g}: most likely "
+                                  f"{cause}; else the time step is too large: {step}")
     return SimulationDiverged(
         f"the Monte Carlo blew up ({what}) at dt = {h:g}: the time step is most likely too "
-        f"large for this scene; try a smaller --dt (e.g. {h / 4:g}) or --dt auto; if a "
-        "smaller step blows up too, the amplitude grows without bound (negative damping "
-        "c1 > 0 not held by c2, impacts or friction) and no stationary density exists")
+        f"large for this scene; {step} (negative damping c1 > 0 not held by c2, impacts or "
+        "friction)")
+
+
+def _growth(system: Any) -> str:
+    """'' when the losses win the large-amplitude energy balance (vifpk.core.scene.
+    energy_balance), else the words of why the energy may grow without bound."""
+    if not hasattr(system, "restoring_law"):  # a duck-typed system with the paper's names
+        return ""
+    bal = energy_balance(system)
+    if bal.grows:
+        return f"the energy grows without bound ({bal.text})"
+    if bal.tie:
+        return (f"the energy grows without bound: {bal.text}, and here the gain may win (no "
+                "stationary density)")
+    return ""
 
 
 class _Stepper:
     """Advances arrays in kernel calls of about CHUNK_SECONDS each (Ctrl-C is raised between
     calls), checks the state for finiteness after each call, and drives the progress bar."""
 
-    def __init__(self, phys: dict[str, Any], h: float, threads: int, bar: Any):
-        self.phys, self.h, self.bar = phys, h, bar
+    def __init__(self, phys: dict[str, Any], h: float, threads: int, bar: Any,
+                 cause: str = ""):
+        self.phys, self.h, self.bar, self.cause = phys, h, bar, cause
         self.rate = 5e6 * threads  # steps per second: a cautious first guess, then measured
         self.busy = 0.0  # seconds spent in the kernel
 
@@ -188,7 +215,7 @@ class _Stepper:
                 self.rate = 0.5 * self.rate + 0.5 * chunk * n_paths / dt if done else \
                     chunk * n_paths / dt
             if not np.all(np.isfinite(arr.state)):
-                raise _diverged(self.h, "non-finite position or velocity")
+                raise _diverged(self.h, "non-finite position or velocity", self.cause)
             done += chunk
             if self.bar is not None:
                 self.bar.update(chunk * n_paths)
@@ -253,7 +280,7 @@ def _pilot_scale(phys: dict[str, Any], h: float, seed: int, step: _Stepper,
     step.run(arr, n_burn + SCALE_SAMPLES * stride, 0, n_burn, stride)
     amax = 1.25 * float(np.max(arr.moments[..., K.MO_MAXA]))
     if not math.isfinite(amax):
-        raise _diverged(h, "non-finite amplitude in the pilot run")
+        raise _diverged(h, "non-finite amplitude in the pilot run", step.cause)
     return amax if amax > 0 else a_hint
 
 
@@ -348,7 +375,7 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
     deadline = t_run + st.budget if st.budget and st.budget > 0 else math.inf
 
     bar = _progress(st.progress)
-    step = _Stepper(phys, h, threads, bar)
+    step = _Stepper(phys, h, threads, bar, _growth(system))
     try:
         t1 = time.perf_counter()
         a_hint = float(edges["edges_A"][-1]) if "edges_A" in edges else 1.0
@@ -368,6 +395,13 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
             burn_in = float(st.burn_in)
         pilot_s = time.perf_counter() - t1
 
+        need = float(blocks * per_block) * (burn_in / h + n_win * spw * stride)
+        if st.burn_in == "auto" and need > st.max_path_steps:
+            raise CostRefused(
+                f"the relaxation pilot measured a relaxation time of {relax['tau']:.3g}, so the "
+                f"burn-in is {burn_in:.3g} and the run {need:.3g} path-steps, more than the "
+                f"{st.max_path_steps:.3g} allowed", relaxation_time=float(relax["tau"]),
+                burn_in=float(burn_in), path_steps=need, limit=float(st.max_path_steps))
         if not burn_in / h < 2.0**53:  # beyond any run (and numba's integers)
             raise SimulationDiverged(
                 f"the relaxation pilot measured a relaxation time of {burn_in / BURN_FACTOR:.3g}"
@@ -458,7 +492,8 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
         floors["joint"] = d["L1_floor"]
     for name, col in (("A", K.EV_OUT_A), ("x1", K.EV_OUT_X)):
         if name in data and ev[:, col].sum() >= samples.sum():
-            raise _diverged(h, f"every sample of {name} fell outside its histogram range")
+            raise _diverged(h, f"every sample of {name} fell outside its histogram range",
+                           step.cause)
 
     sampled = run_to * win_steps * h
     steps = float(blocks * per_block * (n_burn + run_to * win_steps))
@@ -518,7 +553,7 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
                                 "err": data["x2"]["atom_err"]}}
     ok = all(np.all(np.isfinite(d["p"])) for d in data.values())
     if not ok:
-        raise _diverged(h, "non-finite histogram")
+        raise _diverged(h, "non-finite histogram", step.cause)
     info["status"] = Status.SIMULATED.record()
     return Result(data=data, info=info)
 

@@ -20,6 +20,18 @@ class BadInput(ValueError):
     one line naming it and what is allowed; the command line exits with code 2."""
 
 
+class CostRefused(BadInput):
+    """A run refused for its price once a measured quantity (the relaxation time behind an
+    automatic burn-in) shows it costs more than its caller allowed (a plain limit, e.g.
+    montecarlo.Settings.max_path_steps). A cost refusal like the up-front guard's: the
+    command line exits with code 2. The numbers travel with it, so the caller can word the
+    price and its ways out."""
+
+    def __init__(self, message: str, **numbers: float) -> None:
+        super().__init__(message)
+        self.numbers = numbers
+
+
 class Result(NamedTuple):
     """A solver's output: densities by observable, and what the run did (``info``)."""
 
