@@ -550,7 +550,7 @@ def priced_burn_in(numbers: Mapping[str, float], seconds: float, rate: float) ->
             f"{numbers['burn_in']:.3g} time units and the run {numbers['path_steps']:.3g} "
             f"path-steps: estimated at least {_duration(numbers['path_steps'] / rate)} at "
             f"{rate / 1e6:.3g} M path-steps/s; allowed without --yes: up to "
-            f"{_duration(seconds)}; give --yes, a fixed burn-in (--set montecarlo.burn_in=T), "
+            f"{'1 hour' if seconds == HOUR else _duration(seconds)}; give --yes, a fixed burn-in (--set montecarlo.burn_in=T), "
             "or stronger noise (a larger noise.D or system.f: the paths mix faster)")
 
 

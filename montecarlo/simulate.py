@@ -381,7 +381,13 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
         a_hint = float(edges["edges_A"][-1]) if "edges_A" in edges else 1.0
         a_hi = _pilot_scale(phys, h, st.seed, step, a_hint)
         if not edges:
-            vmax = math.sqrt(2 * _potential(a_hi, phys))
+            try:
+                vmax = math.sqrt(2 * _potential(a_hi, phys))
+            except OverflowError:
+                vmax = math.inf
+            if not math.isfinite(vmax):
+                raise _diverged(h, f"the pilot reached amplitude {a_hi:.3g}, whose energy "
+                                "overflows double precision", step.cause)
             edges = {"edges_A": np.linspace(0.0, a_hi, st.bins + 1),
                      "edges_x": np.linspace(0.0 if phys["r"] is not None else -a_hi, a_hi,
                                             st.bins + 1),

@@ -29,6 +29,7 @@ LONG = "x" * 300
 ENV = {**os.environ, "NUMBA_NUM_THREADS": "1", "PYTHONPATH": os.pathsep.join(
     [str(ROOT), *filter(None, [os.environ.get("PYTHONPATH")])])}
 
+NO_LOSS = ("--set", "system.c1=0", "--set", "system.c2=0", "--set", "system.mu=0")
 SWEEP = ('scene = "tiny"\nworkflow = "averaging"\n[vary]\n"system.r" = [0.95, 0.97]\n')
 
 
@@ -230,6 +231,29 @@ def _setup_cases():
         ("sweep-point-mc", lambda t: ["sweep", str(_sweep_file(t, (
             'scene = "tiny"\n[vary]\n"montecarlo.dt" = [0.01, 0.03]\n')))],
          "montecarlo.dt = 0.03 must divide"),
+        # E: no stationary density (vifpk.core.scene.energy_balance), refused up front
+        ("no-damping", lambda t: ["solve", BASE, *MC, *NO_LOSS, "--set", "system.r=1"],
+         "system: no stationary density: nothing removes energy at large amplitude (no "
+         "damping law, no velocity_damping, system.mu = 0, system.r = 1)"),
+        ("no-damping-check", lambda t: ["check", BASE, *NO_LOSS, "--set", "system.r=1"],
+         "system: no stationary density: nothing removes energy"),
+        ("no-damping-no-barrier", lambda t: ["solve", BASE, *NO_LOSS, "--set",
+                                             "system.barrier=false"], "mu = 0, no barrier)"),
+        ("c1-gain-elastic", lambda t: ["solve", BASE, *MC, "--set", "system.c1=0.5", "--set",
+                                       "system.c2=0", "--set", "system.mu=0", "--set",
+                                       "system.r=1"],
+         "the energy gain of system.c1 (power ~ A^4 with the spring's top term system.alpha"),
+        ("velocity-damping-negative", lambda t: ["solve", BASE, *MC, "--set",
+                                                 "system.velocity_damping=[-1]"],
+         "gain of system.velocity_damping[0] (power ~ A^8 with the spring's top term "
+         "system.alpha, degree 3) outgrows every loss (system.c2 ~ A^6, system.mu ~ A^2, "
+         "system.r ~ A^5)"),
+        ("sweep-point-no-density", lambda t: ["sweep", str(_sweep_file(t, SWEEP.replace(
+            '"system.r" = [0.95, 0.97]', '"system.c2" = [0.05, 0.0]') + (
+            '[set]\n"system.c1" = 0.5\n"system.mu" = 0.0\n"system.r" = 1.0\n')))],
+         "at the point system.c2 = 0: system: no stationary density"),
+        ("allow-unequilibrated-averaging", lambda t: ["solve", BASE, "--allow-unequilibrated"],
+         "--allow-unequilibrated: does not apply to --solver averaging"),
         # F: ignored input is refused
         ("budget-no-floor", lambda t: ["solve", BASE, *MC, "--budget", "10"],
          "--budget 10: does not apply without a target floor"),
@@ -703,15 +727,182 @@ def test_leftover_temporaries_are_cleared_not_refused(tmp_path, monkeypatch, cap
     assert not [p for p in out.rglob(".*") if ".tmp" in p.name]
 
 
-def test_not_equilibrated_is_said_on_the_terminal_with_json(tmp_path, capsys):
-    """--json hides the summary: a simulation flagged NOT equilibrated says so on stderr."""
+def _unequilibrated(out: Path, *extra: str) -> list[str]:
+    """tiny, 32 paths x 20 time units after a burn-in of 0: the start still shows (R-hat)."""
+    return ["solve", str(DATA / "tiny.toml"), *MC, "--paths", "32", "--time", "20",
+            "--set", "montecarlo.blocks=16", "--set", "montecarlo.burn_in=0",
+            "--json", str(out), *extra]
+
+
+def test_not_equilibrated_exits_3_and_keeps_the_output(tmp_path, capsys):
+    """R-hat fails (the paths remember their start): exit 3, one line naming the diagnostic
+    and the remedy; the JSON is written, its certificate inside (nothing lost)."""
     from harness.cli import main
 
     out = tmp_path / "mc.json"
-    assert main(["solve", str(DATA / "tiny.toml"), *MC, "--paths", "32", "--time", "20",
-                 "--set", "montecarlo.blocks=16", "--set", "montecarlo.burn_in=0",
-                 "--json", str(out)]) == 0
+    assert main(_unequilibrated(out)) == 3
     err = capsys.readouterr().err
+    err = err[err.find("vifpk: "):].strip().splitlines()  # after a progress bar, if shown
     conv = json.loads(out.read_text())["info"]["convergence"]
-    assert conv["equilibrated"] is False, conv  # burn-in 0 over 20 time units
+    assert conv["equilibrated"] is False and "rhat" in conv["failed"], conv
+    assert len(err) == 1, err
+    assert err[0].startswith("vifpk: the simulation is NOT equilibrated: R-hat across "
+                             "starting amplitudes")
+    assert "give a longer burn-in" in err[0] and f"{out} was written" in err[0]
+    assert "--allow-unequilibrated" in err[0]
+
+
+def test_allow_unequilibrated_exits_0_with_the_warning(tmp_path, capsys):
+    """--allow-unequilibrated: exit 0; --json hides the summary, so the warning is said on
+    stderr."""
+    from harness.cli import main
+
+    out = tmp_path / "mc.json"
+    assert main(_unequilibrated(out, "--allow-unequilibrated")) == 0
+    err = capsys.readouterr().err
+    assert json.loads(out.read_text())["info"]["convergence"]["equilibrated"] is False
     assert "vifpk: warning: the simulation is NOT equilibrated" in err
+
+
+def test_too_few_samples_alone_is_a_warning_not_a_failure():
+    """An effective sample size below 400 alone (a short exploratory run, e.g. 64 paths x 50:
+    ESS 68-86 in 6 seeds, R-hat and drift passing) keeps exit 0: its error bars say it."""
+    from harness.cli import _not_equilibrated
+
+    conv = {"equilibrated": False, "failed": ["ess"], "rhat": 1.0, "rhat_limit": 1.1,
+            "drift_z": 0.3, "drift_limit": 4.0, "burn_in": 20.0}
+    assert _not_equilibrated(conv) == ""
+    said = _not_equilibrated(dict(conv, failed=["drift", "ess"], drift_z=-5.2))
+    assert said.startswith("the mean amplitude drifts by -5.2 standard errors (limit 4)")
+
+
+# --------------------------------------------------------------------------------------------
+# E: no stationary density: the large-amplitude energy balance against the averaged model
+@pytest.mark.parametrize("values", [
+    {"system.c1": 0.0, "system.c2": 0.0, "system.mu": 0.0, "system.r": 1.0},
+    {"system.c1": 0.5, "system.c2": 0.0, "system.mu": 0.05, "system.r": 1.0},
+    {"system.velocity_damping": [-1.0]},
+    {"system.c1": 0.5, "system.c2": 0.0},  # impacts ~ A^5 outgrow the gain ~ A^4
+    {"system.c1": 0.0, "system.c2": 0.0, "system.mu": 0.05, "system.r": 1.0},  # friction
+    {"system.restoring": [1.0, 0.0, 1.0], "system.damping": [-0.5], "system.r": 0.9},
+    {"system.restoring": [1.0, 0.0, 1.0], "system.damping": [-0.5], "system.r": 0.9,
+     "system.velocity_damping": [-0.01]},
+])
+@pytest.mark.numpy_errors_ok
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")
+def test_energy_balance_agrees_with_the_averaged_model(values):
+    """energy_balance's verdict from the exponents alone (no constants) against an independent
+    truth: the exact averaged model's stationary density by orbit quadrature (averaging/),
+    which exists exactly when the averaged energy drift turns negative at large amplitude."""
+    from harness.run import SolverFailure, run_solver
+    from vifpk.core.scene import energy_balance, load_scene
+
+    scene = load_scene(DATA / "tiny.toml").with_values(values)
+    bal = energy_balance(scene.system)
+    assert not bal.tie
+    try:
+        run_solver(scene, "averaging", model="exact")
+        exists = True
+    except SolverFailure as exc:
+        assert "no stationary density" in str(exc)
+        exists = False
+    assert exists == (not bal.grows), bal.text
+
+
+def test_a_tie_is_left_to_the_solvers():
+    """A linear spring with c1 > 0, c2 = 0 and impacts: gain and loss both ~ A^2, so the
+    constants decide: not refused up front (c1 = 0.5, c2 = 0 with the cubic spring is not a
+    tie: the impacts win, and the averaged model has a density there)."""
+    from harness import validate
+    from vifpk.core.scene import energy_balance, load_scene
+
+    base = load_scene(BASE)
+    tie = base.with_values({"system.c1": 0.5, "system.c2": 0.0, "system.alpha": 0.0})
+    bal = energy_balance(tie.system)
+    assert bal.tie and bal.degree == 2 and bal.gains == ("system.c1",)
+    assert bal.losses == ("system.r",)
+    validate.stationary_density(tie)
+    validate.stationary_density(base.with_values({"system.c1": 0.5, "system.c2": 0.0}))
+
+
+def test_a_blow_up_leads_with_energy_growth(capsys):
+    """The tie above blows up at run time (the gain wins): the one line says the energy grows
+    without bound before any time-step advice."""
+    from harness.cli import main
+
+    assert main(["solve", str(DATA / "tiny.toml"), *MC, "--set", "system.alpha=0", "--set",
+                 "system.c2=0", "--set", "system.c1=0.5"]) == 3
+    err = capsys.readouterr().err
+    err = err[err.find("vifpk: "):].strip().splitlines()
+    assert len(err) == 1, err
+    line = err[0]
+    assert line.startswith("vifpk: the Monte Carlo blew up")
+    assert "most likely the energy grows without bound" in line
+    assert line.index("energy grows without bound") < line.index("smaller --dt")
+
+
+# --------------------------------------------------------------------------------------------
+# D: the automatic burn-in priced again after the relaxation pilot
+@pytest.mark.parametrize("command", ["solve", "check"])
+def test_auto_burn_in_is_priced_after_the_relaxation_pilot(command, tmp_path, monkeypatch,
+                                                           capsys):
+    """The relaxation time is measured, not known up front: once the pilot has measured it,
+    the run is priced again with the same guard (here a machine of 1e-3 path-steps per second,
+    so any burn-in is above the hour): exit 2 before the burn-in, one line naming the measured
+    relaxation time, the price and the ways out; nothing written. The up-front estimate is
+    far below an hour/8 at the fastest rate, so it passes without the measured speed."""
+    from harness.cli import main
+
+    monkeypatch.setenv("VIFPK_STEPS_PER_SECOND", "1e-3")
+    out = tmp_path / ("mc.json" if command == "solve" else "report")
+    code = main([command, str(DATA / "tiny.toml"), "--set", "montecarlo.burn_in='auto'",
+                 *((*MC, "--json") if command == "solve" else ("--quiet", "--out")),
+                 str(out)])
+    err = capsys.readouterr().err
+    err = err[err.find("vifpk: "):].strip().splitlines()
+    assert code == 2 and len(err) == 1, err
+    assert err[0].startswith("vifpk: error: the relaxation pilot measured a relaxation time "
+                             "of ")
+    assert "estimated at least" in err[0] and "allowed without --yes: up to 1 hour" in err[0]
+    assert "give --yes, a fixed burn-in (--set montecarlo.burn_in=T)" in err[0]
+    assert not out.exists() and list(tmp_path.iterdir()) == []
+
+
+def test_yes_lifts_the_price_of_the_measured_burn_in(monkeypatch):
+    from harness import validate
+    from vifpk.core.scene import load_scene
+
+    monkeypatch.setenv("VIFPK_STEPS_PER_SECOND", "2e7")
+    scene = load_scene(BASE).with_values({"montecarlo.threads": 1})
+    assert validate.run_cost_limit(scene, True) is None
+    assert validate.run_cost_limit(scene, False) == (validate.HOUR, 2e7)
+
+
+# --------------------------------------------------------------------------------------------
+# A: a folder the system refuses (immutable, read-only): the write probe's OS error, simulated
+# (root ignores permissions here, so a real immutable folder cannot be made in a test)
+@pytest.mark.parametrize("err", [(13, "Permission denied"), (30, "Read-only file system")])
+@pytest.mark.parametrize("command", ["sweep", "check"])
+def test_unwritable_folder_is_refused_before_any_work(err, command, tmp_path, monkeypatch,
+                                                      capsys, no_computation):
+    import tempfile
+
+    import harness.validate
+
+    def refuse(*a, **k):
+        raise OSError(err[0], err[1])
+
+    args = (["sweep", str(_sweep_file(tmp_path / "in"))] if command == "sweep"
+            else ["check", BASE])
+    from harness.cli import main
+
+    before = _snapshot(tmp_path)
+    monkeypatch.setattr(harness.validate.tempfile, "mkstemp", refuse)
+    try:
+        code = main([*args, "--out", str(tmp_path / "o")])
+    finally:
+        monkeypatch.setattr(harness.validate.tempfile, "mkstemp", tempfile.mkstemp)
+    out = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(out) == 1, out
+    assert f"--out {tmp_path / 'o'}: cannot write in {tmp_path} ({err[1]})" in out[0]
+    assert _snapshot(tmp_path) == before
