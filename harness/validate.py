@@ -550,8 +550,9 @@ def priced_burn_in(numbers: Mapping[str, float], seconds: float, rate: float) ->
             f"{numbers['burn_in']:.3g} time units and the run {numbers['path_steps']:.3g} "
             f"path-steps: estimated at least {_duration(numbers['path_steps'] / rate)} at "
             f"{rate / 1e6:.3g} M path-steps/s; allowed without --yes: up to "
-            f"{'1 hour' if seconds == HOUR else _duration(seconds)}; give --yes, a fixed burn-in (--set montecarlo.burn_in=T), "
-            "or stronger noise (a larger noise.D or system.f: the paths mix faster)")
+            f"{'1 hour' if seconds == HOUR else _duration(seconds)}; give --yes, a fixed "
+            "burn-in (--set montecarlo.burn_in=T), or stronger noise (a larger noise.D or "
+            "system.f: the paths mix faster)")
 
 
 CALIBRATE_BELOW = 8.0  # an estimate at the fastest rate above HOUR / 8 is re-estimated with
