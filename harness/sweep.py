@@ -281,16 +281,11 @@ def _resolve_scene(name: Any, sweep_path: Any) -> Scene:
 def load_sweep(path: str | Path) -> Sweep:
     """Read and validate a sweep file (a path, or the bare name of a shipped sweep), building
     every point's scene (SweepError on any problem, one line naming the key)."""
-    from vifpk.core.scene import read_toml, shipped_name, shipped_scenes
+    from vifpk.core.scene import is_toml_file, read_toml, shipped_name, shipped_scenes
 
     p: Any = Path(path)
-    try:
-        is_dir, is_file = p.is_dir(), p.is_file()
-    except OSError as exc:  # e.g. a name longer than the file system allows
-        raise SweepError(f"{str(path)[:80]}...: cannot read ({exc.strerror})") from None
-    if is_dir:
-        raise SweepError(f"{path}: is a folder; give a sweep file (.toml)")
-    if not is_file:  # a shipped sweep by its bare name: scenes/sweeps/NAME.toml (package data)
+    if not is_toml_file(p, SweepError, "sweep"):
+        # a shipped sweep by its bare name: scenes/sweeps/NAME.toml (package data)
         cand = shipped_scenes() / "sweeps" / f"{path}.toml"
         if not shipped_name(str(path)) or "/" in str(path) or not cand.is_file():
             raise SweepError(f"{path}: no such sweep file")
