@@ -56,6 +56,7 @@ from pathlib import Path
 from typing import Any
 
 from vifpk.core.defaults import BIFURCATION_MODELS, CHECK_MODELS
+from vifpk.core.result import BadInput
 from vifpk.core.scene import INDEXED, MAX_TERMS, SECTIONS, Scene, SceneError, load_scene
 
 WORKFLOWS = ("check", "averaging", "bifurcation")
@@ -546,7 +547,7 @@ def _validate_point(scene: Scene, workflow: str, bifurcation: Mapping[str, Any],
                 validate.montecarlo_settings(scene)
                 if key is not None:
                     _CHECKED.add(key)
-    except SceneError as exc:
+    except BadInput as exc:  # SceneError, validate.InputError
         at = ", ".join(f"{k} = {v:g}" for k, v in params)
         raise SweepError(f"{where}: at the point {at}: {exc}") from None
 
