@@ -727,7 +727,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args.argv = ["vifpk", *(sys.argv[1:] if argv is None else argv)]
     try:
         validate.environment()
-    except SceneError as exc:
+    except BadInput as exc:
         print(f"vifpk: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     signals.reset()

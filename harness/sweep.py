@@ -56,6 +56,7 @@ from pathlib import Path
 from typing import Any
 
 from vifpk.core.defaults import BIFURCATION_MODELS, CHECK_MODELS
+from vifpk.core.result import BadInput
 from vifpk.core.scene import INDEXED, MAX_TERMS, SECTIONS, Scene, SceneError, load_scene
 
 WORKFLOWS = ("check", "averaging", "bifurcation")
@@ -281,16 +282,11 @@ def _resolve_scene(name: Any, sweep_path: Any) -> Scene:
 def load_sweep(path: str | Path) -> Sweep:
     """Read and validate a sweep file (a path, or the bare name of a shipped sweep), building
     every point's scene (SweepError on any problem, one line naming the key)."""
-    from vifpk.core.scene import read_toml, shipped_name, shipped_scenes
+    from vifpk.core.scene import is_toml_file, read_toml, shipped_name, shipped_scenes
 
     p: Any = Path(path)
-    try:
-        is_dir, is_file = p.is_dir(), p.is_file()
-    except OSError as exc:  # e.g. a name longer than the file system allows
-        raise SweepError(f"{str(path)[:80]}...: cannot read ({exc.strerror})") from None
-    if is_dir:
-        raise SweepError(f"{path}: is a folder; give a sweep file (.toml)")
-    if not is_file:  # a shipped sweep by its bare name: scenes/sweeps/NAME.toml (package data)
+    if not is_toml_file(p, SweepError, "sweep"):
+        # a shipped sweep by its bare name: scenes/sweeps/NAME.toml (package data)
         cand = shipped_scenes() / "sweeps" / f"{path}.toml"
         if not shipped_name(str(path)) or "/" in str(path) or not cand.is_file():
             raise SweepError(f"{path}: no such sweep file")
@@ -552,7 +548,7 @@ def _validate_point(scene: Scene, workflow: str, bifurcation: Mapping[str, Any],
                 validate.montecarlo_settings(scene)
                 if key is not None:
                     _CHECKED.add(key)
-    except SceneError as exc:
+    except BadInput as exc:  # SceneError, validate.InputError
         at = ", ".join(f"{k} = {v:g}" for k, v in params)
         raise SweepError(f"{where}: at the point {at}: {exc}") from None
 

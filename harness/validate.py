@@ -35,7 +35,8 @@ from pathlib import Path
 from typing import Any
 
 from vifpk.core.defaults import CHECK_MODELS, FPK_CELLS
-from vifpk.core.scene import SECTIONS, Scene, SceneError
+from vifpk.core.result import BadInput
+from vifpk.core.scene import SECTIONS, Scene
 
 HOUR = 3600.0
 MAGNITUDE = (1e-100, 1e100)  # allowed |value| of a non-zero physical parameter (module doc)
@@ -59,8 +60,9 @@ MC_OPTIONS = {"paths": "paths", "dt": "dt", "time": "time", "seed": "seed", "flo
 MAX_STEPS_PER_SAMPLE = 1e9  # time steps between two samples of a path (dt >= sample_every/1e9)
 
 
-class InputError(SceneError):
-    """Bad input found before any work: one line naming the option or field."""
+class InputError(BadInput):
+    """Bad input found before any work (an option, a combination, a cost): one line naming
+    it. Not a SceneError: the scene file itself may be fine."""
 
 
 def observables(scene: Scene) -> None:
@@ -484,13 +486,17 @@ def refuse_unreachable_floor(scene: Scene, options: Mapping[str, str] | None = N
 
 def memory_bytes(scene: Scene) -> float:
     """Lower bound of the memory one Monte Carlo run allocates: per path its state and random
-    generator (~100 bytes) and the equilibration certificate's window sums (8 bytes a window
-    of the sampled time)."""
+    generator (~100 bytes) and the equilibration certificate's window sums (8 bytes a window:
+    the plan's windows, or with a target floor as many windows of the plan's length as fit
+    in ``montecarlo.time``, the most a floor run can grow to)."""
     from .run import montecarlo_plan
 
     mc = scene.montecarlo
     plan = montecarlo_plan(scene)
-    windows = max(plan.sampled_time / max(plan.sample_interval, 1e-300) / 16, 1.0)
+    windows = float(plan.windows)
+    if mc.floor:
+        window_time = plan.samples_per_window * plan.sample_interval
+        windows = max(windows, mc.time / max(window_time, 1e-300))
     return mc.paths * (100.0 + 8.0 * min(windows, 1e6))
 
 

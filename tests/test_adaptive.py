@@ -1,11 +1,11 @@
 """Adaptive sweeps (issue 22): where the points go (harness/adaptive.py, on synthetic verdict
 fields: no simulation), the sweep file's contract, and (slow) a real 16-point sweep that is
-identical on serial and processes:2, is not a lattice, and resumes."""
+identical on serial, processes:2, dask:2 and a tcp:// scheduler, is not a lattice, and
+resumes."""
 
 from __future__ import annotations
 
 import math
-import shutil
 from pathlib import Path
 
 import numpy as np
@@ -144,25 +144,59 @@ def _values(path: Path):
         return ds
 
 
+@pytest.fixture(scope="module")
+def serial_adaptive(tmp_path_factory):
+    """The 16-point adaptive sweep run serially once for the tests below: (folder, sweep.nc)."""
+    out = tmp_path_factory.mktemp("adaptive-serial")
+    res = run_sweep(load_sweep(ADAPTIVE), out, executor="serial", quiet=True, report=True)
+    assert len(res.computed) == 16 and not res.failed
+    return out, _values(out / "sweep.nc")
+
+
 @pytest.mark.slow
-def test_sixteen_point_adaptive_sweep_same_on_serial_and_processes_and_resumes(tmp_path):
+def test_sixteen_point_adaptive_sweep_same_on_serial_and_processes_and_resumes(
+        serial_adaptive, tmp_path):
     """16 points (3 x 3 lattice, then batches of 4): serial and processes:2 give the same
     points and the same sweep.nc bit for bit; the points are not a lattice; deleting three
     records and running again recomputes exactly those three, with the same sweep.nc."""
     sweep = load_sweep(ADAPTIVE)
-    a = run_sweep(sweep, tmp_path / "serial", executor="serial", quiet=True, report=True)
+    serial, da = serial_adaptive
     b = run_sweep(sweep, tmp_path / "pool", executor="processes:2", quiet=True, report=False)
-    assert len(a.computed) == len(b.computed) == 16 and not a.failed
-    da, db = _values(tmp_path / "serial" / "sweep.nc"), _values(tmp_path / "pool" / "sweep.nc")
+    assert len(b.computed) == 16 and not b.failed
+    db = _values(tmp_path / "pool" / "sweep.nc")
     da.identical(db) or pytest.fail(f"sweep.nc differ:\n{da}\n{db}")
     r, mu = da["system.r"].values, da["system.mu"].values
     assert len(np.unique(r)) * len(np.unique(mu)) > 16  # not a product grid
     assert da.sizes["point"] == 16 and da["batch"].max() >= 2
-    assert "data:image/png;base64," in (tmp_path / "serial" / "report.html").read_text()
+    assert "data:image/png;base64," in (serial / "report.html").read_text()
     gone = sorted(p for p in (tmp_path / "pool" / "points").glob("*.json"))[3:6]
     for p in gone:
         p.unlink()
-    shutil.rmtree(tmp_path / "serial")
     again = run_sweep(sweep, tmp_path / "pool", executor="serial", quiet=True, report=False)
     assert sorted(again.computed) == sorted(p.stem for p in gone) and again.skipped == 13
     _values(tmp_path / "pool" / "sweep.nc").identical(db) or pytest.fail("resume differs")
+
+
+@pytest.mark.slow  # real dask clusters: worker processes import the whole stack
+def test_adaptive_sweep_same_on_dask_and_on_a_tcp_scheduler(serial_adaptive, tmp_path):
+    """Issue 22's determinism on the other two executors: ``dask:2`` (a LocalCluster the sweep
+    starts) and ``tcp://HOST:PORT`` (a scheduler started here, as a user's cluster would be,
+    with two worker processes of one thread each) choose the same 16 points and write a
+    sweep.nc identical to the serial run's, bit for bit. The batches are the sweep file's
+    (``batch = 4``), not the executor's size, which is what makes this hold."""
+    from distributed import LocalCluster
+
+    sweep = load_sweep(ADAPTIVE)
+    _, da = serial_adaptive
+    res = run_sweep(sweep, tmp_path / "dask", executor="dask:2", quiet=True, report=False)
+    assert len(res.computed) == 16 and not res.failed
+    ddask = _values(tmp_path / "dask" / "sweep.nc")
+    da.identical(ddask) or pytest.fail(f"dask:2 differs from serial:\n{da}\n{ddask}")
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                      dashboard_address=":0", env={"NUMBA_NUM_THREADS": "1"}) as cluster:
+        address = cluster.scheduler_address
+        assert address.startswith("tcp://")
+        res = run_sweep(sweep, tmp_path / "tcp", executor=address, quiet=True, report=False)
+    assert len(res.computed) == 16 and not res.failed
+    dtcp = _values(tmp_path / "tcp" / "sweep.nc")
+    da.identical(dtcp) or pytest.fail(f"{address} differs from serial:\n{da}\n{dtcp}")

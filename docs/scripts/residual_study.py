@@ -32,7 +32,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 import averaging  # noqa: E402
-from averaging.corrected import CorrectedModel  # noqa: E402
+from averaging.corrected import CorrectedModel, _flight  # noqa: E402
 from averaging.geometry import potential, restoring  # noqa: E402
 from averaging.stationary import amplitude_density  # noqa: E402
 from harness.compare import compare  # noqa: E402
@@ -82,29 +82,6 @@ def mc_histogram(scene, cache: Path):
 
 
 # ---------------------------------------------------------------- prototype terms
-def _flight(E, w0, a, tau, n):
-    """RK4 over one flight [0, tau] from the wall (x = 0, v = sqrt(2E)) of x, v and the
-    fundamental matrix [[dx/dx0, dx/dv0], [dv/dx0, dv/dv0]] of the variational equation."""
-    h = tau / n
-    y = np.zeros((E.size, 6))
-    y[:, 1], y[:, 2], y[:, 5] = np.sqrt(2 * E), 1.0, 1.0
-
-    def f(y):
-        x, v, m00, m01, m10, m11 = y.T
-        gp = w0**2 + 3 * a * x**2
-        return np.stack([v, -(w0**2 * x + a * x**3), m10, m11, -gp * m00, -gp * m01], axis=1)
-
-    out, H = [y], h[:, None]
-    for _ in range(n):
-        k1 = f(y)
-        k2 = f(y + 0.5 * H * k1)
-        k3 = f(y + 0.5 * H * k2)
-        k4 = f(y + H * k3)
-        y = y + H / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-        out.append(y)
-    return np.stack(out, axis=1), h
-
-
 def wall_offset(m, A, n=200):
     """delta(E): time average over a flight of E[H(t)] - H(wall), beyond a uniform gain.
 
@@ -119,7 +96,7 @@ def wall_offset(m, A, n=200):
     A = np.atleast_1d(np.asarray(A, float))
     o = m.orbit(A)
     tau = 0.5 * o["T"]
-    Y, h = _flight(o["E"], m.omega0, m.alpha, tau, n)
+    Y, h = _flight(o["E"], (m.omega0**2, m.alpha), tau, n)  # the package's RK4
     t = np.arange(n + 1)[None, :] * h[:, None]
     xd = Y[:, :, 1]
     m00, m01, m10, m11 = (Y[:, :, k] for k in (2, 3, 4, 5))

@@ -706,13 +706,7 @@ def load_scene(path: str | Path | Traversable) -> Scene:
     with ``.``) must exist: a wrong path is an error, not another scene of that name. Raises
     :class:`SceneError` (one line) on any problem."""
     p: Path | Traversable = path if isinstance(path, Traversable) else Path(path)
-    try:
-        is_dir, is_file = p.is_dir(), p.is_file()
-    except OSError as exc:  # e.g. a name longer than the file system allows
-        raise SceneError(f"{str(path)[:80]}: cannot read ({exc.strerror or exc})") from None
-    if is_dir:
-        raise SceneError(f"{path}: is a folder; give a scene file (.toml)")
-    if not is_file:
+    if not is_toml_file(p, SceneError, "scene"):
         found = find_scene(path)
         if found is None:
             text = str(path)
@@ -725,6 +719,19 @@ def load_scene(path: str | Path | Traversable) -> Scene:
             raise SceneError(f"{path}: no such scene file or shipped scene; {hint}")
         p = found
     return scene_from_dict(read_toml(p)[1], source=p.name)
+
+
+def is_toml_file(p: Path | Traversable, error: type[SceneError], what: str) -> bool:
+    """Whether ``p`` is an existing file (False: not there, so maybe a shipped name);
+    ``error`` (one line) when it is a folder or cannot even be looked at (e.g. a name longer
+    than the file system allows). ``what``: "scene" or "sweep", for the message."""
+    try:
+        is_dir, is_file = p.is_dir(), p.is_file()
+    except OSError as exc:
+        raise error(f"{str(p)[:80]}: cannot read ({exc.strerror or exc})") from None
+    if is_dir:
+        raise error(f"{p}: is a folder; give a {what} file (.toml)")
+    return is_file
 
 
 def read_toml(p: Path | Traversable, error: type[SceneError] = SceneError
