@@ -22,7 +22,12 @@ The checks, and where each bound comes from:
   file, and the nearest existing folder must accept a new file (probed with a temporary file
   that is removed at once, the way the atomic writers create theirs);
 - cost: a lower-bound estimate of the run's wall time from its size (measured rates); above
-  an hour the run is refused unless ``--yes``.
+  an hour the run is refused unless ``--yes``. An automatic burn-in counts at its minimum up
+  front; :func:`run_cost_limit` hands the same hour to the Monte Carlo, which prices the run
+  again once its relaxation pilot has measured the burn-in (vifpk.core.result.CostRefused,
+  worded by :func:`priced_burn_in`, exit 2);
+- physics: a scene whose energy grows without bound at large amplitude has no stationary
+  density (:func:`stationary_density`, vifpk.core.scene.energy_balance).
 """
 
 from __future__ import annotations
