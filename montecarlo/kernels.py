@@ -43,7 +43,8 @@ from ._jit import jit
 from .geometry import amplitude_general, poly_x2
 from .rng import normal
 
-# columns of the per-block event array
+# columns of the per-block event array (whole numbers: counts; EV_TIME the sampled path-steps,
+# times h is the sampled path-time; EV_STUCK filled by the caller from the per-path stuck_time)
 (EV_IMPACTS, EV_STUCK, EV_CHATTER, EV_TIME, EV_SAMPLES, EV_OUT_A, EV_OUT_X, EV_OUT_V,
  EV_ATOM) = range(9)
 N_EVENTS = 9
@@ -164,36 +165,78 @@ def velocity_decay(v: float, tau: float, ev) -> float:
     return v + tau * (k1 + 2.0 * k2 + 2.0 * k3 + k4) / 6.0
 
 
+@jit(inline="always")
+def _step(x, v, xi, s0, s1, s2, s3, h, half, c1, c2, w0sq, alpha, f, mu, r, alpha1, khi, dhi,
+          ev, ou_a, ou_s, kick):
+    """One step of one path (the splitting of the module docstring): the new (x, v, xi), the
+    generator state, and what the bookkeeping needs: (impacts and chatter entries of the two
+    drifts, time stuck, k, the velocities between the sub-flows, the xi used, the kinetic
+    energy removed by the two velocity-damping sub-flows)."""
+    press = 0.0
+    if r is not None:
+        if alpha1 is not None:
+            press = -f * xi
+        if mu is not None:
+            press += mu
+    va = v
+    x, v, imp1, ch1 = drift(x, v, half, r, press, h)
+    at_wall = False
+    if r is not None:
+        at_wall = x == 0.0
+    k = c2 * x * x - c1
+    g = (w0sq + alpha * x * x) * x
+    if khi is not None:
+        x2 = x * x
+        g += poly_x2(khi, x2) * x2 * x2 * x
+    if dhi is not None:
+        x2 = x * x
+        k += poly_x2(dhi, x2) * x2 * x2
+    dv1 = 0.0
+    dv2 = 0.0
+    if ev is not None:
+        vv = v
+        v = velocity_decay(v, half, ev)
+        dv1 = 0.5 * (vv * vv - v * v)
+    vb = v
+    if alpha1 is not None:
+        v, stuck = velocity_flow(v, h, -g + f * xi, k, mu, at_wall)
+        vc = v
+        vk = v
+        vd = v
+    else:
+        v, st1 = velocity_flow(v, half, -g, k, mu, at_wall)
+        vc = v
+        z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
+        v += kick * z
+        vk = v
+        v, st2 = velocity_flow(v, half, -g, k, mu, at_wall)
+        vd = v
+        stuck = st1 + st2
+    ve = v
+    if ev is not None:
+        v = velocity_decay(ve, half, ev)
+        dv2 = 0.5 * (ve * ve - v * v)
+        ve = v
+    x, v, imp2, ch2 = drift(x, v, half, r, press, h)
+    xi_used = xi
+    if alpha1 is not None:
+        z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
+        xi = ou_a * xi + ou_s * z
+    return (x, v, xi, s0, s1, s2, s3,
+            (imp1, ch1, imp2, ch2, stuck, k, va, vb, vc, vk, vd, ve, xi_used, dv1, dv2))
+
+
 @jit(parallel=True)
 def run_paths(rng, state, n_steps, step0, n_burn, stride, h,
               c1, c2, w0sq, alpha, f, D, mu, r, alpha1, khi, dhi, ev,
               a_lo, a_inv, hist_A, x_lo, x_inv, hist_x, v_lo, v_inv, hist_v, hist_joint,
-              moments, events, energy, spw, windows):
+              moments, events, stuck_time, energy, spw, windows):
     """Advance every path of every block by ``n_steps`` steps (global step indices
     ``step0 .. step0 + n_steps - 1``). Each path has its own generator state rng[b, p] and its
     own (x, v, xi) in state[b, p], both updated in place, so a run cut into any number of calls
-    gives bit-identical results, for any thread count (one block per prange iteration).
-
-    Steps with global index < ``n_burn`` are burn-in. After it, event counts (and, with
-    ``energy``, the power balance) are accumulated every step, and every ``stride`` steps a
-    sample is taken: histograms, moments, and with ``windows`` the per-path sum of A over
-    windows of ``spw`` samples (windows[b, p, w]; the certificate's raw data). A sample with
-    v == 0 exactly (the mass at rest: stuck, or resting on the wall) is the atom of p(x2) at 0
-    and is counted in EV_ATOM, not in the x2 (or joint) bins.
-
-    ``moments[b, p]`` and ``energy[b, p]`` are per path: each path's float sums are taken in
-    step order whatever the cut into calls, so they too are bit-identical (per-block sums,
-    interleaving the paths of a block call by call, were not: issue 11.5). The caller sums
-    over paths.
-
-    energy[b, p] columns (time integrals over the sampled time, Strang sub-flow by sub-flow):
-    EN_INPUT the work of the noise (OU: f xi v, trapezoid over B; white: the kick's exact
-    change of v^2/2), EN_DAMP (c2 x^2 - c1) v^2 [+ the exact kinetic energy each velocity-
-    damping sub-flow removes], EN_FRICTION mu |v| (trapezoid over B),
-    EN_IMPACT the kinetic energy lost at impacts, (1 - r^2) v^2 / 2 each, and v^2 / 2 when
-    the chatter guard rests the mass."""
+    gives bit-identical results, for any thread count (one block per prange iteration:
+    ``_block``). The docstring of ``_block`` says what is accumulated where."""
     n_blocks = state.shape[0]
-    n_paths = state.shape[1]
     if alpha1 is None:
         ou_a = 0.0
         ou_s = 0.0
@@ -201,71 +244,135 @@ def run_paths(rng, state, n_steps, step0, n_burn, stride, h,
         ou_a = math.exp(-alpha1 * h)
         ou_s = math.sqrt(D / alpha1 * (1.0 - ou_a * ou_a))
     kick = f * math.sqrt(2.0 * D * h)
-    half = 0.5 * h
+    bins = (a_lo, a_inv, x_lo, x_inv, v_lo, v_inv)
     for b in prange(n_blocks):
-        for p in range(n_paths):
-            s0, s1, s2, s3 = rng[b, p, 0], rng[b, p, 1], rng[b, p, 2], rng[b, p, 3]
-            x = state[b, p, 0]
-            v = state[b, p, 1]
-            xi = state[b, p, 2]
-            for n in range(step0, step0 + n_steps):
-                press = 0.0
-                if r is not None:
-                    if alpha1 is not None:
-                        press = -f * xi
-                    if mu is not None:
-                        press += mu
-                va = v
-                x, v, imp1, ch1 = drift(x, v, half, r, press, h)
-                at_wall = False
-                if r is not None:
-                    at_wall = x == 0.0
-                k = c2 * x * x - c1
-                g = (w0sq + alpha * x * x) * x
-                if khi is not None:
-                    x2 = x * x
-                    g += poly_x2(khi, x2) * x2 * x2 * x
-                if dhi is not None:
-                    x2 = x * x
-                    k += poly_x2(dhi, x2) * x2 * x2
-                if ev is not None:
-                    vv = v
-                    v = velocity_decay(v, half, ev)
-                    if energy is not None and n >= n_burn:
-                        energy[b, p, EN_DAMP] += 0.5 * (vv * vv - v * v)
-                vb = v
-                if alpha1 is not None:
-                    v, stuck = velocity_flow(v, h, -g + f * xi, k, mu, at_wall)
-                    vc = v
-                    vk = v
-                    vd = v
+        _block(b, rng, state, n_steps, step0, n_burn, stride, h, c1, c2, w0sq, alpha, f, mu,
+               r, alpha1, khi, dhi, ev, ou_a, ou_s, kick, bins, hist_A, hist_x, hist_v,
+               hist_joint, moments, events, stuck_time, energy, spw, windows)
+
+
+@jit(inline="always")
+def _lane(rng, state, stuck_time, b, p):
+    """Path p of block b into registers: (x, v, xi, its four generator words, time at rest)."""
+    return (state[b, p, 0], state[b, p, 1], state[b, p, 2],
+            rng[b, p, 0], rng[b, p, 1], rng[b, p, 2], rng[b, p, 3], stuck_time[b, p])
+
+
+@jit(inline="always")
+def _put(rng, state, stuck_time, b, p, x, v, xi, s0, s1, s2, s3, rest):
+    """The inverse of ``_lane``."""
+    state[b, p, 0], state[b, p, 1], state[b, p, 2] = x, v, xi
+    rng[b, p, 0], rng[b, p, 1], rng[b, p, 2], rng[b, p, 3] = s0, s1, s2, s3
+    stuck_time[b, p] = rest
+
+
+LANES = 4  # paths one thread advances together, step by step in turn (_block)
+
+
+@jit
+def _block(b, rng, state, n_steps, step0, n_burn, stride, h, c1, c2, w0sq, alpha, f, mu, r,
+           alpha1, khi, dhi, ev, ou_a, ou_s, kick, bins, hist_A, hist_x, hist_v, hist_joint,
+           moments, events, stuck_time, energy, spw, windows):
+    """run_paths for the paths of block b. (A serial function of its own: numba's parallel
+    array analysis fails on the nested tuple ``_step`` returns.)
+
+    The paths are advanced LANES = 4 at a time, the four paths' steps in turn (paths p .. p + 3
+    at step n, then at step n + 1; when fewer than four are left, the missing lanes run
+    throwaway copies of the last path and are neither counted nor stored). One path's step is
+    a chain of dependent operations whose latency, not the arithmetic, bounds the speed
+    (docs/performance.md); the chains of different paths are independent, so the core
+    overlaps them (measured: 2 lanes 1.4x, 4 lanes 1.5x, 8 lanes no better than 4). Each
+    path's arithmetic (``_step``) is the same whatever the grouping, so the results do not
+    depend on it.
+
+    Steps with global index < ``n_burn`` are burn-in. After it, event counts (and, with
+    ``energy``, the power balance) are accumulated every step, and every ``stride`` steps a
+    sample is taken: histograms, moments, and with ``windows`` the per-path sum of A over
+    windows of ``spw`` samples (windows[b, p, w]; the certificate's raw data). A sample with
+    v == 0 exactly (the mass at rest: stuck, or resting on the wall) is the atom of p(x2) at 0
+    and is counted in EV_ATOM, not in the x2 (or joint) bins. events[b, EV_TIME] counts the
+    block's sampled path-steps (the caller multiplies by h).
+
+    ``moments[b, p]``, ``energy[b, p]`` and ``stuck_time[b, p]`` (the time at rest: EV_STUCK
+    of the block once summed by the caller) are per path: each path's float sums are taken in
+    step order whatever the cut into calls and the pairing, so they too are bit-identical
+    (per-block float sums, interleaving the paths of a block call by call, were not: issue
+    11.5). The caller sums over paths. The block's event columns hold whole numbers, whose
+    sums do not depend on the order.
+
+    energy[b, p] columns (time integrals over the sampled time, Strang sub-flow by sub-flow):
+    EN_INPUT the work of the noise (OU: f xi v, trapezoid over B; white: the kick's exact
+    change of v^2/2), EN_DAMP (c2 x^2 - c1) v^2 [+ the exact kinetic energy each velocity-
+    damping sub-flow removes], EN_FRICTION mu |v| (trapezoid over B),
+    EN_IMPACT the kinetic energy lost at impacts, (1 - r^2) v^2 / 2 each, and v^2 / 2 when
+    the chatter guard rests the mass."""
+    a_lo, a_inv, x_lo, x_inv, v_lo, v_inv = bins
+    half = 0.5 * h
+    n_paths = state.shape[1]
+    for p0 in range(0, n_paths, LANES):
+        lanes = min(LANES, n_paths - p0)  # the lanes beyond are throwaway copies of the last
+        p1, p2, p3 = p0 + min(1, lanes - 1), p0 + min(2, lanes - 1), p0 + min(3, lanes - 1)
+        x0, v0, xi0, a0, a1, a2, a3, rest0 = _lane(rng, state, stuck_time, b, p0)
+        x1, v1, xi1, b0, b1, b2, b3, rest1 = _lane(rng, state, stuck_time, b, p1)
+        x2, v2, xi2, c0, c1_, c2_, c3, rest2 = _lane(rng, state, stuck_time, b, p2)
+        x3, v3, xi3, d0, d1, d2, d3, rest3 = _lane(rng, state, stuck_time, b, p3)
+        impacts = 0
+        chatter = 0
+        steps = 0
+        left = -1  # steps until the next sample (a counter: no integer division per step)
+        for n in range(step0, step0 + n_steps):
+            x0, v0, xi0, a0, a1, a2, a3, o0 = _step(
+                x0, v0, xi0, a0, a1, a2, a3, h, half, c1, c2, w0sq, alpha, f, mu, r, alpha1,
+                khi, dhi, ev, ou_a, ou_s, kick)
+            x1, v1, xi1, b0, b1, b2, b3, o1 = _step(
+                x1, v1, xi1, b0, b1, b2, b3, h, half, c1, c2, w0sq, alpha, f, mu, r, alpha1,
+                khi, dhi, ev, ou_a, ou_s, kick)
+            x2, v2, xi2, c0, c1_, c2_, c3, o2 = _step(
+                x2, v2, xi2, c0, c1_, c2_, c3, h, half, c1, c2, w0sq, alpha, f, mu, r, alpha1,
+                khi, dhi, ev, ou_a, ou_s, kick)
+            x3, v3, xi3, d0, d1, d2, d3, o3 = _step(
+                x3, v3, xi3, d0, d1, d2, d3, h, half, c1, c2, w0sq, alpha, f, mu, r, alpha1,
+                khi, dhi, ev, ou_a, ou_s, kick)
+            if n < n_burn:
+                continue
+            # o[0], o[2]: impacts, o[1], o[3]: chatter entries, o[4]: time at rest
+            impacts += o0[0] + o0[2]
+            chatter += o0[1] + o0[3]
+            rest0 += o0[4]
+            if lanes > 1:
+                impacts += o1[0] + o1[2]
+                chatter += o1[1] + o1[3]
+                rest1 += o1[4]
+            if lanes > 2:
+                impacts += o2[0] + o2[2]
+                chatter += o2[1] + o2[3]
+                rest2 += o2[4]
+            if lanes > 3:
+                impacts += o3[0] + o3[2]
+                chatter += o3[1] + o3[3]
+                rest3 += o3[4]
+            steps += lanes
+            if left < 0:  # the first step after the burn-in in this call
+                left = (stride - (n - n_burn + 1) % stride) % stride
+            sample = left == 0  # i.e. (n - n_burn + 1) % stride == 0
+            left = stride - 1 if sample else left - 1
+            if energy is None and not sample:
+                continue
+            for j in range(lanes):
+                p = p0 + j
+                if j == 0:
+                    x, v, o = x0, v0, o0
+                elif j == 1:
+                    x, v, o = x1, v1, o1
+                elif j == 2:
+                    x, v, o = x2, v2, o2
                 else:
-                    v, st1 = velocity_flow(v, half, -g, k, mu, at_wall)
-                    vc = v
-                    z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
-                    v += kick * z
-                    vk = v
-                    v, st2 = velocity_flow(v, half, -g, k, mu, at_wall)
-                    vd = v
-                    stuck = st1 + st2
-                ve = v
-                if ev is not None:
-                    v = velocity_decay(ve, half, ev)
-                    if energy is not None and n >= n_burn:
-                        energy[b, p, EN_DAMP] += 0.5 * (ve * ve - v * v)
-                    ve = v
-                x, v, imp2, ch2 = drift(x, v, half, r, press, h)
-                xi_used = xi
-                if alpha1 is not None:
-                    z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
-                    xi = ou_a * xi + ou_s * z
-                if n < n_burn:
-                    continue
-                events[b, EV_IMPACTS] += imp1 + imp2
-                events[b, EV_CHATTER] += ch1 + ch2
-                events[b, EV_STUCK] += stuck
-                events[b, EV_TIME] += h
+                    x, v, o = x3, v3, o3
                 if energy is not None:
+                    imp1, ch1, imp2, ch2, st, k, va, vb, vc, vk, vd, ve, xi_used, dv1, dv2 = o
+                    if ev is not None:
+                        energy[b, p, EN_DAMP] += dv1
+                        energy[b, p, EN_DAMP] += dv2
                     if alpha1 is not None:
                         energy[b, p, EN_INPUT] += f * xi_used * h * 0.5 * (vb + ve)
                         energy[b, p, EN_DAMP] += k * h * 0.5 * (vb * vb + ve * ve)
@@ -281,7 +388,7 @@ def run_paths(rng, state, n_steps, step0, n_burn, stride, h,
                     if r is not None:
                         energy[b, p, EN_IMPACT] += impact_loss(va, imp1, ch1, r)
                         energy[b, p, EN_IMPACT] += impact_loss(ve, imp2, ch2, r)
-                if (n - n_burn + 1) % stride != 0:
+                if not sample:
                     continue
                 events[b, EV_SAMPLES] += 1.0
                 A = amplitude_general(x, v, w0sq, alpha, khi)
@@ -327,7 +434,13 @@ def run_paths(rng, state, n_steps, step0, n_burn, stride, h,
                     moments[b, p, MO_MAXA] = max(moments[b, p, MO_MAXA], A)
                     moments[b, p, MO_MAXX] = max(moments[b, p, MO_MAXX], abs(x))
                     moments[b, p, MO_MAXV] = max(moments[b, p, MO_MAXV], abs(v))
-            rng[b, p, 0], rng[b, p, 1], rng[b, p, 2], rng[b, p, 3] = s0, s1, s2, s3
-            state[b, p, 0] = x
-            state[b, p, 1] = v
-            state[b, p, 2] = xi
+        events[b, EV_IMPACTS] += impacts
+        events[b, EV_CHATTER] += chatter
+        events[b, EV_TIME] += steps
+        _put(rng, state, stuck_time, b, p0, x0, v0, xi0, a0, a1, a2, a3, rest0)
+        if lanes > 1:
+            _put(rng, state, stuck_time, b, p1, x1, v1, xi1, b0, b1, b2, b3, rest1)
+        if lanes > 2:
+            _put(rng, state, stuck_time, b, p2, x2, v2, xi2, c0, c1_, c2_, c3, rest2)
+        if lanes > 3:
+            _put(rng, state, stuck_time, b, p3, x3, v3, xi3, d0, d1, d2, d3, rest3)

@@ -135,6 +135,7 @@ class _Arrays(NamedTuple):
     hist: dict[str, Any]
     moments: np.ndarray | None
     events: np.ndarray
+    stuck: np.ndarray  # per path: the time at rest (events[:, EV_STUCK] once summed)
     energy: np.ndarray | None
 
 
@@ -158,7 +159,8 @@ def _kernel(arr: _Arrays, phys: dict[str, Any], h: float, n_steps: int, step0: i
                 phys["mu"], phys["r"], phys["alpha1"], phys["khi"], phys["dhi"], phys["ev"],
                 ea[0], 1.0 / (ea[1] - ea[0]), hi["A"], ex[0], 1.0 / (ex[1] - ex[0]), hi["x"],
                 ev[0], 1.0 / (ev[1] - ev[0]), hi["v"], hi["joint"], arr.moments, arr.events,
-                arr.energy, spw, windows)
+                arr.stuck, arr.energy, spw, windows)
+    arr.events[:, K.EV_STUCK] = arr.stuck.sum(axis=1)  # per path first: order-independent
 
 
 def _diverged(h: float, what: str, cause: str = "") -> SimulationDiverged:
@@ -228,7 +230,7 @@ def _arrays(rng: np.ndarray, state: np.ndarray, edges: dict[str, np.ndarray],
     # float sums are then in step order however the run is cut into kernel calls
     return _Arrays(rng=rng, state=state, hist=_hists(blocks, edges, obs),
                    moments=np.zeros((blocks, paths, K.N_MOMENTS)) if "moments" in obs else None,
-                   events=np.zeros((blocks, K.N_EVENTS)),
+                   events=np.zeros((blocks, K.N_EVENTS)), stuck=np.zeros((blocks, paths)),
                    energy=np.zeros((blocks, paths, K.N_ENERGY)) if "energy" in obs else None)
 
 
@@ -549,11 +551,11 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
         conv["reason"] = "; ".join(r for r in (conv.get("reason"), why) if r)
     info["convergence"] = conv
     if "events" in obs:
-        info["events"] = _events(ev, ev[:, K.EV_TIME], samples, h)
+        info["events"] = _events(ev, ev[:, K.EV_TIME] * h, samples, h)
     if "moments" in obs:
         info["moments"] = _moments(_per_block(arr.moments, _MAX_COLUMNS), samples)
     if arr.energy is not None:
-        info["energy"] = _energy(_per_block(arr.energy), ev[:, K.EV_TIME], phys)
+        info["energy"] = _energy(_per_block(arr.energy), ev[:, K.EV_TIME] * h, phys)
     if "x2" in data:
         info["atoms"] = {"x2": {"at": 0.0, "weight": data["x2"]["atom_weight"],
                                 "err": data["x2"]["atom_err"]}}
