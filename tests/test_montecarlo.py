@@ -205,6 +205,49 @@ def test_same_seed_same_histograms_for_any_thread_count(base):
     assert not np.array_equal(one.data["A"]["p"], other.data["A"]["p"])
 
 
+def _kernel_run(base, per, cuts, seed=5):
+    """The kernel alone (montecarlo.kernels.run_paths) on 2 blocks of ``per`` paths, started at
+    the same per-path states and generator words whatever ``per``, the steps cut into calls
+    at ``cuts``: (state, moments, energy, windows, stuck time) per path."""
+    from montecarlo.simulate import _params, block_seeds
+
+    phys = _params(base.system, base.noise)
+    blocks, h, n_burn, stride, spw = 2, 0.02, 50, 5, 10
+    rng = block_seeds(seed, blocks, 8)[:, :per].copy()
+    start = np.random.default_rng(seed).uniform(0.05, 0.8, (blocks, 8, 3))
+    start[..., 2] *= 0.1
+    state = start[:, :per].copy()
+    e = np.linspace(-2, 2, 21)
+    mom, en = np.zeros((blocks, per, K.N_MOMENTS)), np.zeros((blocks, per, K.N_ENERGY))
+    win, stuck = np.zeros((blocks, per, 4)), np.zeros((blocks, per))
+    events = np.zeros((blocks, K.N_EVENTS))
+    hists = [np.zeros((blocks, 20)) for _ in range(3)]
+    edges = [0, *cuts, 600]
+    for a, b in zip(edges[:-1], edges[1:], strict=True):
+        K.run_paths(rng, state, b - a, a, n_burn, stride, h, phys["c1"], phys["c2"],
+                    phys["w0sq"], phys["alpha"], phys["f"], phys["D"], phys["mu"], phys["r"],
+                    phys["alpha1"], phys["khi"], phys["dhi"], phys["ev"], 0.0, 5.0, hists[0],
+                    -2.0, 5.0, hists[1], -2.0, 5.0, hists[2], None, mom, events, stuck, en,
+                    spw, win)
+    return state, mom, en, win, stuck, events
+
+
+def test_each_path_is_the_same_in_any_group_of_lanes_and_any_cut_into_calls(base):
+    """The kernel advances four paths of a block together (kernels.LANES; the last group may
+    be short, its missing lanes throwaway copies): a path's arithmetic must not depend on the
+    group it runs in nor on where the run is cut into calls. Identity, bit for bit: the first
+    five paths of a block of eight against a block of five (one full group and a group of one)
+    and of three (a short group), each cut differently; the event counts add up exactly."""
+    full = _kernel_run(base, 8, [])
+    for per, cuts in ((5, [77, 300]), (3, [1, 2, 599]), (8, [250])):
+        part = _kernel_run(base, per, cuts)
+        for got, want in zip(part[:5], full[:5], strict=True):
+            assert np.array_equal(got, want[:, :per])
+        # throwaway lanes are not counted: the path-steps after the burn-in, per block
+        assert part[5][:, K.EV_TIME].tolist() == [per * 550] * 2
+    assert np.all(full[3] > 0)  # every path's certificate windows got samples
+
+
 def fitted_order(dts, bias):
     """Least-squares slope of log|bias| on log dt and its standard error."""
     x, y = np.log(dts), np.log(np.abs(bias))
