@@ -217,7 +217,6 @@ def _kernel_run(base, per, cuts, seed=5):
     start = np.random.default_rng(seed).uniform(0.05, 0.8, (blocks, 8, 3))
     start[..., 2] *= 0.1
     state = start[:, :per].copy()
-    e = np.linspace(-2, 2, 21)
     mom, en = np.zeros((blocks, per, K.N_MOMENTS)), np.zeros((blocks, per, K.N_ENERGY))
     win, stuck = np.zeros((blocks, per, 4)), np.zeros((blocks, per))
     events = np.zeros((blocks, K.N_EVENTS))
