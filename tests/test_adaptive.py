@@ -153,7 +153,9 @@ def serial_adaptive(tmp_path_factory):
     return out, _values(out / "sweep.nc")
 
 
+# both tests on one xdist worker (CI: --dist loadgroup), so the serial run is made once
 @pytest.mark.slow
+@pytest.mark.xdist_group("adaptive-sweep")
 def test_sixteen_point_adaptive_sweep_same_on_serial_and_processes_and_resumes(
         serial_adaptive, tmp_path):
     """16 points (3 x 3 lattice, then batches of 4): serial and processes:2 give the same
@@ -178,6 +180,7 @@ def test_sixteen_point_adaptive_sweep_same_on_serial_and_processes_and_resumes(
 
 
 @pytest.mark.slow  # real dask clusters: worker processes import the whole stack
+@pytest.mark.xdist_group("adaptive-sweep")
 def test_adaptive_sweep_same_on_dask_and_on_a_tcp_scheduler(serial_adaptive, tmp_path):
     """Issue 22's determinism on the other two executors: ``dask:2`` (a LocalCluster the sweep
     starts) and ``tcp://HOST:PORT`` (a scheduler started here, as a user's cluster would be,
