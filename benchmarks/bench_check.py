@@ -4,7 +4,7 @@ another checkout in the same run (alternated, so that the machine's load hits bo
     python benchmarks/bench_check.py [--against PATH] [--repeats N]   # -> results/check.json
 
 Each command runs as a user runs it, in a fresh process from the checkout's root
-(``python -m harness ...``), warm: numba's on-disk cache is filled by a first run that is not
+(``python -m vifpk ...``), warm: numba's on-disk cache is filled by a first run that is not
 timed. Timed: wall seconds of the process, and for ``check`` the stage times it writes into
 metrics.json (``timings.stages``).
 

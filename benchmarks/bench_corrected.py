@@ -20,7 +20,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from timing import timed  # noqa: E402
 
-import averaging  # noqa: E402
+from vifpk import averaging  # noqa: E402
 from vifpk.core.scene import load_scene  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent

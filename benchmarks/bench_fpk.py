@@ -16,9 +16,9 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from timing import timed  # noqa: E402
+from vifpk.averaging import build_model  # noqa: E402
 
-import fpk  # noqa: E402
-from averaging import build_model  # noqa: E402
+from vifpk import fpk  # noqa: E402
 from vifpk.core.scene import load_scene  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -29,9 +29,10 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-import montecarlo  # noqa: E402
-from montecarlo.kernels import exp_phi  # noqa: E402
-from montecarlo.rng import normal  # noqa: E402
+from vifpk.montecarlo.kernels import exp_phi  # noqa: E402
+from vifpk.montecarlo.rng import normal  # noqa: E402
+
+from vifpk import montecarlo  # noqa: E402
 from vifpk.core.scene import load_scene  # noqa: E402
 
 

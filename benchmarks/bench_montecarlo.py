@@ -24,9 +24,10 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-import montecarlo as mc  # noqa: E402
-from montecarlo.plan import physics as _params  # noqa: E402
-from montecarlo.reference import simulate_numpy  # noqa: E402
+from vifpk.montecarlo.plan import physics as _params  # noqa: E402
+from vifpk.montecarlo.reference import simulate_numpy  # noqa: E402
+
+from vifpk import montecarlo as mc  # noqa: E402
 from vifpk.core.scene import MonteCarloSettings, load_scene  # noqa: E402
 
 DEFAULTS = mc.Settings(**asdict(MonteCarloSettings()), certificate=False)

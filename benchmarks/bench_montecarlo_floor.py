@@ -25,7 +25,7 @@ sys.path.insert(0, str(ROOT))
 
 import numba  # noqa: E402
 
-import montecarlo as mc  # noqa: E402
+from vifpk import montecarlo as mc  # noqa: E402
 from vifpk.core.scene import MonteCarloSettings, load_scene  # noqa: E402
 
 REPEATS = 2

@@ -37,7 +37,7 @@ sys.path.insert(0, str(ROOT))
 os.environ["PYTHONPATH"] = os.pathsep.join(  # worker processes import this checkout
     [str(ROOT), *filter(None, [os.environ.get("PYTHONPATH")])])
 
-from harness.sweep import (  # noqa: E402
+from vifpk.harness.sweep import (  # noqa: E402
     Runner,
     load_sweep,
     parse_executor,
@@ -145,8 +145,8 @@ def point_against_bare(repeats: int = 3) -> dict:
     import statistics
     from dataclasses import replace
 
-    from harness.run import run_solver
-    from harness.sweep import SDE_CHECK_EVERY, _job, run_point
+    from vifpk.harness.run import run_solver
+    from vifpk.harness.sweep import SDE_CHECK_EVERY, _job, run_point
 
     sweep = load_sweep(ROOT / "scenes" / "sweeps" / "r-mu.toml")
     rows = []

@@ -38,11 +38,11 @@ WORKER = r"""
 import json, sys, time
 from dataclasses import asdict
 import numpy as np
-import montecarlo as mc
+from vifpk import montecarlo as mc
 try:
     from vifpk.core.scene import MonteCarloSettings, load_scene, scene_from_dict
 except ImportError:
-    from harness.scene import MonteCarloSettings, load_scene, scene_from_dict
+    from vifpk.harness.scene import MonteCarloSettings, load_scene, scene_from_dict
 EDGES = {"edges_A": np.linspace(0, 2, 101), "edges_x": np.linspace(-2, 2, 101),
          "edges_v": np.linspace(-2, 2, 101)}
 name, spec = sys.argv[1], json.loads(sys.argv[2])

@@ -1,4 +1,4 @@
-"""``python -m harness`` is the ``vifpk`` command."""
+"""``python -m vifpk.harness`` is the ``vifpk`` command (``python -m vifpk`` too)."""
 
 import sys
 

@@ -117,8 +117,8 @@ def collect(*, argv: Sequence[str] | None = None, scene_path: str | Path | None 
 
 def scene_file(path: str | Path) -> Path | None:
     """The scene file a path or shipped-scene name resolves to, found where ``load_scene``
-    reads it (``vifpk.core.scene.find_scene``: a shipped scene is package data ``harness.scenes``,
-    in a wheel under site-packages/harness/scenes); None when there is none on disk."""
+    reads it (``vifpk.core.scene.find_scene``: a shipped scene is package data ``vifpk.scenes``,
+    in a wheel under site-packages/vifpk/scenes); None when there is none on disk."""
     from vifpk.core import scene
 
     found = scene.find_scene(path)

@@ -47,8 +47,7 @@ def run_solver(scene: Any, solver: str, *, model: str = "paper", grid: int | Non
 
     ``--solver averaging`` of a model with no closed form (a plugin that gives only drift
     and diffusion) is :func:`closed_form`'s FPK direct solve, and its info says so."""
-    import averaging
-    import fpk
+    from vifpk import averaging, fpk
 
     one_of("solver", solver, SOLVERS)
     try:
@@ -69,7 +68,7 @@ def closed_form(scene: Any, *, model: Any, tail_mass: bool = True, **options: An
     (``info["closed_form"]`` is False and ``info["method"]`` says which). ``model``: a
     registered name or a model object; ``tail_mass=False`` skips the closed form's measurement
     of the mass beyond its grid. A scene with no stationary density raises SolverFailure."""
-    import averaging
+    from vifpk import averaging
 
     m = averaged_model(scene, model, **options)
     try:
@@ -94,7 +93,7 @@ def model_label(model: Any) -> str:
 def averaged_model(scene: Any, model: Any, **options: Any) -> Any:
     """The averaged model named ``model`` (any registered name, vifpk.core.registry) or a
     model object itself: something with drift(A), diffusion(A) and maybe period(A)."""
-    import averaging
+    from vifpk import averaging
 
     if isinstance(model, str):
         return averaging.build_model(scene, model, **options)
@@ -122,9 +121,10 @@ def amplitude_density(scene: Any, model: Any, **options: Any) -> Any:
     """p(A) alone (``averaging.stationary.AmplitudeDensity``: fields A, p, log_h) of the model
     named ``model`` (or a model object), on the scene's [averaging] grid settings; a model with
     no closed form gets it from the FPK direct solve (REFERENCE_CELLS cells)."""
-    import averaging
-    from averaging.stationary import AmplitudeDensity
-    from averaging.stationary import amplitude_density as density
+    from vifpk.averaging.stationary import AmplitudeDensity
+    from vifpk.averaging.stationary import amplitude_density as density
+
+    from vifpk import averaging
 
     m = averaged_model(scene, model, **options)
     if averaging.has_closed_form(m):
@@ -144,21 +144,21 @@ def amplitude_density(scene: Any, model: Any, **options: Any) -> Any:
 def orbit_period(A: Any, restoring: tuple[float, ...]) -> Any:
     """T(A) of the exact orbit of amplitude A of the spring g = k1 x + k3 x^3 + ...
     (``restoring`` = (k1, k3, ...): System.restoring_law; ``averaging.geometry.period_k``)."""
-    from averaging.geometry import period_k
+    from vifpk.averaging.geometry import period_k
 
     return period_k(A, tuple(restoring))
 
 
 def restoring_force(A: Any, restoring: tuple[float, ...]) -> Any:
     """g(A) = k1 A + k3 A^3 + ... (``averaging.geometry.restoring_k``)."""
-    from averaging.geometry import restoring_k
+    from vifpk.averaging.geometry import restoring_k
 
     return restoring_k(A, tuple(restoring))
 
 
 def energy_rates(scene: Any, A: float) -> dict[str, float]:
     """The exact orbit's energy rates by effect at amplitude A (``averaging.exact``)."""
-    from averaging.exact import energy_rates as rates
+    from vifpk.averaging.exact import energy_rates as rates
 
     return rates(scene, A)
 
@@ -166,7 +166,7 @@ def energy_rates(scene: Any, A: float) -> dict[str, float]:
 def validity(scene: Any) -> dict[str, Any]:
     """How far the scene is from the averaging limits over the bulk of p(E)
     (``averaging.validity``: band alpha1 / Omega, wall delta / E, noise sigma_E^2 T / E^2)."""
-    from averaging.validity import validity as numbers
+    from vifpk.averaging.validity import validity as numbers
 
     return numbers(scene)
 
@@ -174,7 +174,7 @@ def validity(scene: Any) -> dict[str, Any]:
 # ----------------------------------------------------------------------------- FPK
 def fpk_stationary(drift: Any, diffusion: Any, **options: Any) -> Any:
     """``fpk.stationary`` on any drift m(A) and diffusion sigma^2(A) (cells, method, ...)."""
-    import fpk
+    from vifpk import fpk
 
     try:
         return fpk.stationary(drift, diffusion, **options)
@@ -186,8 +186,7 @@ def fpk_solution(scene: Any, *, model: Any, cells: int, method: str = "stepping"
                   **options: Any) -> Result:
     """FPK on the averaged model's m and sigma^2, mapped to phase space like the closed form
     (with the model's period, or the exact orbit's: ``info["period"]`` says which)."""
-    import averaging
-    import fpk
+    from vifpk import averaging, fpk
 
     if scene.system.f == 0.0:
         raise averaging.NoStationaryDensity(
@@ -195,7 +194,7 @@ def fpk_solution(scene: Any, *, model: Any, cells: int, method: str = "stepping"
     m = averaged_model(scene, model, **options)
     res = fpk.stationary(m.drift, m.diffusion, cells=cells, method=method)
     if getattr(m, "observes", False):  # the observed energy, as the closed form
-        from averaging.corrected import observed_density
+        from vifpk.averaging.corrected import observed_density
 
         obs = {}
         for key in ("A", "A_cells"):
@@ -218,8 +217,8 @@ def fpk_solution(scene: Any, *, model: Any, cells: int, method: str = "stepping"
 def phase_solution(scene: Any, res: Any, period: Any) -> tuple[dict[str, Any], dict]:
     """An FPK result's p(A) mapped to p(E), p(x1, x2), p(x1), p(x2) as for the closed form,
     with p(y, y') = p_A / (g T); ``period`` gives T(A). Returns (data, raw masses)."""
-    from averaging.geometry import restoring_k
-    from averaging.phase import phase_densities
+    from vifpk.averaging.geometry import restoring_k
+    from vifpk.averaging.phase import phase_densities
 
     s = scene.system
     k = tuple(s.restoring_law)
@@ -243,7 +242,7 @@ def montecarlo_solution(scene: Any, *, progress: bool = True, **edges: Any) -> R
     import dataclasses
     import math
 
-    import montecarlo
+    from vifpk import montecarlo
 
     if scene.system.f == 0.0:
         raise SolverFailure("f = 0: there is no noise; the Monte Carlo would only relax to a "
@@ -279,7 +278,7 @@ def averaged_sde_solution(scene: Any, model: Any, *, edges: dict[str, Any], seed
     original system). ``edges``: ``edges_A`` (and ``edges_x``, ``edges_v`` with ``phase``,
     which also records x1, x2 from time-uniform points of each sampled orbit).
     """
-    from montecarlo.averaged_sde import simulate_sde
+    from vifpk.montecarlo.averaged_sde import simulate_sde
 
     mc = scene.montecarlo
     keys = ("paths", "blocks", "dt", "time", "burn_in", "sample_every")
@@ -332,7 +331,7 @@ def montecarlo_plan(scene: Any) -> Any:
     """What the Monte Carlo would do with the scene's settings, before running it
     (``montecarlo.plan``: the time step, the sampling interval, the sampled time, the nearest
     times it samples exactly, the path-steps including the pilots'), as a ``montecarlo.Plan``."""
-    import montecarlo
+    from vifpk import montecarlo
 
     return montecarlo.plan(scene.system, scene.noise, scene.montecarlo)
 

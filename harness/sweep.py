@@ -782,7 +782,7 @@ def _init_worker(threads: int) -> None:
 
 
 def dask_setup(worker: Any = None) -> None:
-    """dask preload of a local cluster's workers (``preload=["harness.sweep"]``): Ctrl-C on
+    """dask preload of a local cluster's workers (``preload=["vifpk.harness.sweep"]``): Ctrl-C on
     the terminal's process group is the sweep's to handle; the worker ignores it."""
     import signal
     import threading
@@ -837,7 +837,7 @@ class Runner:
                     # any free port for its HTTP server: two clusters on one machine do not
                     # collide on 8787 (and warn about it)
                     dashboard_address=":0", host="127.0.0.1", silence_logs=logging.ERROR,
-                    env={"NUMBA_NUM_THREADS": str(threads)}, preload=["harness.sweep"])
+                    env={"NUMBA_NUM_THREADS": str(threads)}, preload=["vifpk.harness.sweep"])
             self.client = Client(self.cluster)
         elif spec.kind == "tcp":
             import socket

@@ -1,6 +1,6 @@
 """Tolerance tests for averaged models, the way ``numpy.testing`` pins numbers.
 
-    from harness.testing import assert_density_close, assert_averaging_error
+    from vifpk.harness.testing import assert_density_close, assert_averaging_error
 
     assert_averaging_error("paper-base", "exact", below=0.1)          # L1(A) against the MC
     assert_averaging_error(scene, MyModel(), below=0.05, observable="x2")

@@ -51,8 +51,8 @@ def base() -> Scene:
 def tiny_check():
     """One cross-check (harness.check.cross_check) of the tiny scene, computed once a session:
     the canned input of the tests of writing, interruption, rendering and sweeps."""
-    from harness.check import cross_check
-    from harness.cli import concrete_scene
+    from vifpk.harness.check import cross_check
+    from vifpk.harness.cli import concrete_scene
 
     return cross_check(concrete_scene(str(TINY), TINY_CHECK_SET), quiet=True)
 
@@ -63,7 +63,7 @@ def canned_check(tiny_check, monkeypatch):
     asked (so titles, folders and sweep coordinates follow the request); ``sde=False`` drops
     the averaged SDEs' runs as cross_check does. Commands that check then write, interrupt and
     render without computing. Returns the canned result."""
-    import harness.check
+    import vifpk.harness.check
 
     def canned(scene, *, quiet=False, fpk=True, sde=True, tail_mass=True, models=None):
         res = replace(tiny_check, scene=scene, metrics=copy.deepcopy(tiny_check.metrics))
@@ -80,7 +80,7 @@ def canned_check(tiny_check, monkeypatch):
                     entry["sampling_ok"] = None
         return res
 
-    monkeypatch.setattr(harness.check, "cross_check", canned)
+    monkeypatch.setattr(vifpk.harness.check, "cross_check", canned)
     return tiny_check
 
 
@@ -107,8 +107,8 @@ def phase_mass_gap(scene: Scene, result, model: str) -> float:
     wrong fold, Jacobian or period in the mapping shows up here; after normalisation it would
     not.
     """
-    from averaging import build_model
-    from averaging.geometry import period
+    from vifpk.averaging import build_model
+    from vifpk.averaging.geometry import period
 
     s = scene.system
     A, p = np.asarray(result.data["A"]["x"]), np.asarray(result.data["A"]["p"])
@@ -126,20 +126,21 @@ pytest_plugins = ["pytester"]
 def no_computation(monkeypatch):
     """Replace every entry point of real work by one that fails the test (the catalogues of
     bad input in test_cli_validation.py and test_edges.py: refused before any work)."""
-    import harness.bifurcation
-    import harness.check
-    import harness.cli
-    import harness.figures
-    import harness.run
-    import harness.sweep
-    import harness.workprecision
+    import vifpk.harness.bifurcation
+    import vifpk.harness.check
+    import vifpk.harness.cli
+    import vifpk.harness.figures
+    import vifpk.harness.run
+    import vifpk.harness.sweep
+    import vifpk.harness.workprecision
 
     def forbidden(*a, **k):
         raise AssertionError("computation started before the input was checked")
 
-    for mod, name in ((harness.cli, "run_solver"), (harness.run, "run_solver"),
-                      (harness.run, "montecarlo_solution"), (harness.run, "fpk_solution"),
-                      (harness.check, "cross_check"), (harness.bifurcation, "bifurcation"),
-                      (harness.figures, "draw_figures"), (harness.sweep, "run_point"),
-                      (harness.workprecision, "run_workprecision")):
+    h = vifpk.harness
+    for mod, name in ((h.cli, "run_solver"), (h.run, "run_solver"),
+                      (h.run, "montecarlo_solution"), (h.run, "fpk_solution"),
+                      (h.check, "cross_check"), (h.bifurcation, "bifurcation"),
+                      (h.figures, "draw_figures"), (h.sweep, "run_point"),
+                      (h.workprecision, "run_workprecision")):
         monkeypatch.setattr(mod, name, forbidden)

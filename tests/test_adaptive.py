@@ -10,9 +10,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from harness.adaptive import initial_design, log_ratio, min_edge, next_batch
-from harness.sweep import SweepError, load_sweep, run_sweep
+from vifpk.harness.adaptive import initial_design, log_ratio, min_edge, next_batch
+from vifpk.harness.sweep import SweepError, load_sweep, run_sweep
 
 from .conftest import ROOT
 

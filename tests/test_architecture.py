@@ -36,6 +36,8 @@ def imported_modules(path: Path) -> set[str]:
             found.update(a.name for a in node.names)
         elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
             found.add(node.module)
+            if node.module == "vifpk":  # from vifpk import averaging: a sub-package by name
+                found.update(f"vifpk.{a.name}" for a in node.names)
         elif (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
               and node.func.attr == "import_module" and node.args
               and isinstance(node.args[0], ast.Constant) and isinstance(node.args[0].value, str)):
@@ -48,11 +50,17 @@ def imported_packages(path: Path) -> set[str]:
     vocabulary) or ``vifpk`` (the public API, anything of vifpk outside its core)."""
     found: set[str] = set()
     for name in imported_modules(path):
-        top = name.split(".")[0]
-        if top == "vifpk":
-            found.add(CORE if name == CORE or name.startswith(CORE + ".") else "vifpk")
-        elif top in {*SOLVERS, "harness"}:
-            found.add(top)
+        parts = name.split(".")
+        if parts[0] in {*SOLVERS, "harness"}:
+            raise AssertionError(f"{path}: imports {name}; every module of ours is vifpk.*")
+        if parts[0] != "vifpk":
+            continue
+        if len(parts) > 1 and parts[1] in {*SOLVERS, "harness"}:
+            found.add(parts[1])
+        elif name == CORE or name.startswith(CORE + "."):
+            found.add(CORE)
+        else:
+            found.add("vifpk")
     return found
 
 
@@ -63,10 +71,15 @@ def modules(package: str) -> list[Path]:
 def test_the_scan_sees_imports(tmp_path: Path):
     """The scanner itself: plain, from-, nested and importlib imports are all found."""
     src = tmp_path / "m.py"
-    src.write_text("import fpk.scheme\nfrom . import x\n"
-                   "def f():\n    from montecarlo.kernels import k\n"
-                   "    import importlib\n    importlib.import_module('averaging.exact')\n")
+    src.write_text("import vifpk.fpk.scheme\nfrom . import x\n"
+                   "def f():\n    from vifpk.montecarlo.kernels import k\n"
+                   "    import importlib\n    importlib.import_module('vifpk.averaging.exact')\n")
     assert imported_packages(src) == {"fpk", "montecarlo", "averaging"}
+    src.write_text("from vifpk import harness, solve\n")
+    assert imported_packages(src) == {"harness", "vifpk"}
+    src.write_text("import averaging\n")
+    with pytest.raises(AssertionError, match="every module of ours is vifpk"):
+        imported_packages(src)
     src.write_text("import vifpk.core.scene\nfrom vifpk import solve\nimport numpy\n")
     assert imported_packages(src) == {CORE, "vifpk"}
 
@@ -102,12 +115,14 @@ def test_the_core_imports_nothing_above_it():
 def test_importing_the_core_or_the_api_loads_no_solver_and_no_harness(statement: str):
     """In a fresh interpreter: the public API is lazy (module ``__getattr__``)."""
     code = (f"{statement}; import sys; "
-            "print(' '.join(sorted({m.split('.')[0] for m in sys.modules})))")
+            "print(' '.join(sorted({'.'.join(m.split('.')[:2]) if m.startswith('vifpk.') else "
+            "m.split('.')[0] for m in sys.modules})))")
     res = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True,
                          text=True, timeout=120, check=True)
     loaded = set(res.stdout.split())
     assert "vifpk" in loaded
-    assert not loaded & {*SOLVERS, "harness", "numba", "pde", "matplotlib"}, loaded
+    ours = {f"vifpk.{p}" for p in (*SOLVERS, "harness")}
+    assert not loaded & {*SOLVERS, "harness", *ours, "numba", "pde", "matplotlib"}, loaded
 
 
 # ------------------------------------------------- unknown kinds raise: no silent fallbacks
@@ -121,15 +136,16 @@ def _pink(base):
 
 @pytest.mark.parametrize("model", ["paper", "exact"])
 def test_averaging_rejects_an_unknown_noise_kind(base, model):
-    import averaging
+    from vifpk import averaging
 
     with pytest.raises(ValueError, match="noise kind must be one of .* not 'pink'"):
         averaging.solve(_pink(base), model=model)
 
 
 def test_averaging_rejects_unknown_options(base):
-    import averaging
-    from averaging.exact import ExactModel
+    from vifpk.averaging.exact import ExactModel
+
+    from vifpk import averaging
 
     with pytest.raises(ValueError, match="model must be one of"):
         averaging.solve(base, model="corrected-by-magic")
@@ -147,7 +163,7 @@ def test_averaging_rejects_unknown_options(base):
 def test_fpk_rejects_unknown_methods_and_steppers():
     import numpy as np
 
-    import fpk
+    from vifpk import fpk
 
     def m(A):
         return 1.0 / A - A
@@ -166,14 +182,14 @@ def test_fpk_rejects_unknown_methods_and_steppers():
 def test_montecarlo_rejects_an_unknown_noise_kind(base):
     """(The Monte Carlo's own test is tests/test_montecarlo.py::test_unknown_noise_kind_raises;
     here through the door, as every workflow calls it.)"""
-    from harness.run import run_solver
+    from vifpk.harness.run import run_solver
 
     with pytest.raises(ValueError, match="noise kind must be one of"):
         run_solver(_pink(base), "montecarlo")
 
 
 def test_run_rejects_an_unknown_solver(base):
-    from harness.run import run_solver
+    from vifpk.harness.run import run_solver
 
     with pytest.raises(ValueError, match="solver must be one of"):
         run_solver(base, "oracle")

@@ -14,11 +14,10 @@ import math
 import numpy as np
 import pytest
 from scipy.integrate import quad, solve_ivp
-
-from averaging import solve
-from averaging.exact import ExactModel
-from averaging.geometry import nu_exact, period, potential, restoring, w1_eta
-from averaging.paper import PaperModel
+from vifpk.averaging import solve
+from vifpk.averaging.exact import ExactModel
+from vifpk.averaging.geometry import nu_exact, period, potential, restoring, w1_eta
+from vifpk.averaging.paper import PaperModel
 
 from .conftest import phase_mass_gap, vary
 
@@ -332,7 +331,7 @@ def test_small_D_limit_cycle_is_resolved(base):
 
 
 def test_no_stationary_density_is_reported(base):
-    from averaging import NoStationaryDensity
+    from vifpk.averaging import NoStationaryDensity
 
     with pytest.raises(NoStationaryDensity, match="f = 0"):
         solve(vary(base, f=0.0))
@@ -344,7 +343,7 @@ def test_exact_sigma2_negative_beyond_rounding_raises_not_clamps(base, monkeypat
     """sigma_E^2 is a spectral density (>= 0); it is computed as a difference of two nearly
     equal terms, so a negative value of rounding size is set to 0 and a larger one (a harmonic
     sum truncated too early, simulated here by doubling the harmonics) raises one line."""
-    from averaging.exact import ExactModel
+    from vifpk.averaging.exact import ExactModel
 
     m = ExactModel.from_scene(base)
     A = np.array([0.3, 0.8])

@@ -11,8 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
-from montecarlo.certificate import rank_rhat
+from vifpk.montecarlo.certificate import rank_rhat
 
 az = pytest.importorskip("arviz")
 

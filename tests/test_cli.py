@@ -10,8 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from harness.cli import main
+from vifpk.harness.cli import main
 
 from .conftest import ROOT
 
@@ -28,7 +27,8 @@ def test_solve_json_contract(tmp_path: Path, model: str):
     assert d["scene"]["system"]["r"] == 0.96
     # the JSON round trip is exact (json writes floats with repr): the densities in the file
     # are bit for bit the solver's (their normalisation is the solver's own doing)
-    from harness.run import closed_form
+    from vifpk.harness.run import closed_form
+
     from vifpk.core.scene import load_scene
 
     ref = closed_form(load_scene(BASE), model=model).data
@@ -128,7 +128,7 @@ def test_budget_too_small_for_the_pilots_is_refused_up_front(capsys):
 def test_budget_spent_before_the_first_window_exits_3_with_one_line(monkeypatch, capsys):
     """A budget above the up-front lower bound that still runs out in the pilots (here the
     bound is disabled by an infinite assumed speed): exit 3, one line, no file written."""
-    from harness import validate
+    from vifpk.harness import validate
 
     monkeypatch.setattr(validate, "MC_STEPS_PER_CORE", math.inf)
     code = main(["solve", BASE, "--solver", "montecarlo", "--paths", "64", "--floor", "1e-4",
@@ -143,7 +143,7 @@ def test_budget_spent_before_the_first_window_exits_3_with_one_line(monkeypatch,
 
 def test_a_value_error_inside_a_run_is_one_line_exit_3(monkeypatch, capsys):
     """cli.main lets no ValueError out as a traceback (issue 19): one line, exit 3."""
-    import harness.cli as cli
+    import vifpk.harness.cli as cli
 
     def boom(args):
         raise ValueError("no sample was taken: time must be at least sample_every")

@@ -5,7 +5,7 @@ a closed pipe is quiet, numpy warnings never reach the terminal.
 Every case of the catalogue runs in-process with every solver entry point replaced by one that
 fails the test ("no computation started"; an uncaught exception would fail it too); one case of
 each kind (option range, combination, rounding, output path, scene, cost, search range, each
-command) also runs as a real `python -m harness` subprocess, two at a time, for the exit code
+command) also runs as a real `python -m vifpk` subprocess, two at a time, for the exit code
 and the terminal. Each subprocess costs ~1 s of interpreter start-up, hence the subset.
 """
 
@@ -176,7 +176,7 @@ def test_bad_input_exit_2_one_line_nothing_written(subprocess_results, case_id):
 @pytest.mark.parametrize("case", CATALOGUE, ids=IDS)
 def test_bad_input_is_refused_before_any_computation(no_computation, tmp_path, capsys,
                                                      monkeypatch, case):
-    from harness.cli import main
+    from vifpk.harness.cli import main
 
     monkeypatch.chdir(tmp_path)
     args, needle = _materialise(case, tmp_path / "case")
@@ -193,7 +193,7 @@ def test_values_on_the_grid_are_accepted_exactly(tmp_path):
     --allow-unequilibrated, the settings being the subject)."""
     import json
 
-    from harness.cli import main
+    from vifpk.harness.cli import main
 
     out = tmp_path / "mc.json"
     assert main(["solve", BASE, *MC, "--paths", "64", "--time", "48", "--dt", "0.03125",
@@ -205,7 +205,7 @@ def test_values_on_the_grid_are_accepted_exactly(tmp_path):
 
 
 def test_utf8_bom_scene_is_accepted(tmp_path, capsys):
-    from harness.cli import main
+    from vifpk.harness.cli import main
 
     scene = tmp_path / "bom.toml"
     scene.write_bytes(b"\xef\xbb\xbf[system]\nr = 0.9\n")
@@ -262,7 +262,7 @@ def test_ctrl_c_stops_a_monte_carlo_within_seconds(tmp_path):
 
 def test_yes_lets_a_costly_run_past_the_estimate(no_computation, tmp_path, capsys):
     """--yes skips only the cost refusal: the (forbidden) computation is then reached."""
-    from harness.cli import main
+    from vifpk.harness.cli import main
 
     with pytest.raises(AssertionError, match="computation started"):
         main(["solve", BASE, *MC, "--dt", "1e-9", "--yes"])

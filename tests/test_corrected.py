@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from vifpk.averaging.corrected import CompoundedModel, q_frame_density, wall_offset
 
-import averaging
-from averaging.corrected import CompoundedModel, q_frame_density, wall_offset
+from vifpk import averaging
 from vifpk.core.scene import load_scene
 
 from .conftest import ROOT
@@ -141,7 +141,7 @@ def test_observation_map_is_a_markov_kernel_adding_the_fast_variance():
     edges = np.linspace(0.0, 2.0, 4001)
     M = m.observation_matrix(A, edges)
     np.testing.assert_allclose(M.sum(axis=0), 1.0, atol=1e-12)
-    from averaging.geometry import potential
+    from vifpk.averaging.geometry import potential
 
     E_mid = potential(0.5 * (edges[1:] + edges[:-1]), m.omega0, m.alpha)
     mean = E_mid @ M
@@ -163,8 +163,8 @@ def test_corrected_terms_vanish_for_white_noise():
 def test_fpk_of_corrected_is_observed_alike():
     """With the observation map on, the FPK goes through the same map: its p(A) matches the
     closed form to the FPK's own discretisation error (400 cells: 4e-5; bound 1e-3)."""
-    from harness.compare import compare
-    from harness.run import closed_form, fpk_solution
+    from vifpk.harness.compare import compare
+    from vifpk.harness.run import closed_form, fpk_solution
 
     scene = BASE.with_values({"noise.alpha1": 1.0})
     c = closed_form(scene, model="corrected", fast=True)
@@ -196,8 +196,7 @@ def test_fast_map_against_the_exact_gaussian_law_of_the_linear_oscillator(a1):
     the slow energy) is NOT the missing O(eps) term: asserted as measured (first order within
     0.025 and the map at least 0.01 worse), which is why ``corrected`` leaves it off."""
     from scipy.stats import chi2
-
-    from averaging.corrected import observed_density
+    from vifpk.averaging.corrected import observed_density
 
     scene, sx, sv = _gaussian_linear_oscillator(1.0, 0.05, 0.01, a1)
     ex = averaging.solve(scene, model="exact").data["A"]

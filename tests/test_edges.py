@@ -356,7 +356,7 @@ def _snapshot(folder: Path) -> dict[str, bytes]:
 
 @pytest.mark.parametrize("case", CASES, ids=[c[0] for c in CASES])
 def test_refused_before_any_work(case, no_computation, tmp_path, monkeypatch, capsys):
-    from harness.cli import main
+    from vifpk.harness.cli import main
 
     monkeypatch.chdir(tmp_path)
     _ENV.clear()
@@ -379,7 +379,7 @@ def test_refused_before_any_work(case, no_computation, tmp_path, monkeypatch, ca
 # A: the lock, and the name of the default folder
 def _canned(monkeypatch):
     """The averaging workflow replaced by a canned result: plumbing only, no physics."""
-    import harness.sweep
+    import vifpk.harness.sweep
 
     def canned(job):
         r = dict(job.params)["system.r"]
@@ -387,12 +387,12 @@ def _canned(monkeypatch):
                 "flags": {"warn_narrow_band": False, "warn_strong_damping": False,
                           "warn_strong_noise": False}, "warnings": [], "L1_paper_exact_A": 0.1}
 
-    monkeypatch.setitem(harness.sweep.WORKFLOW_FUNCTIONS, "averaging", canned)
+    monkeypatch.setitem(vifpk.harness.sweep.WORKFLOW_FUNCTIONS, "averaging", canned)
 
 
 def test_second_sweep_into_a_held_folder_is_refused(tmp_path, monkeypatch, capsys):
     """Another live run holds the folder (its lock taken by a second process): refused."""
-    from harness.cli import main
+    from vifpk.harness.cli import main
 
     _canned(monkeypatch)
     out = tmp_path / "o"
@@ -414,7 +414,7 @@ def test_second_sweep_into_a_held_folder_is_refused(tmp_path, monkeypatch, capsy
 
 def test_sweep_then_check_then_sweep_neither_overwrites(tmp_path, monkeypatch, capsys):
     """A finished sweep folder: the check refuses it; the sweep again skips its points."""
-    from harness.cli import main
+    from vifpk.harness.cli import main
 
     _canned(monkeypatch)
     out = tmp_path / "o"
@@ -432,7 +432,7 @@ def test_sweep_then_check_then_sweep_neither_overwrites(tmp_path, monkeypatch, c
 
 def test_sweep_name_cannot_escape_out(tmp_path, monkeypatch, capsys):
     """name = "../../escaped": the default folder is out/<the name made one folder name>."""
-    from harness.cli import main
+    from vifpk.harness.cli import main
 
     _canned(monkeypatch)
     monkeypatch.chdir(tmp_path)
@@ -444,7 +444,7 @@ def test_sweep_name_cannot_escape_out(tmp_path, monkeypatch, capsys):
 
 
 def test_sweep_file_with_bom_is_read(tmp_path, monkeypatch, capsys):
-    from harness.sweep import load_sweep
+    from vifpk.harness.sweep import load_sweep
 
     p = _sweep_file(tmp_path)
     p.write_bytes(b"\xef\xbb\xbf" + p.read_bytes())
@@ -454,7 +454,8 @@ def test_sweep_file_with_bom_is_read(tmp_path, monkeypatch, capsys):
 
 def test_shipped_names_still_resolve():
     """A bare name finds a shipped scene or sweep; hard/NAME too."""
-    from harness.sweep import load_sweep
+    from vifpk.harness.sweep import load_sweep
+
     from vifpk.core.scene import load_scene
 
     assert load_scene("paper-base").system.r == 0.96
@@ -548,7 +549,7 @@ def test_sigterm_on_check_is_like_ctrl_c(tmp_path):
 # --------------------------------------------------------------------------------------------
 # E: failures that are found only while computing exit 3 with one line
 def test_numba_threads_zero_in_the_environment(monkeypatch, capsys, no_computation):
-    from harness.cli import main
+    from vifpk.harness.cli import main
 
     monkeypatch.setenv("NUMBA_NUM_THREADS", "0")
     assert main(["solve", BASE]) == 2
@@ -558,7 +559,7 @@ def test_numba_threads_zero_in_the_environment(monkeypatch, capsys, no_computati
 
 
 def test_bifurcation_without_noise_exits_3(tmp_path, capsys, no_computation):
-    from harness.cli import main
+    from vifpk.harness.cli import main
 
     assert main(["bifurcation", _scene(tmp_path, "[system]\nf = 0.0\n"), "--vary", "mu",
                  "--no-mc"]) == 3
@@ -583,7 +584,8 @@ def test_full_disk_on_stdout_exits_3_one_line(tmp_path):
 def test_averaging_sweep_point_with_nonsense_numbers_fails():
     """D = 1e-90 (inside the magnitude box) overflows the closed forms: `solve` exits 3 on it,
     and the sweep records the point as failed (numerical), never "ok" with nonsense."""
-    from harness.sweep import Job, run_point
+    from vifpk.harness.sweep import Job, run_point
+
     from vifpk.core.scene import load_scene
 
     scene = load_scene(DATA / "tiny.toml").with_values({"noise.D": 1e-90})
@@ -597,7 +599,7 @@ def test_workprecision_prints_no_nan_fit():
     """A bias fit the ladder cannot determine is said in words, not printed as nan."""
     import math
 
-    from harness.workprecision import table_markdown
+    from vifpk.harness.workprecision import table_markdown
 
     data = {"seconds_to_reach": {"closed form (paper)": {"1e-2": 0.1, "1e-3": math.nan}},
             "mc_bias_variance": {"paths": 64, "time": 10.0, "ladder": [
@@ -613,7 +615,7 @@ def test_workprecision_prints_no_nan_fit():
 # --------------------------------------------------------------------------------------------
 # D: the measured speed of this machine
 def test_machine_speed_is_measured_once_and_cached(tmp_path, monkeypatch):
-    from harness import validate
+    from vifpk.harness import validate
 
     monkeypatch.delenv("VIFPK_STEPS_PER_SECOND")
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
@@ -629,7 +631,7 @@ def test_cost_between_the_bounds_uses_the_measured_speed(monkeypatch):
     """At the fastest rate a run looks like 20 minutes; at this machine's measured speed
     (3x slower) it is an hour: refused; the estimate above an hour at the fastest rate needs
     no measurement; far below it neither."""
-    from harness import validate
+    from vifpk.harness import validate
 
     speeds = []
 
@@ -660,7 +662,7 @@ def _entry(**l1):
 def test_headline_verdict_is_the_worst_observable():
     """The issue's case: p(A) within the noise but p(x2) 2.8 x its floor: not called
     indistinguishable; the line names each observable's class."""
-    from harness.check import verdict, verdict_class
+    from vifpk.harness.check import verdict, verdict_class
 
     e = _entry(A=0.02, x1=0.03, x2=2.8 * 0.018)
     cls, cause = verdict_class(e, [])
@@ -673,8 +675,8 @@ def test_headline_verdict_is_the_worst_observable():
 
 
 def test_each_class_has_its_own_colour():
-    from harness.check import RANK
-    from harness.report import CLASS_COLOURS, _class_css
+    from vifpk.harness.check import RANK
+    from vifpk.harness.report import CLASS_COLOURS, _class_css
 
     CLASSES = [*RANK, "not an estimate"]  # every class verdict_class returns
 
@@ -685,7 +687,7 @@ def test_each_class_has_its_own_colour():
 
 
 def test_help_texts_count_the_models():
-    from harness.cli import build_parser
+    from vifpk.harness.cli import build_parser
 
     sub = next(a for a in build_parser()._actions if hasattr(a, "choices") and a.choices)
     helps = {a.dest: a.help for a in sub._choices_actions}
@@ -695,8 +697,8 @@ def test_help_texts_count_the_models():
 
 
 def test_bifurcation_prints_words_not_python_reprs(monkeypatch, capsys):
-    import harness.bifurcation
-    from harness.cli import main
+    import vifpk.harness.bifurcation
+    from vifpk.harness.cli import main
 
     def canned(scene, vary, **kw):
         return {"fixed": {"r": 0.96}, "critical": {"paper": None, "exact": 0.0123},
@@ -705,7 +707,7 @@ def test_bifurcation_prints_words_not_python_reprs(monkeypatch, capsys):
                               "monte_carlo": {"shape": "peak", "max_rise_in_se": 1.5},
                               "words": "agrees"}]}
 
-    monkeypatch.setattr(harness.bifurcation, "bifurcation", canned)
+    monkeypatch.setattr(vifpk.harness.bifurcation, "bifurcation", canned)
     assert main(["bifurcation", BASE, "--vary", "mu", "--no-mc", "--quiet"]) == 0
     out = capsys.readouterr().out
     assert "{" not in out and "[" not in out and "'paper'" not in out, out
@@ -716,7 +718,7 @@ def test_bifurcation_prints_words_not_python_reprs(monkeypatch, capsys):
 def test_leftover_temporaries_are_cleared_not_refused(tmp_path, monkeypatch, capsys):
     """A killed write leaves `.sweep.nc.<hex>.tmp.nc` or `.KEY.json.<hex>.tmp.json`: the next
     run into the folder clears them (with the lock held) instead of calling them foreign."""
-    from harness.cli import main
+    from vifpk.harness.cli import main
 
     _canned(monkeypatch)
     out = _sweep_folder(tmp_path / "o")
@@ -737,7 +739,7 @@ def _unequilibrated(out: Path, *extra: str) -> list[str]:
 def test_not_equilibrated_exits_3_and_keeps_the_output(tmp_path, capsys):
     """R-hat fails (the paths remember their start): exit 3, one line naming the diagnostic
     and the remedy; the JSON is written, its certificate inside (nothing lost)."""
-    from harness.cli import main
+    from vifpk.harness.cli import main
 
     out = tmp_path / "mc.json"
     assert main(_unequilibrated(out)) == 3
@@ -755,7 +757,7 @@ def test_not_equilibrated_exits_3_and_keeps_the_output(tmp_path, capsys):
 def test_allow_unequilibrated_exits_0_with_the_warning(tmp_path, capsys):
     """--allow-unequilibrated: exit 0; --json hides the summary, so the warning is said on
     stderr."""
-    from harness.cli import main
+    from vifpk.harness.cli import main
 
     out = tmp_path / "mc.json"
     assert main(_unequilibrated(out, "--allow-unequilibrated")) == 0
@@ -767,7 +769,7 @@ def test_allow_unequilibrated_exits_0_with_the_warning(tmp_path, capsys):
 def test_too_few_samples_alone_is_a_warning_not_a_failure():
     """An effective sample size below 400 alone (a short exploratory run, e.g. 64 paths x 50:
     ESS 68-86 in 6 seeds, R-hat and drift passing) keeps exit 0: its error bars say it."""
-    from harness.cli import _not_equilibrated
+    from vifpk.harness.cli import _not_equilibrated
 
     conv = {"equilibrated": False, "failed": ["ess"], "rhat": 1.0, "rhat_limit": 1.1,
             "drift_z": 0.3, "drift_limit": 4.0, "burn_in": 20.0}
@@ -794,7 +796,8 @@ def test_energy_balance_agrees_with_the_averaged_model(values):
     """energy_balance's verdict from the exponents alone (no constants) against an independent
     truth: the exact averaged model's stationary density by orbit quadrature (averaging/),
     which exists exactly when the averaged energy drift turns negative at large amplitude."""
-    from harness.run import SolverFailure, run_solver
+    from vifpk.harness.run import SolverFailure, run_solver
+
     from vifpk.core.scene import energy_balance, load_scene
 
     scene = load_scene(DATA / "tiny.toml").with_values(values)
@@ -813,7 +816,8 @@ def test_a_tie_is_left_to_the_solvers():
     """A linear spring with c1 > 0, c2 = 0 and impacts: gain and loss both ~ A^2, so the
     constants decide: not refused up front (c1 = 0.5, c2 = 0 with the cubic spring is not a
     tie: the impacts win, and the averaged model has a density there)."""
-    from harness import validate
+    from vifpk.harness import validate
+
     from vifpk.core.scene import energy_balance, load_scene
 
     base = load_scene(BASE)
@@ -828,7 +832,7 @@ def test_a_tie_is_left_to_the_solvers():
 def test_a_blow_up_leads_with_energy_growth(capsys):
     """The tie above blows up at run time (the gain wins): the one line says the energy grows
     without bound before any time-step advice."""
-    from harness.cli import main
+    from vifpk.harness.cli import main
 
     assert main(["solve", str(DATA / "tiny.toml"), *MC, "--set", "system.alpha=0", "--set",
                  "system.c2=0", "--set", "system.c1=0.5"]) == 3
@@ -851,7 +855,7 @@ def test_auto_burn_in_is_priced_after_the_relaxation_pilot(command, tmp_path, mo
     so any burn-in is above the hour): exit 2 before the burn-in, one line naming the measured
     relaxation time, the price and the ways out; nothing written. The up-front estimate is
     far below an hour/8 at the fastest rate, so it passes without the measured speed."""
-    from harness.cli import main
+    from vifpk.harness.cli import main
 
     monkeypatch.setenv("VIFPK_STEPS_PER_SECOND", "1e-3")
     out = tmp_path / ("mc.json" if command == "solve" else "report")
@@ -869,7 +873,8 @@ def test_auto_burn_in_is_priced_after_the_relaxation_pilot(command, tmp_path, mo
 
 
 def test_yes_lifts_the_price_of_the_measured_burn_in(monkeypatch):
-    from harness import validate
+    from vifpk.harness import validate
+
     from vifpk.core.scene import load_scene
 
     monkeypatch.setenv("VIFPK_STEPS_PER_SECOND", "2e7")
@@ -887,21 +892,21 @@ def test_unwritable_folder_is_refused_before_any_work(err, command, tmp_path, mo
                                                       capsys, no_computation):
     import tempfile
 
-    import harness.validate
+    import vifpk.harness.validate
 
     def refuse(*a, **k):
         raise OSError(err[0], err[1])
 
     args = (["sweep", str(_sweep_file(tmp_path / "in"))] if command == "sweep"
             else ["check", BASE])
-    from harness.cli import main
+    from vifpk.harness.cli import main
 
     before = _snapshot(tmp_path)
-    monkeypatch.setattr(harness.validate.tempfile, "mkstemp", refuse)
+    monkeypatch.setattr(vifpk.harness.validate.tempfile, "mkstemp", refuse)
     try:
         code = main([*args, "--out", str(tmp_path / "o")])
     finally:
-        monkeypatch.setattr(harness.validate.tempfile, "mkstemp", tempfile.mkstemp)
+        monkeypatch.setattr(vifpk.harness.validate.tempfile, "mkstemp", tempfile.mkstemp)
     out = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(out) == 1, out
     assert f"--out {tmp_path / 'o'}: cannot write in {tmp_path} ({err[1]})" in out[0]

@@ -10,10 +10,10 @@ import sys
 import numpy as np
 import pytest
 from scipy.interpolate import CubicSpline
+from vifpk.averaging import build_model, solve
+from vifpk.harness.run import run_solver
 
-import fpk
-from averaging import build_model, solve
-from harness.run import run_solver
+from vifpk import fpk
 
 from .conftest import phase_mass_gap, vary
 
@@ -112,8 +112,7 @@ def test_tabulated_coefficients_match_callables():
 
 def test_guard_stops_on_mass_loss():
     from pde import CartesianGrid, ScalarField
-
-    from fpk.stepper import FPKFailure, _Guard
+    from vifpk.fpk.stepper import FPKFailure, _Guard
 
     disc = fpk.discretise(rayleigh_m, rayleigh_s2, lo=0, hi=2.5, cells=50)
     guard = _Guard(disc, 1.0, 1e-10, 1e-12)
@@ -184,6 +183,7 @@ def test_hard_cases_positive_finite_conserved(base, params, model):
 
 
 def test_fpk_imports_no_other_vifpk_package():
-    code = ("import sys, fpk; bad = [m for m in sys.modules if m.split('.')[0] in "
-            "('averaging', 'montecarlo', 'harness')]; print(bad); sys.exit(bool(bad))")
+    code = ("import sys, vifpk.fpk; bad = [m for m in sys.modules if m.split('.')[:2] in "
+            "(['vifpk', 'averaging'], ['vifpk', 'montecarlo'], ['vifpk', 'harness'])]; "
+            "print(bad); sys.exit(bool(bad))")
     assert subprocess.run([sys.executable, "-c", code]).returncode == 0

@@ -8,10 +8,10 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from vifpk.averaging import solve
+from vifpk.harness.check import WARNING_KINDS, assumption_warnings, cross_check, output_problems
+from vifpk.harness.cli import main
 
-from averaging import solve
-from harness.check import WARNING_KINDS, assumption_warnings, cross_check, output_problems
-from harness.cli import main
 from vifpk.core.scene import load_scene
 
 from .conftest import ROOT

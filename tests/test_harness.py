@@ -10,9 +10,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from harness.cli import main
-from harness.compare import bin_average, compare
+from vifpk.harness.cli import main
+from vifpk.harness.compare import bin_average, compare
 
 from .conftest import ROOT
 
@@ -122,7 +121,7 @@ def test_check_end_to_end(tmp_path: Path, capsys, canned_check):
 
 def test_interrupted_report_leaves_no_complete_looking_file(tmp_path: Path, monkeypatch,
                                                            canned_check):
-    from harness import report
+    from vifpk.harness import report
 
     def boom(*a, **k):
         raise KeyboardInterrupt
@@ -151,7 +150,7 @@ VAL = {"wall": [0.05, 0.01, 0.0], "band": [2.0, 1.9, 1.8]}
 
 
 def test_recommend_takes_the_lower_measured_error_beyond_the_noise():
-    from harness.check import recommend
+    from vifpk.harness.check import recommend
 
     m, line = recommend(_canned({"exact": 0.08, "corrected": 0.01}), [], VAL)
     assert m == "corrected" and line.startswith("recommended model: corrected -- lowest")
@@ -162,7 +161,7 @@ def test_recommend_takes_the_lower_measured_error_beyond_the_noise():
 def test_recommend_within_the_noise_follows_the_wall_term_validity():
     """A tie within the floor goes to corrected unless its wall term is outside its
     derivation (delta/E above WALL_MAX at the 10% energy), then to exact, naming why."""
-    from harness.check import WALL_MAX, recommend
+    from vifpk.harness.check import WALL_MAX, recommend
 
     tie = _canned({"exact": 0.041, "corrected": 0.045})
     assert recommend(tie, [], VAL)[0] == "corrected"
@@ -171,7 +170,8 @@ def test_recommend_within_the_noise_follows_the_wall_term_validity():
 
 
 def test_recommend_none_when_assumptions_fail_or_unconverged_or_large():
-    from harness.check import recommend
+    from vifpk.harness.check import recommend
+
     from vifpk.core.result import WarningRecord
 
     narrow = WarningRecord("narrow_band", "narrow-band noise: bandwidth alpha1 = 0.2 is 0.2-0.2 x "
@@ -187,7 +187,8 @@ def test_recommend_none_when_assumptions_fail_or_unconverged_or_large():
 
 def test_advisory_warning_keeps_the_recommendation_and_the_estimate():
     """correlated noise is advisory: the verdict stays an estimate and a model is named."""
-    from harness.check import ADVISORY, recommend, verdict_class
+    from vifpk.harness.check import ADVISORY, recommend, verdict_class
+
     from vifpk.core.result import WarningRecord
 
     w = WarningRecord("correlated_noise", "correlated noise: over one correlation time 1/alpha1 "

@@ -17,11 +17,11 @@ import numpy as np
 import pytest
 from scipy import stats
 from scipy.integrate import quad
+from vifpk.montecarlo import kernels as K
+from vifpk.montecarlo.averaged_sde import simulate_sde
+from vifpk.montecarlo.rng import fill_normals, states_from_seed
 
-import montecarlo as mc
-from montecarlo import kernels as K
-from montecarlo.averaged_sde import simulate_sde
-from montecarlo.rng import fill_normals, states_from_seed
+from vifpk import montecarlo as mc
 from vifpk.core.scene import MonteCarloSettings
 
 from .conftest import vary
@@ -182,7 +182,7 @@ def test_switched_off_effects_are_not_compiled(tmp_path):
     specialisation has no root finder for the velocity zero (log1p) and no stick test.
     Compiled fresh in a subprocess (numba cannot inspect code loaded from its cache)."""
     code = """
-import montecarlo.kernels as K
+import vifpk.montecarlo.kernels as K
 K.velocity_flow(0.1, 0.01, 0.0, 0.2, None, False)
 K.velocity_flow(0.1, 0.01, 0.0, 0.2, 0.1, False)
 for sig in K.velocity_flow.signatures:
@@ -209,7 +209,7 @@ def _kernel_run(base, per, cuts, seed=5):
     """The kernel alone (montecarlo.kernels.run_paths) on 2 blocks of ``per`` paths, started at
     the same per-path states and generator words whatever ``per``, the steps cut into calls
     at ``cuts``: (state, moments, energy, windows, stuck time) per path."""
-    from montecarlo.simulate import _params, block_seeds
+    from vifpk.montecarlo.simulate import _params, block_seeds
 
     phys = _params(base.system, base.noise)
     blocks, h, n_burn, stride, spw = 2, 0.02, 50, 5, 10
@@ -306,7 +306,7 @@ def test_weak_order_of_the_averaged_sde():
     """Rayleigh case m = -A + 1/(2A), sigma^2 = 1: p(A) = 2A exp(-A^2), E[A] = sqrt(pi)/2.
     The bias of E[A] falls at the declared order averaged_sde.ORDER = 1 (tolerance: 4
     standard errors of the fitted slope plus 0.2 for the next term of the expansion)."""
-    from montecarlo import averaged_sde
+    from vifpk.montecarlo import averaged_sde
 
     edges = np.linspace(0, 4, 41)
     dts = np.array([0.2, 0.1, 0.05])
@@ -404,7 +404,7 @@ def test_averaged_sde_relaxation_time_is_the_cir_rate_whatever_the_table_top(top
     100 to 800 cells (8e-5 at the 400 used); 1e-3. At top = 3 the reflecting wall cuts the
     density (e^-4.5 beyond it), which speeds relaxation up by 15% (tau c = 0.855 measured):
     that case only checks the direction."""
-    from montecarlo.averaged_sde import relaxation_time
+    from vifpk.montecarlo.averaged_sde import relaxation_time
 
     c, s = 0.2, 0.3
     tau = relaxation_time(lambda A: -c * A / 2 + s * s / (2 * A),
@@ -418,7 +418,7 @@ def test_averaged_sde_relaxation_time_is_the_cir_rate_whatever_the_table_top(top
 def test_averaged_sde_in_short_calls_is_bit_identical(monkeypatch):
     """The averaged SDE runs in ~0.4 s calls (Ctrl-C is seen between them); one path per
     call and one call for everything give the same bits (generator states carry over)."""
-    import montecarlo.averaged_sde as sde
+    import vifpk.montecarlo.averaged_sde as sde
 
     def run_with(chunk):
         monkeypatch.setattr(sde, "CHUNK_SECONDS", chunk)
@@ -435,8 +435,9 @@ def test_averaged_sde_in_short_calls_is_bit_identical(monkeypatch):
 
 
 def test_montecarlo_imports_no_other_vifpk_package():
-    code = ("import sys, montecarlo, montecarlo.averaged_sde; bad = [m for m in sys.modules "
-            "if m.split('.')[0] in ('averaging', 'fpk', 'harness')]; sys.exit(bool(bad))")
+    code = ("import sys, vifpk.montecarlo, vifpk.montecarlo.averaged_sde; bad = [m for m in "
+            "sys.modules if m.split('.')[:2] in (['vifpk', 'averaging'], ['vifpk', 'fpk'], "
+            "['vifpk', 'harness'])]; sys.exit(bool(bad))")
     assert subprocess.run([sys.executable, "-c", code]).returncode == 0
 
 
@@ -464,8 +465,8 @@ def test_blow_up_raises_naming_the_time_step(base):
 def test_numpy_reference_is_the_same_scheme(base):
     """The benchmark's NumPy implementation must simulate the same scheme: stuck fraction and
     impact rate agree within 4 combined batch standard errors (friction-heavy scene)."""
-    from montecarlo.plan import physics as _params
-    from montecarlo.reference import simulate_numpy
+    from vifpk.montecarlo.plan import physics as _params
+    from vifpk.montecarlo.reference import simulate_numpy
 
     sc = vary(base, mu=0.1)
     r = run(sc, paths=256, blocks=16, dt=0.01, time=200, burn_in=50,
@@ -501,7 +502,7 @@ def test_certificate_fails_with_its_reason_when_burn_in_is_far_too_short(base):
 def test_auto_burn_in_measures_a_long_relaxation_and_certifies(base):
     """burn_in = "auto" on the long-relaxation scene: the pilot's tau is several times the
     base scene's, the burn-in is BURN_FACTOR tau, and the certificate passes."""
-    from montecarlo.tuning import BURN_FACTOR
+    from vifpk.montecarlo.tuning import BURN_FACTOR
 
     res = run(long_relaxation(base), paths=256, blocks=16, time=1000, burn_in="auto",
               observables=("A", "moments"))
@@ -514,7 +515,7 @@ def test_auto_burn_in_measures_a_long_relaxation_and_certifies(base):
 def test_runs_cut_into_any_chunks_are_bit_identical(base, monkeypatch):
     import sys as _sys
 
-    sim = _sys.modules["montecarlo.simulate"]
+    sim = _sys.modules["vifpk.montecarlo.simulate"]
     kw = dict(paths=32, blocks=16, time=50, burn_in=20.0, edges=FIXED, seed=5,
               observables=("A", "x1", "x2", "moments", "events", "energy"))
     one = run(base, **kw)
@@ -567,7 +568,7 @@ def test_a_budget_too_small_says_so(base):
 def test_cli_floor_dt_auto_and_convergence_in_the_json(tmp_path):
     import json
 
-    from harness.cli import main
+    from vifpk.harness.cli import main
 
     out = tmp_path / "mc.json"
     rc = main(["solve", "paper-base", "--solver", "montecarlo", "--paths", "64", "--time", "200",
@@ -583,7 +584,7 @@ def test_cli_floor_dt_auto_and_convergence_in_the_json(tmp_path):
 
 
 def test_cli_blow_up_exits_3_naming_the_time_step(tmp_path, capsys):
-    from harness.cli import main
+    from vifpk.harness.cli import main
 
     out = tmp_path / "mc.json"
     # dt = 0.5 passes the up-front checks (a whole fraction of sample_every, dt omega0 < 2)

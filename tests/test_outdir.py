@@ -13,9 +13,8 @@ import time
 from pathlib import Path
 
 import pytest
-
-from harness import outdir
-from harness.io import write_json
+from vifpk.harness import outdir
+from vifpk.harness.io import write_json
 
 ROOT = Path(__file__).resolve().parent.parent
 NAMES = ("a.txt", "b.txt", "sub")
@@ -96,7 +95,7 @@ def test_exchange_unavailable_falls_back_and_recovers(tmp_path: Path, monkeypatc
 _WRITER = textwrap.dedent("""
     import sys
     from pathlib import Path
-    from harness import outdir
+    from vifpk.harness import outdir
     if sys.argv[3] == "no-exchange":
         outdir._exchange = lambda a, b: False
     run_id = sys.argv[2]
@@ -161,7 +160,7 @@ def test_second_run_into_a_held_folder_is_refused(tmp_path: Path):
 
 
 def test_cli_refuses_a_held_folder_before_any_work(tmp_path: Path, capsys):
-    from harness.cli import main
+    from vifpk.harness.cli import main
 
     out = tmp_path / "rep"
     flag = tmp_path / "go"

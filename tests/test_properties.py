@@ -7,8 +7,7 @@ from __future__ import annotations
 import numpy as np
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
-
-from averaging import solve
+from vifpk.averaging import solve
 
 from .conftest import phase_mass_gap, vary
 

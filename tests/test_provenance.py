@@ -4,7 +4,7 @@ import hashlib
 import re
 from datetime import UTC, datetime
 
-from harness import provenance
+from vifpk.harness import provenance
 
 
 def test_block_has_every_key(tmp_path):
@@ -31,7 +31,7 @@ def test_run_ids_differ_within_one_second():
 
 def test_scene_file_finds_shipped_scenes_where_load_scene_does(tmp_path, monkeypatch):
     """Issue 19 bug 3: a shipped scene's file is found where ``load_scene`` reads it (package
-    data ``harness.scenes``, e.g. in a wheel install), not in a ``scenes/`` beside the
+    data ``vifpk.scenes``, e.g. in a wheel install), not in a ``scenes/`` beside the
     package. Here the shipped scenes are moved to a folder only the loader knows."""
     import vifpk.core.scene as scene_mod
     from vifpk.core.scene import load_scene

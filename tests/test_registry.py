@@ -138,8 +138,9 @@ def test_the_plugin_model_in_harness_testing_and_bifurcation(plugin_path: Path):
     sys.path.insert(0, str(plugin_path))
     registry.refresh()
     try:
-        from harness.bifurcation import shape_index
-        from harness.testing import model_densities
+        from vifpk.harness.bifurcation import shape_index
+        from vifpk.harness.testing import model_densities
+
         from vifpk.core.scene import load_scene
 
         scene = load_scene("paper-base")

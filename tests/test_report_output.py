@@ -24,11 +24,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from harness import provenance
-from harness.cli import main
-from harness.io import dumps
-from harness.report import write_report
+from vifpk.harness import provenance
+from vifpk.harness.cli import main
+from vifpk.harness.io import dumps
+from vifpk.harness.report import write_report
 
 from .conftest import TINY_CHECK_SET
 
@@ -118,8 +117,8 @@ def test_metrics_byte_identical_across_runs_and_modes_follow_umask(run, tmp_path
 
 _KILLED = textwrap.dedent("""
     import pickle, sys
-    from harness import provenance
-    from harness.report import write_report
+    from vifpk.harness import provenance
+    from vifpk.harness.report import write_report
     res = pickle.loads(open(sys.argv[1], "rb").read())
     prov = provenance.collect(argv=["vifpk", "check"], run_id=sys.argv[3])
     write_report(res, sys.argv[2], prov=prov)
@@ -156,9 +155,9 @@ def test_sigkill_while_writing_leaves_one_whole_set(run, tmp_path: Path, moment)
 
 def test_overrides_name_the_title_and_the_default_folder(run, tmp_path: Path, monkeypatch,
                                                          capsys):
-    import harness.check
+    import vifpk.harness.check
 
-    monkeypatch.setattr(harness.check, "cross_check",
+    monkeypatch.setattr(vifpk.harness.check, "cross_check",
                         lambda scene, quiet, **_: dataclasses.replace(run["res"], scene=scene))
     monkeypatch.chdir(tmp_path)
     assert main(["check", TINY, "--set", "system.mu=0.01", "--quiet"]) == 0

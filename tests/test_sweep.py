@@ -12,9 +12,9 @@ import time
 from pathlib import Path
 
 import pytest
+from vifpk.harness.cli import main
+from vifpk.harness.sweep import load_sweep, point_key, point_seed, run_sweep
 
-from harness.cli import main
-from harness.sweep import load_sweep, point_key, point_seed, run_sweep
 from vifpk.core.defaults import CHECK_MODELS as MODELS
 
 from .conftest import ROOT
@@ -175,7 +175,7 @@ def test_sde_check_only_at_sampled_points(source, request):
     """The averaged SDEs' Monte Carlo runs at the first point and where the key is divisible by
     SDE_CHECK_EVERY (chosen by the parameters alone); sampling_ok is -1 elsewhere. On the
     canned check (fast tier) and on the real serial sweep (slow tier)."""
-    from harness.sweep import SDE_CHECK_EVERY
+    from vifpk.harness.sweep import SDE_CHECK_EVERY
 
     folder = request.getfixturevalue("canned_check_sweep" if source == "canned"
                                      else "serial_check")
@@ -273,9 +273,8 @@ def test_the_grid_map_boundary_is_the_cell_edges_between_verdicts():
     an interpolated contour that broke into dashes on coarse grids; issue 20 G); an unknown
     (failed) neighbour draws no edge."""
     import numpy as np
-
-    from harness.io import pyplot
-    from harness.sweepmaps import _edges, _verdict_boundary
+    from vifpk.harness.io import pyplot
+    from vifpk.harness.sweepmaps import _edges, _verdict_boundary
 
     plt = pyplot()
 

@@ -114,7 +114,7 @@ def test_period_and_sigma2_of_the_general_orbit(k):
     G = f sgn(y) y' (2^16 samples; tolerance 5e-8: the FFT's N^-2 convergence on the kink of
     sgn(y) y', 2e-8 measured at 2^15 in tests/test_averaging.py, x 2.5 here for the
     stiffer springs). The quintic spring runs in the fast tier, the others in the slow one."""
-    from averaging.exact import ExactModel
+    from vifpk.averaging.exact import ExactModel
 
     sc = scene_from_dict({"system": {"restoring": list(k), "damping": [0.05]},
                           "noise": {"kind": "ou", "D": 0.01, "alpha1": 2.0}})
@@ -143,7 +143,7 @@ def test_period_and_sigma2_of_the_general_orbit(k):
 
 
 def test_velocity_damping_average_against_the_orbit():
-    from averaging.exact import ExactModel
+    from vifpk.averaging.exact import ExactModel
 
     sc = scene_from_dict({"system": {"restoring": [1.0, 0.3, 0.2], "damping": [0.0, 0.1, 0.02],
                                      "velocity_damping": [0.3, 0.05]}})
@@ -167,7 +167,7 @@ GIBBS_L1 = 1e-7
 
 
 def _exact_vs_gibbs(k, model="exact", **kw):
-    import averaging
+    from vifpk import averaging
 
     sc = gibbs_scene(k, **kw)
     r = averaging.solve(sc, model=model)
@@ -202,7 +202,7 @@ def test_gibbs_without_barrier_and_with_gain():
 
 
 def test_paper_model_refuses_outside_its_family():
-    import averaging
+    from vifpk import averaging
 
     with pytest.raises(ValueError, match="x\\^5 term"):
         averaging.build_model(gibbs_scene(DONE_WHEN), "paper")
@@ -216,7 +216,7 @@ MC_FACTOR = 2.5
 
 
 def _mc(scene):
-    from harness.run import montecarlo_solution
+    from vifpk.harness.run import montecarlo_solution
 
     return montecarlo_solution(scene, progress=False)
 
@@ -261,7 +261,7 @@ def test_hard_springs_give_finite_normalised_densities(name):
     """Every solver of check (closed forms, FPKs, averaged SDEs, the original system's Monte
     Carlo) on the hard springs of scenes/hard/: finite, normalised densities and finite
     metrics (harness.check.output_problems, the same bounds as the other hard scenes)."""
-    from harness.check import cross_check, output_problems
+    from vifpk.harness.check import cross_check, output_problems
 
     scene = load_scene(f"hard/{name}").with_values(
         {"montecarlo.paths": 64, "montecarlo.blocks": 16, "montecarlo.time": 100.0})
@@ -274,9 +274,9 @@ def test_hard_springs_give_finite_normalised_densities(name):
 def test_paper_model_absent_outside_its_family(capsys):
     """solve --model paper: exit 2, one line, before any computation; check and figures take
     the models that apply."""
-    from harness.check import models_of
-    from harness.cli import main
-    from harness.figures import figure_models
+    from vifpk.harness.check import models_of
+    from vifpk.harness.cli import main
+    from vifpk.harness.figures import figure_models
 
     assert main(["solve", "systems/quintic", "--solver", "averaging", "--model", "paper"]) == 2
     err = capsys.readouterr().err.strip()
@@ -290,7 +290,7 @@ def test_paper_model_absent_outside_its_family(capsys):
 
 
 def test_sweep_over_a_coefficient_loads():
-    from harness.sweep import load_sweep
+    from vifpk.harness.sweep import load_sweep
 
     sw = load_sweep("quintic-k5")
     ks = sorted(p.scene.system.restoring_law[2] for p in sw.points)
@@ -300,8 +300,8 @@ def test_sweep_over_a_coefficient_loads():
 def test_figures_of_your_own_scene_options(capsys, tmp_path):
     """figures --scene draws any scene (run in the slow tier below); with --figure it is
     refused before any work; the table takes the two models drawn as its columns."""
-    from harness.cli import main
-    from harness.figures import render_table
+    from vifpk.harness.cli import main
+    from vifpk.harness.figures import render_table
 
     assert main(["figures", "--scene", "systems/quintic", "--figure", "5",
                  "--out", str(tmp_path / "f")]) == 2
@@ -316,7 +316,7 @@ def test_figures_of_your_own_scene_options(capsys, tmp_path):
 
 @pytest.mark.slow
 def test_figures_of_your_own_scene(tmp_path):
-    from harness.cli import main
+    from vifpk.harness.cli import main
 
     out = tmp_path / "f"
     assert main(["figures", "--scene", "systems/quintic", "--out", str(out), "--paths", "64",
@@ -330,7 +330,7 @@ def test_general_code_path_reproduces_the_paper_spring(base):
     a polynomial in cos^2, U^-1 by bisection and Newton) instead of the Duffing closed forms:
     the exact model's densities agree to 1e-9 relative to their peak (round-off of two
     evaluations of the same formula: 7e-16 measured; 1e-9 leaves room for other platforms)."""
-    import averaging
+    from vifpk import averaging
 
     general = base.with_values({"system.restoring": [1.0, 0.6, 0.0]})
     assert general.system.restoring_law == (1.0, 0.6, 0.0)
@@ -346,8 +346,9 @@ def test_strong_velocity_damping_is_warned():
     strong-damping warning and is named as its main effect (energy_rates' "velocity
     damping"): with e2 = 3 the energy changes by 0.77 of itself per period at the mean
     amplitude (measured; the warning's threshold is 0.5, docs/report.md)."""
-    import averaging
-    from harness.check import assumption_warnings
+    from vifpk.harness.check import assumption_warnings
+
+    from vifpk import averaging
 
     sc = load_scene("systems/rayleigh").with_values(
         {"system.velocity_damping": [3.0], "system.damping": [0.0], "noise.D": 0.05})

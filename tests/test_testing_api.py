@@ -9,9 +9,8 @@ import sys
 
 import numpy as np
 import pytest
-
-from harness import testing
-from harness.testing import assert_averaging_error, assert_density_close
+from vifpk.harness import testing
+from vifpk.harness.testing import assert_averaging_error, assert_density_close
 
 from .conftest import ROOT
 
@@ -76,7 +75,7 @@ def test_averaging_error_pass_fail_and_message():
 
 @pytest.mark.slow
 def test_user_model_protocol():
-    import averaging
+    from vifpk import averaging
 
     scene = testing._scene("paper-base")
 
@@ -101,7 +100,7 @@ def test_user_model_protocol():
 
 def test_cache_is_hit_and_refreshed(pytester):
     pytester.makepyfile("""
-        from harness.testing import cache_stats
+        from vifpk.harness.testing import cache_stats
 
         def test_ref(vifpk_scene, vifpk_reference):
             ref = vifpk_reference(vifpk_scene("paper-base"), paths=32, time=20.0, blocks=16)
@@ -141,7 +140,7 @@ def test_reproduce_command_gives_the_same_reference(tmp_path, dt):
     import json
     import shlex
 
-    from harness.cli import main
+    from vifpk.harness.cli import main
 
     values = {"noise.kind": "white", "montecarlo.paths": 32, "montecarlo.time": 20.0,
               "montecarlo.blocks": 16}

@@ -46,7 +46,7 @@ def installed(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     empty = tmp / "empty"
     empty.mkdir()
     return {"python": py, "vifpk": bin_dir / "vifpk", "bin": bin_dir, "cwd": empty,
-            "venv": env_dir}
+            "venv": env_dir, "wheel": wheel}
 
 
 def running_site_dirs() -> list[str]:
@@ -82,7 +82,7 @@ def run(inst: dict[str, Path], *args: str, timeout: float = 600
 
 def test_vifpk_comes_from_the_wheel(installed):
     res = run(installed, installed["python"], "-c",
-              "import harness, vifpk.core.scene as s; print(harness.__file__); "
+              "import vifpk.harness as h, vifpk.core.scene as s; print(h.__file__); "
               "print(s.shipped_scenes() / 'paper-base.toml')")
     assert res.returncode == 0, res.stderr
     where, scenes = res.stdout.split()
@@ -90,6 +90,22 @@ def test_vifpk_comes_from_the_wheel(installed):
     assert Path(where).resolve().is_relative_to(venv_dir), where
     assert Path(scenes).resolve().is_relative_to(venv_dir), scenes
     assert not Path(where).resolve().is_relative_to(ROOT.resolve())
+
+
+def test_the_wheel_installs_one_name_vifpk(installed):
+    """Issue 27: every module is vifpk.<package>; no generic top-level name (averaging, fpk,
+    montecarlo, harness) lands in site-packages, and none imports from the installed wheel."""
+    import zipfile
+
+    names = zipfile.ZipFile(installed["wheel"]).namelist()
+    tops = {n.split("/")[0] for n in names if not n.split("/")[0].endswith(".dist-info")}
+    assert tops == {"vifpk"}, tops
+    assert "vifpk/scenes/paper-base.toml" in names
+    for name in ("averaging", "fpk", "montecarlo", "harness"):
+        res = run(installed, installed["python"], "-c", f"import {name}")
+        assert res.returncode != 0 and "No module named" in res.stderr, (name, res.stderr)
+    res = run(installed, installed["python"], "-m", "vifpk", "models")
+    assert res.returncode == 0 and "exact" in res.stdout, res.stderr
 
 
 def test_the_venv_sees_the_packages_of_the_interpreter_running_the_tests(installed):

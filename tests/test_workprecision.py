@@ -8,9 +8,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from harness.cli import main
-from harness.workprecision import (
+from vifpk.harness.cli import main
+from vifpk.harness.workprecision import (
     DT_LADDER,
     TARGETS,
     reference_floor,

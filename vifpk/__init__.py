@@ -30,8 +30,8 @@ _API: dict[str, tuple[str, str]] = {
     "models": ("vifpk.core.registry", "models"),
     "build_model": ("vifpk.core.registry", "build_model"),
     # tolerance tests (numpy.testing style)
-    "assert_density_close": ("harness.testing", "assert_density_close"),
-    "assert_averaging_error": ("harness.testing", "assert_averaging_error"),
+    "assert_density_close": ("vifpk.harness.testing", "assert_density_close"),
+    "assert_averaging_error": ("vifpk.harness.testing", "assert_averaging_error"),
 }
 
 __all__ = sorted(_API)

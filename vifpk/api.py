@@ -29,7 +29,7 @@ def solve(source: Scene | str | Path, solver: str = "averaging", *, model: Any =
     none), "fpk" (``grid`` cells) or "montecarlo" (the original system; ``model`` and
     ``grid`` do not apply). ``model``: a registered name (:func:`model_names`) or an object
     with the averaged-model protocol (docs/testing.md)."""
-    from harness.run import run_solver
+    from vifpk.harness.run import run_solver
 
     sc = scene(source)
     if solver == "montecarlo":
@@ -41,11 +41,11 @@ def check(source: Scene | str | Path, *, models: tuple[str, ...] = CHECK_MODELS,
           out: str | Path | None = None, quiet: bool = True) -> Any:
     """The cross-check (``vifpk check``): a ``CheckResult`` with ``metrics``, ``verdicts``,
     ``warnings``; with ``out``, the report folder is written there as well."""
-    from harness.check import cross_check
+    from vifpk.harness.check import cross_check
 
     res = cross_check(scene(source), quiet=quiet, models=tuple(models))
     if out is not None:
-        from harness.report import write_report
+        from vifpk.harness.report import write_report
 
         write_report(res, out)
     return res
@@ -55,7 +55,7 @@ def sweep(path: str | Path, out: str | Path, *, executor: str = "serial",
           quiet: bool = True) -> Any:
     """A sweep file run into the folder ``out`` (``vifpk sweep``): a ``SweepRun`` naming the
     points computed, skipped and failed and the files written (sweep.nc, maps)."""
-    from harness.sweep import load_sweep, parse_executor, require_output_libraries, run_sweep
+    from vifpk.harness.sweep import load_sweep, parse_executor, require_output_libraries, run_sweep
 
     sw = load_sweep(path)
     require_output_libraries()

@@ -17,8 +17,7 @@ import sys
 from pathlib import Path
 
 import pytest
-
-from harness.testing import assert_averaging_error
+from vifpk.harness.testing import assert_averaging_error
 
 sys.path.insert(0, str(Path(__file__).resolve().parent / "plugin"))
 from vifpk_white_envelope import WhiteNoiseEnvelope  # noqa: E402

@@ -13,9 +13,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from scipy.interpolate import CubicSpline  # noqa: E402
+from vifpk.averaging import build_model, solve  # noqa: E402
 
-import fpk  # noqa: E402
-from averaging import build_model, solve  # noqa: E402
+from vifpk import fpk  # noqa: E402
 from vifpk.core.scene import load_scene  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -22,9 +22,9 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "docs" / "scripts"))
 
 import regime_probes as rp  # noqa: E402
+from vifpk.harness.compare import compare  # noqa: E402
 
-import averaging  # noqa: E402
-from harness.compare import compare  # noqa: E402
+from vifpk import averaging  # noqa: E402
 
 FILES = ("regime_probes_f01.json", "regime_mechanism_f01.json")
 

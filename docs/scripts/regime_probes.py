@@ -27,10 +27,11 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-import averaging  # noqa: E402
-from averaging.validity import validity  # noqa: E402
-from harness.compare import compare  # noqa: E402
-from harness.run import montecarlo_solution  # noqa: E402
+from vifpk.averaging.validity import validity  # noqa: E402
+from vifpk.harness.compare import compare  # noqa: E402
+from vifpk.harness.run import montecarlo_solution  # noqa: E402
+
+from vifpk import averaging  # noqa: E402
 from vifpk.core.scene import load_scene  # noqa: E402
 
 # name -> overrides of the base scene. Regimes of issue 23 first, then the curves behind the
@@ -131,7 +132,7 @@ def model_densities(scene):
     """name -> {"x", "p"} of p(A): the packaged models, and to switch the section-10.3 terms
     on and off: corrected with the fast-fluctuation map ("corrected+fast") and the map on
     exact ("exact+fast")."""
-    from averaging.corrected import observed_density
+    from vifpk.averaging.corrected import observed_density
 
     out = {m: averaging.solve(scene, model=m).data["A"]
            for m in ("exact", "compounded", "corrected")}
@@ -212,7 +213,7 @@ def table(paths: list[Path]) -> None:
     """Markdown table of stored rows (later files override earlier ones for the same scene):
     L1(A) (mean shift) of exact, compounded, corrected, the floor, dt, and what check would
     recommend from these numbers (harness.check.recommend with the scene's warnings)."""
-    from harness.check import assumption_warnings, recommend
+    from vifpk.harness.check import assumption_warnings, recommend
 
     rows: dict[str, dict] = {}
     for p in paths:

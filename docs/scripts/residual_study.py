@@ -31,12 +31,13 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-import averaging  # noqa: E402
-from averaging.corrected import CorrectedModel, _flight  # noqa: E402
-from averaging.geometry import potential, restoring  # noqa: E402
-from averaging.stationary import amplitude_density  # noqa: E402
-from harness.compare import compare  # noqa: E402
-from harness.run import montecarlo_solution  # noqa: E402
+from vifpk.averaging.corrected import CorrectedModel, _flight  # noqa: E402
+from vifpk.averaging.geometry import potential, restoring  # noqa: E402
+from vifpk.averaging.stationary import amplitude_density  # noqa: E402
+from vifpk.harness.compare import compare  # noqa: E402
+from vifpk.harness.run import montecarlo_solution  # noqa: E402
+
+from vifpk import averaging  # noqa: E402
 from vifpk.core.scene import load_scene  # noqa: E402
 
 # shipped scene variants without duplicates (fig6[r=0.975] is fig5[mu=0.001])

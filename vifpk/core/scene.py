@@ -653,11 +653,11 @@ def _alias_formula(name: str) -> str:
 
 
 def shipped_scenes() -> Traversable:
-    """The shipped scenes: package data ``harness.scenes`` (the repository's top-level
+    """The shipped scenes: package data ``vifpk.scenes`` (the repository's top-level
     ``scenes/``, mapped into the wheel by pyproject.toml), read with importlib.resources. In a
     source checkout on ``sys.path`` that is not installed, the repository's ``scenes/``."""
     try:
-        return resources.files("harness.scenes")
+        return resources.files("vifpk.scenes")
     except ModuleNotFoundError:
         return Path(__file__).resolve().parents[2] / "scenes"
 
