@@ -156,6 +156,50 @@ def orbit_point(A, w0sq, alpha, khi, s0, s1, s2, s3):
             return A * c, -A * nu * math.sin(th), s0, s1, s2, s3
 
 
+@jit(inline="always")
+def sde_step(Z, s0, s1, s2, s3, h, sq, a_tab, b_tab, inv_d, last):
+    """One step of the scheme of the module docstring from Z = A^2: (new Z, sigma(A) used,
+    whether Z was reflected, generator state). a_tab = 2 A m - sigma^2 and b_tab = sigma on
+    the grid A_j = j / inv_d (``sde_tables``), last = a_tab.size - 1, sq = sqrt(h)."""
+    A = math.sqrt(Z)
+    u = A * inv_d
+    j = int(u)
+    if j >= last:
+        a = a_tab[last]
+        bb = b_tab[last]
+    else:
+        w = u - j
+        a = (1.0 - w) * a_tab[j] + w * a_tab[j + 1]
+        bb = (1.0 - w) * b_tab[j] + w * b_tab[j + 1]
+    z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
+    z2, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
+    y = A + bb * sq * z
+    y2 = bb * sq * z2
+    Z = y * y + y2 * y2 + a * h
+    refl = Z < 0.0
+    if refl:
+        Z = -Z
+    return Z, bb, refl, s0, s1, s2, s3
+
+
+def sde_tables(drift: Callable[[np.ndarray], np.ndarray],
+               diffusion: Callable[[np.ndarray], np.ndarray], top: float,
+               table_points: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(grid, a_tab, b_tab) for ``sde_step``: a = 2 A m(A) - sigma^2(A) and b = sigma(A) on
+    ``table_points`` uniform points of [0, top], the value at A = 0 extrapolated linearly.
+    ValueError when drift or diffusion is not finite there."""
+    grid = np.linspace(0.0, top, table_points)
+    inner = grid[1:]
+    m, s2 = np.asarray(drift(inner), float), np.asarray(diffusion(inner), float)
+    a_inner = 2.0 * inner * m - s2
+    a_tab = np.concatenate([[2.0 * a_inner[0] - a_inner[1]], a_inner])  # linear extrapolation
+    sig = np.sqrt(np.maximum(s2, 0.0))
+    b_tab = np.concatenate([[2.0 * sig[0] - sig[1]], sig])
+    if not (np.all(np.isfinite(a_tab)) and np.all(np.isfinite(b_tab))):
+        raise ValueError("drift or diffusion is not finite on the table")
+    return grid, a_tab, b_tab
+
+
 @jit(parallel=True)
 def run_sde_blocks(states, n_paths, n_burn, n_samples, stride, h, a_tab, b_tab, dA_tab,
                    z0, a_lo, a_inv, hist_A, sums, barrier, w0sq, alpha, khi, x_lo, x_inv, hist_x,
@@ -180,25 +224,10 @@ def run_sde_blocks(states, n_paths, n_burn, n_samples, stride, h, a_tab, b_tab, 
         for _p in range(n_paths):
             Z = z0
             for n in range(total):
-                A = math.sqrt(Z)
-                u = A * inv_d
-                j = int(u)
-                if j >= last:
-                    a = a_tab[last]
-                    bb = b_tab[last]
-                else:
-                    w = u - j
-                    a = (1.0 - w) * a_tab[j] + w * a_tab[j + 1]
-                    bb = (1.0 - w) * b_tab[j] + w * b_tab[j + 1]
-                z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
-                z2, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
-                y = A + bb * sq * z
-                y2 = bb * sq * z2
-                Z = y * y + y2 * y2 + a * h
-                if Z < 0.0:
-                    Z = -Z
-                    if n >= n_burn:
-                        sums[b, 3] += 1.0
+                Z, _sig, refl, s0, s1, s2, s3 = sde_step(Z, s0, s1, s2, s3, h, sq, a_tab,
+                                                         b_tab, inv_d, last)
+                if refl and n >= n_burn:
+                    sums[b, 3] += 1.0
                 if n < n_burn or (n - n_burn + 1) % stride != 0:
                     continue
                 A = math.sqrt(Z)
@@ -288,13 +317,8 @@ def simulate_sde(drift: Callable[[np.ndarray], np.ndarray],
         target = tau / STEPS_PER_TAU if math.isfinite(tau) else sample_every / 10.0
         dt = sample_every / math.ceil(sample_every / target * (1 - 1e-12))
     dt = float(dt)
-    grid = np.linspace(0.0, top, table_points)
+    grid, a_tab, b_tab = sde_tables(drift, diffusion, top, table_points)
     inner = grid[1:]
-    m, s2 = np.asarray(drift(inner), float), np.asarray(diffusion(inner), float)
-    a_inner = 2.0 * inner * m - s2
-    a_tab = np.concatenate([[2.0 * a_inner[0] - a_inner[1]], a_inner])  # linear extrapolation
-    sig = np.sqrt(np.maximum(s2, 0.0))
-    b_tab = np.concatenate([[2.0 * sig[0] - sig[1]], sig])
     if observe is not None:
         o_sd = np.asarray(observe["sd"](inner), float)
         obs_tab = np.concatenate([[o_sd[0]], o_sd])
@@ -303,8 +327,6 @@ def simulate_sde(drift: Callable[[np.ndarray], np.ndarray],
             raise ValueError("the observation map's sd is not finite on the table")
     else:
         obs_tab, obs_geo = np.zeros(0), (1.0, 0.0, None)
-    if not (np.all(np.isfinite(a_tab)) and np.all(np.isfinite(b_tab))):
-        raise ValueError("drift or diffusion is not finite on the table")
     states = states_from_seed(seed, blocks)
     n_burn = int(round(burn_in / dt))
     stride = max(int(round(sample_every / dt)), 1)

@@ -46,6 +46,12 @@ def potential(x: float, w0sq: float, alpha: float, khi) -> float:
 
 
 @jit
+def energy(x: float, v: float, w0sq: float, alpha: float, khi) -> float:
+    """E = v^2/2 + U(x): the energy whose level sets are the conservative orbits, U(A) = E."""
+    return 0.5 * v * v + potential(x, w0sq, alpha, khi)
+
+
+@jit
 def restoring(x: float, w0sq: float, alpha: float, khi) -> float:
     """g(x) = U'(x)."""
     x2 = x * x
