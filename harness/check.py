@@ -7,8 +7,13 @@ For each averaged model M (``paper``, ``exact``, ``corrected``) on the observabl
     averaging_error       MC of the ORIGINAL system against M's closed form (the answer)
 
 Every metric against an MC histogram carries its noise floor and error bar (compare.py).
-All Monte Carlo runs share histogram edges (chosen from the closed forms' supports, so that
-the comparisons are bin by bin); the MC of the original system stays physically independent.
+**The simulation of the original system does not know which models are checked** (issue 29):
+its histogram ranges come from its own scale pilot (montecarlo.simulate, the range every
+``solve --solver montecarlo`` uses), its burn-in from its own relaxation pilot, its extensions
+from its own equilibration certificate, so the same seed gives the same numbers for a model
+whatever else is checked. The averaged SDEs' runs share its edges (bin by bin comparisons);
+each is seeded from the root seed and the model's *name* (:func:`sde_seed`) and extended on its
+own evidence only.
 """
 
 from __future__ import annotations
@@ -16,6 +21,7 @@ from __future__ import annotations
 import math
 import sys
 import time
+import zlib
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -98,15 +104,21 @@ class _Stages:
             self._end(now)
 
 
-def mc_edges(closed: dict[str, Any], bins: int) -> dict[str, np.ndarray]:
-    """Histogram edges for the Monte Carlo runs: 10% beyond the closed forms' supports."""
-    a_max = max(float(r.data["A"]["x"][-1]) for r in closed.values())
-    v_max = max(float(np.max(np.abs(r.data["x2"]["x"]))) for r in closed.values())
-    x_lo = min(min(float(r.data["x1"]["x"][0]) for r in closed.values()), 0.0)
-    top = 1.1 * a_max
-    return {"edges_A": np.linspace(0.0, top, bins + 1),
-            "edges_x": np.linspace(1.1 * x_lo, top, bins + 1),
-            "edges_v": np.linspace(-1.1 * v_max, 1.1 * v_max, bins + 1)}
+def mc_edges_of(mc: Any) -> dict[str, np.ndarray]:
+    """The histogram edges of a Monte Carlo run of the original system (its own, from its
+    scale pilot: they depend on the scene, the step and the seed, never on a model), for the
+    averaged SDEs' runs that are compared with it bin by bin."""
+    return {"edges_A": np.asarray(mc.data["A"]["edges"]),
+            "edges_x": np.asarray(mc.data["x1"]["edges"]),
+            "edges_v": np.asarray(mc.data["x2"]["edges"])}
+
+
+def sde_seed(root: int, model: str) -> int:
+    """The root seed of the Monte Carlo of ``model``'s averaged SDE: the first word of
+    numpy.random.SeedSequence([root, crc32(name)]), so a function of the scene's seed and the
+    model's name alone, never of its place in the list of models checked."""
+    ss = np.random.SeedSequence([int(root), zlib.crc32(model.encode())])
+    return int(ss.generate_state(1, dtype=np.uint32)[0])
 
 
 #: The kinds of warning check writes (WarningRecord.kind): code acts on the kind (the
@@ -121,6 +133,21 @@ WARNING_KINDS = ("strong_damping", "narrow_band", "sticking", "strong_noise", "c
 ADVISORY = ("correlated_noise",)
 
 
+def mean_amplitude(scene: Any, closed: dict[str, Any], mc_info: dict[str, Any]) -> float:
+    """The mean amplitude the warnings are evaluated at: the simulation's measured one when
+    there is a simulation (the truth, and the same whatever models are checked), else the
+    exact averaged model's (computed here when it is not among ``closed``), else 1."""
+    mean = mc_info.get("moments", {}).get("A", {}).get("mean", {}).get("value")
+    if mean is not None and math.isfinite(mean) and mean > 0:
+        return float(mean)
+    if "exact" in closed:
+        return float(closed["exact"].info["summary"]["mean"])
+    try:
+        return float(closed_form(scene, model="exact", tail_mass=False).info["summary"]["mean"])
+    except Exception:  # noqa: BLE001 - no exact density here: the warnings' scale is then 1
+        return 1.0
+
+
 def assumption_warnings(scene: Any, closed: dict[str, Any], mc_info: dict[str, Any],
                         val: dict[str, Any] | None = None) -> list[WarningRecord]:
     """Records (kind, sentence) naming each averaging assumption that clearly fails here.
@@ -128,13 +155,14 @@ def assumption_warnings(scene: Any, closed: dict[str, Any], mc_info: dict[str, A
     Stochastic averaging needs (i) weak damping and weak noise relative to the restoring
     force (quasi-conservative: the energy changes little over one period), (ii) a noise
     correlation time short against the relaxation of the amplitude (wide-band noise), and
-    (iii) motion that oscillates rather than sticks. ``val``: the scene's validity numbers
+    (iii) motion that oscillates rather than sticks, at the mean amplitude
+    (:func:`mean_amplitude`). ``val``: the scene's validity numbers
     over the bulk of p(E) (run.validity); the narrow-band test uses alpha1 / Omega(E) there
     (at the mean amplitude without them). Thresholds: docs/report.md, "Warnings".
     """
     n = scene.noise
     out = []
-    A = closed["exact"].info["summary"]["mean"] if "exact" in closed else 1.0
+    A = mean_amplitude(scene, closed, mc_info)
     rates = energy_rates(scene, A)
     T, E = rates["T"], rates["E"]
     w = 2 * math.pi / T
@@ -227,7 +255,7 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
     for m in with_fpk:
         stages(f"FPK of the {m} model")
         sol[f"fpk:{m}"] = fpk_solution(scene, model=m, cells=FPK_CELLS)
-    edges = mc_edges(closed, scene.montecarlo.bins)
+    # the original system's simulation: its ranges, burn-in and extensions are its own
     t_mc = time.perf_counter()
     budget = scene.montecarlo.budget or math.inf
     extensions = 0
@@ -237,30 +265,25 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
                                                        if extensions else ""))
         mc = montecarlo_solution(replace(run_scene, observables=replace(
             run_scene.observables, A=True, x1=True, x2=True, events=True, moments=True)),
-            progress=not quiet, **edges)
-        sol["mc:original"] = mc
+            progress=not quiet)
         st = mc.info["settings"]
-        for i, m in enumerate(models if sde else ()):
-            stages(f"Monte Carlo of the {m} averaged SDE")
-            sol[f"mc:{m}"] = averaged_sde_solution(
-                scene, m, edges=edges, seed=scene.montecarlo.seed + 1 + i, phase=True,
-                # the SDE's own step, from its relaxation time (montecarlo.averaged_sde)
-                paths=st["paths"], blocks=st["blocks"], dt="auto", time=st["time"],
-                burn_in=run_scene.montecarlo.burn_in, sample_every=st["sample_every"])
-        sampling = {m: compare(closed[m].data["A"], sol[f"mc:{m}"].data["A"])
-                    for m in models if sde}
-        bad = _evidence(mc.info.get("convergence", {}), sampling)
+        bad = _evidence(mc.info.get("convergence", {}), {})
         spent = time.perf_counter() - t_mc
-        # extend (twice the burn-in and the sampled time) while the evidence says the run is
-        # too short and the budget allows another run of twice the cost
+        # extend (twice the burn-in and the sampled time) while the certificate says the run
+        # is too short and the budget allows another run of twice the cost
         if not bad or extensions >= 3 or spent * 3 > budget - spent:
             break
         extensions += 1
-        stages.total += 1 + (len(models) if sde else 0)
+        stages.total += 1
         mcs = run_scene.montecarlo
         run_scene = replace(run_scene, montecarlo=replace(
-            mcs, time=2 * st["time"], burn_in=2 * st["burn_in"],
-            dt=st["dt"], floor=0.0))
+            mcs, time=2 * st["time"], burn_in=2 * st["burn_in"], dt=st["dt"], floor=0.0))
+    sol["mc:original"] = mc
+    edges = mc_edges_of(mc)
+    sde_extensions = {}
+    for m in models if sde else ():
+        sol[f"mc:{m}"], sde_extensions[m] = _sde_run(
+            scene, m, closed[m], edges, st, run_scene.montecarlo.burn_in, budget, stages)
     stages("metrics")
     metrics: dict[str, Any] = {"models": {}}
     if absent:
@@ -274,6 +297,8 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
                 entry[kind] = {o: compare(cf[o], sol[key].data[o]) for o in OBSERVABLES}
         entry["sampling_ok"] = (_sampling_ok(entry["sampling_error"]["A"])
                                 if "sampling_error" in entry else None)
+        if m in sde_extensions:
+            entry["sampling_extensions"] = sde_extensions[m]
         if not closed[m].info.get("closed_form", True):
             entry["reference"] = closed[m].info["method"]
         metrics["models"][m] = entry
@@ -292,7 +317,7 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
             f"the simulation of the original system puts {100 * worst:.1f}% of its "
             "samples outside the range where the averaged models hold their mass "
             "(not converged, or a different state altogether); its densities there "
-            "are not shown and count in full toward L1"))
+            "are not shown and count toward L1 as one cell beyond the range"))
     verdicts = [verdict(m, metrics["models"][m], warnings, convergence=conv) for m in models]
     verdicts += [f"{m} model: not checked, {why}" for m, why in absent.items()]
     for m in models:
@@ -325,6 +350,33 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
     }
     return CheckResult(scene=scene, solutions=sol, metrics=metrics, warnings=warnings,
                        verdicts=verdicts, recommendation=rec_line, models=models)
+
+
+def _sde_run(scene: Any, model: str, closed: Any, edges: dict[str, np.ndarray],
+             st: dict[str, Any], burn_in: Any, budget: float, stages: _Stages
+             ) -> tuple[Any, int]:
+    """The Monte Carlo of ``model``'s averaged SDE on the original system's edges and sample
+    plan (its own step, from its relaxation time: montecarlo.averaged_sde), seeded by
+    :func:`sde_seed`; doubled (sampled time and burn-in) while it is off its closed form beyond
+    SAMPLING_FACTOR x its floor, at most 3 times and while the budget allows a run of twice
+    the cost. Returns (result, extensions): a function of the scene and this model alone."""
+    t0 = time.perf_counter()
+    ext, time_ = 0, st["time"]
+    while True:
+        stages(f"Monte Carlo of the {model} averaged SDE"
+               + (f" (extended x{2 ** ext})" if ext else ""))
+        res = averaged_sde_solution(
+            scene, model, edges=edges, seed=sde_seed(scene.montecarlo.seed, model), phase=True,
+            paths=st["paths"], blocks=st["blocks"], dt="auto", time=time_, burn_in=burn_in,
+            sample_every=st["sample_every"])
+        spent = time.perf_counter() - t0
+        if (_sampling_ok(compare(closed.data["A"], res.data["A"])) or ext >= 3
+                or spent * 3 > budget - spent):
+            return res, ext
+        ext += 1
+        stages.total += 1
+        time_ = 2 * res.info["settings"]["time"]
+        burn_in = 2 * res.info["settings"]["burn_in"]
 
 
 def output_problems(result: CheckResult) -> list[str]:

@@ -6,11 +6,19 @@ A density is a record ``{"x", "p"}`` (smooth, on a grid; trapezoid mass 1) or a 
     L1        = int |p - q|                       (0 to 2)
     Hellinger = sqrt(1 - int sqrt(p q))           (0 to 1)
     KS        = max |P - Q|, P, Q the CDFs        (0 to 1)
+    W1        = int |P - Q| dx                    (Wasserstein-1, in the observable's units)
     moments   = mean and standard-deviation differences
 
-When one side is a histogram, the smooth side is averaged over its bins (through its CDF; mass
-outside the bins counts in full toward L1), and every metric gets a **noise floor** and an
-**error bar** from a parametric bootstrap of the histogram: draws q* = q + err N(0, 1).
+KS and W1 read the CDFs, which a histogram gives exactly at its edges (the counts below each
+edge): they do not depend on the binning beyond the interpolation between edges (linear, as
+the histogram's CDF is), unlike L1, whose bins average the difference before its modulus is
+taken. They are the binning-free distances reported beside the binned L1 (issue 29).
+
+When one side is a histogram, the smooth side is averaged over its bins (through its CDF); the
+mass beyond the bins is one more cell (the overflow), so it adds |P_out - Q_out| to L1 (a
+histogram's overflow is 1 - its mass inside, less the atom of p(x2) at rest), and every metric
+gets a **noise floor** and an **error bar** from a parametric bootstrap of the histogram: draws
+q* = q + err N(0, 1).
 floor = mean of metric(q, q*) (the distance that noise alone produces; for L1 it equals
 sum sqrt(2/pi) err w), error bar = standard deviation of metric(p, q*). Two histograms must
 share their edges; their errors add in quadrature.
@@ -43,14 +51,28 @@ def bin_average(smooth: dict[str, Any], edges: np.ndarray) -> np.ndarray:
     return np.diff(at) / np.diff(edges)
 
 
+def _w1_linear(c: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """int |C(x)| dx for C linear between edges, C = 0 at the first edge and c[..., k] at the
+    right edge of bin k (the difference of two histograms' CDFs): per bin w (|a| + |b|) / 2,
+    or w (a^2 + b^2) / (2 (|a| + |b|)) where C changes sign inside it."""
+    a = np.concatenate([np.zeros(c.shape[:-1] + (1,)), c[..., :-1]], axis=-1)
+    b = c
+    same = a * b >= 0
+    s = np.abs(a) + np.abs(b)
+    cross = np.divide(a * a + b * b, s, out=np.zeros_like(s), where=s > 0)
+    return np.sum(np.where(same, 0.5 * s, 0.5 * cross) * w, axis=-1)
+
+
 def _binned_metrics(p: np.ndarray, q: np.ndarray, w: np.ndarray, outside: float) -> np.ndarray:
-    """(L1, Hellinger, KS) for bin densities on widths w; shape (..., 3)."""
+    """(L1, Hellinger, KS, W1) for bin densities on widths w; shape (..., 4). ``outside``:
+    |P_out - Q_out|, the overflow cell's part of L1."""
     qc = np.maximum(q, 0.0)
     l1 = np.sum(np.abs(p - q) * w, axis=-1) + outside
     bc = np.sum(np.sqrt(np.maximum(p, 0.0) * qc) * w, axis=-1)
     hell = np.sqrt(np.maximum(1.0 - bc, 0.0))
-    ks = np.max(np.abs(np.cumsum((p - q) * w, axis=-1)), axis=-1)
-    return np.stack([l1, hell, ks], axis=-1)
+    c = np.cumsum((p - q) * w, axis=-1)
+    ks = np.max(np.abs(c), axis=-1)
+    return np.stack([l1, hell, ks, _w1_linear(c, w)], axis=-1)
 
 
 def _moments_binned(c: np.ndarray, q: np.ndarray, w: np.ndarray) -> tuple[float, float]:
@@ -69,8 +91,8 @@ def _moments_smooth(d: dict[str, Any]) -> tuple[float, float]:
 def compare(a: dict[str, Any], b: dict[str, Any], *, seed: int = 0) -> dict[str, float]:
     """Metrics between densities a and b (see module docstring), JSON-ready.
 
-    Keys: L1, hellinger, ks, mean_diff, std_diff; for histogram comparisons also
-    L1_floor, hellinger_floor, ks_floor and L1_err, hellinger_err, ks_err.
+    Keys: L1, hellinger, ks, w1, mean_diff, std_diff; for histogram comparisons also
+    L1_floor, hellinger_floor, ks_floor, w1_floor and L1_err, hellinger_err, ks_err, w1_err.
     """
     if is_histogram(a) and not is_histogram(b):
         a, b = b, a
@@ -92,7 +114,9 @@ def compare(a: dict[str, Any], b: dict[str, Any], *, seed: int = 0) -> dict[str,
     else:
         p = bin_average(a, edges)
         err_p = np.zeros_like(p)
-        outside = max(1.0 - float(np.sum(p * w)), 0.0)
+        out_p = max(1.0 - float(np.sum(p * w)), 0.0)
+        out_q = max(1.0 - float(np.sum(q * w)) - float(b.get("atom_weight", 0.0)), 0.0)
+        outside = abs(out_p - out_q)
         ma = _moments_smooth(a)
     base = _binned_metrics(p, q, w, outside)
     mb = _moments_binned(c, q, w)
@@ -105,8 +129,9 @@ def compare(a: dict[str, Any], b: dict[str, Any], *, seed: int = 0) -> dict[str,
     out = {
         "L1": float(base[0]), "hellinger": float(base[1]), "ks": float(base[2]),
         "L1_floor": float(floor[0]), "hellinger_floor": float(floor[1]),
-        "ks_floor": float(floor[2]),
+        "ks_floor": float(floor[2]), "w1": float(base[3]), "w1_floor": float(floor[3]),
         "L1_err": float(spread[0]), "hellinger_err": float(spread[1]), "ks_err": float(spread[2]),
+        "w1_err": float(spread[3]),
         "mean_diff": ma[0] - mb[0], "std_diff": ma[1] - mb[1],
     }
     return out
@@ -120,9 +145,11 @@ def _smooth_pair(a: dict[str, Any], b: dict[str, Any]) -> dict[str, float]:
     fb = np.interp(x, xb, pb, left=0.0, right=0.0)
     l1 = float(np.trapezoid(np.abs(fa - fb), x))
     bc = float(np.trapezoid(np.sqrt(fa * fb), x))
-    ks = float(np.max(np.abs(np.interp(x, xa, _cdf(xa, pa), left=0, right=1)
-                             - np.interp(x, xb, _cdf(xb, pb), left=0, right=1))))
+    dc = np.abs(np.interp(x, xa, _cdf(xa, pa), left=0, right=1)
+                - np.interp(x, xb, _cdf(xb, pb), left=0, right=1))
+    ks = float(np.max(dc))
     ma, mb = _moments_smooth(a), _moments_smooth(b)
     return {"L1": l1, "hellinger": math.sqrt(max(1.0 - bc, 0.0)), "ks": ks,
-            "L1_floor": 0.0, "hellinger_floor": 0.0, "ks_floor": 0.0,
+            "w1": float(np.trapezoid(dc, x)),
+            "L1_floor": 0.0, "hellinger_floor": 0.0, "ks_floor": 0.0, "w1_floor": 0.0,
             "mean_diff": ma[0] - mb[0], "std_diff": ma[1] - mb[1]}

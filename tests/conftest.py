@@ -60,13 +60,28 @@ def tiny_check():
 @pytest.fixture
 def canned_check(tiny_check, monkeypatch):
     """``harness.check.cross_check`` replaced by the tiny check, its scene swapped for the one
-    asked (so titles, folders and sweep coordinates follow the request); ``sde=False`` drops
-    the averaged SDEs' runs as cross_check does. Commands that check then write, interrupt and
-    render without computing. Returns the canned result."""
+    asked (so titles, folders and sweep coordinates follow the request); ``models`` keeps only
+    the models asked (their solutions, metrics and verdict lines; a model the canned check did
+    not compute fails the test); ``sde=False`` drops the averaged SDEs' runs as cross_check
+    does. Commands that check then write, interrupt and render without computing. Returns the
+    canned result."""
     import vifpk.harness.check
 
     def canned(scene, *, quiet=False, fpk=True, sde=True, tail_mass=True, models=None):
         res = replace(tiny_check, scene=scene, metrics=copy.deepcopy(tiny_check.metrics))
+        if models is not None:
+            keep = tuple(dict.fromkeys(models))
+            missing = [m for m in keep if m not in res.models]
+            assert not missing, f"the canned check has no model {missing}"
+            drop = [m for m in res.models if m not in keep]
+            res = replace(res, models=keep, solutions={
+                k: v for k, v in res.solutions.items()
+                if not any(k.endswith(f":{m}") for m in drop)})
+            for m in drop:
+                res.metrics["models"].pop(m)
+            res.metrics["verdicts"] = [v for v in res.metrics["verdicts"]
+                                       if not any(v.startswith(f"{m} model") for m in drop)]
+            res = replace(res, verdicts=list(res.metrics["verdicts"]))
         if not fpk or not sde:
             drop = ([f"fpk:{m}" for m in res.models] if not fpk else []) + \
                    ([f"mc:{m}" for m in res.models] if not sde else [])
