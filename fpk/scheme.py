@@ -16,6 +16,12 @@ the 6th-order quadrature error of b. What remains is the normalisation sum p_i h
 midpoint rule: the scheme is second order in h (declared ``ORDER``; the slope is measured in
 tests/test_fpk.py). The face-value choice b = h v(A_{i+1/2}) is also second order, but with the
 1/A drift it errs by ln 3 - 1 on the first face and its L1 error is 10x larger.
+
+Absorbing right wall (``right="absorbing"``, first passage out of [lo, hi)): p = 0 at A = hi.
+The last face's flux is the same SG flux over the half cell from the last centre to the wall,
+with u = 0 there: J_N = (2/h) B(-b_w) u_{N-1}, b_w = int_{A_{N-1}}^{hi} v dA. The operator loses
+mass through that face only; ``with_sink`` appends a sink cell that collects it, so the stepped
+system conserves mass exactly (mass inside + mass absorbed = 1, checked by the stepper).
 """
 
 from __future__ import annotations
@@ -56,6 +62,8 @@ class Discretisation:
     lower: Array  # M[i+1, i]
     diag: Array
     upper: Array  # M[i, i+1]
+    absorbing: bool = False  # p = 0 at hi (the right wall); else zero flux there
+    wall_rate: float = 0.0  # J_N = wall_rate * h * p_{N-1} (absorbing only)
 
     @property
     def cells(self) -> int:
@@ -76,7 +84,34 @@ class Discretisation:
         u = self.D * p
         J = np.zeros(self.cells + 1)
         J[1:-1] = (bernoulli(-self.b) * u[:-1] - bernoulli(self.b) * u[1:]) / self.h
+        if self.absorbing:
+            J[-1] = self.wall_rate * self.h * p[-1]
         return J
+
+    def with_sink(self) -> Discretisation:
+        """The absorbing operator with one more cell, a sink at [hi, hi + h] that collects the
+        wall flux and gives nothing back: a closed system whose total mass sum p h is exactly
+        invariant (what the stepper's mass check needs). Only the stepper uses it."""
+        if not self.absorbing:
+            raise ValueError("with_sink needs an absorbing right wall")
+        h = self.h
+        return Discretisation(
+            lo=self.lo, hi=self.hi + h, centres=np.append(self.centres, self.hi + 0.5 * h),
+            faces=np.append(self.faces, self.hi + h), h=h, D=np.append(self.D, self.D[-1]),
+            b=np.append(self.b, 0.0), lower=np.append(self.lower, self.wall_rate),
+            diag=np.append(self.diag, 0.0), upper=np.append(self.upper, 0.0))
+
+    def decay_rate(self) -> float:
+        """lambda_1 > 0, the slowest decay rate of the absorbing operator (R(t) ~ e^{-lambda_1
+        t} at late times): minus its largest eigenvalue, from the same symmetrised tridiagonal
+        matrix as ``relaxation_time`` (the wall term only changes the last diagonal entry)."""
+        if not self.absorbing:
+            raise ValueError("decay_rate needs an absorbing right wall (else it is 0)")
+        off = np.sqrt(self.upper * self.lower)
+        n = self.cells
+        vals = eigh_tridiagonal(self.diag, off, eigvals_only=True, select="i",
+                                select_range=(n - 1, n - 1))
+        return float(-vals[0])
 
     def stationary_log(self) -> Array:
         """log p of the discrete stationary state (J = 0 on every face), normalised so that
@@ -106,10 +141,13 @@ class CoefficientError(ArithmeticError):
 
 
 def discretise(drift: Callable[[Array], Array], diffusion: Callable[[Array], Array], *,
-               lo: float, hi: float, cells: int) -> Discretisation:
-    """Build the SG operator for m = drift(A), sigma^2 = diffusion(A) on [lo, hi]."""
+               lo: float, hi: float, cells: int, right: str = "reflecting") -> Discretisation:
+    """Build the SG operator for m = drift(A), sigma^2 = diffusion(A) on [lo, hi]; zero flux
+    at lo, and at hi zero flux (``right="reflecting"``) or p = 0 (``"absorbing"``)."""
     if not (hi > lo >= 0.0) or cells < 4:
         raise ValueError(f"need 0 <= lo < hi and cells >= 4, got [{lo}, {hi}], {cells}")
+    if right not in ("reflecting", "absorbing"):
+        raise ValueError(f"right must be 'reflecting' or 'absorbing', not {right!r}")
     h = (hi - lo) / cells
     faces = lo + h * np.arange(cells + 1)
     centres = 0.5 * (faces[1:] + faces[:-1])
@@ -128,5 +166,15 @@ def discretise(drift: Callable[[Array], Array], diffusion: Callable[[Array], Arr
     diag[1:] -= s * Bp * D[1:]  # outflow through the left face
     upper = s * Bp * D[1:]  # from cell i+1 into i
     lower = s * Bm * D[:-1]  # from cell i into i+1
+    wall_rate = 0.0
+    if right == "absorbing":  # the half cell [A_{N-1}, hi], u = 0 at the wall
+        wx = (0.5 * (centres[-1] + hi) + 0.25 * h * gx)
+        bw = 0.25 * h * float(2.0 * np.asarray(drift(wx), dtype=float)
+                              / np.asarray(diffusion(wx), dtype=float) @ gw)
+        if not math.isfinite(bw):
+            raise CoefficientError("drift or diffusion is not finite next to the wall")
+        wall_rate = 2.0 * s * float(bernoulli(np.array(-bw))) * D[-1]
+        diag[-1] -= wall_rate
     return Discretisation(lo=lo, hi=hi, centres=centres, faces=faces, h=h, D=D, b=b,
-                          lower=lower, diag=diag, upper=upper)
+                          lower=lower, diag=diag, upper=upper, absorbing=right == "absorbing",
+                          wall_rate=wall_rate)

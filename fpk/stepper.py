@@ -10,7 +10,10 @@
 py-pde's ``implicit`` and ``crank-nicolson`` solvers iterate to a fixed point rather than
 solving with Newton and fail on stiff fine grids, so they are not offered.
 Every run checks mass and positivity at each interrupt and stops with ``FPKFailure`` if the
-mass drifts beyond ``mass_tol`` or the density goes below ``-neg_tol``.
+mass drifts beyond ``mass_tol`` or the density goes below ``-neg_tol``. With an absorbing
+right wall (``Discretisation.absorbing``) the stepped system is the operator plus its sink cell
+(``Discretisation.with_sink``), so the mass checked is the mass inside plus the mass absorbed,
+which must stay 1; ``p`` and the snapshots hold the inside, ``absorbed`` the sink's mass.
 """
 
 from __future__ import annotations
@@ -107,6 +110,10 @@ def run(disc: Discretisation, p0: Array, *, t_end: float, stepper: str = "bdf",
     steady_tol: stop once max |dp/dt| <= steady_tol (SteadyStateTracker, given the exact
     rate function). snapshots: times at which to store copies of p.
     """
+    inside = disc.cells
+    if disc.absorbing:
+        disc = disc.with_sink()
+        p0 = np.append(np.asarray(p0, dtype=float), 0.0)
     eq = AmplitudeFPK(disc)
     state = ScalarField(grid_of(disc), np.array(p0, dtype=float))
     mass0 = float(np.sum(p0)) * disc.h
@@ -140,8 +147,11 @@ def run(disc: Discretisation, p0: Array, *, t_end: float, stepper: str = "bdf",
     p = final.data.copy()
     guard(final, float(info["controller"].get("t_final", t_end)))
     ctrl = info.get("controller", {})
+    absorbed = {t: float(v[inside:].sum()) * disc.h for t, v in store.items()}
     return {
-        "p": p,
+        "p": p[:inside],
+        "absorbed": float(p[inside:].sum()) * disc.h,
+        "absorbed_snapshots": absorbed,
         "t_final": float(ctrl.get("t_final", t_end)),
         "steps": int(info.get("solver", {}).get("steps", 0)),
         "seconds": seconds,
@@ -149,5 +159,5 @@ def run(disc: Discretisation, p0: Array, *, t_end: float, stepper: str = "bdf",
         "worst_mass_drift": guard.worst_mass,
         "min_value": guard.min_value,
         "checks": guard.checks,
-        "snapshots": store,
+        "snapshots": {t: v[:inside] for t, v in store.items()},
     }

@@ -45,6 +45,7 @@ class Status(Enum):
     DENSITY = ("density", "stationary density computed", True)
     SNAPSHOTS = ("snapshots", "transient snapshots computed", True)
     SIMULATED = ("simulated", "simulated", True)
+    PASSAGE = ("passage", "first passage computed", True)
     NOT_FINITE = ("not_finite", "density is negative or not finite", False)
 
     def __init__(self, code: str, message: str, ok: bool):
