@@ -354,3 +354,42 @@ def solution_record(scene: Any, solver: str, model: str | None, result: Any, *,
     rec["pdf"] = pdf
     rec["info"] = result.info if provenance is None else dict(result.info, provenance=provenance)
     return rec
+
+
+# ------------------------------------------------------- time domain (issue 30): Monte Carlo
+def _passage_settings(scene: Any, *, paths: int, horizon: float, **given: Any) -> Any:
+    """montecarlo.PassageSettings: ``given`` (not None) over the scene's [montecarlo] dt, blocks,
+    seed, threads. A scene dt of "auto" (a step tuned to a stationary floor) gives the
+    field's default step, MonteCarloSettings.dt."""
+    import dataclasses
+
+    from vifpk import montecarlo
+    from vifpk.core.scene import MonteCarloSettings
+
+    mc = scene.montecarlo
+    kw = {k: getattr(mc, k) for k in ("dt", "blocks", "seed", "threads")}
+    kw.update({k: v for k, v in given.items() if v is not None})
+    if kw["dt"] == "auto":
+        kw["dt"] = {f.name: f.default for f in dataclasses.fields(MonteCarloSettings)}["dt"]
+    return montecarlo.PassageSettings(paths=paths, horizon=horizon, **kw)
+
+
+def passage_montecarlo(scene: Any, *, threshold: float, start: float | str, horizon: float,
+                       paths: int, dt: float | None = None, blocks: int | None = None,
+                       seed: int | None = None, threads: int | None = None,
+                       burn_in: float | None = None, burn_start: float | None = None,
+                       progress: bool = True) -> Result:
+    """First passage of the original system's energy through U(threshold)
+    (``montecarlo.first_passage``): data["fpt"] = {"time", "censored"}, data["start"].
+    Unset options come from the scene's [montecarlo] section. A run that blows up, or a
+    "stationary" start that cannot be placed below the threshold, raises SolverFailure."""
+    from vifpk import montecarlo
+
+    st = _passage_settings(scene, paths=paths, horizon=horizon, dt=dt, blocks=blocks,
+                           seed=seed, threads=threads, burn_in=burn_in, burn_start=burn_start,
+                           progress=progress)
+    try:
+        return montecarlo.first_passage(scene.system, scene.noise, st, threshold=threshold,
+                                        start=start)
+    except (montecarlo.SimulationDiverged, montecarlo.StartRejected) as exc:
+        raise SolverFailure(str(exc)) from None

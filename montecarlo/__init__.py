@@ -2,6 +2,7 @@
 OU or white noise), and of an averaged 1-D amplitude SDE. Imports no other vifpk package.
 """
 
+from .passage import PassageSettings, StartRejected, first_passage, sample_starts
 from .plan import Plan, physics, plan, sampling_plan, step_size
 from .simulate import (
                        OBSERVABLES,
@@ -13,5 +14,6 @@ from .simulate import (
                        simulate,
 )
 
-__all__ = ["OBSERVABLES", "BudgetExhausted", "Plan", "Settings", "SimulationDiverged",
-           "block_seeds", "effects", "physics", "plan", "sampling_plan", "simulate", "step_size"]
+__all__ = ["OBSERVABLES", "BudgetExhausted", "PassageSettings", "Plan", "Settings",
+           "SimulationDiverged", "StartRejected", "block_seeds", "effects", "first_passage",
+           "physics", "plan", "sample_starts", "sampling_plan", "simulate", "step_size"]

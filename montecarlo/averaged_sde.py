@@ -40,8 +40,8 @@ from vifpk.core.defaults import BURN_FACTOR, FPK_CELLS
 from vifpk.core.result import Result, Status
 
 from ._jit import jit
-from .geometry import amplitude_general, potential
-from .rng import normal, states_from_seed, uniform
+from .geometry import amplitude_general, orbit_point, potential
+from .rng import normal, states_from_seed
 from .simulate import CHUNK_SECONDS, _density, _mean_se
 
 ORDER = 1
@@ -105,55 +105,6 @@ def relaxation_time(drift: Callable[[np.ndarray], np.ndarray],
     lam = eigh_tridiagonal(diag, off, select="i", select_range=(0, 1),
                            eigvals_only=True)
     return float(1.0 / lam[1]) if lam[1] > 0 else math.inf
-
-
-@jit
-def nu_sq_higher(A, c2, khi):
-    """The spring's terms beyond x^3 in nu^2: sum_j k_{2j-1} A^{2j-2} (1 + c2 + ... +
-    c2^{j-1}) / j for j >= 3 (khi = (k5, k7, ...); c2 = cos^2 th)."""
-    out = 0.0
-    part = 1.0 + c2
-    cj = c2
-    Aj = A * A
-    for i in range(khi.shape[0]):
-        j = i + 3
-        cj *= c2
-        part += cj
-        Aj *= A * A
-        out += khi[i] * Aj * part / j
-    return out
-
-
-@jit
-def orbit_point(A, w0sq, alpha, khi, s0, s1, s2, s3):
-    """(y, y', state): a time-uniform point of the orbit of amplitude A.
-
-    On the orbit y = A cos(th), y' = -A nu sin(th), d(th)/dt = nu with
-    nu^2 = w0^2 + alpha A^2 (1 + cos^2 th) / 2 [+ nu_sq_higher], so a time-uniform phase has
-    density ~ 1/nu: th uniform, accepted with probability nu_min / nu (>= 1/sqrt(2) for the
-    Duffing spring). With higher terms nu_min is the least nu^2 over 257 values of cos^2 th
-    in [0, 1], times 0.98 (a polynomial of degree <= 9 in cos^2 th varies far less than
-    that between nodes unless its minimum is near 0: then the acceptance rate, not the law,
-    suffers)."""
-    if khi is None:
-        nu_min = math.sqrt(w0sq + 0.5 * alpha * A * A)
-    else:
-        lo = math.inf
-        for i in range(257):
-            c2 = i / 256.0
-            lo = min(lo, w0sq + 0.5 * alpha * A * A * (1.0 + c2) + nu_sq_higher(A, c2, khi))
-        nu_min = 0.98 * math.sqrt(max(lo, 0.0))
-    while True:
-        u, s0, s1, s2, s3 = uniform(s0, s1, s2, s3)
-        a, s0, s1, s2, s3 = uniform(s0, s1, s2, s3)
-        th = 2.0 * math.pi * u
-        c = math.cos(th)
-        nu2 = w0sq + 0.5 * alpha * A * A * (1.0 + c * c)
-        if khi is not None:
-            nu2 += nu_sq_higher(A, c * c, khi)
-        nu = math.sqrt(nu2)
-        if a * nu <= nu_min:
-            return A * c, -A * nu * math.sin(th), s0, s1, s2, s3
 
 
 @jit(inline="always")

@@ -7,6 +7,9 @@ so that a bug there cannot hide here too.
 With higher terms (``khi`` = (k5, k7, ...), None otherwise: numba compiles the Duffing form
 alone for the paper's family) U is increasing on A >= 0 (scene check) and A is its root,
 by Newton's method kept inside a bracket (bisection when a step leaves it).
+
+Starts on an orbit (``orbit_point``, ``orbit_start``): a phase uniform in TIME along the
+conservative orbit, not a uniform angle (the two differ for a nonlinear spring).
 """
 
 from __future__ import annotations
@@ -14,6 +17,7 @@ from __future__ import annotations
 import math
 
 from ._jit import jit
+from .rng import normal, uniform
 
 
 @jit
@@ -89,3 +93,70 @@ def amplitude_general(x: float, v: float, w0sq: float, alpha: float, khi) -> flo
             return new
         a = new
     return a
+
+
+@jit
+def nu_sq_higher(A, c2, khi):
+    """The spring's terms beyond x^3 in nu^2: sum_j k_{2j-1} A^{2j-2} (1 + c2 + ... +
+    c2^{j-1}) / j for j >= 3 (khi = (k5, k7, ...); c2 = cos^2 th)."""
+    out = 0.0
+    part = 1.0 + c2
+    cj = c2
+    Aj = A * A
+    for i in range(khi.shape[0]):
+        j = i + 3
+        cj *= c2
+        part += cj
+        Aj *= A * A
+        out += khi[i] * Aj * part / j
+    return out
+
+
+@jit
+def orbit_point(A, w0sq, alpha, khi, s0, s1, s2, s3):
+    """(y, y', state): a time-uniform point of the orbit of amplitude A.
+
+    On the orbit y = A cos(th), y' = -A nu sin(th), d(th)/dt = nu with
+    nu^2 = w0^2 + alpha A^2 (1 + cos^2 th) / 2 [+ nu_sq_higher], so a time-uniform phase has
+    density ~ 1/nu: th uniform, accepted with probability nu_min / nu (>= 1/sqrt(2) for the
+    Duffing spring). With higher terms nu_min is the least nu^2 over 257 values of cos^2 th
+    in [0, 1], times 0.98 (a polynomial of degree <= 9 in cos^2 th varies far less than
+    that between nodes unless its minimum is near 0: then the acceptance rate, not the law,
+    suffers). A softening spring (alpha < 0) has its least nu at cos^2 th = 1."""
+    if khi is None:  # nu^2 is linear in cos^2 th: least at cos^2 th = 0 (alpha >= 0) or 1
+        nu_min = math.sqrt(w0sq + (0.5 if alpha >= 0.0 else 1.0) * alpha * A * A)
+    else:
+        lo = math.inf
+        for i in range(257):
+            c2 = i / 256.0
+            lo = min(lo, w0sq + 0.5 * alpha * A * A * (1.0 + c2) + nu_sq_higher(A, c2, khi))
+        nu_min = 0.98 * math.sqrt(max(lo, 0.0))
+    while True:
+        u, s0, s1, s2, s3 = uniform(s0, s1, s2, s3)
+        a, s0, s1, s2, s3 = uniform(s0, s1, s2, s3)
+        th = 2.0 * math.pi * u
+        c = math.cos(th)
+        nu2 = w0sq + 0.5 * alpha * A * A * (1.0 + c * c)
+        if khi is not None:
+            nu2 += nu_sq_higher(A, c * c, khi)
+        nu = math.sqrt(nu2)
+        if a * nu <= nu_min:
+            return A * c, -A * nu * math.sin(th), s0, s1, s2, s3
+
+
+@jit
+def orbit_start(A, w0sq, alpha, khi, barrier, xi_sd, s0, s1, s2, s3):
+    """(x, v, xi, generator state): a start on the conservative orbit of amplitude A at a
+    phase uniform IN TIME (``orbit_point``), folded onto x >= 0 with the barrier (the elastic
+    impacting orbit of amplitude A is the fold of the free one: x = |y|, v = y' sgn(y), the
+    same time spent at each |y|), and xi from the stationary OU law N(0, D / alpha1)
+    (``xi_sd`` = sqrt(D / alpha1); 0 for white noise: no normal is drawn)."""
+    y, yp, s0, s1, s2, s3 = orbit_point(A, w0sq, alpha, khi, s0, s1, s2, s3)
+    if barrier and y < 0.0:
+        y = -y
+        yp = -yp
+    xi = 0.0
+    if xi_sd > 0.0:
+        z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
+        xi = xi_sd * z
+    return y, yp, xi, s0, s1, s2, s3

@@ -1,0 +1,434 @@
+"""First passage of the ORIGINAL system's energy through a threshold (issue 30).
+
+Each path is advanced with the kernel's own step (``kernels._step``: the Strang splitting of
+the original system, nothing of its physics is repeated here) until its energy
+
+    E = v^2/2 + U(x),   U the potential of the scene's spring (geometry.potential)
+
+first reaches Ec = U(Ac), Ac the threshold amplitude, or until the horizon (censored).
+
+**The crossing inside the step.** With OU noise xi is continuous, so E(t) = v (f xi - k v -
+mu sgn v) is C^1 between impacts (an impact only lowers E). When E_n < Ec <= E_{n+1} the
+crossing time is the root of the straight line through (t_n, E_n), (t_{n+1}, E_{n+1}):
+
+    t* = t_n + h (Ec - E_n) / (E_{n+1} - E_n),
+
+whose error is h^2 E'' / (8 E') on the step's own path: O(dt^2), the order of the scheme on
+the smooth sub-system (CROSSING_ORDER, measured against solve_ivp in
+tests/test_passage_mc.py; across impacts and stick-slip the scheme itself is first order).
+With white noise E is a diffusion (variance rate 2 D f^2 v^2 at the kick), which may cross and
+come back inside a step; a step that ends below Ec is then counted as a crossing with the
+Brownian-bridge probability exp(-2 (Ec - E_n)(Ec - E_{n+1}) / (2 D f^2 v^2 h)) (one uniform
+drawn from the path's stream only when that probability exceeds 1e-14), located at
+t_n + h (Ec - E_n) / (2 Ec - E_n - E_{n+1}); without it discrete monitoring biases the
+first-passage time up by O(dt^(1/2)).
+
+**Starts.** ``start = A0``: energy U(A0), a phase uniform in time along that conservative
+orbit (geometry.orbit_start; folded onto x >= 0 with the barrier), xi from its stationary law
+N(0, D / alpha1). ``start = "stationary"``: the stationary law restricted to A < Ac, by
+rejection: each path starts at amplitude ``burn_start`` (Ac / 2 when 0) as above, runs
+``burn_in`` time units of the free system (no threshold), and is accepted if then E < Ec;
+else it starts again (its generator goes on) from ``burn_start``, at most ``max_restarts``
+times (StartRejected beyond). The accepted states are the law at time burn_in conditioned on
+A < Ac, which is the restricted stationary law when burn_in is several relaxation times. The
+first-passage clock starts at the accepted state.
+
+**Seeds.** Path p of block b has its own xoshiro state (simulate.block_seeds: words of
+SeedSequence(seed, spawn_key=(b,))) and its own state machine; kernel calls give each
+unfinished path at most a budget of steps, and a path's arithmetic does not depend on the
+budget, so any cut into calls and any thread count give bit-identical results. Times are
+(step index + fraction) x dt with an integer step index, never a running float sum.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numba
+import numpy as np
+from numba import prange
+
+from vifpk.core.result import BadInput, Result, Status
+
+from ._jit import jit
+from .geometry import energy, orbit_start, potential
+from .kernels import _step
+from .plan import physics
+from .rng import uniform
+from .simulate import CHUNK_SECONDS, _diverged, _growth, _label, _progress, block_seeds, effects
+
+CROSSING_ORDER = 2  # O(dt^2) crossing time on the smooth sub-system with OU noise (see module)
+BRIDGE_FLOOR = 1e-14  # below this bridge-crossing probability no uniform is drawn
+# a path's state machine
+NEW, BURN, RUN, CROSSED, CENSORED, DIVERGED, REFUSED = range(7)
+
+
+class StartRejected(RuntimeError):
+    """The "stationary" start failed: a path's burn-ins ended at or above the threshold more
+    than ``max_restarts`` times in a row (the threshold is inside the bulk of the stationary
+    law). One line."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class PassageSettings:
+    """Settings of first_passage and snapshots: plain numbers.
+
+    paths (split over ``blocks`` as evenly as whole numbers allow), dt (the step), horizon
+    (the censoring time), seed (root), threads (0: numba's default), progress (a tqdm bar on
+    stderr for runs over 3 s); for start = "stationary": burn_in (time units of free
+    simulation before the clock starts, > 0), burn_start (the amplitude the burn-in starts
+    from; 0: half the threshold), max_restarts (burn-ins a path may repeat)."""
+
+    paths: int
+    blocks: int
+    dt: float
+    horizon: float
+    seed: int
+    threads: int = 0
+    progress: bool = True
+    burn_in: float = 0.0
+    burn_start: float = 0.0
+    max_restarts: int = 100
+
+
+@jit(parallel=True)
+def run_passage(rng, state, init, phase, steps, tries, fpt, count, budget, n_max, n_burn, horizon,
+                h, Ec, a_start, a_burn, max_tries, c1, c2, w0sq, alpha, f, D, mu, r, alpha1,
+                khi, dhi, ev, bridge):
+    """Advance every unfinished path by at most ``budget`` steps (its state machine: NEW ->
+    [BURN ->] RUN -> CROSSED | CENSORED, or DIVERGED / REFUSED); per-path arrays [b, p]
+    updated in place (``init``: the state at which the path's clock started). ``bridge``:
+    None, or 2 D f^2 (white noise: the bridge correction)."""
+    if alpha1 is None:
+        ou_a = 0.0
+        ou_s = 0.0
+        xi_sd = 0.0
+    else:
+        ou_a = math.exp(-alpha1 * h)
+        ou_s = math.sqrt(D / alpha1 * (1.0 - ou_a * ou_a))
+        xi_sd = math.sqrt(D / alpha1)
+    kick = f * math.sqrt(2.0 * D * h)
+    for b in prange(state.shape[0]):
+        _passage_block(b, rng, state, init, phase, steps, tries, fpt, count[b], budget, n_max,
+                       n_burn, horizon, h, Ec, a_start, a_burn, max_tries, c1, c2, w0sq, alpha,
+                       f, mu, r, alpha1, khi, dhi, ev, ou_a, ou_s, kick, xi_sd, bridge)
+
+
+@jit
+def _passage_block(b, rng, state, init, phase, steps, tries, fpt, n_paths, budget, n_max, n_burn,
+                   horizon, h, Ec, a_start, a_burn, max_tries, c1, c2, w0sq, alpha, f, mu, r,
+                   alpha1, khi, dhi, ev, ou_a, ou_s, kick, xi_sd, bridge):
+    """run_passage for the paths of block b, one path after the other."""
+    half = 0.5 * h
+    barrier = r is not None
+    for p in range(n_paths):
+        ph = phase[b, p]
+        if ph >= CROSSED:
+            continue
+        x, v, xi = state[b, p, 0], state[b, p, 1], state[b, p, 2]
+        s0, s1, s2, s3 = rng[b, p, 0], rng[b, p, 1], rng[b, p, 2], rng[b, p, 3]
+        n = steps[b, p]
+        left = budget
+        while left > 0:
+            if ph == NEW:
+                amp = a_burn if n_burn > 0 else a_start
+                x, v, xi, s0, s1, s2, s3 = orbit_start(amp, w0sq, alpha, khi, barrier, xi_sd,
+                                                       s0, s1, s2, s3)
+                n = 0
+                ph = BURN if n_burn > 0 else RUN
+                if ph == RUN:
+                    init[b, p, 0], init[b, p, 1], init[b, p, 2] = x, v, xi
+                continue
+            if ph == BURN:
+                k = min(left, n_burn - n)
+                for _ in range(k):
+                    x, v, xi, s0, s1, s2, s3, o = _step(
+                        x, v, xi, s0, s1, s2, s3, h, half, c1, c2, w0sq, alpha, f, mu, r,
+                        alpha1, khi, dhi, ev, ou_a, ou_s, kick)
+                n += k
+                left -= k
+                if not (math.isfinite(x) and math.isfinite(v)):
+                    ph = DIVERGED
+                    break
+                if n == n_burn:
+                    if energy(x, v, w0sq, alpha, khi) < Ec:
+                        ph = RUN
+                        n = 0
+                        init[b, p, 0], init[b, p, 1], init[b, p, 2] = x, v, xi
+                    else:
+                        tries[b, p] += 1
+                        if tries[b, p] > max_tries:
+                            ph = REFUSED
+                            break
+                        ph = NEW
+                continue
+            # RUN: the energy before each step is E, after it E1
+            E = energy(x, v, w0sq, alpha, khi)
+            k = min(left, n_max - n)
+            hit = -1.0
+            i = 0
+            while i < k:
+                x, v, xi, s0, s1, s2, s3, o = _step(
+                    x, v, xi, s0, s1, s2, s3, h, half, c1, c2, w0sq, alpha, f, mu, r, alpha1,
+                    khi, dhi, ev, ou_a, ou_s, kick)
+                E1 = energy(x, v, w0sq, alpha, khi)
+                i += 1
+                if E1 >= Ec:
+                    hit = (Ec - E) / (E1 - E)
+                    break
+                if bridge is not None:
+                    vc = o[8]  # the velocity at the kick
+                    arg = 2.0 * (Ec - E) * (Ec - E1) / (bridge * vc * vc * h)
+                    if arg < -math.log(BRIDGE_FLOOR):
+                        u, s0, s1, s2, s3 = uniform(s0, s1, s2, s3)
+                        if u < math.exp(-arg):
+                            hit = (Ec - E) / ((Ec - E) + (Ec - E1))
+                            break
+                E = E1
+            if hit >= 0.0:
+                if not (math.isfinite(x) and math.isfinite(v)):
+                    ph = DIVERGED
+                    break
+                t = (n + i - 1 + hit) * h
+                n += i
+                if t <= horizon:
+                    ph = CROSSED
+                    fpt[b, p] = t
+                else:
+                    ph = CENSORED
+                    fpt[b, p] = horizon
+                break
+            n += k
+            left -= k
+            if not (math.isfinite(x) and math.isfinite(v)):
+                ph = DIVERGED
+                break
+            if n >= n_max:
+                ph = CENSORED
+                fpt[b, p] = horizon
+                break
+        state[b, p, 0], state[b, p, 1], state[b, p, 2] = x, v, xi
+        rng[b, p, 0], rng[b, p, 1], rng[b, p, 2], rng[b, p, 3] = s0, s1, s2, s3
+        steps[b, p] = n
+        phase[b, p] = ph
+
+
+def layout(paths: int, blocks: int) -> np.ndarray:
+    """Paths per block: ``paths`` split over ``blocks`` as evenly as whole numbers allow (the
+    first paths % blocks blocks one more)."""
+    return np.array([paths // blocks + (b < paths % blocks) for b in range(blocks)],
+                    dtype=np.int64)
+
+
+def check_settings(st: PassageSettings) -> None:
+    """One line naming a setting out of range (BadInput), before any computation."""
+    if not (isinstance(st.blocks, int) and st.blocks >= 2):
+        raise BadInput(f"blocks must be a whole number >= 2 (got {st.blocks!r})")
+    if not (isinstance(st.paths, int) and st.paths >= st.blocks):
+        raise BadInput(f"paths must be a whole number >= blocks = {st.blocks} "
+                       f"(got {st.paths!r})")
+    for name in ("dt", "horizon"):
+        val = getattr(st, name)
+        if not (isinstance(val, (int, float)) and math.isfinite(val) and val > 0):
+            raise BadInput(f"{name} must be a finite number > 0 (got {val!r})")
+    if st.horizon / st.dt >= 2.0**62:
+        raise BadInput(f"horizon / dt = {st.horizon / st.dt:.3g} steps is beyond any run")
+    if not (st.burn_in >= 0 and st.burn_start >= 0 and st.max_restarts >= 0):
+        raise BadInput("burn_in, burn_start and max_restarts must be >= 0")
+
+
+def _check_threshold(threshold: float, start: float | str) -> None:
+    if not (isinstance(threshold, (int, float)) and math.isfinite(threshold) and threshold > 0):
+        raise BadInput(f"threshold must be a finite amplitude > 0 (got {threshold!r})")
+    if isinstance(start, str):
+        if start != "stationary":
+            raise BadInput(f"start must be an amplitude or 'stationary' (got {start!r})")
+    elif not (isinstance(start, (int, float)) and 0 <= start < threshold):
+        raise BadInput(f"start must be an amplitude in [0, threshold = {threshold:g}) "
+                       f"(got {start!r})")
+
+
+def sample_starts(system: Any, noise: Any, *, amplitude: float, n: int, seed: int
+                  ) -> np.ndarray:
+    """(n, 3) starts (x, v, xi) at ``amplitude`` as first_passage draws them (orbit_start),
+    path i from the stream of path i of one block (block_seeds(seed, 1, n))."""
+    phys = physics(system, noise)
+    rng = block_seeds(seed, 1, n)[0]
+    out = np.empty((n, 3))
+    xi_sd = math.sqrt(phys["D"] / phys["alpha1"]) if phys["alpha1"] is not None else 0.0
+    _starts_loop(rng, out, float(amplitude), phys["w0sq"], phys["alpha"], phys["khi"],
+                 phys["r"] is not None, xi_sd)
+    return out
+
+
+@jit
+def _starts_loop(rng, out, A, w0sq, alpha, khi, barrier, xi_sd):
+    for i in range(out.shape[0]):
+        x, v, xi, s0, s1, s2, s3 = orbit_start(A, w0sq, alpha, khi, barrier, xi_sd,
+                                               rng[i, 0], rng[i, 1], rng[i, 2], rng[i, 3])
+        out[i, 0], out[i, 1], out[i, 2] = x, v, xi
+        rng[i, 0], rng[i, 1], rng[i, 2], rng[i, 3] = s0, s1, s2, s3
+
+
+def first_passage(system: Any, noise: Any, settings: PassageSettings, *, threshold: float,
+                  start: float | str) -> Result:
+    """First passage of the energy through U(threshold) (see the module docstring).
+
+    data["fpt"] = {"time": float64[paths] (the horizon where censored), "censored":
+    bool[paths]}; data["start"] = {"x", "v", "xi", "A"}: each path's state when its clock
+    started (for "stationary": after its accepted burn-in). Paths are ordered block by block.
+    Raises BadInput (one line) on settings or a start it cannot use, SimulationDiverged on a
+    non-finite state, StartRejected when "stationary" cannot place a path below Ac."""
+    st = settings
+    check_settings(st)
+    _check_threshold(threshold, start)
+    phys = physics(system, noise)
+    stationary = isinstance(start, str)
+    if stationary and not st.burn_in > 0:
+        raise BadInput("start 'stationary' needs burn_in > 0 (time units of free simulation "
+                       "before the clock starts; several relaxation times)")
+    a_burn = (st.burn_start or 0.5 * threshold) if stationary else 0.0
+    h = float(st.dt)
+    n_max = int(math.ceil(st.horizon / h * (1 - 1e-12)))
+    n_burn = int(round(st.burn_in / h)) if stationary else 0
+    Ec = float(potential(float(threshold), phys["w0sq"], phys["alpha"], phys["khi"]))
+    if not (math.isfinite(Ec) and Ec < 1e300):
+        raise BadInput(f"threshold {threshold:g}: its energy U(threshold) = {Ec:g} is beyond "
+                       "double precision")
+    count = layout(st.paths, st.blocks)
+    per = int(count.max())
+    threads = st.threads or numba.config.NUMBA_NUM_THREADS
+    numba.set_num_threads(threads)
+    bridge = 2.0 * phys["D"] * phys["f"] ** 2 if phys["alpha1"] is None else None
+    if bridge == 0.0:
+        bridge = None  # no noise: E is C^1
+
+    def arrays(blocks: int, per_block: int, seed: int) -> dict[str, np.ndarray]:
+        return {"rng": block_seeds(seed, blocks, per_block),
+                "state": np.zeros((blocks, per_block, 3)),
+                "init": np.zeros((blocks, per_block, 3)),
+                "phase": np.zeros((blocks, per_block), dtype=np.int64),
+                "steps": np.zeros((blocks, per_block), dtype=np.int64),
+                "tries": np.zeros((blocks, per_block), dtype=np.int64),
+                "fpt": np.zeros((blocks, per_block))}
+
+    def call(a: dict[str, np.ndarray], cnt: np.ndarray, budget: int) -> None:
+        run_passage(a["rng"], a["state"], a["init"], a["phase"], a["steps"], a["tries"],
+                    a["fpt"], cnt, budget, n_max, n_burn, float(st.horizon), h, Ec,
+                    float(0.0 if stationary else start), float(a_burn), int(st.max_restarts),
+                    phys["c1"], phys["c2"], phys["w0sq"], phys["alpha"], phys["f"], phys["D"],
+                    phys["mu"], phys["r"], phys["alpha1"], phys["khi"], phys["dhi"],
+                    phys["ev"], bridge)
+
+    t0 = time.perf_counter()
+    call(arrays(1, 1, st.seed), np.ones(1, dtype=np.int64), 1)  # compile (or load the cache)
+    compile_s = time.perf_counter() - t0
+    a = arrays(st.blocks, per, st.seed)
+    total = float(st.paths) * (n_max + n_burn)
+    bar = _progress(st.progress)
+    _label(bar, "first passage")
+    if bar is not None:
+        bar.reset(total=total)
+    cause = _growth(system)
+    rate = 5e6 * threads
+    t1 = time.perf_counter()
+    shown = 0.0
+    try:
+        while True:
+            active = int(np.sum(a["phase"] < CROSSED))
+            if active == 0:
+                break
+            budget = int(max(1, min(CHUNK_SECONDS * rate / active, n_max + n_burn)))
+            t = time.perf_counter()
+            call(a, count, budget)
+            spent = time.perf_counter() - t
+            if spent > 0:
+                rate = 0.5 * rate + 0.5 * budget * active / spent
+            if np.any(a["phase"] == DIVERGED):
+                raise _diverged(h, "non-finite position or velocity in the first-passage run",
+                                cause)
+            if np.any(a["phase"] == REFUSED):
+                bad = int(np.sum(a["phase"] == REFUSED))
+                raise StartRejected(
+                    f"start 'stationary': {bad} path(s) ended {st.max_restarts + 1} burn-ins "
+                    f"in a row at or above the threshold {threshold:g}: the threshold lies "
+                    "inside the bulk of the stationary law; give a higher threshold or an "
+                    "amplitude start")
+            if bar is not None:
+                done = _resolved(a, n_max, n_burn)
+                bar.update(max(done - shown, 0.0))
+                shown = max(shown, done)
+    finally:
+        if bar is not None:
+            bar.close()
+    run_s = time.perf_counter() - t1
+    mask = np.arange(per)[None, :] < count[:, None]
+    tm = a["fpt"][mask]
+    censored = (a["phase"] == CENSORED)[mask]
+    s = a["init"][mask]
+    amp = _amplitudes(s[:, 0], s[:, 1], phys)
+    path_steps = float(np.sum(a["steps"][mask])) + float(np.sum(a["tries"][mask])) * n_burn \
+        + (float(st.paths) * n_burn if stationary else 0.0)
+    info: dict[str, Any] = {
+        "solver": "montecarlo", "method": "first_passage", "threshold": float(threshold),
+        "energy_threshold": Ec, "start": start if stationary else float(start),
+        "paths": int(st.paths), "blocks": int(st.blocks), "horizon": float(st.horizon),
+        "dt": h, "seed": {"root": int(st.seed), "scheme": "path p of block b: words 4p..4p+3 "
+                          "of numpy.random.SeedSequence(root, spawn_key=(b,)).generate_state"},
+        "censored": int(censored.sum()), "threads": threads,
+        "seconds": {"compile": compile_s, "run": run_s, "total": compile_s + run_s},
+        "steps": path_steps,
+        "steps_per_second": path_steps / run_s if run_s > 0 else math.nan,
+        "effects": effects(system, noise),
+        "crossing": _crossing_words(bridge is not None),
+        "start_law": _start_words(stationary, a_burn, n_burn * h, st.max_restarts),
+        "status": Status.SIMULATED.record(),
+    }
+    if stationary:
+        info["stationary"] = {"burn_in": n_burn * h, "burn_start": a_burn,
+                              "restarts": int(np.sum(a["tries"][mask])),
+                              "max_restarts": int(st.max_restarts)}
+    data = {"fpt": {"time": tm.astype(np.float64), "censored": censored},
+            "start": {"x": s[:, 0], "v": s[:, 1], "xi": s[:, 2], "A": amp}}
+    return Result(data=data, info=info)
+
+
+def _resolved(a: dict[str, np.ndarray], n_max: int, n_burn: int) -> float:
+    """Path-steps resolved so far (a finished path counts in full): the progress bar."""
+    ph, n = a["phase"], a["steps"]
+    full = float(n_max + n_burn)
+    return float(np.sum(np.where(ph >= CROSSED, full, np.where(ph == RUN, n_burn + n, n))))
+
+
+def _amplitudes(x: np.ndarray, v: np.ndarray, phys: dict[str, Any]) -> np.ndarray:
+    from .geometry import amplitude_general
+
+    return np.array([amplitude_general(xx, vv, phys["w0sq"], phys["alpha"], phys["khi"])
+                     for xx, vv in zip(x, v, strict=True)])
+
+
+def _crossing_words(bridge: bool) -> dict[str, Any]:
+    out = {"method": "linear interpolation of E = v^2/2 + U(x) between the step ends",
+           "order": CROSSING_ORDER,
+           "note": "O(dt^2) on the smooth sub-system with OU noise (E is C^1); the scheme is "
+                   "first order across impacts and stick-slip"}
+    if bridge:
+        out.update(method="linear interpolation, plus the Brownian-bridge crossing "
+                          "probability exp(-2 (Ec - E_n)(Ec - E_n+1) / (2 D f^2 v^2 dt)) for "
+                          "steps that end below Ec (white noise)",
+                   order=1, note="white noise: the bridge removes the O(dt^1/2) bias of "
+                                 "discrete monitoring; the scheme is weak order 1 there")
+    return out
+
+
+def _start_words(stationary: bool, a_burn: float, burn_in: float, max_restarts: int) -> str:
+    if not stationary:
+        return ("energy U(A0), phase uniform in time along the conservative orbit (folded onto "
+                "x >= 0 with the barrier), noise state from its stationary law")
+    return (f"stationary law restricted to A < Ac by rejection: each path starts at amplitude "
+            f"{a_burn:g} (phase uniform in time), runs a burn-in of {burn_in:g} time units "
+            "of the free system and is accepted if then A < Ac, else starts again (at most "
+            f"{max_restarts} times); the clock starts at the accepted state")

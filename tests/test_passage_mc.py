@@ -1,0 +1,193 @@
+"""First passage and starts of the original system's Monte Carlo (montecarlo/passage.py).
+
+Truths: the conservative orbit's time averages by solve_ivp (starts uniform in time); the
+crossing time of a noise-free path by solve_ivp's event location (crossing order); the
+identity of paths between runs that differ only in their horizon, thread count or cut into
+kernel calls (censoring, seeds). Statistical tolerances: |z| < 4 on fixed seeds.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import vifpk.montecarlo.passage as P
+from scipy.integrate import solve_ivp
+from vifpk.montecarlo import PassageSettings, first_passage, sample_starts
+
+from vifpk.core.result import BadInput
+
+from .conftest import vary
+
+
+def settings(**kw) -> PassageSettings:
+    return PassageSettings(**{"paths": 64, "blocks": 4, "dt": 0.01, "horizon": 100.0,
+                              "seed": 7, "progress": False, **kw})
+
+
+# ------------------------------------------------------------------------------ starts
+def orbit_averages(k1: float, k3: float, A: float) -> dict[str, float]:
+    """Time averages over the conservative orbit of amplitude A of x'' = -(k1 x + k3 x^3),
+    by direct integration (solve_ivp, rtol 1e-12) over the quarter period from (A, 0) to
+    x = 0: |x|, x^2, x^4, v^2 (even in the quarter-period symmetry of the orbit)."""
+    def rhs(t, s):
+        x, v = s[0], s[1]
+        return [v, -(k1 * x + k3 * x**3), abs(x), x * x, x**4, v * v]
+
+    def at_zero(t, s):
+        return s[0]
+
+    at_zero.terminal, at_zero.direction = True, -1
+    sol = solve_ivp(rhs, (0, 100), [A, 0, 0, 0, 0, 0], rtol=1e-12, atol=1e-14,
+                    events=at_zero)
+    T4 = sol.t_events[0][0]
+    acc = sol.y_events[0][0][2:] / T4
+    return {"|x|": acc[0], "x2": acc[1], "x4": acc[2], "v2": acc[3]}
+
+
+@pytest.mark.parametrize("barrier", [True, False])
+def test_starts_are_uniform_in_time(base, barrier):
+    """Moments of 200000 starts against the orbit's time averages (solve_ivp) on a strongly
+    hardening spring (alpha A^2 = 11 omega0^2). The uniform-ANGLE law of simulate._starts is
+    20+ standard errors off the same truth for x^2: the test tells the two apart."""
+    k1, k3, A = 1.0, 5.0, 1.5
+    sc = vary(base, omega0=1.0, alpha=k3, barrier=barrier)
+    s = sample_starts(sc.system, sc.noise, amplitude=A, n=200_000, seed=3)
+    x, v = s[:, 0], s[:, 1]
+    truth = orbit_averages(k1, k3, A)
+    E = 0.5 * k1 * A**2 + 0.25 * k3 * A**4
+    np.testing.assert_allclose(0.5 * v**2 + 0.5 * k1 * x**2 + 0.25 * k3 * x**4, E, rtol=1e-12)
+    if barrier:
+        assert x.min() >= 0
+    est = {"|x|": np.abs(x), "x2": x**2, "x4": x**4, "v2": v**2}
+    for key, vals in est.items():
+        z = (vals.mean() - truth[key]) / (vals.std() / math.sqrt(vals.size))
+        assert abs(z) < 4, (key, vals.mean(), truth[key], z)
+    # v changes sign with equal weight, and xi has its stationary law N(0, D / alpha1)
+    assert abs(np.mean(np.sign(v))) < 4 / math.sqrt(v.size)
+    xi = s[:, 2]
+    sd = math.sqrt(sc.noise.D / sc.noise.alpha1)
+    assert abs(xi.std() / sd - 1) < 4 * math.sqrt(0.5 / xi.size)
+    th = np.random.default_rng(1).uniform(0, 2 * math.pi, x.size)
+    angle = (A * np.cos(th)) ** 2
+    assert abs(angle.mean() - truth["x2"]) > 20 * angle.std() / math.sqrt(x.size)
+
+
+# ---------------------------------------------------------------------- first passage
+def test_bad_input_is_one_line(base):
+    cases = [dict(threshold=1.0, start=1.0), dict(threshold=1.0, start=1.5),
+             dict(threshold=-1.0, start=0.5), dict(threshold=1.0, start="equilibrium"),
+             dict(threshold=math.nan, start=0.5)]
+    for kw in cases:
+        with pytest.raises(BadInput) as err:
+            first_passage(base.system, base.noise, settings(), **kw)
+        assert "\n" not in str(err.value)
+    for bad in (dict(dt=0.0), dict(horizon=-1.0), dict(paths=3), dict(blocks=1)):
+        with pytest.raises(BadInput):
+            first_passage(base.system, base.noise, settings(**bad), threshold=1.2, start=1.0)
+    with pytest.raises(BadInput, match="burn_in"):
+        first_passage(base.system, base.noise, settings(), threshold=1.2, start="stationary")
+
+
+def test_same_seed_same_numbers_any_threads_and_cut(base, monkeypatch):
+    """Bit-identical first-passage times on 1 and 2 threads, and when the run is cut into
+    many more kernel calls (a tiny CHUNK_SECONDS: a path's budget per call is then a few
+    steps)."""
+    kw = dict(threshold=1.05, start=1.0)
+    one = first_passage(base.system, base.noise, settings(threads=1), **kw)
+    two = first_passage(base.system, base.noise, settings(threads=2), **kw)
+    monkeypatch.setattr(P, "CHUNK_SECONDS", 1e-6)
+    cut = first_passage(base.system, base.noise, settings(threads=2), **kw)
+    f1 = one.data["fpt"]
+    assert 0 < f1["censored"].sum() < f1["censored"].size  # both kinds of path present
+    for other in (two, cut):
+        np.testing.assert_array_equal(f1["time"], other.data["fpt"]["time"])
+        np.testing.assert_array_equal(f1["censored"], other.data["fpt"]["censored"])
+        np.testing.assert_array_equal(one.data["start"]["x"], other.data["start"]["x"])
+    other = first_passage(base.system, base.noise, settings(threads=1, seed=8), **kw)
+    assert not np.array_equal(f1["time"], other.data["fpt"]["time"])
+
+
+def test_censoring_is_exact(base):
+    """A short horizon cuts the same paths: every path that crossed before it has the very
+    same time as with a long horizon, every other one is censored at exactly the horizon."""
+    kw = dict(threshold=1.08, start=1.0)
+    long = first_passage(base.system, base.noise, settings(horizon=400.0), **kw)
+    short = first_passage(base.system, base.noise, settings(horizon=40.0), **kw)
+    T, C = long.data["fpt"]["time"], long.data["fpt"]["censored"]
+    t, c = short.data["fpt"]["time"], short.data["fpt"]["censored"]
+    inside = ~C & (T <= 40.0)
+    assert 5 < inside.sum() < T.size - 5
+    np.testing.assert_array_equal(t[inside], T[inside])
+    assert not c[inside].any()
+    assert c[~inside].all() and np.all(t[~inside] == 40.0)
+    assert short.info["censored"] == int((~inside).sum())
+    assert np.all(T[C] == 400.0) and np.all(T[~C] <= 400.0) and np.all(T > 0)
+
+
+def test_stationary_start_is_below_threshold(base):
+    """'stationary': every clock starts below Ac, after the burn-in, and info says how."""
+    res = first_passage(base.system, base.noise, settings(horizon=20.0, burn_in=50.0),
+                        threshold=0.6, start="stationary")
+    assert np.all(res.data["start"]["A"] < 0.6)
+    st = res.info["stationary"]
+    assert st["burn_in"] == 50.0 and st["burn_start"] == 0.3 and st["restarts"] >= 0
+    assert "rejection" in res.info["start_law"]
+
+
+@pytest.mark.slow
+def test_crossing_time_second_order_against_solve_ivp(base):
+    """Noise-free van der Pol-Duffing paths (f = 0; no barrier, no friction: the smooth
+    sub-system): the interpolated crossing time against solve_ivp's event location from the
+    same start. The error falls by 4 per halving of dt (CROSSING_ORDER = 2); a crossing at
+    the grid times would fall by 2 only."""
+    sc = vary(base, f=0.0, mu=0.0, barrier=False, c1=0.2, c2=0.2, alpha=0.6)
+    k1, k3, c1, c2 = 1.0, 0.6, 0.2, 0.2
+    Ac = 1.5
+    Ec = 0.5 * k1 * Ac**2 + 0.25 * k3 * Ac**4
+    errs = []
+    for dt in (0.04, 0.02, 0.01):
+        res = first_passage(sc.system, sc.noise, settings(paths=8, blocks=2, dt=dt,
+                                                          horizon=200.0),
+                            threshold=Ac, start=0.5)
+        s = res.data["start"]
+        err = 0.0
+        for i in range(8):
+            def rhs(t, y):
+                return [y[1], -(c2 * y[0] ** 2 - c1) * y[1] - k1 * y[0] - k3 * y[0] ** 3]
+
+            def cross(t, y):
+                return 0.5 * y[1] ** 2 + 0.5 * k1 * y[0] ** 2 + 0.25 * k3 * y[0] ** 4 - Ec
+
+            cross.terminal, cross.direction = True, 1
+            sol = solve_ivp(rhs, (0, 200), [s["x"][i], s["v"][i]], rtol=1e-12, atol=1e-12,
+                            events=cross, method="DOP853")
+            err = max(err, abs(res.data["fpt"]["time"][i] - sol.t_events[0][0]))
+        errs.append(err)
+    orders = np.log2(np.array(errs[:-1]) / np.array(errs[1:]))
+    assert np.all(orders > P.CROSSING_ORDER - 0.3), (errs, orders)
+    assert errs[-1] < 0.05 * 0.01  # a crossing at the grid times errs by up to dt
+
+
+def test_door_turns_failures_into_one_line(base, monkeypatch):
+    """harness.run.passage_montecarlo: scene -> settings -> solver, with the scene's dt and
+    seed; the solver's failures (a blow-up, a stationary start it cannot place) become
+    SolverFailure with the solver's one line; bad input stays BadInput."""
+    import vifpk.montecarlo
+    from vifpk.harness.run import SolverFailure, passage_montecarlo
+
+    res = passage_montecarlo(base, threshold=1.05, start=1.0, horizon=10.0, paths=4,
+                             blocks=2, progress=False)
+    assert res.info["dt"] == base.montecarlo.dt
+    assert res.info["seed"]["root"] == base.montecarlo.seed
+    with pytest.raises(BadInput, match="threshold"):
+        passage_montecarlo(base, threshold=1e90, start=1.0, horizon=10.0, paths=4, blocks=2)
+    for exc in (vifpk.montecarlo.SimulationDiverged("blew up at dt = 0.01"),
+                vifpk.montecarlo.StartRejected("cannot start")):
+        def fail(*a, exc=exc, **k):
+            raise exc
+
+        monkeypatch.setattr(vifpk.montecarlo, "first_passage", fail)
+        with pytest.raises(SolverFailure, match=str(exc)):
+            passage_montecarlo(base, threshold=1.05, start=1.0, horizon=10.0, paths=4)
