@@ -73,12 +73,20 @@ class PaperModel:
         if self.b6 not in B6_COEFFICIENTS:
             raise ValueError(f"b6 must be one of {sorted(B6_COEFFICIENTS)}, not {self.b6!r}")
 
+    @staticmethod
+    def applies(scene: Any) -> str | None:
+        """None for a system in the paper's family (a cubic spring with k1 > 0, damping
+        -c1 + c2 x^2, no velocity damping: System.paper_family_problem), else why not
+        (the averaged-model protocol, vifpk.core.protocols)."""
+        s = scene.system
+        return s.paper_family_problem() if hasattr(s, "paper_family_problem") else None
+
     @classmethod
     def from_scene(cls, scene: Any, *, b6: str = "printed") -> PaperModel:
         if b6 not in B6_COEFFICIENTS:
             raise ValueError(f"b6 must be one of {sorted(B6_COEFFICIENTS)}, not {b6!r}")
         s = scene.system
-        problem = s.paper_family_problem() if hasattr(s, "paper_family_problem") else None
+        problem = cls.applies(scene)
         if problem is not None:
             raise ValueError(f"model 'paper' does not apply: {problem}")
         k, d = s.restoring_law, s.damping_law

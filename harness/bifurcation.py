@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 from scipy.optimize import brentq
 
+from vifpk.core import registry
 from vifpk.core.defaults import BIFURCATION_MODELS
 
 from .run import amplitude_density, montecarlo_solution, orbit_period, restoring_force
@@ -93,8 +94,7 @@ def bifurcation(scene: Any, vary: str, *, lo: float | None = None, hi: float | N
     ``models``: by default BIFURCATION_MODELS, without ``paper`` outside the paper model's
     family (System.paper_family_problem)."""
     if models is None:
-        models = tuple(m for m in BIFURCATION_MODELS
-                       if m != "paper" or scene.system.paper_family_problem() is None)
+        models = registry.applicable(scene, BIFURCATION_MODELS)[0]
     if vary not in VARIABLES:
         raise ValueError(f"--vary must be one of {sorted(VARIABLES)}")
     d_lo, d_hi = VARIABLES[vary][2]

@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from vifpk.core import registry
 from vifpk.core.defaults import CHECK_MODELS, FPK_CELLS
 from vifpk.core.result import WarningRecord
 
@@ -46,13 +47,9 @@ OBSERVABLES = ("A", "x1", "x2")
 def models_of(scene: Any, models: tuple[str, ...] = CHECK_MODELS
               ) -> tuple[tuple[str, ...], dict[str, str]]:
     """Of ``models`` (registered names; default CHECK_MODELS), the ones that apply to the
-    scene's system, and why each other one does not: the paper's model covers only its own
-    family (System.paper_family_problem)."""
-    models = tuple(dict.fromkeys(models))
-    problem = scene.system.paper_family_problem()
-    if problem is None or "paper" not in models:
-        return models, {}
-    return tuple(m for m in models if m != "paper"), {"paper": problem}
+    scene's system, and why each other one does not (each model's own ``applies``:
+    vifpk.core.registry.applicable)."""
+    return registry.applicable(scene, tuple(models))
 
 
 @dataclass(frozen=True)

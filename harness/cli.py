@@ -17,9 +17,9 @@ from vifpk.core import registry
 from vifpk.core.defaults import BIFURCATION_MODELS, BURN_FACTOR, CHECK_MODELS, FPK_CELLS
 from vifpk.core.registry import SOLVERS
 from vifpk.core.result import BadInput
-from vifpk.core.scene import Scene, SceneError, load_scene
+from vifpk.core.scene import Scene, load_scene
 
-from . import validate
+from . import request, validate
 from .run import SolverFailure, cost_limit, run_solver, solution_record
 
 EXIT_BAD_INPUT = 2
@@ -54,39 +54,10 @@ class _Parser(argparse.ArgumentParser):
         self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message}\n")
 
 
-def _parse_override(text: str) -> tuple[str, Any]:
-    key, sep, value = text.partition("=")
-    if not sep or "." not in key:
-        raise SceneError(f"--set {text}: expected section.key=value, e.g. noise.D=0.02")
-    import tomllib
-
-    try:
-        parsed = tomllib.loads(f"v = {value}")["v"]
-    except tomllib.TOMLDecodeError:
-        parsed = value
-    return key.strip(), parsed
-
-
 def concrete_scene(path: str, overrides: Sequence[str]) -> Scene:
-    """Load a scene, apply ``--set`` overrides; a sweep must be pinned to one value."""
-    from dataclasses import replace
-
-    from .provenance import overridden_name
-
-    validate.duplicate_overrides(overrides)
-    scene = load_scene(path)
-    if overrides:
-        scene = scene.with_values(dict(_parse_override(o) for o in overrides))
-        # titled with its overrides, and never written into the base scene's default folder
-        scene = replace(scene, name=overridden_name(scene.name, overrides),
-                        description=f"{scene.description} With --set "
-                                    f"{', '.join(overrides)}.".lstrip())
-    if scene.sweep is not None:
-        sw = scene.sweep
-        vals = ", ".join(f"{v:g}" for v in sw.values)
-        raise SceneError(f"{scene.source}: {sw.path} varies over [{vals}]; choose one value "
-                         f"with --set {sw.path}=VALUE")
-    return scene
+    """Load a scene, apply ``--set`` overrides; a sweep must be pinned to one value
+    (request.concrete)."""
+    return request.concrete(path, overrides)
 
 
 def _mc_summary(info: dict[str, Any]) -> str:
@@ -167,49 +138,28 @@ def _mc_given(args: argparse.Namespace) -> list[str]:
     return [k for k in validate.MC_OPTIONS if getattr(args, k, None) is not None]
 
 
+def _mc_options(args: argparse.Namespace) -> dict[str, Any]:
+    """The Monte Carlo options on the command line, by flag name (None: not given)."""
+    return {k: getattr(args, k, None) for k in validate.MC_OPTIONS}
+
+
 def _checked_scene(args: argparse.Namespace, *, mc: bool) -> Scene:
-    """The concrete scene with the options applied, every check done (validate.py)."""
-    scene = _apply_mc_options(concrete_scene(args.scene, args.set), args)
-    validate.scene_magnitudes(scene)
-    validate.stationary_density(scene)
-    if mc:
-        validate.montecarlo_settings(scene, {k: f"--{k}" for k in _mc_given(args)})
-        if getattr(args, "budget", None) is not None and scene.montecarlo.floor <= 0:
-            raise validate.InputError(f"--budget {args.budget:g}: does not apply without a "
-                                      "target floor (--floor F > 0 or montecarlo.floor): the "
-                                      "budget limits the time spent reaching the floor")
-    return scene
+    """The concrete scene with the options applied, every check done (request.py)."""
+    return request.with_mc_options(concrete_scene(args.scene, args.set), _mc_options(args),
+                                   mc=mc)
 
 
 def cmd_solve(args: argparse.Namespace) -> int:
     from .io import write_json
 
-    if args.solver == "montecarlo":
-        validate.refuse_options([k for k in ("grid", "model") if getattr(args, k) is not None],
-                                "to --solver montecarlo (it simulates the original system)")
-    else:
-        validate.refuse_options(_mc_given(args) + (["allow_unequilibrated"] if
-                                                   args.allow_unequilibrated else []),
-                                f"to --solver {args.solver} (Monte Carlo options apply to "
-                                "--solver montecarlo)")
-        if args.solver == "averaging" and args.grid is not None:
-            validate.refuse_options(["grid"], "to --solver averaging (its grid is "
-                                    "averaging.points; --grid sets the FPK's cells)")
     if args.joint and not args.json:
         validate.refuse_options(["joint"], "without --json (the summary has no joint density)")
-    if args.grid is not None and args.grid < 4:
-        raise validate.InputError(f"--grid {args.grid}: out of range; allowed: a whole number "
-                                  ">= 4 (cells of the FPK)")
     validate.output_file(args.json, "--json")
-    scene = _checked_scene(args, mc=args.solver == "montecarlo")
-    # default: the paper's model for the paper's family, else the exact model
-    outside = scene.system.paper_family_problem()
-    model = args.model or ("paper" if outside is None else "exact")
-    if args.solver != "montecarlo" and model == "paper" and outside is not None:
-        raise validate.InputError(f"--model paper: {outside}; allowed here: --model exact "
-                                  "or --model corrected")
-    if args.solver == "montecarlo" and args.joint and not scene.observables.joint:
-        scene = scene.with_values({"observables.joint": True})
+    req = request.prepare_solve(args.scene, solver=args.solver, model=args.model,
+                                grid=args.grid, joint=args.joint, overrides=args.set,
+                                allow_unequilibrated=args.allow_unequilibrated,
+                                **_mc_options(args))
+    scene, model = req.scene, req.model
     validate.refuse_costly(lambda sp: validate.solve_seconds(scene, args.solver, model,
                                                              args.grid, speed=sp),
                            "this solve", args.yes)
@@ -270,26 +220,8 @@ def _finite_or_fail(result: Any, scene: Scene) -> None:
 
 def _mc_overrides(args: argparse.Namespace) -> dict[str, Any]:
     """{"montecarlo.<key>": value} for the --paths, --dt, --time, --seed, --floor, --budget
-    given, each checked against its field's range (SceneError naming the option)."""
-    from vifpk.core.scene import check_value
-
-    given = {k: getattr(args, k) for k in ("paths", "dt", "time", "seed", "floor", "budget")
-             if getattr(args, k, None) is not None}
-    return {f"montecarlo.{k}": check_value(f"--{k}", "montecarlo", k, v)
-            for k, v in given.items()}
-
-
-def _apply_mc_options(scene: Scene, args: argparse.Namespace) -> Scene:
-    from .run import file_sets, follow_floor
-
-    mc = _mc_overrides(args)
-    scene = scene.with_values(mc) if mc else scene
-    pinned = ("dt" in mc or "montecarlo.dt" in mc
-              or any(_parse_override(o)[0] == "montecarlo.dt" for o in args.set or ())
-              or file_sets(args.scene, "montecarlo", "dt"))
-    return follow_floor(scene, pinned=pinned)
-
-
+    given, each checked against its field's range (request.mc_values)."""
+    return request.mc_values(_mc_options(args))
 
 
 def cmd_check(args: argparse.Namespace) -> int:
@@ -299,14 +231,12 @@ def cmd_check(args: argparse.Namespace) -> int:
     from .report import REPORT_FILES, write_report
 
     validate.output_folder(args.out, "--out", replaced=True)
-    scene = _checked_scene(args, mc=True)
-    if scene.system.f == 0.0:
-        raise SolverFailure("f = 0: there is no noise, so no stationary density exists; "
-                            "nothing to cross-check")
+    req = request.prepare_check(args.scene, models=args.model, overrides=args.set,
+                                **_mc_options(args))
+    scene, models = req.scene, req.models
     out = args.out or f"out/{folder_name(scene.name)}"
     if args.out is None:
         validate.output_folder(out, "--out (default)", replaced=True)
-    models = tuple(dict.fromkeys(args.model)) if args.model else CHECK_MODELS
     validate.refuse_costly(lambda sp: validate.check_seconds(scene, models, speed=sp),
                            "this check", args.yes)
     validate.refuse_oversized(scene)

@@ -298,35 +298,6 @@ def averaged_sde_solution(scene: Any, model: Any, *, edges: dict[str, Any], seed
                         phase=extra, observe=observe)
 
 
-def file_sets(path: str, section: str, key: str) -> bool:
-    """Whether the scene file (a path or a shipped name) sets ``[section] key`` itself."""
-    from pathlib import Path
-
-    from vifpk.core.scene import SceneError, find_scene, read_toml
-
-    p = Path(path)
-    found: Any = p if p.is_file() else find_scene(path)
-    if found is None:
-        return False
-    try:
-        raw = read_toml(found)[1]
-    except SceneError:
-        return False
-    table = raw.get(section)
-    return isinstance(table, dict) and key in table
-
-
-def follow_floor(scene: Any, *, pinned: bool) -> Any:
-    """The time step follows the floor: when a target floor is asked for (montecarlo.floor >
-    0) and no step was given (``--dt``, ``--set montecarlo.dt=``, the scene file's
-    [montecarlo] dt), dt is "auto" (tuning.auto_dt: the largest step whose predicted bias is
-    half the floor) instead of the fixed default 0.01, which is 4x finer than a floor of 0.01
-    needs. ``pinned``: a step was given; it is kept."""
-    if pinned or not scene.montecarlo.floor or scene.montecarlo.dt == "auto":
-        return scene
-    return scene.with_values({"montecarlo.dt": "auto"})
-
-
 def montecarlo_plan(scene: Any) -> Any:
     """What the Monte Carlo would do with the scene's settings, before running it
     (``montecarlo.plan``: the time step, the sampling interval, the sampled time, the nearest

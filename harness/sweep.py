@@ -59,6 +59,8 @@ from vifpk.core.defaults import BIFURCATION_MODELS, CHECK_MODELS
 from vifpk.core.result import BadInput
 from vifpk.core.scene import INDEXED, MAX_TERMS, SECTIONS, Scene, SceneError, load_scene
 
+from .request import dt_follows_floor
+
 WORKFLOWS = ("check", "averaging", "bifurcation")
 MODES = ("product", "zip", "adaptive")
 TOP_KEYS = ("scene", "workflow", "mode", "seed", "name", "description", "vary", "set",
@@ -247,22 +249,6 @@ def _values(where: str, spec: Any) -> tuple[float, ...]:
     return vals
 
 
-def _base_sets_dt(name: str, sweep_path: Any) -> bool:
-    """Whether the base scene's file (found as _resolve_scene finds it) sets montecarlo.dt."""
-    from vifpk.core.scene import shipped_name
-
-    from .run import file_sets
-
-    if isinstance(sweep_path, Path):
-        if not shipped_name(name):
-            return file_sets(str(sweep_path.parent / Path(name).expanduser()), "montecarlo",
-                             "dt")
-        beside = sweep_path.parent / f"{name}.toml"
-        if beside.is_file():
-            return file_sets(str(beside), "montecarlo", "dt")
-    return file_sets(name, "montecarlo", "dt")
-
-
 def _resolve_scene(name: Any, sweep_path: Any) -> Scene:
     """The sweep's base scene: a path (relative to the sweep file) must exist; a bare name
     is a scene file ``NAME.toml`` beside the sweep file, else the shipped scene of that name."""
@@ -416,12 +402,13 @@ def load_sweep(path: str | Path) -> Sweep:
     if mode == "zip" and len({canonical(c) for c in combos}) != len(combos):
         raise SweepError(f"{src}: [vary]: two zipped points have the same values")
     fixed = dict(fixed_raw)
-    # the time step follows the floor (harness.run.follow_floor) unless the sweep or the
+    # the time step follows the floor (request.dt_follows_floor) unless the sweep or the
     # base scene file gives one
     floor = fixed.get("montecarlo.floor", base.montecarlo.floor)
-    pinned = "montecarlo.dt" in fixed or "montecarlo.dt" in vary_raw or _base_sets_dt(
-        raw["scene"], p)
-    if workflow != "averaging" and floor and not pinned:
+    given = base.given | set(fixed) | set(vary_raw)
+    if workflow != "averaging" and dt_follows_floor(given, floor,
+                                                     fixed.get("montecarlo.dt",
+                                                               base.montecarlo.dt)):
         fixed["montecarlo.dt"] = "auto"
     points = [make_point(base, fixed, seed=seed, workflow=workflow, bifurcation=bif,
                          params=params, first=i == 0, where=src, models=models)

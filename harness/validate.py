@@ -39,6 +39,7 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from vifpk.core import registry
 from vifpk.core.defaults import CHECK_MODELS, FPK_CELLS
 from vifpk.core.result import BadInput
 from vifpk.core.scene import SECTIONS, Scene
@@ -685,9 +686,8 @@ def check_seconds(scene: Scene, models: tuple[str, ...] = CHECK_MODELS, *,
                   speed: float | None = None) -> float:
     """Lower bound of ``vifpk check``: the Monte Carlo of the original system, the closed
     forms and FPKs of the models that apply (the averaged SDEs are not counted): the
-    paper's model is left out of a scene outside its family (it is not run there)."""
-    if scene.system.paper_family_problem() is not None:
-        models = tuple(m for m in models if m != "paper")
+    models that do not apply to the scene are left out (they are not run there)."""
+    models = registry.applicable(scene, models)[0]
     return (montecarlo_seconds(scene, speed=speed)
             + sum(averaging_seconds(scene, m) for m in models)
             + len(models) * fpk_seconds(FPK_CELLS))

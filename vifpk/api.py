@@ -10,45 +10,82 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from vifpk.core.defaults import CHECK_MODELS
 from vifpk.core.scene import Scene, load_scene
 
 
 def scene(source: Scene | str | Path, **values: Any) -> Scene:
     """A scene from a Scene, a file or a shipped scene's name, with ``values`` set by their
     dotted names (``scene("paper-base", **{"noise.D": 0.02})``); validated like a file."""
+    if not isinstance(source, Scene | str | Path):
+        from vifpk.harness.validate import InputError
+
+        raise InputError(f"scene {source!r}: not a scene; give a Scene, a scene file's path or "
+                         "the name of a shipped scene")
     sc = source if isinstance(source, Scene) else load_scene(source)
     return sc.with_values(values) if values else sc
 
 
-def solve(source: Scene | str | Path, solver: str = "averaging", *, model: Any = "paper",
-          grid: int | None = None, **options: Any) -> Any:
+def solve(source: Scene | str | Path, solver: str = "averaging", *, model: str | None = None,
+          grid: int | None = None, joint: bool = False, progress: bool = False,
+          **options: Any) -> Any:
     """One solver on one scene (``vifpk solve``): ``Result(data, info)``.
 
     ``solver``: "averaging" (the model's closed form, or the FPK direct solve of a model with
     none), "fpk" (``grid`` cells) or "montecarlo" (the original system; ``model`` and
-    ``grid`` do not apply). ``model``: a registered name (:func:`model_names`) or an object
-    with the averaged-model protocol (docs/testing.md)."""
+    ``grid`` do not apply). ``model``: a registered name (:func:`model_names`; default: the
+    first of the check models that applies, ``paper`` in the paper's family, else ``exact``).
+    ``options``: the Monte Carlo options by the names of the command's flags (``paths``,
+    ``dt``, ``time``, ``seed``, ``floor``, ``budget``; montecarlo only) and ``set``, a list of
+    ``"section.key=value"`` overrides. Input is checked as the command line checks it, with
+    the same one-line messages (:class:`~vifpk.core.result.BadInput`), before any work; no
+    cost guard."""
+    from vifpk.harness.request import prepare_solve
     from vifpk.harness.run import run_solver
 
-    sc = scene(source)
+    overrides = _overrides(options)
+    req = prepare_solve(source, solver=solver, model=model, grid=grid, joint=joint,
+                        overrides=overrides, **options)
     if solver == "montecarlo":
-        return run_solver(sc, "montecarlo", progress=options.pop("progress", False), **options)
-    return run_solver(sc, solver, model=model, grid=grid, **options)
+        from vifpk.harness import validate
+
+        validate.refuse_oversized(req.scene)  # memory is a hard limit; time is the caller's
+        return run_solver(req.scene, "montecarlo", progress=progress)
+    return run_solver(req.scene, solver, model=req.model, grid=req.grid)
 
 
-def check(source: Scene | str | Path, *, models: tuple[str, ...] = CHECK_MODELS,
-          out: str | Path | None = None, quiet: bool = True) -> Any:
+def check(source: Scene | str | Path, *, models: tuple[str, ...] | None = None,
+          out: str | Path | None = None, quiet: bool = True, **options: Any) -> Any:
     """The cross-check (``vifpk check``): a ``CheckResult`` with ``metrics``, ``verdicts``,
-    ``warnings``; with ``out``, the report folder is written there as well."""
+    ``warnings``; with ``out``, the report folder is written there as well (checked before
+    any work, as ``--out`` is). ``models``: registered names (default: the check models that
+    apply to the scene; a named model that does not apply is refused). ``options``: the Monte
+    Carlo options by flag name and ``set``, as for :func:`solve`."""
+    from vifpk.harness import validate
     from vifpk.harness.check import cross_check
+    from vifpk.harness.request import prepare_check
 
-    res = cross_check(scene(source), quiet=quiet, models=tuple(models))
+    if out is not None:
+        if not isinstance(out, str | Path):
+            raise validate.InputError(f"out {out!r}: not a folder path")
+        validate.output_folder(str(out), "out", replaced=True)
+    req = prepare_check(source, models=models, overrides=_overrides(options), **options)
+    validate.refuse_oversized(req.scene)  # memory is a hard limit; time is the caller's
+    res = cross_check(req.scene, quiet=quiet, models=req.models)
     if out is not None:
         from vifpk.harness.report import write_report
 
         write_report(res, out)
     return res
+
+
+def _overrides(options: dict[str, Any]) -> tuple[str, ...]:
+    """``set=[...]`` taken out of ``options``: "section.key=value" texts, as ``--set``."""
+    from vifpk.harness import validate
+
+    given = options.pop("set", ())
+    if isinstance(given, str) or not all(isinstance(o, str) for o in given):
+        raise validate.InputError(f"set {given!r}: give a list of 'section.key=value' texts")
+    return tuple(given)
 
 
 def sweep(path: str | Path, out: str | Path, *, executor: str = "serial",

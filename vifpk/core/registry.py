@@ -152,6 +152,42 @@ def build_model(scene: Any, name: str, **options: Any) -> Any:
     return factory(scene, **options)
 
 
+def applicability_of(factory: Any) -> Callable[[Any], str | None] | None:
+    """The ``applies(scene)`` a factory offers (vifpk.core.protocols): its own, or that of the
+    class whose bound ``from_scene`` it is; None when it offers none (it applies everywhere)."""
+    for owner in (factory, getattr(factory, "__self__", None)):
+        fn = getattr(owner, "applies", None)
+        if callable(fn):
+            return fn
+    return None
+
+
+def model_applies(name: str, scene: Any) -> str | None:
+    """None when the registered model ``name`` applies to ``scene``, else its one-line reason
+    (the model's own ``applies``; vifpk.core.protocols)."""
+    entry = model_entry(name)
+    try:
+        factory = entry.load()
+    except (ImportError, AttributeError):
+        return None  # build_model names the broken entry point when the model is built
+    fn = applicability_of(factory)
+    return fn(scene) if fn is not None else None
+
+
+def applicable(scene: Any, names: tuple[str, ...]) -> tuple[tuple[str, ...], dict[str, str]]:
+    """(the models of ``names`` that apply to ``scene``, in order and once each; why each other
+    one does not) -- every workflow's one rule (model_applies)."""
+    kept: list[str] = []
+    refused: dict[str, str] = {}
+    for name in dict.fromkeys(names):
+        why = model_applies(name, scene)
+        if why is None:
+            kept.append(name)
+        else:
+            refused[name] = why
+    return tuple(kept), refused
+
+
 def refresh() -> None:
     """Forget the registry read so far (after installing a plugin in a running process)."""
     _entries.cache_clear()

@@ -456,6 +456,9 @@ class Scene:
     observables: Observables = field(default_factory=Observables)
     sweep: Sweep | None = None
     source: str = ""
+    #: "section.key" of every value the scene was given (its file, with_values, --set), as
+    #: opposed to a default: e.g. whether a time step was asked for (harness.request)
+    given: frozenset[str] = field(default=frozenset(), compare=False)
 
     # ---------------------------------------------------------------- sweeps
     def variants(self) -> list[Scene]:
@@ -483,7 +486,8 @@ class Scene:
                 raw.setdefault(section, {})[key] = value
         if self.sweep is not None and self.sweep.path not in values:
             raw[self.sweep.section][self.sweep.key] = list(self.sweep.values)
-        return scene_from_dict(raw, source=self.source or "<overrides>")
+        new = scene_from_dict(raw, source=self.source or "<overrides>")
+        return replace(new, given=self.given | {_field_of(p) for p in values})
 
     def to_dict(self) -> dict[str, Any]:
         """Plain, JSON-ready dictionary (the ``scene`` entry of the solution JSON)."""
@@ -499,6 +503,14 @@ class Scene:
 
 # --------------------------------------------------------------------------------------------
 INDEXED = re.compile(r"(\w+)\[(\d+)\]")
+
+
+def _field_of(path: str) -> str:
+    """"section.key" of a dotted path, without a law index ("system.restoring[2]" ->
+    "system.restoring")."""
+    section, _, key = path.partition(".")
+    m = INDEXED.fullmatch(key)
+    return f"{section}.{m.group(1) if m else key}"
 
 
 def _set_system(raw: dict[str, Any], path: str, key: str, value: Any) -> None:
@@ -627,7 +639,10 @@ def scene_from_dict(raw: Mapping[str, Any], *, source: str = "<dict>") -> Scene:
         if cls is System:
             _check_laws(f"{source}: system", table, kwargs)
         parts[sec] = cls(**kwargs)
-    return Scene(name=name, description=description, sweep=sweep, source=source, **parts)
+    given = frozenset(f"{sec}.{key}" for sec in SECTIONS
+                      if isinstance(raw.get(sec), Mapping) for key in raw[sec])
+    return Scene(name=name, description=description, sweep=sweep, source=source, given=given,
+                 **parts)
 
 
 def _check_laws(where: str, table: Mapping[str, Any], kwargs: Mapping[str, Any]) -> None:

@@ -1,0 +1,41 @@
+"""The typed protocols extensions follow (docs/plugins.md), with their version.
+
+An averaged model is what a factory registered in the ``vifpk.models`` entry-point group
+returns (vifpk.core.registry): ``factory(scene, **options) -> model``. What vifpk reads of it:
+
+- ``drift(A)``, ``diffusion(A)``: the averaged amplitude SDE dA = m(A) dt + sigma(A) dW, arrays
+  in, arrays out (required);
+- ``period(A)`` (optional): the orbit's period, for the mapping of p(A) to phase space;
+- ``log_stationary_parts(A)`` (optional): a closed form of the stationary density
+  (averaging/stationary.py); without it p(A) comes from the FPK direct solve.
+
+Which scenes a model covers is the factory's to say, before anything is built: a factory (or
+the class whose ``from_scene`` it is) may define ``applies(scene) -> None | str`` -- None when
+the model applies, else one line saying why not. vifpk asks it through
+:func:`vifpk.core.registry.model_applies`; a model without it applies everywhere. Nothing in
+vifpk tests a model's *name* to decide where it applies.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Protocol, runtime_checkable
+
+#: Bumped when a required member is added or a signature changes (docs/plugins.md lists what
+#: each version reads); optional members may be added without a bump.
+PROTOCOL_VERSION = 1
+
+
+@runtime_checkable
+class AveragedModel(Protocol):
+    """The required part of an averaged model (module docstring)."""
+
+    def drift(self, A: Any) -> Any: ...
+
+    def diffusion(self, A: Any) -> Any: ...
+
+
+@runtime_checkable
+class Applicability(Protocol):
+    """A factory, or the class behind it, that says where its model applies."""
+
+    def applies(self, scene: Any) -> str | None: ...
