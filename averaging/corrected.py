@@ -123,6 +123,10 @@ def q_frame_density(model: CompoundedModel, A: Array, *, nodes: int = 8) -> Arra
 WALL_TABLE_A = (1e-3, 10.0)  # amplitudes of the delta(E) table (log-spaced; clamped beyond)
 WALL_TABLE_POINTS = 48
 WALL_FLIGHT_STEPS = 120  # RK4 steps per flight (error ~ (pi / steps)^4 ~ 5e-8 relative)
+# the trapezoid rule must resolve the OU covariance's cusp e^{-alpha1 |s|}: alpha1 h <= 0.1
+# (relative error ~ (alpha1 h)^2 / 12 ~ 1e-3 of the cusp's part); at 120 steps a wide band
+# (alpha1 tau >~ 20) gave delta of the wrong sign and a blown-up corrected model
+WALL_STEPS_PER_CORRELATION_TIME = 10
 
 
 def _flight(E: Array, k: tuple[float, ...], tau: Array, n: int) -> tuple[Array, Array]:
@@ -172,9 +176,22 @@ def wall_offset(omega0: float, alpha: float, f: float, D: float, alpha1: float, 
     """
     A = np.atleast_1d(np.asarray(A, dtype=float))
     k = tuple(restoring) if restoring is not None else (omega0**2, alpha)  # issue 21: any spring
-    n = steps
     E = potential_k(A, k)
     tau = 0.5 * period_k(A, k)
+    # enough steps to resolve the covariance's cusp (WALL_STEPS_PER_CORRELATION_TIME per
+    # 1/alpha1): amplitudes that need more than ``steps`` are done one by one (the kernel is
+    # (n + 1)^2 numbers an amplitude)
+    need = np.ceil(WALL_STEPS_PER_CORRELATION_TIME * alpha1 * tau).astype(int)
+    if np.any(need > steps):
+        return np.array([_wall_offset_flight(f, D, alpha1, E[i:i + 1], tau[i:i + 1], k,
+                                             max(steps, int(need[i])))[0]
+                         for i in range(A.size)])
+    return _wall_offset_flight(f, D, alpha1, E, tau, k, steps)
+
+
+def _wall_offset_flight(f: float, D: float, alpha1: float, E: Array, tau: Array,
+                        k: tuple[float, ...], n: int) -> Array:
+    """wall_offset for energies E with flights tau, n RK4 / trapezoid steps each."""
     Y, h = _flight(E, k, tau, n)
     t = np.arange(n + 1)[None, :] * h[:, None]
     xd = Y[:, :, 1]
@@ -189,7 +206,7 @@ def wall_offset(omega0: float, alpha: float, f: float, D: float, alpha1: float, 
     inner = (K.sum(axis=2) - 0.5 * K[:, :, 0] - 0.5 * np.einsum("nii->ni", K)) * h[:, None]
     inner[:, 0] = 0.0
     f2 = f**2
-    EW = f2 * np.concatenate([np.zeros((A.size, 1)), np.cumsum(
+    EW = f2 * np.concatenate([np.zeros((E.size, 1)), np.cumsum(
         0.5 * (inner[:, 1:] + inner[:, :-1]), axis=1) * h[:, None]], axis=1)
     part = np.einsum("nij,nj,j->ni", R, phi_x_end, w) * h[:, None]
     cross = -(f2 / xd[:, -1]) * np.einsum("ni,ni,i->n", part, xd, w) * h
