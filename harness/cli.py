@@ -20,7 +20,7 @@ from vifpk.core.result import BadInput
 from vifpk.core.scene import Scene, load_scene
 
 from . import request, validate
-from .run import SolverFailure, cost_limit, run_solver, solution_record
+from .run import SolverFailure, run_solver, solution_record
 
 EXIT_BAD_INPUT = 2
 EXIT_SOLVER = 3
@@ -167,7 +167,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
         validate.refuse_oversized(scene)
     if args.solver == "montecarlo":
         # priced again once the relaxation pilot has measured an automatic burn-in
-        with cost_limit(validate.run_cost_limit(scene, args.yes)):
+        with validate.guarded_run(scene, args.yes):
             result = run_solver(scene, "montecarlo")
     else:
         result = run_solver(scene, args.solver, model=model, grid=args.grid)
@@ -243,7 +243,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     prov = _provenance(args)
     # hold the folder from the start: a second run into it is refused before any work
     with outdir.hold(out, run_id=prov["run_id"], allowed=REPORT_FILES, kind="check report"):
-        with cost_limit(validate.run_cost_limit(scene, args.yes)):
+        with validate.guarded_run(scene, args.yes):
             result = cross_check(scene, quiet=args.quiet, models=models)
         files = write_report(result, out, prov=prov)
     for v in result.verdicts:

@@ -17,7 +17,7 @@ import numpy as np
 
 from vifpk.core.defaults import FPK_CELLS, REFERENCE_CELLS
 from vifpk.core.registry import SOLVERS, one_of
-from vifpk.core.result import CostRefused, Result
+from vifpk.core.result import Result
 
 
 class SolverFailure(RuntimeError):
@@ -256,12 +256,6 @@ def montecarlo_solution(scene: Any, *, progress: bool = True, **edges: Any) -> R
         res = montecarlo.simulate(scene.system, scene.noise, settings)
     except (montecarlo.SimulationDiverged, montecarlo.BudgetExhausted) as exc:
         raise SolverFailure(str(exc)) from None
-    except CostRefused as exc:
-        if limit is None:
-            raise
-        from .validate import priced_burn_in
-
-        raise CostRefused(priced_burn_in(exc.numbers, *limit), **exc.numbers) from None
     info = dict(res.info)
     mom = info.get("moments", {}).get("A", {}).get("mean")
     if mom is not None:

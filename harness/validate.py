@@ -35,7 +35,8 @@ from __future__ import annotations
 import math
 import os
 import tempfile
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -53,7 +54,8 @@ REL = 1e-9  # relative slack of "a whole number" tests (far above rounding, far 
 # (solve on the base scene, this machine, 2026-11-23: FPK 2.6 / 2.9 / 4.1 / 5.6 s at 400 / 800
 # / 1600 / 3200 cells; closed forms at 3201 points: paper 0.11 s, exact 2.6 s with 64 nodes x 24
 # harmonics); each rate below is faster than measured, so the estimate is a lower bound
-MC_STEPS_PER_CORE = 60e6  # docs/montecarlo.md "Speed": 46-54 M steps/s per core
+MC_STEPS_PER_CORE = 150e6  # faster than every kernel measured: benchmarks/results/kernel_bound.json
+#   (paper-base 68.7, no friction 106.7, smooth OU 123.6 M path-steps/s a core; 60e6 was below)
 FPK_SECONDS_PER_CELL = 5e-4  # measured 1.7e-3 s per cell at 3200 cells
 AVG_SECONDS_PER_POINT = 1e-5  # paper model, measured 3.5e-5 s per point
 AVG_SECONDS_PER_NODE = 2e-7  # exact model, per point x theta node x harmonic, measured 5.2e-7
@@ -552,6 +554,25 @@ def run_cost_limit(scene: Scene, yes: bool) -> tuple[float, float] | None:
     cores = mc.threads or min(numba_threads_available(), os.cpu_count() or 1)
     speed = min(cached_speed() or MC_STEPS_PER_CORE, MC_STEPS_PER_CORE)
     return HOUR, speed * cores
+
+
+@contextmanager
+def guarded_run(scene: Scene, yes: bool) -> Iterator[None]:
+    """The run inside is priced again once its relaxation pilot has measured an automatic
+    burn-in (run_cost_limit, handed to the door as run.cost_limit); a refusal then is worded
+    here (priced_burn_in), where the rest of the guard's words are."""
+    from vifpk.core.result import CostRefused
+
+    from .run import cost_limit
+
+    limit = run_cost_limit(scene, yes)
+    with cost_limit(limit):
+        try:
+            yield
+        except CostRefused as exc:
+            if limit is None:
+                raise
+            raise CostRefused(priced_burn_in(exc.numbers, *limit), **exc.numbers) from None
 
 
 def priced_burn_in(numbers: Mapping[str, float], seconds: float, rate: float) -> str:

@@ -215,3 +215,13 @@ def test_architecture_names_every_module_and_no_other(room: str):
         {"__init__.py"} if room == "vifpk" else set())
     assert named == actual, (f"docs/architecture.md, room {room}/: missing "
                              f"{sorted(actual - named)}, not existing {sorted(named - actual)}")
+
+
+def test_the_door_imports_no_harness_module():
+    """harness/run.py, the door to the solvers, is called by every workflow and calls none of
+    them: of ours it imports the solvers and vifpk.core only (issue 27: run.py and validate.py
+    imported each other; the cost guard's words now wrap the door from validate.py)."""
+    tree = ast.parse((ROOT / DOOR).read_text(encoding="utf-8"))
+    relative = [n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and n.level]
+    assert not relative, relative
+    assert not {m for m in imported_modules(ROOT / DOOR) if m.startswith("vifpk.harness")}
