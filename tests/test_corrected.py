@@ -151,14 +151,6 @@ def test_observation_map_is_a_markov_kernel_adding_the_fast_variance():
     np.testing.assert_allclose(var.sum(axis=0), V, rtol=2e-2)  # cell width in E ~ 1e-3 sd
 
 
-def test_corrected_terms_vanish_for_white_noise():
-    """White noise: no correlation, so no wall offset and no fast fluctuation (V = sigma^2 /
-    2 alpha1 -> 0): corrected is compounded."""
-    scene = BASE.with_values({"noise.kind": "white"})
-    a, b = (averaging.solve(scene, model=m) for m in ("compounded", "corrected"))
-    np.testing.assert_allclose(b.data["A"]["p"], a.data["A"]["p"], rtol=1e-12, atol=1e-12)
-
-
 @pytest.mark.slow
 def test_fpk_of_corrected_is_observed_alike():
     """With the observation map on, the FPK goes through the same map: its p(A) matches the

@@ -27,11 +27,21 @@ PLUGIN = ROOT / "docs" / "examples" / "plugin"
 
 
 def test_builtin_models_are_the_pyproject_entry_points_in_order():
+    """The registry (which reads pyproject.toml in a source checkout) against the installed
+    distribution's metadata, an independent reader of the same declaration (an install made
+    from this pyproject: CI's editable install, the wheel tests' wheel)."""
+    from importlib import metadata
+
     table = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["entry-points"]
     declared = tuple(table[registry.MODEL_GROUP])
+    installed = {ep.name: ep.value for ep in metadata.entry_points(group=registry.MODEL_GROUP)
+                 if ep.dist is not None and ep.dist.metadata["Name"] == registry.DISTRIBUTION}
+    assert installed == dict(table[registry.MODEL_GROUP])
     assert registry.model_names()[:len(declared)] == declared
     assert {"paper", "exact", "corrected"} <= set(declared)
     assert all(registry.model_entry(n).builtin for n in declared)
+    for name in declared:  # each entry point loads to a factory that builds a model
+        assert callable(registry.model_entry(name).load())
 
 
 def test_check_and_bifurcation_defaults_are_registered_models():
