@@ -17,7 +17,7 @@ import numpy as np
 
 from vifpk.core.defaults import FPK_CELLS, REFERENCE_CELLS
 from vifpk.core.registry import SOLVERS, one_of
-from vifpk.core.result import Result
+from vifpk.core.result import BadInput, Result
 
 
 class SolverFailure(RuntimeError):
@@ -358,3 +358,104 @@ def passage_montecarlo(scene: Any, *, threshold: float, start: float | str, hori
                                         start=start)
     except (montecarlo.SimulationDiverged, montecarlo.StartRejected) as exc:
         raise SolverFailure(str(exc)) from None
+
+
+def _start_amplitudes(start: Any, paths: int, seed: int) -> Any:
+    """An amplitude, or an array of start amplitudes used as an empirical law: as is when it
+    has ``paths`` entries, else resampled with replacement (SeedSequence(seed, spawn_key=
+    (2**25,)): the same draw for a seed)."""
+    if isinstance(start, str):
+        raise BadInput(f"the averaged SDE takes a start amplitude or an array of them, not "
+                       f"{start!r}: for 'stationary' pass the original system's "
+                       "data['start']['A'] from passage_montecarlo")
+    a = np.asarray(start, dtype=float)
+    if a.ndim == 0 or a.size == paths:
+        return float(a) if a.ndim == 0 else a
+    gen = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(1 << 25,)))
+    return gen.choice(a.ravel(), size=paths, replace=True)
+
+
+def _sde_run(scene: Any, model: Any, top: float, dt: float | None, blocks: int | None,
+             seed: int | None) -> tuple[Any, float, int, int, dict[str, Any]]:
+    """(model, dt, blocks, seed, info): unset dt is the SDE's own rule (tau / STEPS_PER_TAU,
+    montecarlo.sde_time.auto_dt, tau on [0, top]: wide, or a wall there shortens tau; the
+    scene's dt when tau is not finite)."""
+    from vifpk.montecarlo.sde_time import auto_dt
+
+    m = averaged_model(scene, model)
+    mc = scene.montecarlo
+    extra: dict[str, Any] = {"model": model_label(model), "dt_mode": "fixed"}
+    if dt is None:
+        fallback = mc.dt if mc.dt != "auto" else 0.01
+        dt, tau = auto_dt(m.drift, m.diffusion, top, fallback)
+        extra.update(dt_mode="auto", relaxation_time=tau)
+    return m, float(dt), blocks or mc.blocks, mc.seed if seed is None else seed, extra
+
+
+def passage_sde(scene: Any, model: Any, *, threshold: float, start: Any, horizon: float,
+                paths: int, dt: float | None = None, blocks: int | None = None,
+                seed: int | None = None) -> Result:
+    """First passage of the averaged SDE of ``model`` (a name or a model object) through
+    A = threshold (``montecarlo.sde_time.sde_first_passage``). ``start``: an amplitude, or
+    start amplitudes (e.g. the original system's data["start"]["A"] for 'stationary')."""
+    from vifpk.montecarlo.sde_time import sde_first_passage
+
+    from vifpk import montecarlo
+
+    m, dt, blocks, seed, extra = _sde_run(scene, model, 4.0 * threshold, dt, blocks, seed)
+    try:
+        res = sde_first_passage(m.drift, m.diffusion, threshold=threshold,
+                                start=_start_amplitudes(start, paths, seed), paths=paths,
+                                blocks=blocks, dt=dt, horizon=horizon, seed=seed)
+    except montecarlo.SimulationDiverged as exc:
+        raise SolverFailure(str(exc)) from None
+    except ValueError as exc:  # coefficients not finite on the table
+        if isinstance(exc, BadInput):
+            raise
+        raise SolverFailure(f"averaged SDE of {model_label(model)}: {exc}") from None
+    res.info.update(extra)
+    return res
+
+
+def transient_montecarlo(scene: Any, *, start: float, times: Any, edges: dict[str, Any],
+                         paths: int, dt: float | None = None, blocks: int | None = None,
+                         seed: int | None = None, threads: int | None = None,
+                         progress: bool = True) -> Result:
+    """Histograms of A, x1, x2 of the original system at ``times`` from amplitude ``start``
+    (``montecarlo.transient.snapshots``); edges: edges_A, edges_x, edges_v."""
+    from vifpk.montecarlo.transient import snapshots
+
+    from vifpk import montecarlo
+
+    t_end = float(np.max(times)) if np.size(times) else 1.0
+    st = _passage_settings(scene, paths=paths, horizon=max(t_end, 1e-300), dt=dt,
+                           blocks=blocks, seed=seed, threads=threads, progress=progress)
+    try:
+        return snapshots(scene.system, scene.noise, st, start=start, times=times, edges=edges)
+    except montecarlo.SimulationDiverged as exc:
+        raise SolverFailure(str(exc)) from None
+
+
+def transient_sde(scene: Any, model: Any, *, start: Any, times: Any, edges_A: Any,
+                  paths: int, dt: float | None = None, blocks: int | None = None,
+                  seed: int | None = None) -> Result:
+    """The law of A at ``times`` under the averaged SDE of ``model`` from ``start`` (an
+    amplitude or start amplitudes) (``montecarlo.sde_time.sde_snapshots``)."""
+    from vifpk.montecarlo.sde_time import sde_snapshots
+
+    from vifpk import montecarlo
+
+    top = 4.0 * float(np.max(edges_A))
+    m, dt, blocks, seed, extra = _sde_run(scene, model, top, dt, blocks, seed)
+    try:
+        res = sde_snapshots(m.drift, m.diffusion, start=_start_amplitudes(start, paths, seed),
+                            times=times, edges_A=edges_A, paths=paths, blocks=blocks, dt=dt,
+                            seed=seed)
+    except montecarlo.SimulationDiverged as exc:
+        raise SolverFailure(str(exc)) from None
+    except ValueError as exc:
+        if isinstance(exc, BadInput):
+            raise
+        raise SolverFailure(f"averaged SDE of {model_label(model)}: {exc}") from None
+    res.info.update(extra)
+    return res

@@ -96,6 +96,13 @@ def amplitude_general(x: float, v: float, w0sq: float, alpha: float, khi) -> flo
 
 
 @jit
+def amplitudes(x, v, w0sq, alpha, khi, out):
+    """out[i] = A of (x[i], v[i]) (amplitude_general), for arrays."""
+    for i in range(x.size):
+        out[i] = amplitude_general(x[i], v[i], w0sq, alpha, khi)
+
+
+@jit
 def nu_sq_higher(A, c2, khi):
     """The spring's terms beyond x^3 in nu^2: sum_j k_{2j-1} A^{2j-2} (1 + c2 + ... +
     c2^{j-1}) / j for j >= 3 (khi = (k5, k7, ...); c2 = cos^2 th)."""

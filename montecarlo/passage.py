@@ -54,7 +54,7 @@ from numba import prange
 from vifpk.core.result import BadInput, Result, Status
 
 from ._jit import jit
-from .geometry import energy, orbit_start, potential
+from .geometry import amplitudes, energy, orbit_start, potential
 from .kernels import _step
 from .plan import physics
 from .rng import uniform
@@ -404,10 +404,10 @@ def _resolved(a: dict[str, np.ndarray], n_max: int, n_burn: int) -> float:
 
 
 def _amplitudes(x: np.ndarray, v: np.ndarray, phys: dict[str, Any]) -> np.ndarray:
-    from .geometry import amplitude_general
-
-    return np.array([amplitude_general(xx, vv, phys["w0sq"], phys["alpha"], phys["khi"])
-                     for xx, vv in zip(x, v, strict=True)])
+    out = np.empty(x.size)
+    amplitudes(np.ascontiguousarray(x), np.ascontiguousarray(v), phys["w0sq"], phys["alpha"],
+               phys["khi"], out)
+    return out
 
 
 def _crossing_words(bridge: bool) -> dict[str, Any]:
