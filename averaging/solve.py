@@ -21,6 +21,7 @@ import scipy
 
 from vifpk.core import registry
 from vifpk.core.result import Result, Status
+from vifpk.core.scene import no_noise
 
 from .corrected import observed_density, observed_log_h
 from .phase import phase_densities
@@ -54,10 +55,8 @@ def solve(scene: Any, *, model: Any = "paper", tail_mass: bool = True, **options
     t0 = time.perf_counter()
     sys_ = scene.system
     settings = scene.averaging
-    if sys_.f == 0.0:
-        raise NoStationaryDensity(
-            "f = 0: there is no noise, so the averaged FPK has no stationary density "
-            "(the amplitude relaxes to a deterministic attractor)")
+    if no_noise(sys_):
+        raise NoStationaryDensity(no_noise(sys_))
     m = build_model(scene, model, **options) if isinstance(model, str) else model
     if not has_closed_form(m):
         raise NoClosedForm(f"model {model!r} gives no log_stationary_parts(A) and period(A): "

@@ -17,7 +17,7 @@ from vifpk.core import registry
 from vifpk.core.defaults import BIFURCATION_MODELS, BURN_FACTOR, CHECK_MODELS, FPK_CELLS
 from vifpk.core.registry import SOLVERS
 from vifpk.core.result import BadInput
-from vifpk.core.scene import Scene, load_scene
+from vifpk.core.scene import Scene, load_scene, no_noise
 
 from . import request, validate
 from .run import SolverFailure, run_solver, solution_record
@@ -269,8 +269,8 @@ def cmd_bifurcation(args: argparse.Namespace) -> int:
                                       f"--vary {args.vary} searches; give its interval with "
                                       "--range LO HI instead")
     scene = _checked_scene(args, mc=not args.no_mc)
-    if scene.system.f == 0.0:
-        raise SolverFailure("f = 0: there is no noise, so no stationary density exists at any "
+    if no_noise(scene.system):
+        raise SolverFailure(f"{no_noise(scene.system)}, at any "
                             f"{args.vary}; nothing to search")
     lo, hi = args.range if args.range else (None, None)
     validate.search_range(args.vary, d_lo if lo is None else lo, d_hi if hi is None else hi,

@@ -22,7 +22,7 @@ from typing import Any
 
 from vifpk.core import registry
 from vifpk.core.defaults import CHECK_MODELS
-from vifpk.core.scene import Scene, SceneError, check_value, load_scene
+from vifpk.core.scene import Scene, SceneError, check_value, load_scene, no_noise
 
 from . import validate
 
@@ -263,11 +263,10 @@ def prepare_check(source: Scene | str | Path, *, models: Sequence[str] | None = 
     chosen = models is not None
     names = model_names(models, "--model") if chosen else CHECK_MODELS
     scene = with_mc_options(concrete(source, overrides, values), mc, mc=True)
-    if scene.system.f == 0.0:
+    if no_noise(scene.system):
         from .run import SolverFailure
 
-        raise SolverFailure("f = 0: there is no noise, so no stationary density exists; "
-                            "nothing to cross-check")
+        raise SolverFailure(f"{no_noise(scene.system)}; nothing to cross-check")
     _, skipped = applicable_models(scene, names, chosen=chosen)
     # the whole list goes on: the check reports why a default model does not apply
     return Request(workflow="check", scene=scene, models=names, skipped=skipped,

@@ -18,6 +18,7 @@ import numpy as np
 from vifpk.core.defaults import FPK_CELLS, REFERENCE_CELLS
 from vifpk.core.registry import SOLVERS, one_of
 from vifpk.core.result import BadInput, Result
+from vifpk.core.scene import no_noise
 
 
 class SolverFailure(RuntimeError):
@@ -188,9 +189,8 @@ def fpk_solution(scene: Any, *, model: Any, cells: int, method: str = "stepping"
     (with the model's period, or the exact orbit's: ``info["period"]`` says which)."""
     from vifpk import averaging, fpk
 
-    if scene.system.f == 0.0:
-        raise averaging.NoStationaryDensity(
-            "f = 0: there is no noise, so the averaged FPK has no stationary density")
+    if no_noise(scene.system):
+        raise averaging.NoStationaryDensity(no_noise(scene.system))
     m = averaged_model(scene, model, **options)
     res = fpk.stationary(m.drift, m.diffusion, cells=cells, method=method)
     if getattr(m, "observes", False):  # the observed energy, as the closed form
@@ -244,9 +244,8 @@ def montecarlo_solution(scene: Any, *, progress: bool = True, **edges: Any) -> R
 
     from vifpk import montecarlo
 
-    if scene.system.f == 0.0:
-        raise SolverFailure("f = 0: there is no noise; the Monte Carlo would only relax to a "
-                            "deterministic attractor, so there is no stationary density")
+    if no_noise(scene.system):
+        raise SolverFailure(no_noise(scene.system))
     limit = _COST_LIMIT.get()
     settings = montecarlo.Settings(**dataclasses.asdict(scene.montecarlo),
                                    observables=scene.observables.names(), progress=progress,

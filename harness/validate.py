@@ -75,12 +75,13 @@ class InputError(BadInput):
 
 def observables(scene: Scene) -> None:
     """At least one observable of the simulation switched on."""
+    from dataclasses import fields
+
     obs = scene.observables
-    names = [f for f in ("A", "x1", "x2", "joint", "moments", "events") if hasattr(obs, f)]
-    if names and not any(getattr(obs, f) for f in names):
+    if not obs.names():  # the schema's own list (energy included), not a copy of it
         raise InputError("observables: every observable is off, so the simulation would "
                          "compute nothing; allowed: at least one of " + ", ".join(
-                             f"observables.{f}" for f in names) + " = true")
+                             f"observables.{f.name}" for f in fields(obs)) + " = true")
 
 
 def numba_threads_available() -> int:

@@ -159,3 +159,39 @@ def test_a_factory_without_applies_applies_everywhere_and_one_with_it_is_asked()
     picky.applies = lambda scene: "never"
     assert registry.applicability_of(plain) is None
     assert registry.applicability_of(picky)(None) == "never"
+
+
+# ------------------------------------------------------------------- shared words, once each
+def test_an_energy_only_run_is_accepted():
+    """Issue 27: validate's copy of the observable names omitted `energy`, so a run recording
+    only the power balance was refused; the check now reads the schema's own list."""
+    from vifpk.harness import validate
+
+    off = {f"observables.{k}": False for k in ("A", "x1", "x2", "moments", "events")}
+    validate.observables(vifpk.scene("paper-base", **off, **{"observables.energy": True}))
+    with pytest.raises(BadInput, match="observables.energy"):
+        validate.observables(vifpk.scene("paper-base", **off))
+
+
+def test_the_f_0_rule_has_one_wording_everywhere(no_computation, capsys, tmp_path):
+    from vifpk.core.scene import no_noise
+
+    scene = tmp_path / "quiet.toml"
+    scene.write_text("[system]\nf = 0.0\n")
+    said = no_noise(vifpk.scene(str(scene)).system)
+    assert said and no_noise(vifpk.scene("paper-base").system) is None
+    assert main(["check", str(scene), "--out", str(tmp_path / "o")]) == 3
+    assert said in capsys.readouterr().err
+
+
+def test_the_door_says_the_f_0_rule_in_its_words(tmp_path):
+    from vifpk.harness.run import SolverFailure, montecarlo_solution
+
+    from vifpk.core.scene import no_noise
+
+    scene = tmp_path / "quiet.toml"
+    scene.write_text("[system]\nf = 0.0\n")
+    sc = vifpk.scene(str(scene))
+    with pytest.raises(SolverFailure) as exc:
+        montecarlo_solution(sc)
+    assert str(exc.value) == no_noise(sc.system)

@@ -501,6 +501,15 @@ class Scene:
         return d
 
 
+def no_noise(system: Any) -> str | None:
+    """The f = 0 rule, in its one wording (every workflow and solver says it so, adding what
+    it means there): None when the system is driven by noise."""
+    if system.f == 0.0:
+        return ("f = 0: there is no noise, so no stationary density exists (the amplitude "
+                "relaxes to a deterministic attractor)")
+    return None
+
+
 # --------------------------------------------------------------------------------------------
 INDEXED = re.compile(r"(\w+)\[(\d+)\]")
 
