@@ -1,7 +1,8 @@
 """pytest plugin of vifpk (entry point ``pytest11``; active once vifpk is installed).
 
 Options: ``--vifpk-cache DIR`` (where Monte Carlo references are cached; default
-``$VIFPK_CACHE`` or ``~/.cache/vifpk``) and ``--vifpk-refresh`` (rebuild them).
+``$VIFPK_CACHE`` or the user cache folder, vifpk.core.defaults.cache_dir) and
+``--vifpk-refresh`` (rebuild them).
 
 Fixtures:
 - ``vifpk_scene``: ``vifpk_scene("paper-base")`` or ``vifpk_scene("my/scene.toml",

@@ -24,7 +24,8 @@ is solved in closed form; any other gets its stationary p(A) from the generic FP
 mapping as the closed forms.
 
 Monte Carlo references of the original system are cached on disk (``cache_dir()``: the
-``--vifpk-cache`` pytest option, else ``$VIFPK_CACHE``, else ``~/.cache/vifpk``) under a key
+``--vifpk-cache`` pytest option, else vifpk.core.defaults.cache_dir(): ``$VIFPK_CACHE``,
+else ``~/.cache/vifpk``) under a key
 of the scene's physics, the Monte Carlo settings and the package version, so a test suite
 pays for each reference once; ``--vifpk-refresh`` rebuilds them.
 """
@@ -34,7 +35,6 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
-import os
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -65,8 +65,9 @@ def configure(*, cache: str | Path | None = None, refresh: bool | None = None) -
 def cache_dir() -> Path:
     if _STATE["cache"] is not None:
         return Path(_STATE["cache"])
-    env = os.environ.get("VIFPK_CACHE")
-    return Path(env) if env else Path.home() / ".cache" / "vifpk"
+    from vifpk.core.defaults import cache_dir as default
+
+    return default()
 
 
 def cache_stats() -> dict[str, int]:

@@ -594,15 +594,16 @@ CALIBRATE_BELOW = 8.0  # an estimate at the fastest rate above HOUR / 8 is re-es
 
 
 def _cache_file() -> Path:
-    root = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(root) / "vifpk" / "speed.json"
+    from vifpk.core.defaults import cache_dir
+
+    return cache_dir() / "speed.json"
 
 
 def machine_speed() -> float:
     """Path-steps per second per core of the original system's simulation on this machine.
 
     ``VIFPK_STEPS_PER_SECOND`` overrides it; else the value cached in
-    ``$XDG_CACHE_HOME/vifpk/speed.json`` (``~/.cache``) for this host and core count; else a
+    ``speed.json`` in vifpk.core.defaults.cache_dir() for this host and core count; else a
     short calibration (the base scene, 512 paths x 200 time units on one thread, ~1-5 s with
     the compile), which is cached with the load average it was taken under."""
     import socket

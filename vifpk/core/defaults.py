@@ -7,6 +7,8 @@ here, with where it comes from.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 #: Cells of the FPK of an averaged model when none is asked for (``vifpk solve --solver fpk``,
 #: the cross-check's discretisation error, ``fpk.stationary``); docs/fpk.md measures its error
 #: (second order in the cell width, tests/test_fpk.py).
@@ -22,3 +24,16 @@ BURN_FACTOR = 6.0
 CHECK_MODELS = ("paper", "exact", "corrected")
 #: The models a bifurcation search runs when none is named (the paper's and the exact one).
 BIFURCATION_MODELS = ("paper", "exact")
+
+
+def cache_dir() -> Path:
+    """The one folder vifpk caches in (the machine's measured Monte Carlo speed, the testing
+    API's Monte Carlo references): ``$VIFPK_CACHE`` when set, else the platform's user cache
+    folder for vifpk (platformdirs: ``$XDG_CACHE_HOME/vifpk``, by default ``~/.cache/vifpk``,
+    on Linux), read at each call so that a changed environment is followed."""
+    import os
+
+    from platformdirs import user_cache_dir
+
+    env = os.environ.get("VIFPK_CACHE")
+    return Path(env) if env else Path(user_cache_dir("vifpk", appauthor=False))
