@@ -341,14 +341,18 @@ def _passage_settings(scene: Any, *, paths: int, horizon: float, **given: Any) -
 def passage_montecarlo(scene: Any, *, threshold: float, start: float | str, horizon: float,
                        paths: int, dt: float | None = None, blocks: int | None = None,
                        seed: int | None = None, threads: int | None = None,
-                       burn_in: float | None = None, burn_start: float | None = None,
+                       burn_in: float | str | None = None, burn_start: float | None = None,
                        progress: bool = True) -> Result:
     """First passage of the original system's energy through U(threshold)
     (``montecarlo.first_passage``): data["fpt"] = {"time", "censored"}, data["start"].
-    Unset options come from the scene's [montecarlo] section. A run that blows up, or a
-    "stationary" start that cannot be placed below the threshold, raises SolverFailure."""
+    Unset options come from the scene's [montecarlo] section; for start "stationary" an unset
+    burn_in is "auto" (BURN_FACTOR x the relaxation time the Monte Carlo's relaxation pilot
+    measures). A run that blows up, or a "stationary" start that cannot be placed below the
+    threshold, raises SolverFailure."""
     from vifpk import montecarlo
 
+    if start == "stationary" and burn_in is None:
+        burn_in = "auto"
     st = _passage_settings(scene, paths=paths, horizon=horizon, dt=dt, blocks=blocks,
                            seed=seed, threads=threads, burn_in=burn_in, burn_start=burn_start,
                            progress=progress)

@@ -27,7 +27,9 @@ first-passage time up by O(dt^(1/2)).
 orbit (geometry.orbit_start; folded onto x >= 0 with the barrier), xi from its stationary law
 N(0, D / alpha1). ``start = "stationary"``: the stationary law restricted to A < Ac, by
 rejection: each path starts at amplitude ``burn_start`` (Ac / 2 when 0) as above, runs
-``burn_in`` time units of the free system (no threshold), and is accepted if then E < Ec;
+``burn_in`` time units of the free system (no threshold; "auto": BURN_FACTOR x the
+relaxation time measured by simulate's relaxation pilot, at least MIN_AUTO_BURN_IN), and is
+accepted if then E < Ec;
 else it starts again (its generator goes on) from ``burn_start``, at most ``max_restarts``
 times (StartRejected beyond). The accepted states are the law at time burn_in conditioned on
 A < Ac, which is the restricted stationary law when burn_in is several relaxation times. The
@@ -51,14 +53,26 @@ import numba
 import numpy as np
 from numba import prange
 
+from vifpk.core.defaults import BURN_FACTOR
 from vifpk.core.result import BadInput, Result, Status
 
 from ._jit import jit
 from .geometry import amplitudes, energy, orbit_start, potential
 from .kernels import _step
-from .plan import physics
+from .plan import MIN_AUTO_BURN_IN, SCALE_SAMPLE_EVERY, physics
 from .rng import uniform
-from .simulate import CHUNK_SECONDS, _diverged, _growth, _label, _progress, block_seeds, effects
+from .simulate import (
+    CHUNK_SECONDS,
+    _diverged,
+    _growth,
+    _label,
+    _pilot_scale,
+    _progress,
+    _relaxation,
+    _Stepper,
+    block_seeds,
+    effects,
+)
 
 CROSSING_ORDER = 2  # O(dt^2) crossing time on the smooth sub-system with OU noise (see module)
 BRIDGE_FLOOR = 1e-14  # below this bridge-crossing probability no uniform is drawn
@@ -79,7 +93,8 @@ class PassageSettings:
     paths (split over ``blocks`` as evenly as whole numbers allow), dt (the step), horizon
     (the censoring time), seed (root), threads (0: numba's default), progress (a tqdm bar on
     stderr for runs over 3 s); for start = "stationary": burn_in (time units of free
-    simulation before the clock starts, > 0), burn_start (the amplitude the burn-in starts
+    simulation before the clock starts, > 0, or "auto": BURN_FACTOR x the relaxation time
+    measured by simulate's relaxation pilot), burn_start (the amplitude the burn-in starts
     from; 0: half the threshold), max_restarts (burn-ins a path may repeat)."""
 
     paths: int
@@ -89,7 +104,7 @@ class PassageSettings:
     seed: int
     threads: int = 0
     progress: bool = True
-    burn_in: float = 0.0
+    burn_in: float | str = 0.0
     burn_start: float = 0.0
     max_restarts: int = 100
 
@@ -216,6 +231,20 @@ def _passage_block(b, rng, state, init, phase, steps, tries, fpt, n_paths, budge
         phase[b, p] = ph
 
 
+def _auto_burn_in(phys: dict[str, Any], h: float, seed: int, threads: int, cause: str,
+                  threshold: float) -> tuple[dict[str, Any], float]:
+    """(relaxation fit, burn-in) for burn_in = "auto": simulate's scale pilot and relaxation
+    pilot (pairs started low and high with common random numbers, tuning.fit_relaxation),
+    then max(BURN_FACTOR tau, MIN_AUTO_BURN_IN), as the stationary run does."""
+    step = _Stepper(phys, h, threads, None, cause)
+    a_hi = _pilot_scale(phys, h, seed, step, threshold)
+    relax = _relaxation(phys, h, seed, step, a_hi, SCALE_SAMPLE_EVERY)
+    if not math.isfinite(relax["tau"]):
+        raise StartRejected("start 'stationary' with burn_in 'auto': the relaxation pilot "
+                            "found no finite relaxation time; give burn_in explicitly")
+    return relax, max(BURN_FACTOR * relax["tau"], MIN_AUTO_BURN_IN)
+
+
 def layout(paths: int, blocks: int) -> np.ndarray:
     """Paths per block: ``paths`` split over ``blocks`` as evenly as whole numbers allow (the
     first paths % blocks blocks one more)."""
@@ -236,8 +265,11 @@ def check_settings(st: PassageSettings) -> None:
             raise BadInput(f"{name} must be a finite number > 0 (got {val!r})")
     if st.horizon / st.dt >= 2.0**62:
         raise BadInput(f"horizon / dt = {st.horizon / st.dt:.3g} steps is beyond any run")
-    if not (st.burn_in >= 0 and st.burn_start >= 0 and st.max_restarts >= 0):
-        raise BadInput("burn_in, burn_start and max_restarts must be >= 0")
+    if st.burn_in != "auto" and not (isinstance(st.burn_in, (int, float))
+                                     and math.isfinite(st.burn_in) and st.burn_in >= 0):
+        raise BadInput(f"burn_in must be a time >= 0 or 'auto' (got {st.burn_in!r})")
+    if not (st.burn_start >= 0 and st.max_restarts >= 0):
+        raise BadInput("burn_start and max_restarts must be >= 0")
 
 
 def _check_threshold(threshold: float, start: float | str) -> None:
@@ -287,13 +319,12 @@ def first_passage(system: Any, noise: Any, settings: PassageSettings, *, thresho
     _check_threshold(threshold, start)
     phys = physics(system, noise)
     stationary = isinstance(start, str)
-    if stationary and not st.burn_in > 0:
+    if stationary and st.burn_in != "auto" and not st.burn_in > 0:
         raise BadInput("start 'stationary' needs burn_in > 0 (time units of free simulation "
                        "before the clock starts; several relaxation times)")
     a_burn = (st.burn_start or 0.5 * threshold) if stationary else 0.0
     h = float(st.dt)
     n_max = int(math.ceil(st.horizon / h * (1 - 1e-12)))
-    n_burn = int(round(st.burn_in / h)) if stationary else 0
     Ec = float(potential(float(threshold), phys["w0sq"], phys["alpha"], phys["khi"]))
     if not (math.isfinite(Ec) and Ec < 1e300):
         raise BadInput(f"threshold {threshold:g}: its energy U(threshold) = {Ec:g} is beyond "
@@ -323,6 +354,12 @@ def first_passage(system: Any, noise: Any, settings: PassageSettings, *, thresho
                     phys["mu"], phys["r"], phys["alpha1"], phys["khi"], phys["dhi"],
                     phys["ev"], bridge)
 
+    relax = None
+    cause = _growth(system)
+    burn_in = float(st.burn_in) if stationary and st.burn_in != "auto" else 0.0
+    if stationary and st.burn_in == "auto":
+        relax, burn_in = _auto_burn_in(phys, h, st.seed, threads, cause, threshold)
+    n_burn = int(round(burn_in / h))
     t0 = time.perf_counter()
     call(arrays(1, 1, st.seed), np.ones(1, dtype=np.int64), 1)  # compile (or load the cache)
     compile_s = time.perf_counter() - t0
@@ -332,7 +369,6 @@ def first_passage(system: Any, noise: Any, settings: PassageSettings, *, thresho
     _label(bar, "first passage")
     if bar is not None:
         bar.reset(total=total)
-    cause = _growth(system)
     rate = 5e6 * threads
     t1 = time.perf_counter()
     shown = 0.0
@@ -390,7 +426,10 @@ def first_passage(system: Any, noise: Any, settings: PassageSettings, *, thresho
     if stationary:
         info["stationary"] = {"burn_in": n_burn * h, "burn_start": a_burn,
                               "restarts": int(np.sum(a["tries"][mask])),
-                              "max_restarts": int(st.max_restarts)}
+                              "max_restarts": int(st.max_restarts),
+                              "burn_in_mode": "auto" if relax is not None else "fixed"}
+        if relax is not None:
+            info["stationary"]["relaxation"] = relax
     data = {"fpt": {"time": tm.astype(np.float64), "censored": censored},
             "start": {"x": s[:, 0], "v": s[:, 1], "xi": s[:, 2], "A": amp}}
     return Result(data=data, info=info)

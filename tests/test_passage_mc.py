@@ -199,8 +199,12 @@ def test_stationary_start_is_the_restricted_stationary_law(base):
     stationary law is Gaussian with var x = var v = f^2 D / c = s^2, so A = sqrt(x^2 + v^2)
     is Rayleigh(s), and restricted to A < Ac its CDF is (1 - e^{-a^2/2s^2}) /
     (1 - e^{-Ac^2/2s^2}). 20000 starts after a burn-in of 8 relaxation times (1/c each) of the
-    energy: Kolmogorov-Smirnov p > 1e-4; the restarts are about P(A >= Ac) per path."""
+    energy: Kolmogorov-Smirnov p > 1e-4; the restarts are about P(A >= Ac) per path. Then
+    through the door, whose burn-in is "auto" (the relaxation pilot's): the same law."""
     from scipy import stats
+    from vifpk.harness.run import passage_montecarlo
+
+    from vifpk.core.defaults import BURN_FACTOR
 
     c, f, D, Ac = 0.2, 1.0, 0.05, 0.8
     sc = vary(base, c1=-c, c2=0.0, alpha=0.0, mu=0.0, barrier=False, f=f, kind="white", D=D)
@@ -208,6 +212,12 @@ def test_stationary_start_is_the_restricted_stationary_law(base):
     res = first_passage(sc.system, sc.noise, settings(paths=20000, blocks=40, horizon=0.5,
                                                       burn_in=8 / c), threshold=Ac,
                         start="stationary")
+    auto = passage_montecarlo(sc, threshold=Ac, start="stationary", horizon=0.5, paths=5000,
+                              blocks=40, seed=8, progress=False)
+    info = auto.info["stationary"]
+    assert info["burn_in_mode"] == "auto"
+    assert info["burn_in"] == pytest.approx(max(BURN_FACTOR * info["relaxation"]["tau"], 20),
+                                            abs=0.01)
     A = res.data["start"]["A"]
     assert A.max() < Ac
 
@@ -215,6 +225,7 @@ def test_stationary_start_is_the_restricted_stationary_law(base):
         return (1 - np.exp(-a * a / (2 * s2))) / (1 - math.exp(-Ac * Ac / (2 * s2)))
 
     assert stats.kstest(A, cdf).pvalue > 1e-4
+    assert stats.kstest(auto.data["start"]["A"], cdf).pvalue > 1e-4
     above = math.exp(-Ac * Ac / (2 * s2))  # P(A >= Ac) of one burn-in
     restarts = res.info["stationary"]["restarts"]
     expect = 20000 * above / (1 - above)  # geometric number of failures per path
