@@ -42,7 +42,7 @@ from typing import Any
 
 import numpy as np
 
-from vifpk.core.registry import IMPACT_LAWS
+from vifpk.core.registry import IMPACT_LAWS, one_of
 
 from .geometry import (
     Array,
@@ -88,18 +88,14 @@ class ExactModel:
     name: str = "exact"
 
     def __post_init__(self) -> None:
-        if self.noise not in NOISE_FORMS:
-            raise ValueError(f"noise must be one of {NOISE_FORMS}, not {self.noise!r}")
-        if self.impact not in IMPACT_LAWS:
-            raise ValueError(f"impact must be one of {IMPACT_LAWS}, not {self.impact!r}")
+        one_of("noise", self.noise, NOISE_FORMS)
+        one_of("impact", self.impact, IMPACT_LAWS)
 
     @classmethod
     def from_scene(cls, scene: Any, *, noise: str = "sgn", impact: str = "exact",
                    theta_nodes: int | None = None, harmonics: int | None = None) -> ExactModel:
-        if noise not in NOISE_FORMS:
-            raise ValueError(f"noise must be one of {NOISE_FORMS}, not {noise!r}")
-        if impact not in IMPACT_LAWS:
-            raise ValueError(f"impact must be one of {IMPACT_LAWS}, not {impact!r}")
+        one_of("noise", noise, NOISE_FORMS)
+        one_of("impact", impact, IMPACT_LAWS)
         s = scene.system
         st = getattr(scene, "averaging", None)
         return cls(restoring=tuple(s.restoring_law), damping=tuple(s.damping_law),
@@ -261,7 +257,7 @@ class ExactModel:
         elif self.impact == "compounded":
             loss = -(2.0 / T) * (-2.0 * np.log(self.r)) * E
         else:
-            raise ValueError(f"impact must be one of {IMPACT_LAWS}, not {self.impact!r}")
+            one_of("impact", self.impact, IMPACT_LAWS)  # raises: a law without a branch
         return {
             "damping": self.damping_rate(o),
             "impact": loss,

@@ -32,6 +32,8 @@ from typing import Any
 
 import numpy as np
 
+from vifpk.core.registry import one_of
+
 from .geometry import Array, w1_eta
 from .noise import Spectrum
 
@@ -70,8 +72,7 @@ class PaperModel:
     name: str = "paper"
 
     def __post_init__(self) -> None:
-        if self.b6 not in B6_COEFFICIENTS:
-            raise ValueError(f"b6 must be one of {sorted(B6_COEFFICIENTS)}, not {self.b6!r}")
+        one_of("b6", self.b6, sorted(B6_COEFFICIENTS))
 
     @staticmethod
     def applies(scene: Any) -> str | None:
@@ -83,8 +84,7 @@ class PaperModel:
 
     @classmethod
     def from_scene(cls, scene: Any, *, b6: str = "printed") -> PaperModel:
-        if b6 not in B6_COEFFICIENTS:
-            raise ValueError(f"b6 must be one of {sorted(B6_COEFFICIENTS)}, not {b6!r}")
+        one_of("b6", b6, sorted(B6_COEFFICIENTS))
         s = scene.system
         problem = cls.applies(scene)
         if problem is not None:

@@ -26,6 +26,8 @@ import numpy as np
 from pde import CartesianGrid, PDEBase, ScalarField
 from pde.trackers import CallbackTracker, ConsistencyTracker, SteadyStateTracker
 
+from vifpk.core.registry import one_of
+
 from .scheme import Array, Discretisation
 
 STEPPERS = ("bdf", "explicit")
@@ -74,7 +76,8 @@ def _solver_args(disc: Discretisation, stepper: str, rtol: float) -> dict[str, A
     if stepper == "explicit":
         return {"solver": "runge-kutta", "backend": "numba", "adaptive": True,
                 "tolerance": rtol}
-    raise ValueError(f"stepper must be one of {STEPPERS}, not {stepper!r}")
+    one_of("stepper", stepper, STEPPERS)
+    raise AssertionError("unreachable: every stepper of STEPPERS has a branch")
 
 
 class _Guard:

@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from vifpk.core import registry
-from vifpk.core.defaults import CHECK_MODELS, FPK_CELLS
+from vifpk.core.defaults import CHECK_MODELS, DENSITY_OBSERVABLES, FPK_CELLS
 from vifpk.core.result import WarningRecord
 
 from .compare import compare
@@ -41,7 +41,7 @@ from .run import (
     validity,
 )
 
-OBSERVABLES = ("A", "x1", "x2")
+OBSERVABLES = DENSITY_OBSERVABLES
 
 
 def models_of(scene: Any, models: tuple[str, ...] = CHECK_MODELS

@@ -40,6 +40,8 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from vifpk.core.defaults import DENSITY_OBSERVABLES
+from vifpk.core.registry import one_of
 from vifpk.core.scene import Scene, load_scene
 
 from .compare import compare, is_histogram
@@ -90,8 +92,7 @@ def assert_density_close(actual: Any, desired: Any, *, metric: str = "L1", atol:
     The noise floor is that of the Monte Carlo side(s) for this metric (a parametric
     bootstrap of their batch errors, harness/compare.py), unless given.
     """
-    if metric not in METRICS:
-        raise ValueError(f"metric must be one of {METRICS}, not {metric!r}")
+    one_of("metric", metric, METRICS)
     a, d = _record(actual), _record(desired)
     m = compare(a, d)
     floor = m.get(f"{metric}_floor", 0.0) if noise_floor is None else noise_floor
@@ -218,10 +219,8 @@ def assert_averaging_error(scene: Any, model: Any, *, below: float, observable: 
     observable; the failure message prints it with its error bar and noise floor, the
     reference's settings, and the command that reproduces the reference.
     """
-    if metric not in METRICS:
-        raise ValueError(f"metric must be one of {METRICS}, not {metric!r}")
-    if observable not in ("A", "x1", "x2"):
-        raise ValueError("observable must be 'A', 'x1' or 'x2'")
+    one_of("metric", metric, METRICS)
+    one_of("observable", observable, DENSITY_OBSERVABLES)
     sc = _scene(scene)
     ref = mc_reference(sc, **montecarlo)
     dens = model_densities(sc, model)

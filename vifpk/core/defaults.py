@@ -22,6 +22,9 @@ BURN_FACTOR = 6.0
 #: The averaged models a cross-check (and a sweep of cross-checks) runs when none is named,
 #: in this order: report columns and the per-model Monte Carlo seeds follow it.
 CHECK_MODELS = ("paper", "exact", "corrected")
+#: The observables every solver gives as densities (closed forms, FPK, Monte Carlo), compared
+#: by check and by the tolerance tests.
+DENSITY_OBSERVABLES = ("A", "x1", "x2")
 #: The models a bifurcation search runs when none is named (the paper's and the exact one).
 BIFURCATION_MODELS = ("paper", "exact")
 
