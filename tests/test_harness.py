@@ -199,3 +199,21 @@ def test_advisory_warning_keeps_the_recommendation_and_the_estimate():
     entry = {"averaging_error": {"A": {"L1": 0.05, "L1_floor": 0.01, "L1_err": 0.001}},
              "sampling_error": {"A": {"L1": 0.01, "L1_floor": 0.01}}, "sampling_ok": True}
     assert verdict_class(entry, [w])[0] == "small"
+
+
+@pytest.mark.slow
+def test_passage_splitting_door_gives_the_mfpt_layout():
+    """harness.run.passage_splitting: info["mfpt"] with value, stderr and a 95% interval that
+    holds the value; default levels from the exact model's quartile and median, below the
+    threshold."""
+    from vifpk.harness.run import passage_splitting
+
+    from vifpk.core.scene import load_scene
+
+    sc = load_scene("paper-base")
+    r = passage_splitting(sc, threshold=0.9, start=0.4, groups=4, particles=30, levels=40,
+                          paths=4, cycles=10)
+    m = r.info["mfpt"]
+    assert m["ci"][0] < m["value"] < m["ci"][1] and m["stderr"] > 0
+    assert 0 < r.info["low"] < r.info["entry"] < 0.9
+    assert "quantiles" in r.info["levels_source"]

@@ -1,0 +1,448 @@
+"""Rare events by adaptive multilevel splitting (AMS) and the cycle decomposition of the MFPT.
+
+AMS (Cerou & Guyader 2007), in the generalised form whose estimator is unbiased for any number
+k >= 1 of replicas killed per iteration and with ties (Brehier, Lelievre, Rousset et al.,
+Ann. Appl. Probab. 26 (2016) 3559; "GAMS"): N replicas start from the entrance law and run
+until absorbed (back at q <= q_lo, or at q >= q_hi). Each replica's score is the highest level
+it reached (levels: splitting_kernels.level_of, M integer levels of the reaction coordinate q,
+so ties happen and are handled as GAMS does). An iteration: Z = the k-th smallest score; if
+Z = M, stop; kill EVERY replica with score <= Z (K >= k of them; if K = N the run dies, p = 0);
+multiply C by (1 - K / N); each killed replica is replaced by a copy of a survivor drawn
+uniformly, up to the survivor's first step at level > Z, and continues from there with a
+fresh random stream. At the end p_hat = C * (number of replicas at q_hi) / N, and
+E[p_hat] = p exactly (for the time-discrete chain being simulated; the theorem needs only the
+Markov property of the chain, not of the score, and holds for a discrete score).
+
+The cycle decomposition (renewal; e.g. Cerou, Guyader, Lelievre & Pommier, J. Chem. Phys. 134
+(2011) 054108): levels q0 < q1 < qc. A cycle starts at the first step with q >= q1 after a
+visit to q <= q0, and ends at the next cycle start or at the first step with q >= qc (a
+success). With the cycles independent and identically distributed (exact for a 1-D diffusion,
+whose cycle starts are all at q1; for the original system the cycle starts form a Markov chain,
+taken in its stationary law, which the entries of many cycles sample), the number of cycles up
+to the first success is N ~ Geometric(p), p = P(a cycle succeeds), a stopping time of the
+cycles, so Wald's identity gives E[sum_{k<=N} tau_k] = E[N] E[tau] = E[tau] / p, where tau is a
+cycle's duration (a successful cycle's: its time to qc). From a start law below q1:
+
+    T = E[W] + (1 - q_w) E[tau] / p,
+
+W the warm-up time (start to the first cycle start, or to qc when it gets there first: q_w the
+probability of that). E[W], q_w and E[tau] come from direct simulation (paths stopped after a
+fixed number of cycles or at a success, so Wald again makes the ratio (total time) / (cycles)
+consistent), p from AMS started at cycle starts collected there.
+
+Confidence intervals from G independent groups (each with its own direct paths and its own AMS
+run): p_bar the mean of the G unbiased AMS estimates, its standard error their standard
+deviation / sqrt(G); T by the delta method with the per-group influence
+phi_g = (W_g - W) - (q_g - q_w) E[tau] / p + (1 - q_w)(S_g - E[tau] n_g) / (n p)
+- (1 - q_w) E[tau] (p_g - p) / p^2 (S_g, n_g a group's total cycle time and count, n their mean):
+se(T)^2 = sum phi_g^2 / (G (G - 1)); intervals value +- t_{G-1, 0.975} se.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+
+from vifpk.core.result import Result, Status
+
+from . import splitting_kernels as SK
+from .averaged_sde import sde_tables
+from .geometry import potential
+from .plan import physics
+
+KEY_START, KEY_CLONE, KEY_PICK, KEY_DIRECT = 0, 1, 2, 3  # spawn_key roots of the streams
+
+
+@dataclass(frozen=True, kw_only=True)
+class SplittingSettings:
+    """groups: independent repetitions of the whole algorithm (the confidence interval's
+    samples); particles: N replicas per AMS run; kill: k replicas killed per iteration (0:
+    max(1, N // 10)); levels: M levels of the reaction coordinate between q0 and qc; dt: time
+    step; seed: root of every stream; cycles: cycles per direct path; paths: direct paths per
+    group (their cycle starts, spread over N particles, start the group's AMS run); max_time: the
+    longest time one path is run (a path that reaches it is an error); threads: numba
+    threads (0: numba's default)."""
+
+    groups: int = 20
+    particles: int = 200
+    kill: int = 0
+    levels: int = 200
+    dt: float = 1e-3
+    seed: int = 20190102
+    cycles: int = 25
+    paths: int = 8
+    max_time: float = 1e7
+    threads: int = 0
+
+
+def _words(seed: int, key: tuple[int, ...], n: int) -> np.ndarray:
+    """(n, 4) uint64 generator words from SeedSequence(seed, spawn_key=key): a fresh stream
+    per row, the same for a seed whatever the thread count or the executor."""
+    w = np.random.SeedSequence(seed, spawn_key=key).generate_state(4 * n, dtype=np.uint64)
+    w = w.reshape(n, 4)
+    w[~w.any(axis=1), 0] = 1
+    return w
+
+
+def t_quantile(dof: int) -> float:
+    from scipy.stats import t
+
+    return float(t.ppf(0.975, dof))
+
+
+def ams(advance: Callable[..., None], starts: np.ndarray, q: np.ndarray, *, q_lo: float,
+        q_hi: float, levels: int, kill: int, seed: int) -> dict[str, Any]:
+    """GAMS (module docstring) for G independent runs of N replicas each, run in step so that
+    one kernel call advances the killed replicas of every run (in parallel).
+
+    starts: (G, N, S) state rows; q: (G, N) their reaction coordinate; advance(recs, rows,
+    start, rng, maxlev, outcome) the kernel (splitting_kernels.advance_*, its physics bound).
+    Returns {"p": (G,), "iterations": (G,), "killed": (G,) total killed, "extinct": (G,) bool,
+    "timeouts": int}."""
+    G, N, S = starts.shape
+    M = int(levels)
+    k = int(kill) if kill > 0 else max(1, N // 10)
+    if not 1 <= k < N:
+        raise ValueError(f"kill = {k}: must be in [1, {N - 1}] for {N} particles")
+    recs = np.zeros((G * N, M + 1, S))
+    lev0 = np.array([SK.level_of(float(v), q_lo, M / (q_hi - q_lo), M) for v in q.ravel()])
+    recs[np.arange(G * N), lev0] = starts.reshape(G * N, S)
+    maxlev = np.zeros(G * N, dtype=np.int64)
+    outcome = np.zeros(G * N, dtype=np.int64)
+    rows = np.arange(G * N, dtype=np.int64)
+    rng = np.concatenate([_words(seed, (KEY_START, g), N) for g in range(G)])
+    advance(recs, rows, lev0.astype(np.int64), rng, maxlev, outcome)
+    timeouts = int((outcome == SK.OUT_TIMEOUT).sum())
+    log_c = np.zeros(G)
+    iters = np.zeros(G, dtype=np.int64)
+    killed_total = np.zeros(G, dtype=np.int64)
+    extinct = np.zeros(G, dtype=bool)
+    active = np.ones(G, dtype=bool)
+    while active.any():
+        job_rows, job_start, job_rng = [], [], []
+        for g in np.flatnonzero(active):
+            ml = maxlev[g * N:(g + 1) * N]
+            Z = int(np.partition(ml, k - 1)[k - 1])
+            if Z >= M:
+                active[g] = False
+                continue
+            dead = np.flatnonzero(ml <= Z)
+            K = dead.size
+            if K == N:
+                extinct[g] = True
+                active[g] = False
+                continue
+            log_c[g] += math.log1p(-K / N)
+            it = int(iters[g])
+            iters[g] += 1
+            killed_total[g] += K
+            alive = np.flatnonzero(ml > Z)
+            pick = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(KEY_PICK, g, it)))
+            src = alive[pick.integers(0, alive.size, size=K)] + g * N
+            dst = dead + g * N
+            recs[dst, :Z + 2] = recs[src, :Z + 2]
+            job_rows.append(dst)
+            job_start.append(np.full(K, Z + 1, dtype=np.int64))
+            job_rng.append(_words(seed, (KEY_CLONE, g, it), K))
+        if job_rows:
+            r = np.concatenate(job_rows).astype(np.int64)
+            advance(recs, r, np.concatenate(job_start), np.concatenate(job_rng), maxlev, outcome)
+            timeouts += int((outcome[r] == SK.OUT_TIMEOUT).sum())
+    hits = (maxlev.reshape(G, N) >= M).sum(axis=1)
+    p = np.where(extinct, 0.0, np.exp(log_c) * hits / N)
+    return {"p": p, "iterations": iters, "killed": killed_total, "extinct": extinct,
+            "timeouts": timeouts, "kill": k}
+
+
+def mean_ci(values: np.ndarray) -> dict[str, Any]:
+    """Mean of independent replicas, standard error and the Student-t 95% interval."""
+    v = np.asarray(values, float)
+    G = v.size
+    m = float(v.mean())
+    se = float(v.std(ddof=1) / math.sqrt(G)) if G > 1 else math.nan
+    tq = t_quantile(G - 1) if G > 1 else math.nan
+    return {"value": m, "stderr": se, "ci": [float(m - tq * se), float(m + tq * se)],
+            "replicas": G,
+            "level": 0.95}
+
+
+def cycle_mfpt(W: np.ndarray, qw: np.ndarray, S: np.ndarray, n: np.ndarray, p: np.ndarray
+               ) -> dict[str, Any]:
+    """T = E[W] + (1 - q_w) E[tau] / p with its delta-method standard error and Student-t 95%
+    interval from per-group values (module docstring): W, qw the groups' mean warm-up time and
+    fraction of warm-ups that reached qc; S, n their total cycle time and cycle count; p their
+    AMS estimates."""
+    W, qw, S, n, p = (np.asarray(a, float) for a in (W, qw, S, n, p))
+    G = W.size
+    Wm, qm, nm, pm = W.mean(), qw.mean(), n.mean(), p.mean()
+    tau = S.sum() / n.sum()
+    value = Wm + (1 - qm) * tau / pm
+    phi = ((W - Wm) - (qw - qm) * tau / pm + (1 - qm) * (S - tau * n) / (nm * pm)
+           - (1 - qm) * tau * (p - pm) / pm**2)
+    se = float(math.sqrt((phi**2).sum() / (G * (G - 1)))) if G > 1 else math.nan
+    tq = t_quantile(G - 1) if G > 1 else math.nan
+    return {"value": float(value), "stderr": se,
+            "ci": [float(value - tq * se), float(value + tq * se)],
+            "level": 0.95, "replicas": G, "mean_cycle": float(tau), "mean_warm_up": float(Wm),
+            "warm_up_hits": float(qm)}
+
+
+def _threads(n: int) -> Any:
+    import contextlib
+
+    import numba
+
+    if n <= 0:
+        return contextlib.nullcontext()
+
+    @contextlib.contextmanager
+    def ctx() -> Any:
+        old = numba.get_num_threads()
+        numba.set_num_threads(min(n, numba.config.NUMBA_NUM_THREADS))
+        try:
+            yield
+        finally:
+            numba.set_num_threads(old)
+    return ctx()
+
+
+# ---------------------------------------------------------------------- the averaged SDE
+class _SDE:
+    """The averaged amplitude SDE's kernels, q = Z = A^2."""
+
+    width = 2
+
+    def __init__(self, drift: Callable, diffusion: Callable, top: float, dt: float,
+                 table_points: int = 4001) -> None:
+        grid, self.a_tab, self.b_tab = sde_tables(drift, diffusion, top, table_points)
+        self.inv_d = 1.0 / (grid[1] - grid[0])
+        self.h = float(dt)
+
+    def q(self, A: np.ndarray) -> np.ndarray:
+        return np.asarray(A, float) ** 2
+
+    def rows(self, A: np.ndarray) -> np.ndarray:
+        A = np.asarray(A, float)
+        return np.stack([A**2, np.zeros_like(A)], axis=-1)
+
+    def advance(self, q_lo: float, q_hi: float, M: int, t_max: float) -> Callable[..., None]:
+        def run(recs, rows, start, rng, maxlev, outcome) -> None:
+            SK.advance_sde(recs, rows, start, rng, maxlev, outcome, q_lo, q_hi, M, t_max,
+                           self.h, self.a_tab, self.b_tab, self.inv_d)
+        return run
+
+    def cycles(self, starts: np.ndarray, rng: np.ndarray, n_cycles: int, q0: float, q1: float,
+               qc: float, t_max: float) -> tuple[np.ndarray, np.ndarray]:
+        entries = np.zeros((starts.shape[0], n_cycles, self.width))
+        summary = np.zeros((starts.shape[0], 6))
+        SK.cycles_sde(starts[:, 0].copy(), rng, n_cycles, q0, q1, qc, t_max, self.h,
+                      self.a_tab, self.b_tab, self.inv_d, entries, summary)
+        return entries, summary
+
+
+def sde_escape_probability(drift: Callable, diffusion: Callable, *, low: float,
+                           threshold: float, start: float,
+                           settings: SplittingSettings) -> Result:
+    """P(A reaches ``threshold`` before ``low`` | A(0) = start) for the averaged SDE
+    dA = m dt + sigma dB (the scheme of averaged_sde), by AMS from the point ``start``:
+    data["p"] = {"value", "stderr", "ci", "replicas", "level", "runs": per-group estimates}."""
+    if not 0.0 < low < start < threshold:
+        raise ValueError(f"need 0 < low < start < threshold, got {low}, {start}, {threshold}")
+    s = settings
+    t0 = time.perf_counter()
+    dyn = _SDE(drift, diffusion, 1.5 * threshold, s.dt)
+    starts = np.broadcast_to(dyn.rows(np.array([start])), (s.groups, s.particles, 2)).copy()
+    q = np.full((s.groups, s.particles), start**2)
+    with _threads(s.threads):
+        out = ams(dyn.advance(low**2, threshold**2, s.levels, s.max_time), starts, q,
+                  q_lo=low**2, q_hi=threshold**2, levels=s.levels, kill=s.kill, seed=s.seed)
+    est = mean_ci(out["p"])
+    est["runs"] = out["p"].tolist()
+    status = Status.SIMULATED if out["timeouts"] == 0 else Status.NOT_FINITE
+    info = {"solver": "averaged-sde", "method": "splitting", "low": low, "threshold": threshold,
+            "start": start, "settings": asdict(s), "kill": out["kill"],
+            "iterations": out["iterations"].tolist(), "extinct": int(out["extinct"].sum()),
+            "timeouts": out["timeouts"], "seconds": time.perf_counter() - t0,
+            "status": status.record()}
+    return Result(data={"p": est}, info=info)
+
+
+def _groups_direct(dyn: Any, start_rows: Callable[[int, int], np.ndarray], q0: float,
+                   q1: float, qc: float, s: SplittingSettings) -> dict[str, Any]:
+    """The direct part: G groups of s.paths paths, each run to s.cycles cycles (or a success).
+    Returns per-group W, qw, S, n, direct successes, and the (G, N, width) AMS starts (cycle
+    starts of the group, taken in order, path after path, when enough)."""
+    G, P, N = s.groups, s.paths, s.particles
+    if P * s.cycles < N:
+        raise ValueError(f"paths x cycles = {P * s.cycles} < particles = {N}: too few cycle "
+                         "starts to start the AMS runs from")
+    starts = start_rows(G * P, s.seed)
+    rng = _words(s.seed, (KEY_DIRECT,), G * P)
+    entries, summ = dyn.cycles(starts, rng, s.cycles, q0, q1, qc, s.max_time)
+    if summ[:, 5].any():
+        raise RuntimeError(f"{int(summ[:, 5].sum())} direct path(s) reached max_time = "
+                           f"{s.max_time:g} before completing their cycles: lower levels "
+                           "(low/entry) closer to the bulk of the law, or raise max_time")
+    summ = summ.reshape(G, P, 6)
+    ent = entries.reshape(G, P, s.cycles, dyn.width)
+    valid = np.arange(s.cycles)[None, None, :] < summ[:, :, 2, None]
+    pools = np.zeros((G, N, dyn.width))
+    for g in range(G):
+        e = ent[g][valid[g]]
+        if e.shape[0] == 0:
+            raise RuntimeError(f"group {g}: no cycle start (every direct path reached the "
+                               "threshold in its warm-up): the threshold is within reach of "
+                               "direct simulation")
+        # spread over the paths; with fewer starts than particles (direct successes ended
+        # paths early) some are used twice: the AMS then samples the empirical entrance law
+        take = np.linspace(0, e.shape[0] - 1, N).round().astype(int)
+        pools[g] = e[take]
+    return {"W": summ[:, :, 0].mean(axis=1), "qw": summ[:, :, 1].mean(axis=1),
+            "S": summ[:, :, 3].sum(axis=1), "n": summ[:, :, 2].sum(axis=1),
+            "successes": int(summ[:, :, 4].sum()), "pools": pools,
+            "cycles": int(summ[:, :, 2].sum())}
+
+
+def _mfpt(dyn: Any, start_rows: Callable[[int, int], np.ndarray], qfun: Callable, q0: float,
+          q1: float, qc: float, s: SplittingSettings) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The MFPT by the cycle decomposition: (mfpt record, details)."""
+    t0 = time.perf_counter()
+    with _threads(s.threads):
+        d = _groups_direct(dyn, start_rows, q0, q1, qc, s)
+        t1 = time.perf_counter()
+        out = ams(dyn.advance(q0, qc, s.levels, s.max_time), d["pools"], qfun(d["pools"]),
+                  q_lo=q0, q_hi=qc, levels=s.levels, kill=s.kill, seed=s.seed)
+    t2 = time.perf_counter()
+    if out["timeouts"]:
+        raise RuntimeError(f"{out['timeouts']} AMS path(s) reached max_time = {s.max_time:g}")
+    if np.all(out["p"] == 0):
+        raise RuntimeError("every AMS run died out (p = 0 in each group): use more particles")
+    rec = cycle_mfpt(d["W"], d["qw"], d["S"], d["n"], out["p"])
+    prob = mean_ci(out["p"])
+    prob["runs"] = out["p"].tolist()
+    rec["p"] = prob
+    details = {"direct_cycles": d["cycles"], "direct_successes": d["successes"],
+               "iterations": out["iterations"].tolist(), "kill": out["kill"],
+               "extinct": int(out["extinct"].sum()),
+               "seconds": {"direct": t1 - t0, "ams": t2 - t1, "total": t2 - t0}}
+    return rec, details
+
+
+def sde_passage_splitting(drift: Callable, diffusion: Callable, *, threshold: float,
+                          start: float, low: float, entry: float,
+                          settings: SplittingSettings) -> Result:
+    """MFPT of the averaged SDE from A(0) = start to ``threshold`` by the cycle decomposition
+    (module docstring) with levels low < entry < threshold in amplitude (start < entry).
+    info["mfpt"] = {"value", "stderr", "ci", ..., "p": the cycle's success probability}."""
+    if not 0.0 < low < entry < threshold or not 0.0 < start < entry:
+        raise ValueError(f"need 0 < low < entry < threshold and 0 < start < entry, got low = "
+                         f"{low}, entry = {entry}, threshold = {threshold}, start = {start}")
+    s = settings
+    dyn = _SDE(drift, diffusion, 1.5 * threshold, s.dt)
+
+    def rows(n: int, _seed: int) -> np.ndarray:
+        return dyn.rows(np.full(n, float(start)))
+
+    rec, det = _mfpt(dyn, rows, lambda st: st[..., 0], low**2, entry**2, threshold**2, s)
+    info = {"solver": "averaged-sde", "method": "splitting", "threshold": threshold,
+            "start": start, "low": low, "entry": entry, "settings": asdict(s), "mfpt": rec,
+            **det, "status": Status.SIMULATED.record()}
+    return Result(data={"mfpt": rec}, info=info)
+
+
+# ---------------------------------------------------------------------- the original system
+class _Original:
+    """The original system's kernels (kernels._step), q = E = v^2/2 + U(x)."""
+
+    width = 5
+
+    def __init__(self, system: Any, noise: Any, dt: float) -> None:
+        self.phys = physics(system, noise)
+        self.h = float(dt)
+        ph = self.phys
+        self.args = (ph["c1"], ph["c2"], ph["w0sq"], ph["alpha"], ph["f"], ph["D"], ph["mu"],
+                     ph["r"], ph["alpha1"], ph["khi"], ph["dhi"], ph["ev"])
+
+    def U(self, A: float) -> float:
+        ph = self.phys
+        return float(potential(float(A), ph["w0sq"], ph["alpha"], ph["khi"]))
+
+    def q(self, rows: np.ndarray) -> np.ndarray:
+        x, v = rows[..., 0], rows[..., 1]
+        return 0.5 * v * v + np.vectorize(self.U)(x)
+
+    def starts(self, A: float, n: int, seed: int) -> np.ndarray:
+        ph = self.phys
+        out = np.zeros((n, 5))
+        sd = math.sqrt(ph["D"] / ph["alpha1"]) if ph["alpha1"] is not None else 0.0
+        SK.orbit_starts(float(A), out, _words(seed, (KEY_START + 100,), n), ph["w0sq"],
+                        ph["alpha"], ph["khi"], ph["r"] is not None, sd)
+        return out
+
+    def advance(self, q_lo: float, q_hi: float, M: int, t_max: float) -> Callable[..., None]:
+        def run(recs, rows, start, rng, maxlev, outcome) -> None:
+            SK.advance_orig(recs, rows, start, rng, maxlev, outcome, q_lo, q_hi, M, t_max,
+                            self.h, *self.args)
+        return run
+
+    def cycles(self, starts: np.ndarray, rng: np.ndarray, n_cycles: int, q0: float, q1: float,
+               qc: float, t_max: float) -> tuple[np.ndarray, np.ndarray]:
+        entries = np.zeros((starts.shape[0], n_cycles, self.width))
+        summary = np.zeros((starts.shape[0], 6))
+        SK.cycles_orig(starts, rng, n_cycles, q0, q1, qc, t_max, self.h, *self.args, entries,
+                       summary)
+        return entries, summary
+
+
+def passage_splitting(system: Any, noise: Any, settings: SplittingSettings, *,
+                      threshold: float, start: float, low: float, entry: float) -> Result:
+    """MFPT of the ORIGINAL system from a start at amplitude ``start`` (energy U(start), phase
+    uniform in time on that conservative orbit, xi from its stationary law) to the energy
+    U(threshold), by the cycle decomposition with levels U(low) < U(entry) < U(threshold)
+    (module docstring), the energy as the reaction coordinate. The same seed gives the same
+    numbers for any thread count (every path and every clone has its own stream).
+    data["mfpt"] = info["mfpt"] = {"value", "stderr", "ci", "level", "replicas",
+    "mean_cycle", "mean_warm_up", "warm_up_hits", "p": {...}} (time units)."""
+    if not 0.0 < low < entry < threshold or not 0.0 <= start < threshold:
+        raise ValueError(f"need 0 < low < entry < threshold and 0 <= start < threshold, got "
+                         f"low = {low}, entry = {entry}, threshold = {threshold}, "
+                         f"start = {start}")
+    s = settings
+    dyn = _Original(system, noise, s.dt)
+    q0, q1, qc = dyn.U(low), dyn.U(entry), dyn.U(threshold)
+
+    def rows(n: int, seed: int) -> np.ndarray:
+        return dyn.starts(start, n, seed)
+
+    rec, det = _mfpt(dyn, rows, dyn.q, q0, q1, qc, s)
+    info = {"solver": "montecarlo", "method": "splitting", "threshold": threshold,
+            "start": start, "low": low, "entry": entry, "energies": [q0, q1, qc],
+            "reaction_coordinate": "energy E = v^2/2 + U(x)", "settings": asdict(s),
+            "mfpt": rec, **det, "status": Status.SIMULATED.record()}
+    return Result(data={"mfpt": rec}, info=info)
+
+
+def direct_first_passage(system: Any, noise: Any, *, threshold: float, start: float,
+                         paths: int, dt: float, seed: int, max_time: float = 1e7,
+                         threads: int = 0) -> dict[str, Any]:
+    """Plain Monte Carlo of the first passage of the original system to U(threshold), with the
+    same kernels, start law and in-step crossing time as ``passage_splitting`` (no cycles, no
+    splitting): {"time": float[paths], "censored": bool[paths] (reached max_time),
+    "mfpt": {"value", "stderr", "ci"} (a plain mean; NaN when any path is censored)}. The
+    independent route splitting is checked against where both can reach."""
+    dyn = _Original(system, noise, dt)
+    starts = dyn.starts(start, paths, seed)
+    with _threads(threads):
+        _e, summ = dyn.cycles(starts, _words(seed, (KEY_DIRECT,), paths), 0, -1.0, math.inf,
+                              dyn.U(threshold), max_time)
+    t = summ[:, 0].copy()
+    censored = summ[:, 5] > 0
+    t[censored] = max_time
+    rec = mean_ci(t) if not censored.any() else {"value": math.nan, "stderr": math.nan,
+                                                  "ci": [math.nan, math.nan]}
+    return {"time": t, "censored": censored, "mfpt": rec}
