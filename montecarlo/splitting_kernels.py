@@ -33,10 +33,10 @@ import math
 from numba import prange
 
 from ._jit import jit
-from .averaged_sde import orbit_point, sde_step
-from .geometry import energy
+from .averaged_sde import sde_step
+from .geometry import energy, orbit_start
 from .kernels import _step
-from .rng import normal, uniform
+from .rng import uniform
 
 OUT_FAIL, OUT_SUCCESS, OUT_TIMEOUT = 0, 1, -1
 BRIDGE_CUT = 40.0  # no uniform is drawn when the bridge probability is below e^-40
@@ -333,19 +333,14 @@ def _cycles_orig(p, starts, s0, s1, s2, s3, n_cycles, q0, q1, q_hi, t_max, h, c1
 
 @jit
 def orbit_starts(A, out, rng, w0sq, alpha, khi, barrier, xi_sd):
-    """out[p] = (x, v, xi, 0, 0): a time-uniform point of the conservative orbit of amplitude
-    A (averaged_sde.orbit_point; with the barrier folded to x >= 0, v reversed with it, as the
-    elastic orbit is) and xi from the stationary OU law N(0, xi_sd^2) (0 for white noise),
-    from the generator words rng[p]."""
+    """out[p] = (x, v, xi, 0, 0) from geometry.orbit_start (phase uniform in time on the
+    conservative orbit of amplitude A, folded with the barrier, xi from its stationary law),
+    with the generator words rng[p]."""
     for p in range(out.shape[0]):
-        s0, s1, s2, s3 = rng[p, 0], rng[p, 1], rng[p, 2], rng[p, 3]
-        y, yp, s0, s1, s2, s3 = orbit_point(A, w0sq, alpha, khi, s0, s1, s2, s3)
-        if barrier and y < 0.0:
-            y = -y
-            yp = -yp
-        z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
-        out[p, 0] = y
-        out[p, 1] = yp
-        out[p, 2] = xi_sd * z
+        x, v, xi, _s0, _s1, _s2, _s3 = orbit_start(A, w0sq, alpha, khi, barrier, xi_sd,
+                                                   rng[p, 0], rng[p, 1], rng[p, 2], rng[p, 3])
+        out[p, 0] = x
+        out[p, 1] = v
+        out[p, 2] = xi
         out[p, 3] = 0.0
         out[p, 4] = 0.0
