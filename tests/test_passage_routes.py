@@ -3,9 +3,10 @@
 (fpk.reliability) for the same drift and diffusion, read through the Kaplan-Meier estimate
 and its simultaneous band (harness.survival), censored at a horizon. The band is taken at
 level 0.9999, the suite's |z| < 4 convention for fixed seeds (a 95% band is left by 1 run in
-20: seed 21 at dt = 0.005 leaves it by 0.0005 at t = 4.9, its MFPT 2.3 standard errors low). The Rayleigh
-amplitude m = -cA/2 + s/2A, sigma^2 = s; the SDE's step bias at dt = 0.005 (u_c c dt / 2 =
-0.5% of the MFPT, tests/test_time_sde.py) is a fraction of the band's width at 20000 paths.
+20: seed 21 at dt = 0.005 leaves it by 0.0005 at t = 4.9, its MFPT 2.3 standard errors
+low). The Rayleigh amplitude m = -cA/2 + s/2A, sigma^2 = s; the SDE's step bias at
+dt = 0.005 (u_c c dt / 2 = 0.5% of the MFPT, tests/test_time_sde.py) is a fraction of the
+band's width at 20000 paths.
 """
 
 from __future__ import annotations
