@@ -397,7 +397,7 @@ def _sde_run(scene: Any, model: Any, top: float, dt: float | None, blocks: int |
 
 def passage_sde(scene: Any, model: Any, *, threshold: float, start: Any, horizon: float,
                 paths: int, dt: float | None = None, blocks: int | None = None,
-                seed: int | None = None) -> Result:
+                seed: int | None = None, progress: bool = True) -> Result:
     """First passage of the averaged SDE of ``model`` (a name or a model object) through
     A = threshold (``montecarlo.sde_time.sde_first_passage``). ``start``: an amplitude, or
     start amplitudes (e.g. the original system's data["start"]["A"] for 'stationary')."""
@@ -409,7 +409,8 @@ def passage_sde(scene: Any, model: Any, *, threshold: float, start: Any, horizon
     try:
         res = sde_first_passage(m.drift, m.diffusion, threshold=threshold,
                                 start=_start_amplitudes(start, paths, seed), paths=paths,
-                                blocks=blocks, dt=dt, horizon=horizon, seed=seed)
+                                blocks=blocks, dt=dt, horizon=horizon, seed=seed,
+                                progress=progress)
     except montecarlo.SimulationDiverged as exc:
         raise SolverFailure(str(exc)) from None
     except ValueError as exc:  # coefficients not finite on the table
@@ -441,7 +442,7 @@ def transient_montecarlo(scene: Any, *, start: float, times: Any, edges: dict[st
 
 def transient_sde(scene: Any, model: Any, *, start: Any, times: Any, edges_A: Any,
                   paths: int, dt: float | None = None, blocks: int | None = None,
-                  seed: int | None = None) -> Result:
+                  seed: int | None = None, progress: bool = True) -> Result:
     """The law of A at ``times`` under the averaged SDE of ``model`` from ``start`` (an
     amplitude or start amplitudes) (``montecarlo.sde_time.sde_snapshots``)."""
     from vifpk.montecarlo.sde_time import sde_snapshots
@@ -453,7 +454,7 @@ def transient_sde(scene: Any, model: Any, *, start: Any, times: Any, edges_A: An
     try:
         res = sde_snapshots(m.drift, m.diffusion, start=_start_amplitudes(start, paths, seed),
                             times=times, edges_A=edges_A, paths=paths, blocks=blocks, dt=dt,
-                            seed=seed)
+                            seed=seed, progress=progress)
     except montecarlo.SimulationDiverged as exc:
         raise SolverFailure(str(exc)) from None
     except ValueError as exc:

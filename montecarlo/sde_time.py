@@ -38,7 +38,7 @@ from ._jit import jit
 from .averaged_sde import ORDER, STEPS_PER_TAU, relaxation_time, sde_step, sde_tables
 from .passage import BRIDGE_FLOOR, layout
 from .rng import uniform
-from .simulate import CHUNK_SECONDS, SimulationDiverged, block_seeds
+from .simulate import CHUNK_SECONDS, SimulationDiverged, _label, _progress, block_seeds
 from .transient import _densities
 
 TABLE_POINTS = 4001
@@ -154,27 +154,42 @@ def _check(paths: int, blocks: int, dt: float, **positive: float) -> None:
             raise BadInput(f"{name} must be a finite number > 0 (got {val!r})")
 
 
-def _drive(kernel: Callable[..., None], count: np.ndarray, steps_per_path: float) -> float:
+def _drive(kernel: Callable[..., None], count: np.ndarray, steps_per_path: float,
+           progress: bool, label: str) -> float:
     """Run ``kernel(done, k)`` over every block's paths in calls of about CHUNK_SECONDS (whole
-    paths; Ctrl-C between calls); returns the seconds spent."""
+    paths; Ctrl-C between calls), with a tqdm bar in paths (simulate._progress: quiet for
+    runs under 3 s); returns the seconds spent."""
     done = np.zeros_like(count)
     rate = 5e6 * numba.get_num_threads()
+    bar = _progress(progress)
+    if bar is not None:
+        _label(bar, label)
+        bar.unit = " paths"
+        bar.reset(total=int(count.sum()))
     t0 = time.perf_counter()
-    while np.any(done < count):
-        k = int(max(1, CHUNK_SECONDS * rate / max(steps_per_path * count.size, 1.0)))
-        t = time.perf_counter()
-        kernel(done, k)
-        spent = time.perf_counter() - t
-        if spent > 0:
-            rate = k * steps_per_path * count.size / spent
-        done = np.minimum(done + k, count)
+    try:
+        while np.any(done < count):
+            k = int(max(1, CHUNK_SECONDS * rate / max(steps_per_path * count.size, 1.0)))
+            t = time.perf_counter()
+            kernel(done, k)
+            spent = time.perf_counter() - t
+            if spent > 0:
+                rate = k * steps_per_path * count.size / spent
+            new = np.minimum(done + k, count)
+            if bar is not None:
+                bar.update(int((new - done).sum()))
+            done = new
+    finally:
+        if bar is not None:
+            bar.close()
     return time.perf_counter() - t0
 
 
 def sde_first_passage(drift: Callable[[np.ndarray], np.ndarray],
                       diffusion: Callable[[np.ndarray], np.ndarray], *, threshold: float,
                       start: float | np.ndarray, paths: int, blocks: int, dt: float,
-                      horizon: float, seed: int, table_points: int = TABLE_POINTS) -> Result:
+                      horizon: float, seed: int, table_points: int = TABLE_POINTS,
+                      progress: bool = True) -> Result:
     """First passage of the averaged SDE through A = threshold from ``start`` (one amplitude,
     or one per path), censored at ``horizon``: data["fpt"] = {"time", "censored"} as
     montecarlo.first_passage, data["start"] = {"A"}. Paths are ordered block by block."""
@@ -199,7 +214,7 @@ def sde_first_passage(drift: Callable[[np.ndarray], np.ndarray],
     t0 = time.perf_counter()
     kernel(np.zeros_like(count), 0, states.copy())  # compile (or load the cache)
     compile_s = time.perf_counter() - t0
-    run_s = _drive(kernel, count, min(n_max, 1e5))
+    run_s = _drive(kernel, count, min(n_max, 1e5), progress, "averaged SDE: first passage")
     if bad.any():
         raise SimulationDiverged(f"the averaged SDE blew up (non-finite amplitude) at dt = {dt:g}; "
                            "try a smaller dt")
@@ -226,7 +241,8 @@ def sde_first_passage(drift: Callable[[np.ndarray], np.ndarray],
 def sde_snapshots(drift: Callable[[np.ndarray], np.ndarray],
                   diffusion: Callable[[np.ndarray], np.ndarray], *, start: float | np.ndarray,
                   times: Sequence[float], edges_A: np.ndarray, paths: int, blocks: int,
-                  dt: float, seed: int, table_points: int = TABLE_POINTS) -> Result:
+                  dt: float, seed: int, table_points: int = TABLE_POINTS,
+                  progress: bool = True) -> Result:
     """The law of A at ``times`` from ``start`` (one amplitude, or one per path):
     data["snapshots"] = {"t": float[n], "A": {"edges", "x", "p": float[n, bins],
     "err": float[n, bins]}} (densities per unit length over all paths, block standard
@@ -259,7 +275,8 @@ def sde_snapshots(drift: Callable[[np.ndarray], np.ndarray],
     t0 = time.perf_counter()
     kernel(np.zeros_like(count), 0, states.copy(), hist.copy())
     compile_s = time.perf_counter() - t0
-    run_s = _drive(kernel, count, float(max(marks[-1], 1)))
+    run_s = _drive(kernel, count, float(max(marks[-1], 1)), progress,
+                   "averaged SDE: transient")
     if bad.any():
         raise SimulationDiverged(f"the averaged SDE blew up (non-finite amplitude) at dt = {dt:g}; "
                            "try a smaller dt")
