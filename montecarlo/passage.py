@@ -157,19 +157,41 @@ def _passage_block(b, rng, state, init, phase, steps, tries, fpt, n_paths, budge
                 if ph == RUN:
                     init[b, p, 0], init[b, p, 1], init[b, p, 2] = x, v, xi
                 continue
-            if ph == BURN:
-                k = min(left, n_burn - n)
-                for _ in range(k):
-                    x, v, xi, s0, s1, s2, s3, o = _step(
-                        x, v, xi, s0, s1, s2, s3, h, half, c1, c2, w0sq, alpha, f, mu, r,
-                        alpha1, khi, dhi, ev, ou_a, ou_s, kick)
+            # BURN and RUN share one loop (one copy of the inlined step: half the compile
+            # time): a burn-in tests against Ec = inf, which never fires (nor the bridge)
+            burning = ph == BURN
+            level = math.inf if burning else Ec
+            E = energy(x, v, w0sq, alpha, khi)
+            k = min(left, (n_burn if burning else n_max) - n)
+            hit = -1.0
+            i = 0
+            while i < k:
+                x, v, xi, s0, s1, s2, s3, o = _step(
+                    x, v, xi, s0, s1, s2, s3, h, half, c1, c2, w0sq, alpha, f, mu, r, alpha1,
+                    khi, dhi, ev, ou_a, ou_s, kick)
+                E1 = energy(x, v, w0sq, alpha, khi)
+                i += 1
+                if E1 >= level:
+                    hit = (level - E) / (E1 - E)
+                    break
+                if bridge is not None:
+                    vc = o[8]  # the velocity at the kick
+                    arg = 2.0 * (level - E) * (level - E1) / (bridge * vc * vc * h)
+                    if arg < -math.log(BRIDGE_FLOOR):
+                        u, s0, s1, s2, s3 = uniform(s0, s1, s2, s3)
+                        if u < math.exp(-arg):
+                            hit = (level - E) / ((level - E) + (level - E1))
+                            break
+                E = E1
+            if not (math.isfinite(x) and math.isfinite(v)):
+                ph = DIVERGED
+                n += i
+                break
+            if burning:
                 n += k
                 left -= k
-                if not (math.isfinite(x) and math.isfinite(v)):
-                    ph = DIVERGED
-                    break
                 if n == n_burn:
-                    if energy(x, v, w0sq, alpha, khi) < Ec:
+                    if E < Ec:
                         ph = RUN
                         n = 0
                         init[b, p, 0], init[b, p, 1], init[b, p, 2] = x, v, xi
@@ -180,33 +202,7 @@ def _passage_block(b, rng, state, init, phase, steps, tries, fpt, n_paths, budge
                             break
                         ph = NEW
                 continue
-            # RUN: the energy before each step is E, after it E1
-            E = energy(x, v, w0sq, alpha, khi)
-            k = min(left, n_max - n)
-            hit = -1.0
-            i = 0
-            while i < k:
-                x, v, xi, s0, s1, s2, s3, o = _step(
-                    x, v, xi, s0, s1, s2, s3, h, half, c1, c2, w0sq, alpha, f, mu, r, alpha1,
-                    khi, dhi, ev, ou_a, ou_s, kick)
-                E1 = energy(x, v, w0sq, alpha, khi)
-                i += 1
-                if E1 >= Ec:
-                    hit = (Ec - E) / (E1 - E)
-                    break
-                if bridge is not None:
-                    vc = o[8]  # the velocity at the kick
-                    arg = 2.0 * (Ec - E) * (Ec - E1) / (bridge * vc * vc * h)
-                    if arg < -math.log(BRIDGE_FLOOR):
-                        u, s0, s1, s2, s3 = uniform(s0, s1, s2, s3)
-                        if u < math.exp(-arg):
-                            hit = (Ec - E) / ((Ec - E) + (Ec - E1))
-                            break
-                E = E1
             if hit >= 0.0:
-                if not (math.isfinite(x) and math.isfinite(v)):
-                    ph = DIVERGED
-                    break
                 t = (n + i - 1 + hit) * h
                 n += i
                 if t <= horizon:
@@ -218,9 +214,6 @@ def _passage_block(b, rng, state, init, phase, steps, tries, fpt, n_paths, budge
                 break
             n += k
             left -= k
-            if not (math.isfinite(x) and math.isfinite(v)):
-                ph = DIVERGED
-                break
             if n >= n_max:
                 ph = CENSORED
                 fpt[b, p] = horizon
