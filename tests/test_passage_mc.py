@@ -252,3 +252,16 @@ def test_white_noise_bridge_keeps_coarse_steps_unbiased(base):
         out.append((t.mean(), t.std(ddof=1) / math.sqrt(t.size)))
     (m1, e1), (m2, e2) = out
     assert abs(m1 - m2) < 4 * math.hypot(e1, e2), out
+
+
+def test_switched_off_effects_reach_the_kernel_as_none(base):
+    """The scene's switches reach run_passage as simulate's reach run_paths: an effect the
+    scene does not have is None (numba prunes its branches, tests/test_montecarlo.py), here
+    the higher spring, damping and velocity terms and the white-noise bridge (OU noise)."""
+    first_passage(base.system, base.noise, settings(paths=4, blocks=2, horizon=1.0),
+                  threshold=1.05, start=1.0)
+    names = ("mu", "r", "alpha1", "khi", "dhi", "ev", "bridge")
+    sigs = [dict(zip(names, map(str, sig[-7:]), strict=True))
+            for sig in P.run_passage.signatures]
+    assert {"mu": "float64", "r": "float64", "alpha1": "float64", "khi": "none",
+            "dhi": "none", "ev": "none", "bridge": "none"} in sigs, sigs
