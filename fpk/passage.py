@@ -51,7 +51,7 @@ from vifpk.core.result import Result, Status
 
 from .scheme import ORDER, Array, CoefficientError, discretise
 from .solve import Coefficient, _versions, as_function
-from .stepper import run
+from .stepper import FPKFailure, run
 
 QUAD_NODES = 8  # Gauss-Legendre points per interval
 DELTA = 1e-12  # the geometric cut near A = 0 goes down to DELTA * Ac
@@ -159,7 +159,8 @@ def _pontryagin(m: Callable, s2: Callable, *, lo: float, hi: float, start: Start
         log_f0 = -np.inf
     log_fx = np.logaddexp.accumulate(np.concatenate([[log_f0], log_full]))
     log_fg = np.logaddexp(log_fx[:-1, None], log_part)
-    G = np.exp(log_fg - phi_g)
+    with np.errstate(over="ignore"):  # T beyond 1e308: reported by mfpt as a failure
+        G = np.exp(log_fg - phi_g)
     t_int = hw * (G @ w)
     T_x = np.concatenate([np.cumsum(t_int[::-1])[::-1], [0.0]])
     if callable(start) or start == "stationary":
@@ -190,14 +191,19 @@ def _check_range(lo: float, threshold: float, start: Any) -> None:
 
 
 def mfpt(drift: Coefficient, diffusion: Coefficient, *, threshold: float, start: Start,
-         lo: float = 0.0, intervals: int = 16, nodes: int = QUAD_NODES) -> dict[str, Any]:
+         lo: float = 0.0, intervals: int = 16, nodes: int = QUAD_NODES, rtol: float = 1e-9,
+         max_intervals: int = 1024) -> dict[str, Any]:
     """Mean first-passage time from ``start`` (an amplitude in [lo, threshold), a density
     callable on [lo, threshold] normalised there, or "stationary": the diffusion's own
     stationary density restricted to [lo, threshold)) to ``threshold``, reflecting at lo.
 
+    The grid doubles (from ``intervals``) until the two-grid estimate is below ``rtol`` T or
+    the finer grid reaches ``max_intervals`` (``converged`` says which): a high threshold,
+    where Phi changes by many units across an interval, needs more intervals.
+
     Returns {"value", "error_estimate" (|T(2 intervals) - T(intervals)|), "value_coarse",
-    "order" (declared), "intervals", "nodes", "curve": {"A", "T"} (T(A0) at the fine grid's
-    nodes), "evaluations" (of drift/diffusion), "seconds", "method"}.
+    "converged", "order" (declared), "intervals", "nodes", "curve": {"A", "T"} (T(A0) at the
+    fine grid's nodes), "evaluations" (of drift/diffusion), "seconds", "method"}.
     """
     t0 = time.perf_counter()
     _check_range(lo, threshold, start)
@@ -206,10 +212,18 @@ def mfpt(drift: Coefficient, diffusion: Coefficient, *, threshold: float, start:
     m, s2 = as_function(drift, "drift"), as_function(diffusion, "diffusion")
     kw = {"lo": float(lo), "hi": float(threshold), "start": start, "nodes": nodes}
     coarse = _pontryagin(m, s2, intervals=intervals, **kw)
-    fine = _pontryagin(m, s2, intervals=2 * intervals, **kw)
-    value = fine["value"]
-    err = max(abs(value - coarse["value"]), 1e-14 * abs(value))
+    while True:
+        fine = _pontryagin(m, s2, intervals=2 * intervals, **kw)
+        value = fine["value"]
+        if not math.isfinite(value):
+            raise FPKFailure(f"the MFPT overflows (> 1e308 time units) at threshold "
+                             f"{threshold:g}: far beyond reach")
+        err = max(abs(value - coarse["value"]), 1e-14 * abs(value))
+        if err <= rtol * abs(value) or 2 * intervals >= max_intervals:
+            break
+        intervals, coarse = 2 * intervals, fine
     return {"value": value, "error_estimate": err, "value_coarse": coarse["value"],
+            "converged": bool(err <= rtol * abs(value)),
             "order": quad_order(nodes), "intervals": 2 * intervals, "nodes": nodes,
             "curve": {"A": fine["A"], "T": fine["T"]},
             "evaluations": coarse["evaluations"] + fine["evaluations"],

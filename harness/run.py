@@ -8,6 +8,7 @@ harness or each other: data flows one way, scene -> solver -> record -> comparis
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
@@ -526,3 +527,105 @@ def passage_splitting(scene: Any, *, threshold: float, start: float, low: float 
     info = dict(res.info)
     info["levels_source"] = chosen["source"]
     return Result(data=res.data, info=info)
+
+
+# ------------------------------------------------ time domain (issue 30): averaged models' FPK
+def _averaged_coefficients(scene: Any, model: Any) -> Any:
+    if no_noise(scene.system):
+        raise SolverFailure(no_noise(scene.system))
+    return averaged_model(scene, model)
+
+
+def passage_averaged(scene: Any, model: Any, *, threshold: float, start: float | str,
+                     cells: int = FPK_CELLS, times: Any = None, t_end: float | None = None,
+                     intervals: int = 16) -> Result:
+    """First passage of an averaged model's amplitude through ``threshold`` (p = 0 there,
+    zero flux at A = 0), from an amplitude or "stationary" (the model's own stationary p(A)
+    restricted to A < threshold, normalised there).
+
+    data["R"] = {"t", "R"}, data["fpt_density"] = {"t", "p"} (fpk.reliability, ``cells``
+    cells), data["mfpt_curve"] = {"A", "T"} (T(A0) for every start on the quadrature's grid);
+    info["mfpt"] (the Pontryagin quadrature, fpk.mfpt), info["mfpt_error"] (its two-grid
+    estimate), info["mfpt_integral"] (int R dt of the time-stepped FPK), info["decay_rate"].
+    A threshold or start out of range raises BadInput; a numerical failure SolverFailure."""
+    from vifpk import fpk
+
+    m = _averaged_coefficients(scene, model)
+    try:
+        q = fpk.mfpt(m.drift, m.diffusion, threshold=threshold, start=start,
+                     intervals=intervals)
+        r = fpk.reliability(m.drift, m.diffusion, threshold=threshold, start=start,
+                            cells=cells, times=times, t_end=t_end)
+    except (fpk.FPKFailure, fpk.CoefficientError) as exc:
+        raise SolverFailure(str(exc)) from None
+    except ValueError as exc:
+        raise BadInput(str(exc)) from None
+    info = dict(r.info)
+    info.update(model=model_label(model), mfpt=q["value"], mfpt_error=q["error_estimate"],
+                quadrature={k: q[k] for k in ("value_coarse", "order", "intervals", "nodes",
+                                              "evaluations", "seconds", "method")},
+                variable="the model's amplitude A (energy U(A)); a model that observes its "
+                         "energy through a spread (observes) is taken at its own amplitude")
+    info["diagnostics"] = dict(info["diagnostics"],
+                               routes_gap=abs(q["value"] - r.info["mfpt_integral"]))
+    data = dict(r.data, mfpt_curve=q["curve"])
+    return Result(data=data, info=info)
+
+
+def transient_averaged(scene: Any, model: Any, *, start: float, times: Any,
+                       cells: int = FPK_CELLS, phase: bool = True) -> Result:
+    """The law of an averaged model's amplitude at ``times`` from a start at amplitude A0
+    (fpk.transient on [0, hi], hi from the model's stationary density (fpk.choose_domain,
+    tail 1e-10) and at least A0 + 10 widths).
+
+    The start is a Gaussian of standard deviation w = h (one cell, h = hi / cells) at A0,
+    clipped to the domain: the narrowest start the grid still samples (its cell masses sum to
+    1 within 1e-8 for sd = h), so the point start of the Monte Carlo is matched up to w. Its
+    width adds w^2 to the variance of a snapshot (widths add in quadrature while the law is
+    locally a diffusion with smooth coefficients), a relative error of order
+    w^2 / (2 D(A0) t) at time t (D = sigma^2 / 2) -- the same order as the scheme's own
+    O(h^2 / (2 D t)) error on a law that narrow. info["start_width"] = w and
+    info["start_width_time"] = w^2 / (2 D(A0)): snapshots earlier than 100 times it carry
+    more than ~1% of relative variance error from the start (raise ``cells`` for them).
+    ``phase``: also each snapshot mapped to x1, x2 (uniform-in-time phase along each orbit,
+    as the averaged model assumes): data["snapshots"]["x1"], ["x2"] = {"x", "p": [n, points]}.
+    """
+    from vifpk import fpk
+
+    m = _averaged_coefficients(scene, model)
+    t = np.asarray(times, dtype=float)
+    if not (math.isfinite(start) and start > 0):
+        raise BadInput(f"start must be a positive amplitude, got {start!r}")
+    if t.size == 0 or not np.all(np.isfinite(t)) or np.any(t <= 0):
+        raise BadInput("times must be positive and finite")
+    try:
+        _, hi, _ = fpk.choose_domain(m.drift, m.diffusion)
+        hi = max(hi, start + 10.0 * hi / cells)
+        width = hi / cells
+        a0 = float(start)
+
+        def p0(A: Any) -> Any:
+            return np.exp(-0.5 * ((np.asarray(A) - a0) / width) ** 2)
+
+        res = fpk.transient(m.drift, m.diffusion, p0=p0, times=list(t), cells=cells, lo=0.0,
+                            hi=hi)
+    except (fpk.FPKFailure, fpk.CoefficientError) as exc:
+        raise SolverFailure(str(exc)) from None
+    d0 = 0.5 * float(np.asarray(m.diffusion(np.array([a0])))[0])
+    info = dict(res.info, model=model_label(model), start=a0, start_width=width,
+                start_width_time=width**2 / (2.0 * d0),
+                start_note="Gaussian of sd one cell at A0 (the discrete point start)")
+    data = dict(res.data)
+    if phase:
+        snaps = dict(data["snapshots"])
+        period, _ = model_period(scene, m)
+        x1, x2 = [], []
+        for p in snaps["p"]:
+            rec = {"x": snaps["x"], "p": p}
+            cells_rec = Result(data={"A_cells": rec, "A": rec}, info={})
+            ph, _ = phase_solution(scene, cells_rec, period)
+            x1.append(ph["x1"]), x2.append(ph["x2"])
+        snaps["x1"] = {"x": x1[0]["x"], "p": np.array([d["p"] for d in x1])}
+        snaps["x2"] = {"x": x2[0]["x"], "p": np.array([d["p"] for d in x2])}
+        data["snapshots"] = snaps
+    return Result(data=data, info=info)

@@ -86,8 +86,8 @@ def test_quadrature_order_rayleigh(nodes):
     """The singular 1/A drift: the measured order must be the declared 2 nodes (measured 4.0
     and 6.0 over these grids)."""
     ns = [8, 16, 32]
-    errs = [abs(mfpt(ray_m, ray_s2, threshold=1.0, start=0.3, intervals=n,
-                     nodes=nodes)["value_coarse"] / ray_T(0.3, 1.0) - 1) for n in ns]
+    errs = [abs(mfpt(ray_m, ray_s2, threshold=1.0, start=0.3, intervals=n, nodes=nodes,
+                     max_intervals=2 * n)["value_coarse"] / ray_T(0.3, 1.0) - 1) for n in ns]
     assert fitted_order(ns, errs) == pytest.approx(quad_order(nodes), abs=0.3), errs
     assert QUAD_ORDER == quad_order(fpk.passage.QUAD_NODES)
 
@@ -97,7 +97,8 @@ def test_quadrature_order_drifted_brownian_motion(lo):
     ns = [4, 8, 16]
     exact = bm_T(1.0, lo)
     errs = [abs(mfpt(lambda A: -MU + 0 * A, lambda A: 2 * DD + 0 * A, threshold=LL, start=1.0,
-                     lo=lo, intervals=n, nodes=2)["value_coarse"] / exact - 1) for n in ns]
+                     lo=lo, intervals=n, nodes=2, max_intervals=2 * n)["value_coarse"] / exact
+                - 1) for n in ns]
     assert fitted_order(ns, errs) == pytest.approx(4.0, abs=0.3), errs
 
 
@@ -105,7 +106,8 @@ def test_error_estimate_bounds_the_error():
     # Richardson between the two grids: for an O(h^p) rule the finer one's error is
     # |T_2N - T_N| / (2^p - 1), so the estimate must be at least the actual error
     for n in (4, 8):
-        r = mfpt(ray_m, ray_s2, threshold=1.2, start=0.2, intervals=n, nodes=3)
+        r = mfpt(ray_m, ray_s2, threshold=1.2, start=0.2, intervals=n, nodes=3,
+                 max_intervals=2 * n)
         err = abs(r["value"] - ray_T(0.2, 1.2))
         assert err <= r["error_estimate"]
 
@@ -118,7 +120,7 @@ def test_a_start_density_integrates_t_against_it():
 
     num = quad(lambda a: ray_T(a, ac) * p0(a), 0.2, 0.8, epsabs=0, epsrel=1e-13)[0]
     den = quad(p0, 0.2, 0.8, epsabs=0, epsrel=1e-13)[0]
-    r = mfpt(ray_m, ray_s2, threshold=ac, start=p0, intervals=32)
+    r = mfpt(ray_m, ray_s2, threshold=ac, start=p0, intervals=32, max_intervals=64)
     # the bump has a kink-free but non-analytic support edge inside intervals: the measured
     # error is 3e-10, the estimate says 4e-10; 1e-8 is well above both
     assert r["value"] == pytest.approx(num / den, rel=1e-8)
@@ -207,3 +209,13 @@ def test_two_routes_agree_and_meet_the_closed_form():
           for n in (200, 400)]
     Is = [x.info["mfpt_integral"] for x in rs]
     assert abs(qs["value"] - Is[1]) <= abs(Is[0] - Is[1]) + 1e-6 * qs["value"]
+
+
+def test_high_thresholds_refine_until_converged_and_overflow_fails_cleanly():
+    # Ac = 4: Phi changes by u_c = 80 across [0, Ac], T ~ 3e33; the grid doubles until the
+    # two-grid estimate is below rtol = 1e-9 (the estimate bounds the error, test above)
+    r = mfpt(ray_m, ray_s2, threshold=4.0, start=0.5)
+    assert r["converged"] and r["intervals"] > 32
+    assert r["value"] == pytest.approx(ray_T(0.5, 4.0), rel=1e-9)
+    with pytest.raises(fpk.FPKFailure, match="overflows"):
+        mfpt(ray_m, ray_s2, threshold=12.0, start=0.5)  # T ~ e^720
