@@ -144,12 +144,18 @@ def restricted_mean(time: Any, censored: Any, horizon: float | None = None) -> d
             "censored": int(cen.sum())}
 
 
-def restricted_model_mean(t: Any, R: Any, horizon: float) -> float:
-    """int_0^horizon R dt of a model curve (trapezoid on its times, R held past its last time
-    is not assumed: the curve must reach the horizon)."""
+def restricted_model_mean(t: Any, R: Any, horizon: float, *,
+                          decay_rate: float | None = None) -> float:
+    """int_0^horizon R dt of a model curve (trapezoid on its times). A curve that ends before
+    the horizon is continued as R_last e^{-decay_rate (t - t_last)} (its slowest mode) when
+    ``decay_rate`` is given; otherwise that is an error."""
     t, R = np.asarray(t, dtype=float), np.asarray(R, dtype=float)
     if t[-1] < horizon:
-        raise ValueError(f"the model curve ends at {t[-1]:g} before the horizon {horizon:g}")
+        if decay_rate is None or not decay_rate > 0:
+            raise ValueError(f"the model curve ends at {t[-1]:g} before the horizon "
+                             f"{horizon:g}; give its decay_rate to continue it")
+        tail = float(R[-1]) * -math.expm1(-decay_rate * (horizon - t[-1])) / decay_rate
+        return float(np.trapezoid(R, t)) + tail
     x = np.append(t[t < horizon], horizon)
     return float(np.trapezoid(np.interp(x, t, R), x))
 

@@ -124,6 +124,12 @@ def test_model_comparisons_true_model_within_floor_wrong_model_beyond():
     assert mc["restricted"]
     e = relative_mfpt_error(restricted_model_mean(tm, np.exp(-tm), horizon), mc)
     assert abs(e["value"]) < 3 * e["err"] and e["restricted"]
+    # a model curve ending before the horizon continues with its decay rate (here exact)
+    short = tm[tm <= 1.0]
+    assert restricted_model_mean(short, np.exp(-short), horizon, decay_rate=1.0) == (
+        pytest.approx(1 - math.exp(-horizon), rel=1e-6))  # trapezoid on 1e-3 steps: 1e-7
+    with pytest.raises(ValueError, match="decay_rate"):
+        restricted_model_mean(short, np.exp(-short), horizon)
 
 
 def test_fpt_density_l1_floor_is_the_noise_level():
