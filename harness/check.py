@@ -120,8 +120,11 @@ def sde_seed(root: int, model: str) -> int:
 
 #: The kinds of warning check writes (WarningRecord.kind): code acts on the kind (the
 #: sweep's flags, advisory or not), people read the text.
-WARNING_KINDS = ("strong_damping", "narrow_band", "sticking", "strong_noise", "correlated_noise",
-                 "outside_range")
+#: Of them, the averaging assumptions that fail (assumption_warnings; the sweep's map flags);
+#: "outside_range" is a diagnostic of the run, not of the model.
+ASSUMPTION_KINDS = ("strong_damping", "narrow_band", "sticking", "strong_noise",
+                    "correlated_noise")
+WARNING_KINDS = (*ASSUMPTION_KINDS, "outside_range")
 
 
 #: advisory kinds: the averaging assumptions hold, but the measured O(eps) remainder of the

@@ -357,12 +357,12 @@ def cmd_figures(args: argparse.Namespace) -> int:
         print(f"figures: {args.out}/{own.name}-joint.png, {args.out}/{own.name}-pdfs.png")
         return 0
     checked(*(load_scene(FIGURES[no])  # shipped scenes, as draw_figures loads them
-              for no in args.figure or (2, 3, 4, 5, 6)))
+              for no in args.figure or tuple(FIGURES)))
     prov = _provenance(args)
     # figures are replaced one by one (--figure redraws some of them), each atomically; the
     # lock keeps two runs from interleaving in one folder
     with outdir.hold(args.out, run_id=prov["run_id"]):
-        table = draw_figures(args.out, numbers=tuple(args.figure or (2, 3, 4, 5, 6)),
+        table = draw_figures(args.out, numbers=tuple(args.figure or FIGURES),
                              overrides=overrides, quiet=args.quiet, prov=prov)
     print(render_table(table), end="")
     print(f"figures: {args.out}/paper-fig*.png")
@@ -520,6 +520,8 @@ def cmd_models(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from .bifurcation import VARIABLES
+    from .figures import FIGURES
     from .provenance import vifpk_version
 
     p = _Parser(prog="vifpk", description="How wrong is a stochastic-averaging approximation?")
@@ -566,7 +568,7 @@ def build_parser() -> argparse.ArgumentParser:
     b = sub.add_parser("bifurcation", help="find the critical mu or r of the P-bifurcation of "
                                            "each averaged model and check it by Monte Carlo")
     b.add_argument("scene", help="scene TOML file (or the name of a shipped scene)")
-    b.add_argument("--vary", choices=("mu", "r"), required=True,
+    b.add_argument("--vary", choices=tuple(VARIABLES), required=True,
                    help="the parameter to vary (required; the other one stays at the scene's "
                         "value, and the output names it)")
     b.add_argument("--range", nargs=2, type=float, metavar=("LO", "HI"),
@@ -588,7 +590,7 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--out", default="out/figures", metavar="DIR",
                    help="directory for paper-fig*.png and figures.json/.md "
                         "(default: %(default)s)")
-    f.add_argument("--figure", type=int, action="append", choices=(2, 3, 4, 5, 6),
+    f.add_argument("--figure", type=int, action="append", choices=tuple(FIGURES),
                    help="only this figure (repeatable; default: all of 2-6)")
     f.add_argument("--scene", metavar="SCENE",
                    help="instead of the paper's figures, draw the PDFs and the joint density "

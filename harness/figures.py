@@ -171,7 +171,7 @@ def draw_scene_figures(out_dir: str | Path, scene: Scene, *, quiet: bool = False
     return table
 
 
-def draw_figures(out_dir: str | Path, *, numbers: tuple[int, ...] = (2, 3, 4, 5, 6),
+def draw_figures(out_dir: str | Path, *, numbers: tuple[int, ...] = tuple(FIGURES),
                  overrides: dict[str, Any] | None = None, quiet: bool = False,
                  prov: dict[str, Any] | None = None) -> dict[str, Any]:
     """Draw the figures into out_dir; return (and write) the table of L1 distances.

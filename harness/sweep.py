@@ -59,6 +59,7 @@ from vifpk.core.defaults import BIFURCATION_MODELS, CHECK_MODELS
 from vifpk.core.result import BadInput
 from vifpk.core.scene import INDEXED, MAX_TERMS, SECTIONS, Scene, SceneError, load_scene
 
+from .check import ASSUMPTION_KINDS
 from .request import dt_follows_floor
 
 WORKFLOWS = ("check", "averaging", "bifurcation")
@@ -78,9 +79,7 @@ RESERVED = {"montecarlo.seed": "set the sweep's seed with the top-level key `see
             "montecarlo.budget": "sweeps run without a wall-clock budget (a budget makes a "
                                  "point depend on the machine's speed); use montecarlo.floor"}
 #: warnings of the cross-check as flags: variable name -> the warning's kind (WarningRecord.kind)
-WARNING_FLAGS = {"warn_narrow_band": "narrow_band", "warn_sticking": "sticking",
-                 "warn_strong_damping": "strong_damping", "warn_strong_noise": "strong_noise",
-                 "warn_correlated_noise": "correlated_noise"}
+WARNING_FLAGS = {f"warn_{kind}": kind for kind in ASSUMPTION_KINDS}
 EXTRA_HINT = "pip install 'vifpk[cluster]'"
 #: the largest grid a sweep file may ask for: building and validating a point's scene costs
 #: ~1-3 ms (measured 2026-11-23: 10000 points in 24 s at load average 10 on 2 cores), so a

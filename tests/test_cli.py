@@ -46,7 +46,7 @@ def test_solve_prints_summary(capsys):
 
 
 def run_cli(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "harness", *args], capture_output=True,
+    return subprocess.run([sys.executable, "-m", "vifpk", *args], capture_output=True,
                           text=True, timeout=120, cwd=ROOT)
 
 

@@ -141,7 +141,7 @@ ENV = {**os.environ, "PYTHONPATH": os.pathsep.join(
 
 
 def run_cli(*args: str, **kw) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "harness", *args], capture_output=True,
+    return subprocess.run([sys.executable, "-m", "vifpk", *args], capture_output=True,
                           text=True, timeout=120, env=ENV, **kw)
 
 
@@ -229,7 +229,7 @@ def test_closed_pipe_is_quiet(tmp_path):
     """`vifpk solve ... | head -2`: the reader is gone before the summary is printed."""
     r, w = os.pipe()
     os.close(r)  # the reader has left: every write raises EPIPE
-    proc = subprocess.Popen([sys.executable, "-m", "harness", "solve", BASE], stdout=w,
+    proc = subprocess.Popen([sys.executable, "-m", "vifpk", "solve", BASE], stdout=w,
                             stderr=subprocess.PIPE, text=True, cwd=tmp_path, env=ENV)
     os.close(w)
     _, err = proc.communicate(timeout=120)
@@ -242,7 +242,7 @@ def test_ctrl_c_stops_a_monte_carlo_within_seconds(tmp_path):
     wait is bounded generously (10 s) against a shared machine; the kernel calls are ~0.4 s
     and the watchdog exits 1.5 s after the signal at the latest."""
     out = tmp_path / "mc.json"
-    proc = subprocess.Popen([sys.executable, "-m", "harness", "solve", BASE, *MC, "--paths",
+    proc = subprocess.Popen([sys.executable, "-m", "vifpk", "solve", BASE, *MC, "--paths",
                              "4096", "--time", "4000", "--json", str(out)], cwd=tmp_path,
                             stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
                             env={**ENV, "NUMBA_NUM_THREADS": "1"},

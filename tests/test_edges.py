@@ -468,7 +468,7 @@ def test_shipped_names_still_resolve():
 def _start_sweep(tmp_path: Path, executor: str) -> tuple[subprocess.Popen, Path]:
     out = tmp_path / "o"
     proc = subprocess.Popen(
-        [sys.executable, "-m", "harness", "sweep", str(DATA / "sweep-averaging.toml"), "--out",
+        [sys.executable, "-m", "vifpk", "sweep", str(DATA / "sweep-averaging.toml"), "--out",
          str(out), "--executor", executor, "--quiet"], env=ENV, cwd=tmp_path,
         stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True, start_new_session=True,
         # a test run started in the background inherits SIGINT ignored
@@ -533,7 +533,7 @@ def test_ctrl_c_on_a_dask_sweep_leaves_no_worker(tmp_path):
 @pytest.mark.slow  # a subprocess check: ~5 s
 def test_sigterm_on_check_is_like_ctrl_c(tmp_path):
     """check on SIGTERM: exit 143 with the one message, no .lock, nothing written."""
-    proc = subprocess.Popen([sys.executable, "-m", "harness", "check", str(DATA / "tiny.toml"),
+    proc = subprocess.Popen([sys.executable, "-m", "vifpk", "check", str(DATA / "tiny.toml"),
                              "--out", str(tmp_path / "c"), "--quiet"], env=ENV, cwd=tmp_path,
                             stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 60
@@ -570,7 +570,7 @@ def test_bifurcation_without_noise_exits_3(tmp_path, capsys, no_computation):
 def test_full_disk_on_stdout_exits_3_one_line(tmp_path):
     """`vifpk solve S > /dev/full`: one line, exit 3, no traceback."""
     with open("/dev/full", "w") as full:
-        res = subprocess.run([sys.executable, "-m", "harness", "solve", str(DATA / "tiny.toml")],
+        res = subprocess.run([sys.executable, "-m", "vifpk", "solve", str(DATA / "tiny.toml")],
                              stdout=full, stderr=subprocess.PIPE, text=True, env=ENV,
                              cwd=tmp_path, timeout=120)
     assert res.returncode == 3, res.stderr

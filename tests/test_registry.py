@@ -106,7 +106,7 @@ def plugin_path(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def _cli(plugin_path: Path, *args: str, cwd: Path = ROOT) -> subprocess.CompletedProcess[str]:
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(plugin_path), str(ROOT)]),
                NUMBA_NUM_THREADS="1")
-    return subprocess.run([sys.executable, "-m", "harness", *args], cwd=cwd, env=env,
+    return subprocess.run([sys.executable, "-m", "vifpk", *args], cwd=cwd, env=env,
                           capture_output=True, text=True, timeout=600)
 
 

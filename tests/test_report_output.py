@@ -97,7 +97,7 @@ def test_metrics_byte_identical_across_runs_and_modes_follow_umask(run, tmp_path
     out = tmp_path / "second"
     env = dict(os.environ, PYTHONPATH=str(ROOT), NUMBA_NUM_THREADS="1")
     sets = [a for s in TINY_CHECK_SET for a in ("--set", s)]  # as the session's check
-    subprocess.run([sys.executable, "-m", "harness", "check", TINY, *sets, "--out", str(out),
+    subprocess.run([sys.executable, "-m", "vifpk", "check", TINY, *sets, "--out", str(out),
                     "--quiet"], env=env, check=True, capture_output=True,
                    preexec_fn=lambda: os.umask(0o027))
     a = (run["dir"] / "metrics.json").read_text()

@@ -201,7 +201,7 @@ def test_interrupted_sweep_resumes_with_only_the_rest(tmp_path):
     pool) computes only the points without a record and leaves the kept records untouched."""
     out = tmp_path / "out"
     env = {**os.environ, "PYTHONPATH": str(ROOT), "NUMBA_NUM_THREADS": "1"}
-    proc = subprocess.Popen([sys.executable, "-m", "harness", "sweep", str(AVERAGING),
+    proc = subprocess.Popen([sys.executable, "-m", "vifpk", "sweep", str(AVERAGING),
                              "--out", str(out), "--quiet"], env=env, cwd=tmp_path,
                             stderr=subprocess.PIPE, text=True,
                             # a test run started in the background inherits SIGINT ignored
