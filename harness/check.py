@@ -40,6 +40,8 @@ from .run import (
     montecarlo_solution,
     validity,
 )
+from .tolerance import Tolerance, model_verdicts
+from .tolerance import line as tolerance_line
 
 OBSERVABLES = DENSITY_OBSERVABLES
 
@@ -62,6 +64,7 @@ class CheckResult:
     provenance: dict[str, Any] | None = None  # harness.provenance.collect(); set by the writer
     recommendation: str = ""  # one line: the model to trust here and why (recommend())
     models: tuple[str, ...] = CHECK_MODELS  # the averaged models checked, in report order
+    tolerance_lines: tuple[str, ...] = ()  # per model: the tolerance verdict (tolerance.line)
 
 
 class _Stages:
@@ -221,7 +224,8 @@ def assumption_warnings(scene: Any, closed: dict[str, Any], mc_info: dict[str, A
 
 
 def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool = True,
-                tail_mass: bool = True, models: tuple[str, ...] = CHECK_MODELS) -> CheckResult:
+                tail_mass: bool = True, models: tuple[str, ...] = CHECK_MODELS,
+                tolerance: Tolerance | None = None) -> CheckResult:
     """Run every solver on a concrete scene and compute the error decomposition.
 
     ``models``: registered averaged models (vifpk.core.registry), in report order (those that
@@ -238,8 +242,12 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
     each other, not the averaging error, so a sweep makes it at a few sampled points only
     (harness/sweep.py); without it only the equilibration certificate can ask for an
     extension. ``tail_mass=False`` skips the closed forms' measurement of the mass beyond
-    their grids (a diagnostic of the closed form, about half its cost).
+    their grids (a diagnostic of the closed form, about half its cost). ``tolerance``: the
+    question of the tolerance verdict (harness/tolerance.py; default Tolerance(): L1 of p(A)
+    <= 0.02 at 95%): each model's entry gets ``tolerance`` (its estimate with the noise
+    removed, interval, P(error <= tolerance), class), and the recommendation follows it.
     """
+    tol = tolerance if tolerance is not None else Tolerance()
     models, absent = models_of(scene, models)
     # closed forms, the original system's Monte Carlo and the metrics; FPK and SDE per model
     stages = _Stages(3 + len(models) * (int(fpk) + int(sde)), quiet)
@@ -325,6 +333,10 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
         metrics["models"][m]["verdict_class"] = cls
         metrics["models"][m]["verdict_cause"] = cause
         metrics["models"][m]["verdict_by_observable"] = observable_classes(metrics["models"][m])
+    metrics["tolerance"] = tol.record()
+    tverdicts = model_verdicts(metrics, tol)
+    for m, v in tverdicts.items():
+        metrics["models"][m]["tolerance"] = v
     stages.done()
     rec_model, rec_line = recommend(metrics, warnings, val, convergence=conv)
     metrics["recommended_model"] = rec_model
@@ -348,8 +360,10 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
                       if "seconds" in s.info},
         "threads": mc.info.get("threads"),
     }
+    metrics["tolerance_verdicts"] = [tolerance_line(m, v) for m, v in tverdicts.items()]
     return CheckResult(scene=scene, solutions=sol, metrics=metrics, warnings=warnings,
-                       verdicts=verdicts, recommendation=rec_line, models=models)
+                       verdicts=verdicts, recommendation=rec_line, models=models,
+                       tolerance_lines=tuple(metrics["tolerance_verdicts"]))
 
 
 def _sde_run(scene: Any, model: str, closed: Any, edges: dict[str, np.ndarray],
@@ -564,61 +578,86 @@ def recommend(metrics: dict[str, Any], warnings: list[WarningRecord], val: dict[
               convergence: dict[str, Any] | None = None) -> tuple[str, str]:
     """(model, one line): the averaged model to trust for this scene and why, or "none".
 
-    Evidence, in order: (1) the Monte Carlo must have converged and no averaging assumption
-    may fail (warnings), else "none"; (2) the measured averaging errors L1(A) of ``exact`` and
-    ``corrected`` against the same simulation: the lower one when they differ by more than
-    the noise floor; (3) within the noise, ``corrected`` (its extra terms are derived) unless
-    its wall-energy term is outside its derivation over the bulk of p(E) (delta / E above
-    WALL_MAX at the 10% energy), then ``exact``; advisory warnings (ADVISORY) do not stop a
-    recommendation but are named in it; (4) a recommended model whose own L1 is
-    not small (>= SMALL_L1) is not trustworthy: "none", naming the best. Thresholds and the
-    curves behind them: docs/report.md, "Warnings" and "Which model to trust".
+    The recommendation follows the tolerance verdict (harness/tolerance.py; the question is
+    ``metrics["tolerance"]``, default L1(A) <= 0.02 at 95%): (1) the Monte Carlo of the
+    original system must have converged, else "none"; a model whose averaged-SDE check failed
+    is no candidate; (2) of ``exact`` and ``corrected``, the ones INSIDE the tolerance at the
+    stated confidence are candidates, and the one with the lower error estimate (noise
+    removed) is recommended; when both are inside and their estimates differ by less than
+    the noise floor, ``corrected`` (its extra terms are derived) unless its wall-energy term
+    is outside its derivation over the bulk of p(E) (delta / E above WALL_MAX at the 10%
+    energy), then ``exact``; (3) "none" only when no model is inside, saying which are
+    undecided (a longer run decides) and which outside; with no model inside, the best
+    undecided one whose P(error <= tolerance) is at least 1/2 is recommended *provisionally*
+    (the line says so: more likely within than not, not yet at the confidence). Warnings no
+    longer veto a model whose measured error is small: they are named as advice (the
+    assumptions that fail here, so the measured error holds for this scene, not as a trend).
+    The line names the tolerance used.
     """
+    from .tolerance import Tolerance, tolerance_verdict
+
     conv = convergence or {}
     head = "recommended model: "
     models = metrics["models"]
-    if conv.get("equilibrated") is False or any(
-            models[m].get("sampling_ok") is False for m in RECOMMENDABLE if m in models):
-        return "none", (head + "none -- the Monte Carlo has not converged, so no model's error "
-                        "is measured here")
-    e = {m: models[m]["averaging_error"]["A"] for m in RECOMMENDABLE if m in models}
-    best = min(e, key=lambda m: e[m]["L1"])
-    desc = ", ".join(f"{m} {e[m]['L1']:.3f}" for m in e)
-    floor = max(x["L1_floor"] for x in e.values())
+    tol = Tolerance(**metrics["tolerance"]) if "tolerance" in metrics else Tolerance()
+    used = f"tolerance {tol.words()}"
+    if conv.get("equilibrated") is False:
+        return "none", (head + f"none -- the Monte Carlo has not converged, so no model's error "
+                        f"is measured here ({used})")
+    cand = [m for m in RECOMMENDABLE if m in models
+            and models[m].get("sampling_ok") is not False
+            and tol.observable in models[m].get("averaging_error", {})]
+    if not cand:
+        return "none", (head + "none -- the averaged-SDE check of every candidate model "
+                        f"failed, so no model's error is measured here ({used})")
+    tv = {m: models[m].get("tolerance") or tolerance_verdict(
+        models[m]["averaging_error"][tol.observable], tol) for m in cand}
+    desc = ", ".join(f"{m} {tv[m]['error_estimate']:.3f} (P = "
+                     f"{tv[m]['p_within_tolerance']:.2f}, {tv[m]['class']})" for m in cand)
+    floor = max(tv[m]["floor"] for m in cand)
     failing = [w for w in warnings if w.kind not in ADVISORY]
     advisory = [w for w in warnings if w.kind in ADVISORY]
+    advice = ""
     if failing:
-        kinds = ", ".join(w.title for w in failing)
-        return "none", (head + f"none -- averaging assumptions fail here ({kinds}); the "
-                        f"measured L1(A) ({desc}, floor {floor:.3f}) is not an approximation "
-                        "error to rely on elsewhere")
+        advice = ("; advice: " + ", ".join(w.title for w in failing) + " -- the averaging "
+                  "assumptions fail here, so this measured error holds for this scene, not as "
+                  "a trend beyond it (see warnings)")
+    if advisory:
+        advice += ("; expect the error to grow in the correlated-noise regime (see warnings)")
+    inside = [m for m in cand if tv[m]["class"] == "inside"]
+    likely = [m for m in cand if tv[m]["class"] == "undecided"
+              and tv[m]["p_within_tolerance"] >= 0.5]
+    if not inside and likely:
+        pick = min(likely, key=lambda m: tv[m]["error_estimate"])
+        return pick, (head + f"{pick} -- provisionally: no model is within the {used} at this "
+                      f"sample size, and {pick}'s error is more likely within it than not "
+                      f"(error estimates with the noise removed: {desc}; floor {floor:.3f}); "
+                      f"a longer run (a smaller floor) decides{advice}")
+    if not inside:
+        undecided = [m for m in cand if tv[m]["class"] == "undecided"]
+        more = (f"; {' and '.join(undecided)} undecided: a longer run (a smaller floor) "
+                "decides" if undecided else "")
+        return "none", (head + f"none -- no model is within the {used} (error estimates with "
+                        f"the noise removed: {desc}; floor {floor:.3f}){more}{advice}")
     wall = (val.get("wall") or [0.0])[0]  # at the 10% energy, where delta / E is largest
-    band = val.get("band")
-    why: str
-    if "exact" in e and "corrected" in e and abs(e["corrected"]["L1"] - e["exact"]["L1"]) <= floor:
+    est = {m: tv[m]["error_estimate"] for m in inside}
+    if len(inside) == 2 and abs(est["corrected"] - est["exact"]) <= floor:
         if wall > WALL_MAX:
             pick = "exact"
-            why = (f"exact and corrected agree within the noise ({desc}, floor {floor:.3f}) and "
-                   f"corrected's energy-at-the-wall term is outside its derivation here (delta/E "
-                   f"= {wall:.2f} at the 10% energy > {WALL_MAX:g}"
-                   + (f"; alpha1/Omega = {min(band):.2f}-{max(band):.2f}" if band else "") + ")")
+            why = (f"exact and corrected are both within the {used} and agree within the "
+                   f"noise ({desc}; floor {floor:.3f}); corrected's energy-at-the-wall term is "
+                   f"outside its derivation here (delta/E = {wall:.2f} at the 10% energy > "
+                   f"{WALL_MAX:g})")
         else:
             pick = "corrected"
-            why = (f"exact and corrected agree within the noise ({desc}, floor {floor:.3f}); "
-                   "corrected keeps the derived O(eps) impact terms")
+            why = (f"exact and corrected are both within the {used} and agree within the "
+                   f"noise ({desc}; floor {floor:.3f}); corrected keeps the derived O(eps) "
+                   "impact terms")
     else:
-        pick = best
-        other = [m for m in e if m != best]
-        why = (f"lowest measured L1(A) beyond the noise ({desc}, floor {floor:.3f})"
-               if other else f"the only candidate ({desc})")
-        if pick == "exact" and wall > WALL_MAX:
+        pick = min(inside, key=lambda m: est[m])
+        why = (f"within the {used}, lowest error estimate with the noise removed ({desc}; "
+               f"floor {floor:.3f})")
+        if pick == "exact" and "corrected" in cand and wall > WALL_MAX:
             why += (f"; corrected's energy-at-the-wall term is outside its derivation here "
                     f"(delta/E = {wall:.2f} at the 10% energy > {WALL_MAX:g})")
-    if e[pick]["L1"] >= SMALL_L1:
-        return "none", (head + f"none -- the best model, {pick}, misplaces "
-                        f"{50 * e[pick]['L1']:.0f}% of the probability mass ({desc}, floor "
-                        f"{floor:.3f})")
-    if advisory:
-        why += ("; expect it to miss by more than 2 x the floor: correlated-noise regime "
-                "(see warnings)")
-    return pick, head + f"{pick} -- {why}"
+    return pick, head + f"{pick} -- {why}{advice}"

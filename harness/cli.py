@@ -224,6 +224,26 @@ def _mc_overrides(args: argparse.Namespace) -> dict[str, Any]:
     return request.mc_values(_mc_options(args))
 
 
+def _add_tolerance_options(p: argparse.ArgumentParser) -> None:
+    """The tolerance verdict's question (harness/tolerance.py; checked in cmd_check)."""
+    from vifpk.core.defaults import TOLERANCE, TOLERANCE_CONFIDENCE
+
+    from .tolerance import METRICS, OBSERVABLES
+
+    p.add_argument("--tolerance", type=float, default=TOLERANCE, metavar="T",
+                   help="the largest averaging error accepted; each model is called inside / "
+                        "outside / undecided and the recommendation follows it (default "
+                        f"{TOLERANCE:g})")
+    p.add_argument("--tolerance-metric", default="L1", metavar="METRIC",
+                   help=f"the distance the tolerance is on, one of {', '.join(METRICS)} "
+                        "(default L1)")
+    p.add_argument("--tolerance-observable", default="A", metavar="OBS",
+                   help=f"the density it is on, one of {', '.join(OBSERVABLES)} (default A)")
+    p.add_argument("--confidence", type=float, default=TOLERANCE_CONFIDENCE, metavar="C",
+                   help="the confidence of the inside/outside classes, in (0.5, 1) "
+                        f"(default {TOLERANCE_CONFIDENCE:g})")
+
+
 def cmd_check(args: argparse.Namespace) -> int:
     from . import outdir
     from .check import cross_check
@@ -234,6 +254,10 @@ def cmd_check(args: argparse.Namespace) -> int:
     req = request.prepare_check(args.scene, models=args.model, overrides=args.set,
                                 **_mc_options(args))
     scene, models = req.scene, req.models
+    from .tolerance import Tolerance
+
+    tol = Tolerance(value=args.tolerance, metric=args.tolerance_metric,
+                    observable=args.tolerance_observable, confidence=args.confidence)
     out = args.out or f"out/{folder_name(scene.name)}"
     if args.out is None:
         validate.output_folder(out, "--out (default)", replaced=True)
@@ -244,9 +268,11 @@ def cmd_check(args: argparse.Namespace) -> int:
     # hold the folder from the start: a second run into it is refused before any work
     with outdir.hold(out, run_id=prov["run_id"], allowed=REPORT_FILES, kind="check report"):
         with validate.guarded_run(scene, args.yes):
-            result = cross_check(scene, quiet=args.quiet, models=models)
+            result = cross_check(scene, quiet=args.quiet, models=models, tolerance=tol)
         files = write_report(result, out, prov=prov)
     for v in result.verdicts:
+        print(v)
+    for v in result.tolerance_lines:
         print(v)
     print(result.recommendation)
     for w in result.warnings:
@@ -563,6 +589,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="an averaged model to check, any registered one (repeat for several; "
                         f"default: {', '.join(CHECK_MODELS)})")
     c.add_argument("--quiet", action="store_true", help=QUIET_HELP)
+    _add_tolerance_options(c)
     _add_mc_options(c)
     c.set_defaults(func=cmd_check)
     b = sub.add_parser("bifurcation", help="find the critical mu or r of the P-bifurcation of "

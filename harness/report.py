@@ -318,6 +318,9 @@ def render_markdown(res: CheckResult, figures: dict[str, str]) -> str:
     out += ["", "L1 = ∫|p - q| runs from 0 (identical) to 2 (disjoint). Classes: "
             + "; ".join(_class_legend()) + ".", ""]
     out += [f"- {v}" for v in res.verdicts]
+    if res.tolerance_lines:  # the tolerance verdict (harness/tolerance.py)
+        out += ["", "Tolerance verdict (the error with the Monte Carlo noise removed):", ""]
+        out += [f"- {v}" for v in res.tolerance_lines]
     if res.recommendation:
         out += ["", f"**{res.recommendation}**"]
     if res.warnings:
@@ -385,6 +388,10 @@ def render_html(res: CheckResult, pngs: dict[str, bytes]) -> str:
     parts.append("<details><summary>The verdict in full</summary><ul>")
     parts += [f"<li>{e(v)}</li>" for v in res.verdicts]
     parts.append("</ul></details>")
+    if res.tolerance_lines:
+        parts.append("<p>Tolerance verdict (the error with the Monte Carlo noise removed):</p>"
+                     "<ul>" + "".join(f"<li>{e(v)}</li>" for v in res.tolerance_lines)
+                     + "</ul>")
     if res.recommendation:
         parts.append(f'<p class="recommendation"><b>{e(res.recommendation)}</b></p>')
     if res.warnings:

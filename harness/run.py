@@ -311,8 +311,9 @@ def solution_record(scene: Any, solver: str, model: str | None, result: Any, *,
 
     ``provenance``: the run's block (harness/provenance.py), stored as ``info.provenance``.
     """
-    pdf = {k: v for k, v in result.data.items() if k in ("A", "E", "x1", "x2")
-           or (joint and k == "joint")}
+    # the blocks' own densities (p_blocks: the error bars' input) stay out of the contract
+    pdf = {k: {f: a for f, a in v.items() if f != "p_blocks"} for k, v in result.data.items()
+           if k in ("A", "E", "x1", "x2") or (joint and k == "joint")}
     rec: dict[str, Any] = {"scene": scene.to_dict(), "solver": solver}
     if model is not None:
         rec["model"] = model

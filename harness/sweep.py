@@ -10,6 +10,9 @@ the varied parameters::
     models = ["paper", "mine"]    # optional: registered averaged models (vifpk.core.registry);
                                   # default: the workflow's own (check, averaging: CHECK_MODELS;
                                   # bifurcation: BIFURCATION_MODELS, vifpk.core.defaults)
+    tolerance = 0.02              # optional, check only: the tolerance verdict's L1(A); per
+                                  # point and model error_estimate(_err), p_within_tolerance,
+                                  # tolerance_class (harness/tolerance.py)
     [vary]
     "system.r" = [0.95, 0.96, 0.97, 0.98]
     "system.mu" = {start = 0.0, stop = 0.004, num = 5}
@@ -55,7 +58,7 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-from vifpk.core.defaults import BIFURCATION_MODELS, CHECK_MODELS
+from vifpk.core.defaults import BIFURCATION_MODELS, CHECK_MODELS, TOLERANCE
 from vifpk.core.result import BadInput
 from vifpk.core.scene import INDEXED, MAX_TERMS, SECTIONS, Scene, SceneError, load_scene
 
@@ -65,7 +68,7 @@ from .request import dt_follows_floor
 WORKFLOWS = ("check", "averaging", "bifurcation")
 MODES = ("product", "zip", "adaptive")
 TOP_KEYS = ("scene", "workflow", "mode", "seed", "name", "description", "vary", "set",
-            "bifurcation", "adaptive", "models")
+            "bifurcation", "adaptive", "models", "tolerance")
 ADAPTIVE_KEYS = ("points", "model", "batch", "resolution")
 #: points of an adaptive batch unless [adaptive] batch says otherwise: a property of the sweep
 #: file, not of the executor, so that the points do not depend on where they run
@@ -132,6 +135,7 @@ class Sweep:
     #: ranges as (start, stop), and ``points`` the initial lattice (run_adaptive adds the rest)
     adaptive: Mapping[str, Any] = field(default_factory=dict)
     models: tuple[str, ...] | None = None  # None: the workflow's default models
+    tolerance: float = TOLERANCE  # check: the tolerance verdict's L1(A) (harness/tolerance.py)
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -317,6 +321,14 @@ def load_sweep(path: str | Path) -> Sweep:
                 raise SweepError(f"{src}: models: {m!r} is not a registered model; "
                                  "registered: " + ", ".join(known))
         models = tuple(dict.fromkeys(models))
+    tolerance = raw.get("tolerance", TOLERANCE)
+    if "tolerance" in raw and workflow != "check":
+        raise SweepError(f"{src}: tolerance: only for workflow = \"check\" (the tolerance "
+                         "verdict of the averaging error)")
+    if (not isinstance(tolerance, int | float) or isinstance(tolerance, bool)
+            or not math.isfinite(tolerance) or tolerance <= 0):
+        raise SweepError(f"{src}: tolerance = {tolerance!r}: a number > 0 (the largest "
+                         "accepted L1 of p(A))")
     name = raw.get("name", Path(p.name).stem)
     description = raw.get("description", "")
     if not isinstance(name, str) or not name or not isinstance(description, str):
@@ -414,7 +426,8 @@ def load_sweep(path: str | Path) -> Sweep:
               for i, params in enumerate(combos)]
     return Sweep(path=str(p), text=text, name=name, workflow=workflow, mode=mode, seed=seed,
                  vary=tuple(vary), fixed=fixed, bifurcation=bif, base=base,
-                 points=tuple(points), adaptive=adaptive, models=models)
+                 points=tuple(points), adaptive=adaptive, models=models,
+                 tolerance=float(tolerance))
 
 
 def _range(where: str, spec: Any) -> tuple[float, float]:
@@ -560,6 +573,7 @@ class Job:
     bifurcation: Mapping[str, Any]
     sde: bool = True  # check: run the averaged SDEs' Monte Carlo (Point.sde)
     models: tuple[str, ...] | None = None  # None: the workflow's default models
+    tolerance: float = TOLERANCE  # check: the tolerance verdict's L1(A)
 
 
 def run_point(job: Job) -> dict[str, Any]:
@@ -596,9 +610,11 @@ def _check_point(job: Job) -> dict[str, Any]:
     import numpy as np
 
     from .check import cross_check
+    from .tolerance import Tolerance
 
     res = cross_check(job.scene, quiet=True, fpk=False, sde=job.sde, tail_mass=False,
-                      models=_models(job, CHECK_MODELS))
+                      models=_models(job, CHECK_MODELS),
+                      tolerance=Tolerance(value=job.tolerance))
     mc = res.solutions["mc:original"]
     conv = res.metrics["monte_carlo"]["convergence"]
     models = {}
@@ -608,6 +624,12 @@ def _check_point(job: Job) -> dict[str, Any]:
                      "L1_floor_A": e["L1_floor"],
                      "mean_A": res.solutions[f"closed:{m}"].info["summary"]["mean"],
                      "verdict_class": str(res.metrics["models"][m].get("verdict_class", ""))}
+        tv = res.metrics["models"][m].get("tolerance")
+        if tv is not None:  # the tolerance verdict (issue 29): the error, noise removed
+            models[m].update(error_estimate=tv["error_estimate"],
+                             error_estimate_err=tv["error_estimate_err"],
+                             p_within_tolerance=tv["p_within_tolerance"],
+                             tolerance_class=tv["class"])
         if job.sde:  # only where the averaged SDE ran (SDE_CHECK_EVERY); -1 elsewhere
             models[m]["sampling_ok"] = bool(res.metrics["models"][m]["sampling_ok"])
     # the simulation's mean amplitude from its histogram of A with an exactly rounded sum, its
@@ -944,7 +966,7 @@ def finished(sweep: Sweep, out: Path) -> dict[str, dict[str, Any]]:
 def _job(sweep: Sweep, pt: Point) -> Job:
     return Job(key=pt.key, fingerprint=pt.fingerprint, params=pt.params, seed=pt.seed,
                workflow=sweep.workflow, scene=pt.scene, bifurcation=sweep.bifurcation,
-               sde=pt.sde, models=sweep.models)
+               sde=pt.sde, models=sweep.models, tolerance=sweep.tolerance)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -1388,6 +1410,11 @@ def dataset(sweep: Sweep, records: Mapping[str, dict[str, Any]], *,
     if sweep.workflow == "check":
         ds.attrs["within_noise"] = ("a model is within the Monte Carlo noise where "
                                     "averaging_error_A < 2 L1_floor_A (the check's verdict)")
+        ds.attrs["tolerance"] = sweep.tolerance
+        ds.attrs["tolerance_meaning"] = (
+            "error_estimate: L1 of p(A) with the Monte Carlo noise removed, "
+            "sqrt(max(L1^2 - floor^2, 0)); p_within_tolerance: P(error <= tolerance); "
+            "tolerance_class: inside / outside / undecided at 95% (harness/tolerance.py)")
     if provenance is not None:
         ds.attrs["provenance"] = json.dumps(dict(provenance))
         ds.attrs["versions"] = json.dumps(provenance.get("versions", {}))

@@ -344,10 +344,11 @@ def simulate_sde(drift: Callable[[np.ndarray], np.ndarray],
                    ).record(),
     }
     data = {"A": {"x": 0.5 * (edges[1:] + edges[:-1]), "p": d["p"], "edges": edges,
-                  "err": d["err"]}}
+                  "err": d["err"], "p_blocks": d["blocks"]}}
     if hx is not None:
         for name, hh, e in (("x1", hx, ex), ("x2", hv, ev)):
             dd = _density(hh, sums[:, 2], np.diff(e))
-            data[name] = {"x": 0.5 * (e[1:] + e[:-1]), "p": dd["p"], "edges": e, "err": dd["err"]}
+            data[name] = {"x": 0.5 * (e[1:] + e[:-1]), "p": dd["p"], "edges": e,
+                          "err": dd["err"], "p_blocks": dd["blocks"]}
             info["L1_floor"][name] = dd["L1_floor"]
     return Result(data=data, info=info)

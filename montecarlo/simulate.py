@@ -327,12 +327,14 @@ def _relaxation(phys: dict[str, Any], h: float, seed: int, step: _Stepper, a_hi:
 
 
 def _density(counts: np.ndarray, samples: np.ndarray, widths: np.ndarray) -> dict[str, Any]:
-    """Block-mean density per unit length, its standard error and the L1 noise floor."""
+    """Block-mean density per unit length, its standard error, the L1 noise floor and the
+    blocks' own densities (``blocks``: the batch means, whose spread a metric's error bar reads,
+    harness/compare.py)."""
     per_block = counts / (samples.reshape((-1,) + (1,) * (counts.ndim - 1)) * widths)
     mean = per_block.mean(axis=0)
     se = per_block.std(axis=0, ddof=1) / math.sqrt(counts.shape[0])
     floor = float(np.sum(math.sqrt(2.0 / math.pi) * se * widths))
-    return {"p": mean, "err": se, "L1_floor": floor}
+    return {"p": mean, "err": se, "L1_floor": floor, "blocks": per_block}
 
 
 def _floor_A(arr: _Arrays) -> float:
@@ -485,7 +487,8 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
             continue
         e = edges[ekey]
         d = _density(arr.hist[key], samples, np.diff(e))
-        data[name] = {"x": 0.5 * (e[1:] + e[:-1]), "p": d["p"], "edges": e, "err": d["err"]}
+        data[name] = {"x": 0.5 * (e[1:] + e[:-1]), "p": d["p"], "edges": e, "err": d["err"],
+                      "p_blocks": d["blocks"]}
         floors[name] = d["L1_floor"]
     if "x2" in data or "joint" in obs:
         atom = _mean_se(ev[:, K.EV_ATOM] / samples)

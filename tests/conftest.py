@@ -62,12 +62,14 @@ def canned_check(tiny_check, monkeypatch):
     """``harness.check.cross_check`` replaced by the tiny check, its scene swapped for the one
     asked (so titles, folders and sweep coordinates follow the request); ``models`` keeps only
     the models asked (their solutions, metrics and verdict lines; a model the canned check did
-    not compute fails the test); ``sde=False`` drops the averaged SDEs' runs as cross_check
-    does. Commands that check then write, interrupt and render without computing. Returns the
-    canned result."""
+    not compute fails the test) and ``tolerance`` the question asked (the tolerance verdicts
+    and the recommendation made again from the canned numbers); ``sde=False`` drops the
+    averaged SDEs' runs as cross_check does. Commands that check then write, interrupt and
+    render without computing. Returns the canned result."""
     import vifpk.harness.check
 
-    def canned(scene, *, quiet=False, fpk=True, sde=True, tail_mass=True, models=None):
+    def canned(scene, *, quiet=False, fpk=True, sde=True, tail_mass=True, models=None,
+               tolerance=None):
         res = replace(tiny_check, scene=scene, metrics=copy.deepcopy(tiny_check.metrics))
         if models is not None:
             keep = tuple(dict.fromkeys(models))
@@ -82,6 +84,22 @@ def canned_check(tiny_check, monkeypatch):
             res.metrics["verdicts"] = [v for v in res.metrics["verdicts"]
                                        if not any(v.startswith(f"{m} model") for m in drop)]
             res = replace(res, verdicts=list(res.metrics["verdicts"]))
+        if models is not None or tolerance is not None:  # the verdicts of what was asked
+            from vifpk.harness.check import recommend
+            from vifpk.harness.tolerance import Tolerance, line, model_verdicts
+
+            met = res.metrics
+            tol = tolerance or Tolerance(**met["tolerance"])
+            met["tolerance"] = tol.record()
+            tv = model_verdicts(met, tol)
+            for m, v in tv.items():
+                met["models"][m]["tolerance"] = v
+            met["tolerance_verdicts"] = [line(m, v) for m, v in tv.items()]
+            rec = recommend(met, res.warnings, met["validity"],
+                            convergence=met["monte_carlo"]["convergence"])
+            met["recommended_model"], met["recommendation"] = rec
+            res = replace(res, recommendation=rec[1],
+                          tolerance_lines=tuple(met["tolerance_verdicts"]))
         if not fpk or not sde:
             drop = ([f"fpk:{m}" for m in res.models] if not fpk else []) + \
                    ([f"mc:{m}" for m in res.models] if not sde else [])

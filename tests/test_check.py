@@ -71,3 +71,34 @@ def test_exact_is_measured_the_same_whatever_else_is_checked(white_envelope):
     # the binning-free distance is reported beside L1, with its floor and error bar
     e = ref.metrics["models"]["exact"]["averaging_error"]["A"]
     assert e["w1"] >= 0 and e["w1_floor"] > 0 and e["w1_err"] > 0
+
+
+def test_check_tolerance_verdict_end_to_end(tmp_path, capsys, canned_check):
+    """`vifpk check --tolerance`: metrics.json keeps every old key and adds per model the
+    tolerance verdict (estimate, interval, P, class), the question asked, and a recommendation
+    that names it; a tolerance out of range exits 2 before any work."""
+    import json
+
+    from vifpk.harness.cli import main
+
+    tiny = str(ROOT / "tests" / "data" / "tiny.toml")
+    out = tmp_path / "rep"
+    assert main(["check", tiny, "--out", str(out), "--quiet", "--tolerance", "0.05",
+                 "--tolerance-metric", "w1"]) == 0
+    printed = capsys.readouterr().out
+    m = json.loads((out / "metrics.json").read_text())
+    assert m["tolerance"] == {"value": 0.05, "metric": "w1", "observable": "A",
+                              "confidence": 0.95}
+    for model in ("paper", "exact", "corrected"):
+        v = m["models"][model]["tolerance"]
+        assert v["class"] in ("inside", "outside", "undecided")
+        assert 0 <= v["p_within_tolerance"] <= 1 and v["error_estimate"] >= 0
+        lo, hi = v["error_estimate_ci"]
+        assert lo <= v["error_estimate"] <= hi
+        assert "verdict_class" in m["models"][model] and "averaging_error" in m["models"][model]
+    assert "w1(A) <= 0.05 at 95% confidence" in m["recommendation"]
+    assert "error estimate" in printed and m["recommendation"] in printed
+    assert "Tolerance verdict" in (out / "report.md").read_text()
+    for bad in (["--tolerance", "-1"], ["--tolerance-metric", "L2"], ["--confidence", "1"]):
+        assert main(["check", tiny, "--out", str(tmp_path / "no"), "--quiet", *bad]) == 2
+        assert "--" in capsys.readouterr().err and not (tmp_path / "no").exists()

@@ -140,49 +140,77 @@ def test_check_f_zero_is_a_clear_message(tmp_path: Path, capsys):
     assert "no stationary density" in err and not (tmp_path / "o").exists()
 
 
-# ------------------------------------------------------------ which model to trust (issue 23)
-def _canned(l1: dict[str, float], floor: float = 0.01) -> dict:
-    return {"models": {m: {"averaging_error": {"A": {"L1": v, "L1_floor": floor}},
+# ------------------------------------------------- which model to trust (issues 23 and 29)
+def _canned(l1: dict[str, float], floor: float = 0.005, err: float = 0.002) -> dict:
+    return {"models": {m: {"averaging_error": {"A": {"L1": v, "L1_floor": floor,
+                                                     "L1_err": err}},
                            "sampling_ok": True} for m, v in l1.items()}}
 
 
 VAL = {"wall": [0.05, 0.01, 0.0], "band": [2.0, 1.9, 1.8]}
 
 
-def test_recommend_takes_the_lower_measured_error_beyond_the_noise():
+def test_recommend_takes_the_model_within_the_tolerance():
+    """Default tolerance L1(A) <= 0.02 at 95%: the model inside it with the lower error
+    estimate, and the line names the tolerance."""
     from vifpk.harness.check import recommend
 
-    m, line = recommend(_canned({"exact": 0.08, "corrected": 0.01}), [], VAL)
-    assert m == "corrected" and line.startswith("recommended model: corrected -- lowest")
-    m, _ = recommend(_canned({"exact": 0.02, "corrected": 0.06}), [], VAL)
+    m, line = recommend(_canned({"exact": 0.08, "corrected": 0.015}), [], VAL)
+    assert m == "corrected" and line.startswith("recommended model: corrected -- within the")
+    assert "L1(A) <= 0.02 at 95% confidence" in line
+    m, _ = recommend(_canned({"exact": 0.012, "corrected": 0.06}), [], VAL)
     assert m == "exact"
+    # a looser tolerance asked: both inside, the lower estimate wins
+    loose = dict(_canned({"exact": 0.08, "corrected": 0.04}),
+                 tolerance={"value": 0.1, "metric": "L1", "observable": "A",
+                            "confidence": 0.95})
+    m, line = recommend(loose, [], VAL)
+    assert m == "corrected" and "<= 0.1 at 95%" in line
 
 
 def test_recommend_within_the_noise_follows_the_wall_term_validity():
-    """A tie within the floor goes to corrected unless its wall term is outside its
-    derivation (delta/E above WALL_MAX at the 10% energy), then to exact, naming why."""
+    """Both inside and their estimates within the floor: corrected unless its wall term is
+    outside its derivation (delta/E above WALL_MAX at the 10% energy), then exact."""
     from vifpk.harness.check import WALL_MAX, recommend
 
-    tie = _canned({"exact": 0.041, "corrected": 0.045})
+    tie = _canned({"exact": 0.011, "corrected": 0.013})
     assert recommend(tie, [], VAL)[0] == "corrected"
     m, line = recommend(tie, [], {"wall": [2 * WALL_MAX, 0.05, 0.01], "band": [0.7] * 3})
     assert m == "exact" and "energy-at-the-wall" in line
 
 
-def test_recommend_none_when_assumptions_fail_or_unconverged_or_large():
+def test_recommend_none_only_when_no_model_is_within_the_tolerance():
+    from vifpk.harness.check import recommend
+
+    m, line = recommend(_canned({"exact": 0.01, "corrected": 0.01}), [], VAL,
+                        convergence={"equilibrated": False})
+    assert m == "none" and "not converged" in line
+    m, line = recommend(_canned({"exact": 0.15, "corrected": 0.30}), [], VAL)
+    assert m == "none" and "no model is within the tolerance" in line and "outside" in line
+
+
+def test_failing_assumptions_are_advice_not_a_veto():
+    """Issue 29: a strong-noise or narrow-band warning no longer vetoes a model whose measured
+    error is small; the warning stays in the line as advice."""
     from vifpk.harness.check import recommend
 
     from vifpk.core.result import WarningRecord
 
     narrow = WarningRecord("narrow_band", "narrow-band noise: bandwidth alpha1 = 0.2 is 0.2-0.2 x "
                            "the oscillation frequency over the bulk of p(E)")
-    m, line = recommend(_canned({"exact": 0.01, "corrected": 0.01}), [narrow], VAL)
-    assert m == "none" and "narrow band" in line
-    m, line = recommend(_canned({"exact": 0.01, "corrected": 0.01}), [], VAL,
-                        convergence={"equilibrated": False})
-    assert m == "none" and "not converged" in line
-    m, line = recommend(_canned({"exact": 0.15, "corrected": 0.30}), [], VAL)
-    assert m == "none" and "exact" in line
+    m, line = recommend(_canned({"exact": 0.01, "corrected": 0.03}), [narrow], VAL)
+    assert m == "exact" and "advice: narrow band" in line
+
+
+def test_an_undecided_model_is_recommended_only_provisionally():
+    """Estimate below the tolerance but not at 95%: named provisionally (P >= 1/2); a model
+    more likely outside than inside is not."""
+    from vifpk.harness.check import recommend
+
+    m, line = recommend(_canned({"exact": 0.019, "corrected": 0.06}, err=0.004), [], VAL)
+    assert m == "exact" and "provisionally" in line and "longer run" in line
+    m, line = recommend(_canned({"exact": 0.026, "corrected": 0.06}, err=0.004), [], VAL)
+    assert m == "none" and "exact undecided" in line
 
 
 def test_advisory_warning_keeps_the_recommendation_and_the_estimate():

@@ -301,3 +301,30 @@ def test_the_grid_map_boundary_is_the_cell_edges_between_verdicts():
     _verdict_boundary(ax, inside, known, xe, ye)
     assert len(ax.collections[0].get_segments()) == 3
     plt.close(fig)
+
+
+
+def test_a_check_sweep_carries_the_tolerance_verdict(canned_check, tmp_path):
+    """`tolerance` in a check sweep (issue 29): per point and model the error with the noise
+    removed, its error, P(error <= tolerance) and the class, and the tolerance as an
+    attribute; refused with one line outside the check workflow or out of range."""
+    import xarray as xr
+    from vifpk.harness.sweep import SweepError
+
+    text = CHECK.read_text().replace('seed = 11', 'seed = 11\ntolerance = 0.05')
+    f = _write(tmp_path, text)
+    sw = load_sweep(f)
+    assert sw.tolerance == 0.05
+    run_sweep(sw, tmp_path / "out", executor="serial", quiet=True, report=False)
+    with xr.open_dataset(tmp_path / "out" / "sweep.nc", engine="netcdf4") as ds:
+        ds.load()
+    assert ds.attrs["tolerance"] == 0.05
+    for k in ("error_estimate", "error_estimate_err", "p_within_tolerance", "tolerance_class"):
+        assert k in ds, k
+    assert set(ds["tolerance_class"].values.ravel()) <= {"inside", "outside", "undecided"}
+    for bad in ("tolerance = -1", 'tolerance = "x"',
+                'tolerance = 0.1\nworkflow = "averaging"'):
+        f = _write(tmp_path, text.replace("tolerance = 0.05", bad).replace(
+            'workflow = "check"\n', "" if "averaging" in bad else 'workflow = "check"\n'))
+        with pytest.raises(SweepError, match="tolerance"):
+            load_sweep(f)

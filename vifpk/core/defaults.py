@@ -20,13 +20,20 @@ REFERENCE_CELLS = 800
 #: from equilibrium decays as exp(-t / tau), so e^-6 = 2.5e-3 of it is left).
 BURN_FACTOR = 6.0
 #: The averaged models a cross-check (and a sweep of cross-checks) runs when none is named,
-#: in this order: report columns and the per-model Monte Carlo seeds follow it.
+#: in this order: report columns follow it (the averaged SDEs' seeds follow each model's name,
+#: harness.check.sde_seed, never its place in the list).
 CHECK_MODELS = ("paper", "exact", "corrected")
 #: The observables every solver gives as densities (closed forms, FPK, Monte Carlo), compared
 #: by check and by the tolerance tests.
 DENSITY_OBSERVABLES = ("A", "x1", "x2")
 #: The models a bifurcation search runs when none is named (the paper's and the exact one).
 BIFURCATION_MODELS = ("paper", "exact")
+#: The tolerance verdict's defaults (issue 29; harness/tolerance.py, ``vifpk check
+#: --tolerance``, the ``tolerance`` of check sweeps): the largest averaging error a user
+#: accepts, on L1 of p(A) (L1 / 2 = 1% of the probability mass misplaced), and the confidence
+#: at which a model is called inside or outside it.
+TOLERANCE = 0.02
+TOLERANCE_CONFIDENCE = 0.95
 
 
 def cache_dir() -> Path:
