@@ -191,15 +191,19 @@ def _check_range(lo: float, threshold: float, start: Any) -> None:
 
 
 def mfpt(drift: Coefficient, diffusion: Coefficient, *, threshold: float, start: Start,
-         lo: float = 0.0, intervals: int = 16, nodes: int = QUAD_NODES, rtol: float = 1e-9,
-         max_intervals: int = 1024) -> dict[str, Any]:
+         lo: float = 0.0, intervals: int = 16, nodes: int = QUAD_NODES, rtol: float = 1e-7,
+         max_intervals: int = 512) -> dict[str, Any]:
     """Mean first-passage time from ``start`` (an amplitude in [lo, threshold), a density
     callable on [lo, threshold] normalised there, or "stationary": the diffusion's own
     stationary density restricted to [lo, threshold)) to ``threshold``, reflecting at lo.
 
     The grid doubles (from ``intervals``) until the two-grid estimate is below ``rtol`` T or
     the finer grid reaches ``max_intervals`` (``converged`` says which): a high threshold,
-    where Phi changes by many units across an interval, needs more intervals.
+    where Phi changes by many units across an interval, needs more intervals. rtol = 1e-7 is
+    100x below the time-stepped route's O(h^2) error at 400 cells (1e-5 on paper-base);
+    tabulated coefficients (piecewise-linear interpolation, as the ``corrected`` model's)
+    have kinks that cut the order to about 2, and asking 1e-9 of them cost 3-6 s for nothing
+    (benchmarks/results/passage_averaged.json).
 
     Returns {"value", "error_estimate" (|T(2 intervals) - T(intervals)|), "value_coarse",
     "converged", "order" (declared), "intervals", "nodes", "curve": {"A", "T"} (T(A0) at the
@@ -286,18 +290,20 @@ def reliability(drift: Coefficient, diffusion: Coefficient, *, threshold: float,
                 start: Start | None = None, p0: Callable[[Array], Array] | None = None,
                 t_end: float | None = None, times: Sequence[float] | None = None,
                 cells: int = FPK_CELLS, lo: float = 0.0, stepper: str = "bdf",
-                rtol: float = 1e-9, tail: float = 1e-10, per_decay: int = 4) -> Result:
+                rtol: float = 1e-9, tail: float = 1e-10, per_decay: int = 4,
+                dense: int = 8) -> Result:
     """R(t), the FPT density and int_0^inf R dt by time stepping the FPK with p = 0 at
     ``threshold`` and zero flux at lo, from ``start`` (an amplitude, "stationary" or a density;
     ``p0`` is the same as a density start).
 
     Times: ``times`` if given (plus 0), else 0, a geometric early run and steps of
     tau / per_decay (tau = 1 / lambda_1) up to ``t_end`` (default tau ln(1 / tail), where a
-    single-mode R has fallen to ``tail``). data["R"] = {"t", "R"}, data["fpt_density"] =
-    {"t", "p"}; info["mfpt_integral"] = int_0^t_end R dt (two-point Hermite rule, R' = -f,
-    R'' = -f') + R(t_end) / lambda_1; info["mfpt_discrete"] = h 1^T (-M)^{-1} p0, the same
-    integral for the semi-discrete system without time stepping (their gap is the
-    time-integration error);
+    single-mode R has fallen to ``tail``). data["R"] = {"t", "R", "knots"},
+    data["fpt_density"] = {"t", "p"}: at the stepped times ("knots") and, without ``times``,
+    ``dense`` points per step between them by quintic Hermite interpolation;
+    info["mfpt_integral"] = int_0^t_end R dt (two-point Hermite rule, R' = -f, R'' = -f') +
+    R(t_end) / lambda_1; info["mfpt_discrete"] = h 1^T (-M)^{-1} p0, the same integral for the
+    semi-discrete system without time stepping (their gap is the time-integration error);
     info["decay_rate"] = lambda_1; the mass balance inside + absorbed = 1 is checked by the
     stepper at every interrupt (FPKFailure beyond 1e-10) and its worst value reported.
     """
@@ -367,6 +373,27 @@ def reliability(drift: Coefficient, diffusion: Coefficient, *, threshold: float,
         "versions": _versions(),
         "status": (Status.PASSAGE if ok else Status.NOT_FINITE).record(f"{t.size} times"),
     }
-    data = {"R": {"t": t, "R": R}, "fpt_density": {"t": t, "p": f},
+    if times is None and dense > 1:
+        td, Rd, fd = _dense(t, R, f, df, ddf, dense)
+        info["curves"] = (f"quintic Hermite between the {t.size} stepped times (R, R', R'' "
+                          f"and f, f', f'' known there), {dense} points per step")
+    else:
+        td, Rd, fd = t, R, f
+        info["curves"] = "the stepped times"
+    data = {"R": {"t": td, "R": Rd, "knots": t}, "fpt_density": {"t": td, "p": fd},
             "absorbed": {"t": t, "mass": absorbed}, "A_cells": {"x": disc.centres, "p": P[-1]}}
     return Result(data=data, info=info)
+
+
+def _dense(t: Array, R: Array, f: Array, df: Array, ddf: Array,
+           per_step: int) -> tuple[Array, Array, Array]:
+    """R and f on ``per_step`` points per output step by quintic Hermite interpolation (their
+    first two derivatives are known at the output times): a curve that linear interpolation
+    reads to ~1e-5 (steps of 1 / (4 lambda_1) read linearly would err by ~1% of R)."""
+    from scipy.interpolate import BPoly
+
+    frac = np.arange(per_step) / per_step
+    td = np.append((t[:-1, None] + np.diff(t)[:, None] * frac[None, :]).ravel(), t[-1])
+    Rp = BPoly.from_derivatives(t, np.column_stack([R, -f, -df]))
+    fp = BPoly.from_derivatives(t, np.column_stack([f, df, ddf]))
+    return td, np.clip(Rp(td), 0.0, 1.0), np.maximum(fp(td), 0.0)
