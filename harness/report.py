@@ -201,9 +201,9 @@ def _column_formats(raws: list[list[list[Any]]], spec: list[dict[str, Any]]
 
 
 TABLE_HEAD = ["error", "obs.", "L1", "L1 error bar", "L1 floor", "Hellinger", "Hellinger floor",
-              "KS", "KS floor", "mean diff", "std diff"]
+              "KS", "KS floor", "W1", "W1 floor", "mean diff", "std diff"]
 _TABLE_SPEC = [{"text": True}, {"text": True}, {"floor": 4}, {"err_of": 2}, {}, {"floor": 6}, {},
-               {"floor": 8}, {}, {"signed": True}, {"signed": True}]
+               {"floor": 8}, {}, {"floor": 10}, {}, {"signed": True}, {"signed": True}]
 
 
 def _tables(res: CheckResult) -> list[tuple[str, list[str], list[list[str]]]]:
@@ -225,7 +225,8 @@ def _tables(res: CheckResult) -> list[tuple[str, list[str], list[list[str]]]]:
 
                 raw.append([KIND_TEXT[kind].split(" (")[0], o, e["L1"], fl("L1_err"),
                             fl("L1_floor"), e["hellinger"], fl("hellinger_floor"), e["ks"],
-                            fl("ks_floor"), e["mean_diff"], e["std_diff"]])
+                            fl("ks_floor"), e.get("w1", math.nan), fl("w1_floor"),
+                            e["mean_diff"], e["std_diff"]])
         raws.append(raw)
     fmts = _column_formats(raws, _TABLE_SPEC)
     return [(f"{m} model: error decomposition", TABLE_HEAD,
