@@ -65,7 +65,6 @@ from .simulate import (
     CHUNK_SECONDS,
     _diverged,
     _growth,
-    _label,
     _pilot_scale,
     _progress,
     _relaxation,
@@ -358,10 +357,7 @@ def first_passage(system: Any, noise: Any, settings: PassageSettings, *, thresho
     compile_s = time.perf_counter() - t0
     a = arrays(st.blocks, per, st.seed)
     total = float(st.paths) * (n_max + n_burn)
-    bar = _progress(st.progress)
-    _label(bar, "first passage")
-    if bar is not None:
-        bar.reset(total=total)
+    bar = _progress(st.progress, total=total, desc="first passage")
     rate = 5e6 * threads
     t1 = time.perf_counter()
     shown = 0.0

@@ -38,7 +38,7 @@ from ._jit import jit
 from .averaged_sde import ORDER, STEPS_PER_TAU, relaxation_time, sde_step, sde_tables
 from .passage import BRIDGE_FLOOR, layout
 from .rng import uniform
-from .simulate import CHUNK_SECONDS, SimulationDiverged, _label, _progress, block_seeds
+from .simulate import CHUNK_SECONDS, SimulationDiverged, _progress, block_seeds
 from .transient import _densities
 
 TABLE_POINTS = 4001
@@ -161,11 +161,7 @@ def _drive(kernel: Callable[..., None], count: np.ndarray, steps_per_path: float
     runs under 3 s); returns the seconds spent."""
     done = np.zeros_like(count)
     rate = 5e6 * numba.get_num_threads()
-    bar = _progress(progress)
-    if bar is not None:
-        _label(bar, label)
-        bar.unit = " paths"
-        bar.reset(total=int(count.sum()))
+    bar = _progress(progress, total=int(count.sum()), desc=label, unit=" paths")
     t0 = time.perf_counter()
     try:
         while np.any(done < count):
@@ -218,6 +214,7 @@ def sde_first_passage(drift: Callable[[np.ndarray], np.ndarray],
     if bad.any():
         raise SimulationDiverged(f"the averaged SDE blew up (non-finite amplitude) at dt = {dt:g}; "
                            "try a smaller dt")
+    steps = float(np.sum(np.minimum(np.ceil(fpt / dt - 1e-9), n_max)))  # path-steps taken
     info: dict[str, Any] = {
         "solver": "averaged-sde", "method": "first_passage", "threshold": float(threshold),
         "start": float(a0[0]) if np.ndim(start) == 0 else "array",
@@ -232,6 +229,7 @@ def sde_first_passage(drift: Callable[[np.ndarray], np.ndarray],
         "order": {"weak": ORDER, "note": "exact BESQ(2) part + explicit remainder, Z = A^2"},
         "table": {"points": int(table_points), "top": float(grid[-1])},
         "seconds": {"compile": compile_s, "run": run_s, "total": compile_s + run_s},
+        "steps": steps, "steps_per_second": steps / run_s if run_s > 0 else math.nan,
         "status": Status.SIMULATED.record(),
     }
     return Result(data={"fpt": {"time": fpt, "censored": cens}, "start": {"A": a0}},

@@ -617,15 +617,18 @@ def _moments(mom: np.ndarray, samples: np.ndarray) -> dict[str, Any]:
     return out
 
 
-def _progress(enabled: bool) -> Any:
-    """A tqdm bar in path-steps (it shows the ETA); quiet for runs under 3 s."""
+def _progress(enabled: bool, *, total: float = 1, desc: str = "monte carlo: pilot",
+              unit: str = " steps") -> Any:
+    """A tqdm bar in path-steps (it shows the ETA); quiet for runs under 3 s. (tqdm's
+    ``reset`` draws the bar at once, delay or not: a caller that knows its total gives it
+    here.)"""
     if not enabled:
         return None
     try:
         from tqdm import tqdm
     except ImportError:  # pragma: no cover
         return None
-    return tqdm(total=1, desc="monte carlo: pilot", unit=" steps", unit_scale=True, delay=3.0,
+    return tqdm(total=total, desc=desc, unit=unit, unit_scale=True, delay=3.0,
                 file=sys.stderr, leave=False)
 
 

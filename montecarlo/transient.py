@@ -30,7 +30,7 @@ from vifpk.core.result import BadInput, Result, Status
 from .geometry import amplitudes
 from .passage import PassageSettings, _starts_loop, check_settings, layout
 from .plan import physics
-from .simulate import _DUMMY, _arrays, _growth, _label, _progress, _Stepper, block_seeds, effects
+from .simulate import _DUMMY, _arrays, _growth, _progress, _Stepper, block_seeds, effects
 
 EDGE_KEYS = {"A": "edges_A", "x1": "edges_x", "x2": "edges_v"}
 
@@ -79,10 +79,8 @@ def snapshots(system: Any, noise: Any, settings: PassageSettings, *, start: floa
                  phys["khi"], phys["r"] is not None, xi_sd)
     arr = _arrays(rng, state, _DUMMY, ())
     never = np.iinfo(np.int64).max // 2  # a burn-in never reached: nothing is sampled
-    bar = _progress(st.progress)
-    _label(bar, "monte carlo: transient")
-    if bar is not None:
-        bar.reset(total=float(st.blocks * per * marks[-1]))
+    bar = _progress(st.progress, total=float(st.blocks * per * max(marks[-1], 1)),
+                    desc="monte carlo: transient")
     step = _Stepper(phys, h, threads, bar, _growth(system))
     hists = {k: np.zeros((st.blocks, marks.size, e.size - 1)) for k, e in ed.items()}
     atom = np.zeros((st.blocks, marks.size))
