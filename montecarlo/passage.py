@@ -47,6 +47,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
+from numbers import Real
 from typing import Any
 
 import numba
@@ -253,11 +254,11 @@ def check_settings(st: PassageSettings) -> None:
                        f"(got {st.paths!r})")
     for name in ("dt", "horizon"):
         val = getattr(st, name)
-        if not (isinstance(val, (int, float)) and math.isfinite(val) and val > 0):
+        if not (isinstance(val, Real) and math.isfinite(val) and val > 0):
             raise BadInput(f"{name} must be a finite number > 0 (got {val!r})")
     if st.horizon / st.dt >= 2.0**62:
         raise BadInput(f"horizon / dt = {st.horizon / st.dt:.3g} steps is beyond any run")
-    if st.burn_in != "auto" and not (isinstance(st.burn_in, (int, float))
+    if st.burn_in != "auto" and not (isinstance(st.burn_in, Real)
                                      and math.isfinite(st.burn_in) and st.burn_in >= 0):
         raise BadInput(f"burn_in must be a time >= 0 or 'auto' (got {st.burn_in!r})")
     if not (st.burn_start >= 0 and st.max_restarts >= 0):
@@ -265,12 +266,12 @@ def check_settings(st: PassageSettings) -> None:
 
 
 def _check_threshold(threshold: float, start: float | str) -> None:
-    if not (isinstance(threshold, (int, float)) and math.isfinite(threshold) and threshold > 0):
+    if not (isinstance(threshold, Real) and math.isfinite(threshold) and threshold > 0):
         raise BadInput(f"threshold must be a finite amplitude > 0 (got {threshold!r})")
     if isinstance(start, str):
         if start != "stationary":
             raise BadInput(f"start must be an amplitude or 'stationary' (got {start!r})")
-    elif not (isinstance(start, (int, float)) and 0 <= start < threshold):
+    elif not (isinstance(start, Real) and 0 <= start < threshold):
         raise BadInput(f"start must be an amplitude in [0, threshold = {threshold:g}) "
                        f"(got {start!r})")
 

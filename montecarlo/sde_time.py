@@ -26,6 +26,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Sequence
+from numbers import Real
 from typing import Any
 
 import numba
@@ -150,7 +151,7 @@ def _check(paths: int, blocks: int, dt: float, **positive: float) -> None:
         raise BadInput(f"need whole numbers paths >= blocks >= 2 (got paths={paths!r}, "
                        f"blocks={blocks!r})")
     for name, val in {"dt": dt, **positive}.items():
-        if not (isinstance(val, (int, float)) and math.isfinite(val) and val > 0):
+        if not (isinstance(val, Real) and math.isfinite(val) and val > 0):
             raise BadInput(f"{name} must be a finite number > 0 (got {val!r})")
 
 
@@ -190,7 +191,7 @@ def sde_first_passage(drift: Callable[[np.ndarray], np.ndarray],
     or one per path), censored at ``horizon``: data["fpt"] = {"time", "censored"} as
     montecarlo.first_passage, data["start"] = {"A"}. Paths are ordered block by block."""
     _check(paths, blocks, dt, horizon=horizon)
-    if not (isinstance(threshold, (int, float)) and math.isfinite(threshold) and threshold > 0):
+    if not (isinstance(threshold, Real) and math.isfinite(threshold) and threshold > 0):
         raise BadInput(f"threshold must be a finite amplitude > 0 (got {threshold!r})")
     a0 = _starts(start, paths, threshold)
     grid, a_tab, b_tab = sde_tables(drift, diffusion, TABLE_MARGIN * threshold, table_points)

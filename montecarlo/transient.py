@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Sequence
+from numbers import Real
 from typing import Any
 
 import numba
@@ -55,7 +56,7 @@ def snapshots(system: Any, noise: Any, settings: PassageSettings, *, start: floa
     float[n]); settings.horizon is not used (the last time is the end)."""
     st = settings
     check_settings(st)
-    if not (isinstance(start, (int, float)) and math.isfinite(start) and start >= 0):
+    if not (isinstance(start, Real) and math.isfinite(start) and start >= 0):
         raise BadInput(f"start must be an amplitude >= 0 (got {start!r})")
     t_req = np.asarray(times, dtype=float)
     if not (t_req.ndim == 1 and t_req.size and np.all(np.isfinite(t_req))
