@@ -252,12 +252,11 @@ def cmd_check(args: argparse.Namespace) -> int:
 
     validate.output_folder(args.out, "--out", replaced=True)
     req = request.prepare_check(args.scene, models=args.model, overrides=args.set,
-                                **_mc_options(args))
-    scene, models = req.scene, req.models
-    from .tolerance import Tolerance
-
-    tol = Tolerance(value=args.tolerance, metric=args.tolerance_metric,
-                    observable=args.tolerance_observable, confidence=args.confidence)
+                                tolerance=args.tolerance,
+                                tolerance_metric=args.tolerance_metric,
+                                tolerance_observable=args.tolerance_observable,
+                                confidence=args.confidence, **_mc_options(args))
+    scene, models, tol = req.scene, req.models, req.tolerance
     out = args.out or f"out/{folder_name(scene.name)}"
     if args.out is None:
         validate.output_folder(out, "--out (default)", replaced=True)

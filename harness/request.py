@@ -47,6 +47,8 @@ class Request:
     given: tuple[str, ...] = ()
     #: models asked for that do not apply to the scene, and why (reported, not run)
     skipped: Mapping[str, str] = field(default_factory=dict)
+    #: check: the tolerance question (harness.tolerance.Tolerance)
+    tolerance: Any = None
 
 
 # ------------------------------------------------------------------------------- the rules
@@ -253,13 +255,24 @@ def prepare_solve(source: Scene | str | Path, *, solver: str = "averaging",
 
 def prepare_check(source: Scene | str | Path, *, models: Sequence[str] | None = None,
                   overrides: Sequence[str] = (), values: Mapping[str, Any] | None = None,
+                  tolerance: float | None = None, tolerance_metric: str = "L1",
+                  tolerance_observable: str = "A", confidence: float | None = None,
                   **mc: Any) -> Request:
     """``vifpk check``'s request: the models (default CHECK_MODELS, those that apply; models
-    named by the user must apply) and the Monte Carlo options by flag name."""
+    named by the user must apply), the tolerance question (harness/tolerance.py; defaults
+    there) and the Monte Carlo options by flag name."""
+    from vifpk.core.defaults import TOLERANCE, TOLERANCE_CONFIDENCE
+
+    from .tolerance import Tolerance
+
     unknown = sorted(set(mc) - set(MC_OPTIONS))
     if unknown:
         raise validate.InputError(f"{unknown[0]}: not an option of check; allowed: models, "
-                                  f"out, quiet, {', '.join(MC_OPTIONS)}")
+                                  "out, quiet, tolerance, tolerance_metric, "
+                                  f"tolerance_observable, confidence, {', '.join(MC_OPTIONS)}")
+    tol = Tolerance(value=TOLERANCE if tolerance is None else tolerance, metric=tolerance_metric,
+                    observable=tolerance_observable,
+                    confidence=TOLERANCE_CONFIDENCE if confidence is None else confidence)
     chosen = models is not None
     names = model_names(models, "--model") if chosen else CHECK_MODELS
     scene = with_mc_options(concrete(source, overrides, values), mc, mc=True)
@@ -269,5 +282,5 @@ def prepare_check(source: Scene | str | Path, *, models: Sequence[str] | None = 
         raise SolverFailure(f"{no_noise(scene.system)}; nothing to cross-check")
     _, skipped = applicable_models(scene, names, chosen=chosen)
     # the whole list goes on: the check reports why a default model does not apply
-    return Request(workflow="check", scene=scene, models=names, skipped=skipped,
+    return Request(workflow="check", scene=scene, models=names, skipped=skipped, tolerance=tol,
                    given=tuple(k for k in MC_OPTIONS if mc.get(k) is not None))

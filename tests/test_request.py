@@ -195,3 +195,34 @@ def test_the_door_says_the_f_0_rule_in_its_words(tmp_path):
     with pytest.raises(SolverFailure) as exc:
         montecarlo_solution(sc)
     assert str(exc.value) == no_noise(sc.system)
+
+
+@pytest.mark.parametrize("call, needle", [
+    (lambda: vifpk.check("paper-base", tolerance=-1), "--tolerance must be a number > 0"),
+    (lambda: vifpk.check("paper-base", tolerance_metric="L7"), "--tolerance-metric must be"),
+    (lambda: vifpk.check("paper-base", confidence=1.5), "--confidence must be between"),
+])
+def test_the_api_takes_the_tolerance_question_and_refuses_it_like_the_command(
+        no_computation, capsys, call, needle):
+    with pytest.raises(BadInput) as exc:
+        call()
+    assert needle in str(exc.value)
+    flag = needle.split()[0]
+    value = {"--tolerance": "-1", "--tolerance-metric": "L7", "--confidence": "1.5"}[flag]
+    assert main(["check", "paper-base", flag, value]) == 2
+    assert str(exc.value) in capsys.readouterr().err
+
+
+def test_the_api_check_passes_its_tolerance_to_the_check(canned_check, monkeypatch):
+    import vifpk.harness.check
+
+    seen = {}
+    real = vifpk.harness.check.cross_check
+
+    def spy(scene, **kw):
+        seen.update(kw)
+        return real(scene, **kw)
+
+    monkeypatch.setattr(vifpk.harness.check, "cross_check", spy)
+    vifpk.check("paper-base", tolerance=0.05, confidence=0.9)
+    assert seen["tolerance"].value == 0.05 and seen["tolerance"].confidence == 0.9

@@ -54,12 +54,16 @@ def solve(source: Scene | str | Path, solver: str = "averaging", *, model: str |
 
 
 def check(source: Scene | str | Path, *, models: tuple[str, ...] | None = None,
-          out: str | Path | None = None, quiet: bool = True, **options: Any) -> Any:
+          out: str | Path | None = None, quiet: bool = True, tolerance: float | None = None,
+          tolerance_metric: str = "L1", tolerance_observable: str = "A",
+          confidence: float | None = None, **options: Any) -> Any:
     """The cross-check (``vifpk check``): a ``CheckResult`` with ``metrics``, ``verdicts``,
     ``warnings``; with ``out``, the report folder is written there as well (checked before
     any work, as ``--out`` is). ``models``: registered names (default: the check models that
-    apply to the scene; a named model that does not apply is refused). ``options``: the Monte
-    Carlo options by flag name and ``set``, as for :func:`solve`."""
+    apply to the scene; a named model that does not apply is refused). ``tolerance`` (default
+    0.02), ``tolerance_metric``, ``tolerance_observable``, ``confidence``: the tolerance verdict
+    and the recommendation that follows it (``vifpk check --tolerance``). ``options``: the
+    Monte Carlo options by flag name and ``set``, as for :func:`solve`."""
     from vifpk.harness import validate
     from vifpk.harness.check import cross_check
     from vifpk.harness.request import prepare_check
@@ -68,9 +72,12 @@ def check(source: Scene | str | Path, *, models: tuple[str, ...] | None = None,
         if not isinstance(out, str | Path):
             raise validate.InputError(f"out {out!r}: not a folder path")
         validate.output_folder(str(out), "out", replaced=True)
-    req = prepare_check(source, models=models, overrides=_overrides(options), **options)
+    req = prepare_check(source, models=models, overrides=_overrides(options),
+                        tolerance=tolerance, tolerance_metric=tolerance_metric,
+                        tolerance_observable=tolerance_observable, confidence=confidence,
+                        **options)
     validate.refuse_oversized(req.scene)  # memory is a hard limit; time is the caller's
-    res = cross_check(req.scene, quiet=quiet, models=req.models)
+    res = cross_check(req.scene, quiet=quiet, models=req.models, tolerance=req.tolerance)
     if out is not None:
         from vifpk.harness.report import write_report
 
