@@ -31,8 +31,8 @@ upper bound with margin).
 (scheme.discretise with ``right="absorbing"``), FPT density f = -dR/dt = the wall flux (exact
 for the semi-discrete system), int_0^inf R dt by the two-point Hermite rule (R' = -f and
 R'' = -f' known at every output time from the state) plus the tail R(t_end) / lambda_1
-(lambda_1 the slowest decay rate of the absorbing operator, from its symmetrised tridiagonal
-eigenproblem).
+(lambda_1 the slowest decay rate of the absorbing operator, by inverse iteration with a
+cancellation-free solve: scheme.Discretisation.decay_rate).
 """
 
 from __future__ import annotations
@@ -44,7 +44,6 @@ from typing import Any
 
 import numpy as np
 from numpy.polynomial import legendre
-from scipy.linalg import solve_banded
 
 from vifpk.core.defaults import FPK_CELLS
 from vifpk.core.result import Result, Status
@@ -348,9 +347,7 @@ def reliability(drift: Coefficient, diffusion: Coefficient, *, threshold: float,
     body = _hermite(dt, R, -f, -df)
     flux_int = _hermite(dt, f, df, ddf)
     tail_part = float(R[-1]) / lam
-    ab = np.zeros((3, disc.cells))
-    ab[0, 1:], ab[1], ab[2, :-1] = -disc.upper, -disc.diag, -disc.lower
-    discrete = float(np.sum(solve_banded((1, 1), ab, p_start)) * disc.h)
+    discrete = float(np.sum(disc.solve_absorbing(p_start)) * disc.h)
     rate_end = (float(math.log(R[-2] / R[-1]) / dt[-1])
                 if R[-1] > 0 and R[-2] > 0 and dt[-1] > 0 else float("nan"))
     ok = bool(np.all(np.isfinite(R)) and out["min_value"] >= -1e-12 * float(np.max(P)))

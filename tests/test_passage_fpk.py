@@ -234,3 +234,19 @@ def test_dense_curves_read_linearly_match_stepped_values():
     f = r.data["fpt_density"]["p"]
     fs = s.data["fpt_density"]["p"][1:]
     assert np.max(np.abs(np.interp(probe, t, f) - fs)) < 1e-2 * np.max(fs)
+
+
+def test_decay_rate_and_discrete_mfpt_keep_precision_at_high_thresholds():
+    """Far above the bulk R(t) is one exponential: lambda_1 T -> 1. The discrete operator's
+    1 / lambda_1 and h 1^T (-M)^-1 delta_{A0} (the cancellation-free solve) against the
+    closed-form T at Ac = 3 and 4 (T ~ 4e18, 4e33; lambda_1 / ||M|| ~ 1e-24, where a symmetric
+    eigensolver's absolute error 1e-16 ||M|| swamps it: it returns -3e-14 at Ac = 3).
+    Measured: 1 / lambda_1 = T(0) (1 + 7e-5 .. 1e-4), O(h^2) of 400 cells; 1e-3 is the bound."""
+    for ac in (3.0, 4.0):
+        d = fpk.discretise(ray_m, ray_s2, lo=0.0, hi=ac, cells=400, right="absorbing")
+        assert 1 / d.decay_rate() == pytest.approx(ray_T(0.0, ac), rel=1e-3)
+        i = int(0.5 / d.h)
+        e = np.zeros(d.cells)
+        e[i] = 1 / d.h
+        assert np.sum(d.solve_absorbing(e)) * d.h == pytest.approx(ray_T(d.centres[i], ac),
+                                                                   rel=1e-3)
