@@ -278,11 +278,12 @@ def _hermite(dt: Array, y: Array, d1: Array, d2: Array) -> float:
 
 def _output_times(tau: float, t_end: float, per_decay: int) -> Array:
     """0, a geometric run from 1e-6 tau to tau / per_decay (the quick early losses of a start
-    near the wall), then steps of tau / per_decay up to t_end."""
+    near the wall), then steps of tau / per_decay; t_end is always the last time."""
     step = tau / per_decay
-    early = np.geomspace(1e-6 * tau, step, 25)[:-1] if t_end > step else np.array([])
-    late = np.arange(step, t_end + 0.5 * step, step)
-    return np.concatenate([[0.0], early[early < t_end], late[late <= t_end * (1 + 1e-12)]])
+    first = min(step, t_end)
+    early = np.geomspace(min(1e-6 * tau, 1e-3 * first), first, 25)
+    late = np.arange(step, t_end, step)
+    return np.unique(np.concatenate([[0.0], early, late, [t_end]]))
 
 
 def reliability(drift: Coefficient, diffusion: Coefficient, *, threshold: float,
@@ -369,7 +370,15 @@ def reliability(drift: Coefficient, diffusion: Coefficient, *, threshold: float,
         "seconds": {"total": time.perf_counter() - t0, "stepping": out["seconds"]},
         "versions": _versions(),
         "status": (Status.PASSAGE if ok else Status.NOT_FINITE).record(f"{t.size} times"),
+        "warnings": [],
     }
+    # the tail R(t_end) / lambda_1 assumes one mode is left; when the tail matters (> 1e-4 of
+    # the integral) the measured late rate must agree with lambda_1 (within 1%)
+    if tail_part > 1e-4 * (body + tail_part) and not abs(rate_end / lam - 1.0) <= 0.01:
+        info["warnings"].append(
+            f"the tail beyond t_end = {t[-1]:.4g} ({tail_part / (body + tail_part):.1%} of int R"
+            f" dt) assumes R ~ e^(-lambda_1 t), but R decays there at {rate_end:.4g}, not "
+            f"lambda_1 = {lam:.4g}: step further (t_end) for an accurate mfpt_integral")
     if times is None and dense > 1:
         td, Rd, fd = _dense(t, R, f, df, ddf, dense)
         info["curves"] = (f"quintic Hermite between the {t.size} stepped times (R, R', R'' "

@@ -250,3 +250,15 @@ def test_decay_rate_and_discrete_mfpt_keep_precision_at_high_thresholds():
         e[i] = 1 / d.h
         assert np.sum(d.solve_absorbing(e)) * d.h == pytest.approx(ray_T(d.centres[i], ac),
                                                                    rel=1e-3)
+
+
+def test_a_tail_taken_before_one_mode_is_left_is_flagged():
+    # Brownian motion from A0 = 0.9 next to the wall at L = 1, stopped at t = 0.02: many modes
+    # are alive, R decays at ~4x lambda_1 there, so the tail R(t_end) / lambda_1 is not
+    # trustworthy and says so; stepped to the default t_end it is not flagged
+    kw = {"threshold": 1.0, "start": 0.9, "cells": 100}
+    short = reliability(lambda x: 0 * x, lambda x: 1.0 + 0 * x, times=[0.01, 0.02], **kw)
+    assert any("tail" in w for w in short.info["warnings"])
+    full = reliability(lambda x: 0 * x, lambda x: 1.0 + 0 * x, **kw)
+    assert full.info["warnings"] == []
+    assert full.info["mfpt_integral"] == pytest.approx((1 - 0.9**2) / 1.0, rel=1e-3)
