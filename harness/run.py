@@ -493,33 +493,32 @@ def passage_splitting(scene: Any, *, threshold: float, start: float, low: float 
                       entry: float | None = None, groups: int = 20, particles: int = 200,
                       levels: int = 200, kill: int = 0, paths: int = 8, cycles: int = 25,
                       dt: float | None = None, seed: int | None = None,
-                      threads: int | None = None) -> Result:
+                      threads: int | None = None, rel_ci: float = 0.0, budget: float = 0.0,
+                      max_groups: int = 400) -> Result:
     """MFPT of the original system from amplitude ``start`` to ``threshold`` by adaptive
     multilevel splitting on the energy and the cycle decomposition (montecarlo.splitting):
     data["mfpt"] = info["mfpt"] = {"value", "stderr", "ci" (Student-t 95% over ``groups``
     independent repetitions), ...}. Levels low < entry default to splitting_levels; dt, seed
-    and threads to the scene's [montecarlo] ones."""
+    and threads as passage_montecarlo takes them. rel_ci > 0: batches of ``groups`` groups
+    until the interval's half-width is within rel_ci of the value, within ``budget`` seconds
+    (info["target"] says whether it was reached)."""
     from vifpk.montecarlo.splitting import SplittingSettings
     from vifpk.montecarlo.splitting import passage_splitting as split
-
-    from vifpk import montecarlo
 
     if start == "stationary":
         raise ValueError("start = 'stationary' is not supported by splitting: give an "
                          "amplitude")
-    mc = scene.montecarlo
     chosen = {"low": low, "entry": entry, "source": "given"}
     if low is None or entry is None:
         auto = splitting_levels(scene, start=float(start), threshold=float(threshold))
         chosen = {"low": low if low is not None else auto["low"],
                   "entry": entry if entry is not None else auto["entry"],
                   "source": auto["source"]}
-    h = dt if dt is not None else montecarlo.step_size(
-        mc.dt, mc.floor, montecarlo.physics(scene.system, scene.noise), mc.sample_every)
+    st = _passage_settings(scene, paths=1, horizon=1.0, dt=dt, seed=seed, threads=threads)
     s = SplittingSettings(groups=groups, particles=particles, kill=kill, levels=levels,
-                          dt=float(h), seed=int(seed if seed is not None else mc.seed),
-                          cycles=cycles, paths=paths,
-                          threads=int(threads if threads is not None else mc.threads))
+                          dt=float(st.dt), seed=int(st.seed), cycles=cycles, paths=paths,
+                          rel_ci=rel_ci, budget=budget, max_groups=max_groups,
+                          threads=int(st.threads))
     try:
         res = split(scene.system, scene.noise, s, threshold=float(threshold),
                     start=float(start), low=chosen["low"], entry=chosen["entry"])

@@ -66,7 +66,10 @@ class SplittingSettings:
     step; seed: root of every stream; cycles: cycles per direct path; paths: direct paths per
     group (their cycle starts, spread over N particles, start the group's AMS run); max_time: the
     longest time one path is run (a path that reaches it is an error); threads: numba
-    threads (0: numba's default)."""
+    threads (0: numba's default); rel_ci: with > 0, batches of ``groups`` groups are added
+    until the 95% interval of the MFPT is within rel_ci x its value (a sequential stop: the
+    interval's coverage is then nominal only approximately), within ``budget`` seconds (0: no
+    limit) and ``max_groups`` groups."""
 
     groups: int = 20
     particles: int = 200
@@ -78,6 +81,9 @@ class SplittingSettings:
     paths: int = 8
     max_time: float = 1e7
     threads: int = 0
+    rel_ci: float = 0.0
+    budget: float = 0.0
+    max_groups: int = 400
 
 
 def _words(seed: int, key: tuple[int, ...], n: int) -> np.ndarray:
@@ -96,12 +102,15 @@ def t_quantile(dof: int) -> float:
 
 
 def ams(advance: Callable[..., None], starts: np.ndarray, q: np.ndarray, *, q_lo: float,
-        q_hi: float, levels: int, kill: int, seed: int) -> dict[str, Any]:
+        q_hi: float, levels: int, kill: int, seed: int, first_group: int = 0
+        ) -> dict[str, Any]:
     """GAMS (module docstring) for G independent runs of N replicas each, run in step so that
     one kernel call advances the killed replicas of every run (in parallel).
 
     starts: (G, N, S) state rows; q: (G, N) their reaction coordinate; advance(recs, rows,
     start, rng, maxlev, outcome) the kernel (splitting_kernels.advance_*, its physics bound).
+    Run g's streams are keyed by first_group + g, so groups run in several calls give the
+    numbers of one call.
     Returns {"p": (G,), "iterations": (G,), "killed": (G,) total killed, "extinct": (G,) bool,
     "timeouts": int}."""
     G, N, S = starts.shape
@@ -115,7 +124,7 @@ def ams(advance: Callable[..., None], starts: np.ndarray, q: np.ndarray, *, q_lo
     maxlev = np.zeros(G * N, dtype=np.int64)
     outcome = np.zeros(G * N, dtype=np.int64)
     rows = np.arange(G * N, dtype=np.int64)
-    rng = np.concatenate([_words(seed, (KEY_START, g), N) for g in range(G)])
+    rng = np.concatenate([_words(seed, (KEY_START, first_group + g), N) for g in range(G)])
     advance(recs, rows, lev0.astype(np.int64), rng, maxlev, outcome)
     timeouts = int((outcome == SK.OUT_TIMEOUT).sum())
     log_c = np.zeros(G)
@@ -142,13 +151,14 @@ def ams(advance: Callable[..., None], starts: np.ndarray, q: np.ndarray, *, q_lo
             iters[g] += 1
             killed_total[g] += K
             alive = np.flatnonzero(ml > Z)
-            pick = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(KEY_PICK, g, it)))
+            key = (first_group + int(g), it)
+            pick = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(KEY_PICK, *key)))
             src = alive[pick.integers(0, alive.size, size=K)] + g * N
             dst = dead + g * N
             recs[dst, :Z + 2] = recs[src, :Z + 2]
             job_rows.append(dst)
             job_start.append(np.full(K, Z + 1, dtype=np.int64))
-            job_rng.append(_words(seed, (KEY_CLONE, g, it), K))
+            job_rng.append(_words(seed, (KEY_CLONE, *key), K))
         if job_rows:
             r = np.concatenate(job_rows).astype(np.int64)
             advance(recs, r, np.concatenate(job_start), np.concatenate(job_rng), maxlev, outcome)
@@ -272,17 +282,18 @@ def sde_escape_probability(drift: Callable, diffusion: Callable, *, low: float,
     return Result(data={"p": est}, info=info)
 
 
-def _groups_direct(dyn: Any, start_rows: Callable[[int, int], np.ndarray], q0: float,
-                   q1: float, qc: float, s: SplittingSettings) -> dict[str, Any]:
+def _groups_direct(dyn: Any, start_rows: Callable[[int, int, int], np.ndarray], q0: float,
+                   q1: float, qc: float, s: SplittingSettings, first: int, G: int
+                   ) -> dict[str, Any]:
     """The direct part: G groups of s.paths paths, each run to s.cycles cycles (or a success).
     Returns per-group W, qw, S, n, direct successes, and the (G, N, width) AMS starts (cycle
     starts of the group, taken in order, path after path, when enough)."""
-    G, P, N = s.groups, s.paths, s.particles
+    P, N = s.paths, s.particles
     if P * s.cycles < N:
         raise ValueError(f"paths x cycles = {P * s.cycles} < particles = {N}: too few cycle "
                          "starts to start the AMS runs from")
-    starts = start_rows(G * P, s.seed)
-    rng = _words(s.seed, (KEY_DIRECT,), G * P)
+    starts = np.concatenate([start_rows(P, s.seed, first + g) for g in range(G)])
+    rng = np.concatenate([_words(s.seed, (KEY_DIRECT, first + g), P) for g in range(G)])
     entries, summ = dyn.cycles(starts, rng, s.cycles, q0, q1, qc, s.max_time)
     if summ[:, 5].any():
         raise RuntimeError(f"{int(summ[:, 5].sum())} direct path(s) reached max_time = "
@@ -308,28 +319,70 @@ def _groups_direct(dyn: Any, start_rows: Callable[[int, int], np.ndarray], q0: f
             "cycles": int(summ[:, :, 2].sum())}
 
 
-def _mfpt(dyn: Any, start_rows: Callable[[int, int], np.ndarray], qfun: Callable, q0: float,
-          q1: float, qc: float, s: SplittingSettings) -> tuple[dict[str, Any], dict[str, Any]]:
-    """The MFPT by the cycle decomposition: (mfpt record, details)."""
+def _mfpt(dyn: Any, start_rows: Callable[[int, int, int], np.ndarray], qfun: Callable,
+          q0: float, q1: float, qc: float, s: SplittingSettings
+          ) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The MFPT by the cycle decomposition: (mfpt record, details). Groups are run in batches
+    of s.groups; with s.rel_ci > 0, batches are added until the 95% interval's half-width is at
+    most rel_ci x the value, or s.budget seconds would be exceeded by one more batch, or
+    s.max_groups are run (details["target"] says which). Group g's numbers do not depend on
+    the batch it ran in."""
     t0 = time.perf_counter()
-    with _threads(s.threads):
-        d = _groups_direct(dyn, start_rows, q0, q1, qc, s)
-        t1 = time.perf_counter()
-        out = ams(dyn.advance(q0, qc, s.levels, s.max_time), d["pools"], qfun(d["pools"]),
-                  q_lo=q0, q_hi=qc, levels=s.levels, kill=s.kill, seed=s.seed)
-    t2 = time.perf_counter()
-    if out["timeouts"]:
-        raise RuntimeError(f"{out['timeouts']} AMS path(s) reached max_time = {s.max_time:g}")
-    if np.all(out["p"] == 0):
-        raise RuntimeError("every AMS run died out (p = 0 in each group): use more particles")
-    rec = cycle_mfpt(d["W"], d["qw"], d["S"], d["n"], out["p"])
-    prob = mean_ci(out["p"])
-    prob["runs"] = out["p"].tolist()
+    keys = ("W", "qw", "S", "n", "p", "iterations")
+    acc: dict[str, list[np.ndarray]] = {k: [] for k in keys}
+    cycles = successes = extinct = 0
+    t_direct = t_ams = 0.0
+    first = 0
+    target = "fixed groups"
+    while True:
+        tb = time.perf_counter()
+        with _threads(s.threads):
+            d = _groups_direct(dyn, start_rows, q0, q1, qc, s, first, s.groups)
+            t1 = time.perf_counter()
+            out = ams(dyn.advance(q0, qc, s.levels, s.max_time), d["pools"], qfun(d["pools"]),
+                      q_lo=q0, q_hi=qc, levels=s.levels, kill=s.kill, seed=s.seed,
+                      first_group=first)
+        t2 = time.perf_counter()
+        t_direct += t1 - tb
+        t_ams += t2 - t1
+        if out["timeouts"]:
+            raise RuntimeError(f"{out['timeouts']} AMS path(s) reached max_time = "
+                               f"{s.max_time:g}")
+        for k in ("W", "qw", "S", "n"):
+            acc[k].append(d[k])
+        acc["p"].append(out["p"])
+        acc["iterations"].append(out["iterations"])
+        cycles += d["cycles"]
+        successes += d["successes"]
+        extinct += int(out["extinct"].sum())
+        first += s.groups
+        p_all = np.concatenate(acc["p"])
+        if np.all(p_all == 0):
+            raise RuntimeError("every AMS run died out (p = 0 in each group): use more "
+                               "particles")
+        rec = cycle_mfpt(*(np.concatenate(acc[k]) for k in ("W", "qw", "S", "n", "p")))
+        if s.rel_ci <= 0:
+            break
+        half = 0.5 * (rec["ci"][1] - rec["ci"][0]) / rec["value"]
+        spent = time.perf_counter() - t0
+        if half <= s.rel_ci:
+            target = f"reached: relative half-width {half:.3g} <= {s.rel_ci:g}"
+            break
+        if first + s.groups > s.max_groups:
+            target = f"NOT reached: {half:.3g} > {s.rel_ci:g} at max_groups = {s.max_groups}"
+            break
+        if s.budget > 0 and spent + (t2 - tb) > s.budget:
+            target = (f"NOT reached: {half:.3g} > {s.rel_ci:g}; one more batch would exceed "
+                      f"the budget of {s.budget:g} s")
+            break
+    prob = mean_ci(p_all)
+    prob["runs"] = p_all.tolist()
     rec["p"] = prob
-    details = {"direct_cycles": d["cycles"], "direct_successes": d["successes"],
-               "iterations": out["iterations"].tolist(), "kill": out["kill"],
-               "extinct": int(out["extinct"].sum()),
-               "seconds": {"direct": t1 - t0, "ams": t2 - t1, "total": t2 - t0}}
+    details = {"groups": first, "direct_cycles": cycles, "direct_successes": successes,
+               "iterations": np.concatenate(acc["iterations"]).tolist(), "kill": out["kill"],
+               "extinct": extinct, "target": target,
+               "seconds": {"direct": t_direct, "ams": t_ams,
+                           "total": time.perf_counter() - t0}}
     return rec, details
 
 
@@ -345,7 +398,7 @@ def sde_passage_splitting(drift: Callable, diffusion: Callable, *, threshold: fl
     s = settings
     dyn = _SDE(drift, diffusion, 1.5 * threshold, s.dt)
 
-    def rows(n: int, _seed: int) -> np.ndarray:
+    def rows(n: int, _seed: int, _g: int) -> np.ndarray:
         return dyn.rows(np.full(n, float(start)))
 
     rec, det = _mfpt(dyn, rows, lambda st: st[..., 0], low**2, entry**2, threshold**2, s)
@@ -376,11 +429,11 @@ class _Original:
         x, v = rows[..., 0], rows[..., 1]
         return 0.5 * v * v + np.vectorize(self.U)(x)
 
-    def starts(self, A: float, n: int, seed: int) -> np.ndarray:
+    def starts(self, A: float, n: int, seed: int, key: int) -> np.ndarray:
         ph = self.phys
         out = np.zeros((n, 5))
         sd = math.sqrt(ph["D"] / ph["alpha1"]) if ph["alpha1"] is not None else 0.0
-        SK.orbit_starts(float(A), out, _words(seed, (KEY_START + 100,), n), ph["w0sq"],
+        SK.orbit_starts(float(A), out, _words(seed, (KEY_START + 100, key), n), ph["w0sq"],
                         ph["alpha"], ph["khi"], ph["r"] is not None, sd)
         return out
 
@@ -416,8 +469,8 @@ def passage_splitting(system: Any, noise: Any, settings: SplittingSettings, *,
     dyn = _Original(system, noise, s.dt)
     q0, q1, qc = dyn.U(low), dyn.U(entry), dyn.U(threshold)
 
-    def rows(n: int, seed: int) -> np.ndarray:
-        return dyn.starts(start, n, seed)
+    def rows(n: int, seed: int, g: int) -> np.ndarray:
+        return dyn.starts(start, n, seed, g)
 
     rec, det = _mfpt(dyn, rows, dyn.q, q0, q1, qc, s)
     info = {"solver": "montecarlo", "method": "splitting", "threshold": threshold,
@@ -426,23 +479,3 @@ def passage_splitting(system: Any, noise: Any, settings: SplittingSettings, *,
             "mfpt": rec, **det, "status": Status.SIMULATED.record()}
     return Result(data={"mfpt": rec}, info=info)
 
-
-def direct_first_passage(system: Any, noise: Any, *, threshold: float, start: float,
-                         paths: int, dt: float, seed: int, max_time: float = 1e7,
-                         threads: int = 0) -> dict[str, Any]:
-    """Plain Monte Carlo of the first passage of the original system to U(threshold), with the
-    same kernels, start law and in-step crossing time as ``passage_splitting`` (no cycles, no
-    splitting): {"time": float[paths], "censored": bool[paths] (reached max_time),
-    "mfpt": {"value", "stderr", "ci"} (a plain mean; NaN when any path is censored)}. The
-    independent route splitting is checked against where both can reach."""
-    dyn = _Original(system, noise, dt)
-    starts = dyn.starts(start, paths, seed)
-    with _threads(threads):
-        _e, summ = dyn.cycles(starts, _words(seed, (KEY_DIRECT,), paths), 0, -1.0, math.inf,
-                              dyn.U(threshold), max_time)
-    t = summ[:, 0].copy()
-    censored = summ[:, 5] > 0
-    t[censored] = max_time
-    rec = mean_ci(t) if not censored.any() else {"value": math.nan, "stderr": math.nan,
-                                                  "ci": [math.nan, math.nan]}
-    return {"time": t, "censored": censored, "mfpt": rec}

@@ -152,6 +152,21 @@ def test_mfpt_by_cycles_matches_pontryagin():
 
 
 @pytest.mark.slow
+def test_groups_give_the_same_numbers_in_one_batch_or_several():
+    """rel_ci > 0 adds batches of groups; group g's streams are keyed by g, so 2 batches of 2
+    groups give the numbers of 1 batch of 4."""
+    kw = dict(particles=30, levels=30, dt=2e-3, seed=8, paths=4, cycles=10)
+    one = sde_passage_splitting(drift, diffusion, threshold=2.5, start=0.4, low=0.5, entry=1.0,
+                                settings=SplittingSettings(groups=4, **kw))
+    two = sde_passage_splitting(drift, diffusion, threshold=2.5, start=0.4, low=0.5, entry=1.0,
+                                settings=SplittingSettings(groups=2, rel_ci=1e-9,
+                                                           max_groups=4, **kw))
+    assert two.info["groups"] == 4 and "NOT reached" in two.info["target"]
+    assert one.info["mfpt"]["p"]["runs"] == two.info["mfpt"]["p"]["runs"]
+    assert one.info["mfpt"]["value"] == two.info["mfpt"]["value"]
+
+
+@pytest.mark.slow
 def test_mfpt_by_cycles_at_a_threshold_direct_cycles_reach():
     """At Ac = 2.5 (p ~ 2e-2, T ~ 100) some direct cycles succeed: the cycle bookkeeping of
     successes (their duration is the time to Ac) is then exercised."""
@@ -173,20 +188,26 @@ def paper_base():
 @pytest.mark.slow
 def test_original_system_splitting_agrees_with_direct_first_passage(paper_base):
     """Threshold A = 0.9 on paper-base (a cycle succeeds with p ~ 3e-2; MFPT ~ 5e3): the MFPT
-    by splitting and by plain simulation of 400 paths to the threshold (same kernels, no
-    splitting) within 4 combined standard errors (measured: 5294 +- 312 against 5039 +- 244)."""
-    from vifpk.montecarlo.splitting import direct_first_passage, passage_splitting
+    by splitting and by montecarlo.first_passage (an independent code: its own kernel loop,
+    no cycles, no splitting) from the same start law, 400 paths, within 4 combined standard
+    errors."""
+    from vifpk.montecarlo import PassageSettings, first_passage
+    from vifpk.montecarlo.splitting import passage_splitting
 
     s = SplittingSettings(groups=20, particles=100, levels=100, dt=0.01, seed=1)
     sc = paper_base
     r = passage_splitting(sc.system, sc.noise, s, threshold=0.9, start=0.4, low=0.27,
                           entry=0.41)
-    d = direct_first_passage(sc.system, sc.noise, threshold=0.9, start=0.4, paths=400,
-                             dt=0.01, seed=5)
-    m, dm = r.info["mfpt"], d["mfpt"]
-    assert not d["censored"].any()
+    d = first_passage(sc.system, sc.noise,
+                      PassageSettings(paths=400, blocks=16, dt=0.01, horizon=2e5, seed=5,
+                                      threads=0, progress=False),
+                      threshold=0.9, start=0.4)
+    t = d.data["fpt"]["time"]
+    assert not d.data["fpt"]["censored"].any()
+    m = r.info["mfpt"]
     assert 1e-2 < m["p"]["value"] < 1e-1
-    assert abs(m["value"] - dm["value"]) < 4 * np.hypot(m["stderr"], dm["stderr"])
+    se = t.std(ddof=1) / np.sqrt(t.size)
+    assert abs(m["value"] - t.mean()) < 4 * np.hypot(m["stderr"], se)
 
 
 @pytest.mark.slow
