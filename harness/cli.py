@@ -651,6 +651,9 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("--yes", action="store_true",
                     help="run even when the estimated cost exceeds an hour (default: off)")
     sw.set_defaults(func=cmd_sweep)
+    from .timecli import add_commands
+
+    add_commands(sub, _model_name, SET_HELP, QUIET_HELP)
     ms = sub.add_parser("models", help="list the registered averaged models (built-in and "
                                        "plugins, docs/plugins.md)")
     ms.set_defaults(func=cmd_models)

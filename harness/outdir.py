@@ -181,7 +181,8 @@ def _acquire(target: Path, run_id: str) -> int:
 
 
 #: the outputs vifpk writes into a folder, each told by the entries it always holds (any one)
-KINDS = {"check report": ("metrics.json",), "sweep": ("points", "sweep.nc"),
+KINDS = {"passage report": ("passage.npz",), "transient report": ("transient.npz",),
+         "check report": ("metrics.json",), "sweep": ("points", "sweep.nc"),
          "work-precision run": ("workprecision.json",), "figures": ("figures.json",)}
 
 

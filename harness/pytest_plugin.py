@@ -8,7 +8,9 @@ Fixtures:
 - ``vifpk_scene``: ``vifpk_scene("paper-base")`` or ``vifpk_scene("my/scene.toml",
   **{"noise.D": 0.02})`` returns a validated Scene;
 - ``vifpk_reference``: ``vifpk_reference(scene, paths=256, time=500)`` returns the cached Monte
-  Carlo reference of the original system (``.data``, ``.info``, ``.cached``).
+  Carlo reference of the original system (``.data``, ``.info``, ``.cached``);
+- ``vifpk_mfpt``: ``vifpk_mfpt(scene, "exact", threshold=2.0, rtol=0.2)`` asserts the model's
+  mean first-passage time against the original system's (harness.testing.assert_mfpt_close).
 """
 
 from __future__ import annotations
@@ -50,3 +52,10 @@ def vifpk_reference() -> Callable[..., Any]:
     from .testing import mc_reference
 
     return mc_reference
+
+
+@pytest.fixture
+def vifpk_mfpt() -> Callable[..., Any]:
+    from .testing import assert_mfpt_close
+
+    return assert_mfpt_close

@@ -158,6 +158,14 @@ def restoring_force(A: Any, restoring: tuple[float, ...]) -> Any:
     return restoring_k(A, tuple(restoring))
 
 
+def potential_energy(scene: Any, A: Any) -> Any:
+    """U(A) of the scene's restoring law (``averaging.geometry.potential_k``): the energy of
+    the conservative orbit of amplitude A, which a threshold Ac stands for."""
+    from vifpk.averaging.geometry import potential_k
+
+    return potential_k(A, tuple(scene.system.restoring_law))
+
+
 def energy_rates(scene: Any, A: float) -> dict[str, float]:
     """The exact orbit's energy rates by effect at amplitude A (``averaging.exact``)."""
     from vifpk.averaging.exact import energy_rates as rates

@@ -5,6 +5,7 @@ the varied parameters::
 
     scene = "paper-base"          # a shipped scene name or a path (relative to the sweep file)
     workflow = "check"            # "check" | "averaging" (closed forms only) | "bifurcation"
+                                  # | "passage" | "transient" (harness/timesweep.py)
     mode = "product"              # or "zip"
     seed = 7                      # optional; default the base scene's montecarlo.seed
     models = ["paper", "mine"]    # optional: registered averaged models (vifpk.core.registry);
@@ -64,11 +65,12 @@ from vifpk.core.scene import INDEXED, MAX_TERMS, SECTIONS, Scene, SceneError, lo
 
 from .check import ASSUMPTION_KINDS
 from .request import dt_follows_floor
+from .timesweep import SCALARS as TIME_SCALARS
 
-WORKFLOWS = ("check", "averaging", "bifurcation")
+WORKFLOWS = ("check", "averaging", "bifurcation", "passage", "transient")
 MODES = ("product", "zip", "adaptive")
 TOP_KEYS = ("scene", "workflow", "mode", "seed", "name", "description", "vary", "set",
-            "bifurcation", "adaptive", "models", "tolerance")
+            "bifurcation", "adaptive", "models", "tolerance", "passage", "transient")
 ADAPTIVE_KEYS = ("points", "model", "batch", "resolution")
 #: points of an adaptive batch unless [adaptive] batch says otherwise: a property of the sweep
 #: file, not of the executor, so that the points do not depend on where they run
@@ -184,6 +186,10 @@ def _field_of(where: str, path: str) -> Any:
     """The dataclass field named by ``section.key``, or a SweepError naming it."""
     import difflib
 
+    from .timesweep import field_of
+
+    if field_of(path) is not None:  # passage.threshold, ...: a workflow's parameter
+        return field_of(path)
     section, _, key = path.partition(".")
     if section not in SECTIONS or not key:
         raise SweepError(f"{where} {path!r}: unknown key; use section.key with a section in "
@@ -356,7 +362,11 @@ def load_sweep(path: str | Path) -> Sweep:
         if key in vary_raw:
             raise SweepError(f"{src}: [set] {key!r}: also in [vary]; keep one")
 
+    from .timesweep import options
+
     bif = dict(raw.get("bifurcation", {}))
+    # the time workflows' table ([passage], [transient]) travels where [bifurcation]'s does
+    timeopts = options(src, raw, workflow, vary_raw)
     if workflow != "bifurcation" and bif:
         raise SweepError(f"{src}: [bifurcation]: only for workflow = 'bifurcation'")
     if workflow == "bifurcation":
@@ -390,6 +400,8 @@ def load_sweep(path: str | Path) -> Sweep:
         if not isinstance(mc, bool):
             raise SweepError(f"{src}: [bifurcation] mc = {mc!r}: true or false")
         bif = {"find": find, "range": bif.get("range"), "mc": mc}
+    if timeopts:
+        bif = timeopts
 
     if mode == "product":
         import itertools
@@ -507,9 +519,12 @@ def make_point(base: Scene, fixed: Mapping[str, Any], *, seed: int, workflow: st
     """The point of a sweep at ``params`` (varied values by name): its scene (the base scene
     with ``fixed`` and ``params`` set, no wall-clock budget, its own seed), key and
     fingerprint. SweepError (naming the point) when the scene is out of range there."""
+    from .timesweep import TIME_PARAMS, point_options
+
     s = point_seed(seed, params)
     # a budget of 0 means no wall-clock limit (see RESERVED)
-    values = {**fixed, "montecarlo.budget": 0.0, **dict(params), "montecarlo.seed": s}
+    values = {**fixed, "montecarlo.budget": 0.0,
+              **{k: v for k, v in params if k not in TIME_PARAMS}, "montecarlo.seed": s}
     try:
         scene = base.with_values(values)
     except SceneError as exc:
@@ -519,6 +534,8 @@ def make_point(base: Scene, fixed: Mapping[str, Any], *, seed: int, workflow: st
     if scene.sweep is not None:
         raise SweepError(f"{where}: scene: {scene.sweep.path} varies in the base scene; set "
                          "it in [set] or vary it in [vary]")
+    if workflow in ("passage", "transient"):  # the point's own threshold, start
+        bifurcation = point_options(bifurcation, params)
     _validate_point(scene, workflow, bifurcation, where, params)
     scene = _named(scene, f"{base.name}[{', '.join(f'{k}={v:g}' for k, v in params)}]")
     key = point_key(params)
@@ -539,7 +556,12 @@ def _validate_point(scene: Scene, workflow: str, bifurcation: Mapping[str, Any],
     try:
         validate.scene_magnitudes(scene)
         validate.stationary_density(scene)
-        if workflow == "check" or (workflow == "bifurcation" and bifurcation.get("mc")):
+        if workflow in ("passage", "transient"):
+            from .timesweep import check_point
+
+            check_point(workflow, bifurcation)
+        if workflow in ("check", "passage", "transient") or (workflow == "bifurcation"
+                                                             and bifurcation.get("mc")):
             # with a fixed step the checks depend on [montecarlo] and omega0 only: once each
             mc = scene.montecarlo
             key = (mc, scene.system.restoring_law[0]) if mc.dt != "auto" else None  # k1
@@ -686,8 +708,21 @@ def _bifurcation_point(job: Job) -> dict[str, Any]:
             "range": res["range"], "mc_check": checks}
 
 
+def _passage_point(job: Job) -> dict[str, Any]:
+    from .timesweep import passage_point
+
+    return passage_point(job)
+
+
+def _transient_point(job: Job) -> dict[str, Any]:
+    from .timesweep import transient_point
+
+    return transient_point(job)
+
+
 WORKFLOW_FUNCTIONS: dict[str, Callable[[Job], dict[str, Any]]] = {
-    "check": _check_point, "averaging": _averaging_point, "bifurcation": _bifurcation_point}
+    "check": _check_point, "averaging": _averaging_point, "bifurcation": _bifurcation_point,
+    "passage": _passage_point, "transient": _transient_point}
 
 
 # --------------------------------------------------------------------------------------------
@@ -1041,6 +1076,8 @@ def sweep_seconds(sweep: Sweep, *, speed: float | None = None) -> float:
         closed = sum(v.averaging_seconds(sc, m) for m in models)
         if sweep.workflow == "check":
             total += mc_seconds(sc) + closed
+        elif sweep.workflow in ("passage", "transient"):
+            total += closed  # the Monte Carlo is priced at the point, from the models' MFPT
         elif sweep.workflow == "averaging":
             total += closed
         elif sweep.bifurcation.get("mc"):
@@ -1344,7 +1381,8 @@ def dataset(sweep: Sweep, records: Mapping[str, dict[str, Any]], *,
                     put(k, v, pt, m, dtype=object, fill="")
                 else:
                     put(k, v, pt, m)
-        for k in ("mean_A_simulation", "mean_A_simulation_err", "L1_paper_exact_A"):
+        for k in ("mean_A_simulation", "mean_A_simulation_err", "L1_paper_exact_A",
+                  *TIME_SCALARS):
             if k in res:
                 put(k, res[k], pt)
         if "recommended_model" in res:  # check's recommendation (issue 23): a string per point
@@ -1402,6 +1440,8 @@ def dataset(sweep: Sweep, records: Mapping[str, dict[str, Any]], *,
     })
     if sweep.workflow == "bifurcation":
         ds.attrs["bifurcation"] = json.dumps(dict(sweep.bifurcation))
+    if sweep.workflow in ("passage", "transient"):
+        ds.attrs[sweep.workflow] = json.dumps(dict(sweep.bifurcation))
     if sweep.mode == "adaptive":
         ds.attrs["adaptive"] = json.dumps({**sweep.adaptive, "ranges": {
             k: list(v) for k, v in sweep.vary}})

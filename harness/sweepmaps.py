@@ -272,6 +272,10 @@ def figures(ds: Any) -> list[tuple[str, str]]:
         else:
             out.append(("Mean amplitude of each averaged model.",
                         _curve_figure(ds, "mean_A", None, "mean A")))
+    if wf in ("passage", "transient"):
+        from .timesweep import figures as time_figures
+
+        out += time_figures(ds)
     if wf == "bifurcation" and "critical" in ds and len(params) == 1:
         out.append(("Critical value of each model along the varied parameter, with the Monte "
                     "Carlo checks of the original system on both sides of it.",

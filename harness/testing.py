@@ -236,3 +236,78 @@ def assert_averaging_error(scene: Any, model: Any, *, below: float, observable: 
             f"{ref.info['seed']}{' (from cache)' if ref.cached else ''}\n  reproduce: "
             f"{ref.info['command']}")
     return m
+
+
+# ------------------------------------------------------------------------- time domain
+def _reproduce_passage(sc: Scene, model: str, threshold: float, start: Any,
+                       paths: int, horizon: float) -> str:
+    st = "stationary" if start == "stationary" else repr(float(start))
+    return (f"vifpk passage {_scene_argument(sc)} --threshold {threshold!r} --start {st} "
+            f"--model {model} --paths {paths} --seed {sc.montecarlo.seed} --dt "
+            f"{sc.montecarlo.dt} --horizon {horizon!r}")
+
+
+def assert_mfpt_close(scene: Any, model: Any, threshold: float, *, rtol: float,
+                      start: float | str = "stationary", paths: int | None = None,
+                      horizon: float | None = None) -> dict[str, Any]:
+    """Assert that the model's mean first-passage time to ``threshold`` is within ``rtol`` of
+    the original system's, noise-aware: |T_model / T_MC - 1| <= rtol + 2 x its error bar (the
+    Monte Carlo's standard error carried to the ratio). When the Monte Carlo censored more than
+    1% of its paths, restricted means over [0, horizon] are compared (harness/passage.py).
+    Returns the model's metrics (``mfpt_error``, ``R_sup``, ...); the failure message gives
+    both MFPTs, the error bar, the Monte Carlo's settings and the command that reproduces it."""
+    from .passage import passage
+    from .run import model_label
+    from .timecli import passage_values
+
+    sc = _scene(scene)
+    passage_values(sc, threshold=threshold, start=start, horizon=horizon)
+    name = model_label(model)
+    res = passage(sc, threshold=threshold, start=start, models=(model,), paths=paths,
+                  horizon=horizon, sde=False, quiet=True)
+    if name not in res.metrics["models"]:
+        raise ValueError(f"model {name}: {res.metrics.get('models_absent', {}).get(name, '')}")
+    e = res.metrics["models"][name]
+    err = e.get("mfpt_error_restricted", e["mfpt_error"])
+    tol = rtol + 2.0 * err["err"]
+    if not abs(err["value"]) <= tol:
+        mc = res.metrics["mfpt"]["original_system"]
+        p = res.metrics["plan"]
+        raise AssertionError(
+            f"MFPT of {name} to Ac = {threshold:g}: {res.metrics['mfpt'][name]['value']:.5g} "
+            f"against the original system's {mc['value']:.5g} +/- {mc['stderr']:.2g}: "
+            f"relative error {err['value']:+.4f} +/- {err['err']:.4f} exceeds rtol {rtol:g} + "
+            f"2 error bars = {tol:.4f}\n  reference: Monte Carlo of the original system, "
+            f"{mc['paths']} paths ({mc['censored']} censored at {p['horizon']:.4g}), dt "
+            f"{p['dt']:g}, seed {p['seed']}\n  reproduce: "
+            + _reproduce_passage(sc, name, threshold, start, mc["paths"], p["horizon"]))
+    return e
+
+
+def assert_relaxation_close(scene: Any, model: Any, *, start: float, times: Any, rtol: float
+                            ) -> dict[str, Any]:
+    """Assert that the relaxation time the model's FPK predicts (1 / its slowest decay rate) is
+    within ``rtol`` of the one fitted on the original system's mean amplitude (harness/
+    transient.py), noise-aware: |tau_model / tau_MC - 1| <= rtol + 2 x its error bar."""
+    from .run import model_label
+    from .timecli import transient_values
+    from .transient import transient
+
+    sc = _scene(scene)
+    transient_values(sc, start=start, times=times)
+    name = model_label(model)
+    res = transient(sc, start=start, times=tuple(float(t) for t in times), models=(model,),
+                    sde=False, quiet=True)
+    meas = res.metrics["relaxation"]["original_system"]
+    if meas is None:
+        raise AssertionError(f"no relaxation time measured on the original system from the "
+                             f"times {list(times)}: {res.warnings[0] if res.warnings else ''}")
+    pred = res.metrics["relaxation"][name]["predicted"]
+    r = pred / meas["value"]
+    bar = r * meas["err"] / meas["value"]
+    if not abs(r - 1.0) <= rtol + 2.0 * bar:
+        raise AssertionError(
+            f"relaxation time of {name}: predicted {pred:.5g} against {meas['value']:.5g} +/- "
+            f"{meas['err']:.2g} measured on the original system ({meas['method']}): relative "
+            f"error {r - 1:+.4f} +/- {bar:.4f} exceeds rtol {rtol:g} + 2 error bars")
+    return dict(res.metrics["relaxation"][name], measured=meas)

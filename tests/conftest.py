@@ -163,8 +163,10 @@ def no_computation(monkeypatch):
     import vifpk.harness.check
     import vifpk.harness.cli
     import vifpk.harness.figures
+    import vifpk.harness.passage
     import vifpk.harness.run
     import vifpk.harness.sweep
+    import vifpk.harness.transient
     import vifpk.harness.workprecision
 
     def forbidden(*a, **k):
@@ -175,5 +177,9 @@ def no_computation(monkeypatch):
                       (h.run, "montecarlo_solution"), (h.run, "fpk_solution"),
                       (h.check, "cross_check"), (h.bifurcation, "bifurcation"),
                       (h.figures, "draw_figures"), (h.sweep, "run_point"),
-                      (h.workprecision, "run_workprecision")):
+                      (h.workprecision, "run_workprecision"), (h.passage, "passage"),
+                      (h.transient, "transient")):
         monkeypatch.setattr(mod, name, forbidden)
+    for name in ("passage_averaged", "passage_montecarlo", "passage_sde", "transient_averaged",
+                 "transient_montecarlo", "transient_sde"):  # the time-domain doors
+        monkeypatch.setattr(h.run, name, forbidden, raising=False)

@@ -106,11 +106,72 @@ CATALOGUE = [
     ("wp-paths", ["workprecision", BASE, "--paths", "64"], "--paths: does not apply to "
      "workprecision"),
     ("wp-dt-auto", ["workprecision", BASE, "--dt", "auto"], "--dt auto: does not apply"),
+    # issue 30: the time-domain workflows
+    ("passage-threshold-below-start", ["passage", BASE, "--threshold", "1", "--start", "1.5"],
+     "--start 1.5: at or above the threshold Ac = 1"),
+    ("passage-threshold-equals-start", ["passage", BASE, "--threshold", "1", "--start", "1"],
+     "--start 1: at or above the threshold"),
+    ("passage-threshold-0", ["passage", BASE, "--threshold", "0"], "--threshold 0: out of "
+     "range; allowed: a finite amplitude > 0"),
+    ("passage-threshold-nan", ["passage", BASE, "--threshold", "nan"], "--threshold nan"),
+    ("passage-threshold-inf", ["passage", BASE, "--threshold", "inf"], "--threshold inf"),
+    ("passage-threshold-huge", ["passage", BASE, "--threshold", "1e90"],
+     "--threshold 1e+90: beyond the domain: its energy U(A) overflows"),
+    ("passage-start-negative", ["passage", BASE, "--threshold", "2", "--start=-0.5"],
+     "--start -0.5: out of range"),
+    ("passage-start-nan", ["passage", BASE, "--threshold", "2", "--start", "nan"],
+     "--start nan: out of range"),
+    ("passage-horizon-0", ["passage", BASE, "--threshold", "2", "--horizon", "0"],
+     "--horizon 0: out of range"),
+    ("passage-horizon-negative", ["passage", BASE, "--threshold", "2", "--horizon=-5"],
+     "--horizon -5: out of range"),
+    ("passage-dt-auto", ["passage", BASE, "--threshold", "2", "--dt", "auto"],
+     "--dt auto: does not apply to passage"),
+    ("passage-paths", ["passage", BASE, "--threshold", "2", "--paths", "33"],
+     "nearest valid: 64"),
+    ("passage-out-file", ["passage", BASE, "--threshold", "2", "--out", "{file}"],
+     "exists and is not a folder"),
+    ("passage-paper-quintic", ["passage", "systems/quintic", "--threshold", "2", "--model",
+                               "paper"], "--model paper:"),
+    ("transient-times-0", ["transient", BASE, "--start", "1", "--times", "0,5"],
+     "--times: 0 is not > 0"),
+    ("transient-times-negative", ["transient", BASE, "--start", "1", "--times=-1,5"],
+     "--times: -1 is not > 0"),
+    ("transient-times-unsorted", ["transient", BASE, "--start", "1", "--times", "5,2,10"],
+     "--times 5,2,10: not increasing"),
+    ("transient-times-repeated", ["transient", BASE, "--start", "1", "--times", "2,2"],
+     "not increasing"),
+    ("transient-times-nan", ["transient", BASE, "--start", "1", "--times", "2,nan"],
+     "--times 2,nan: not finite"),
+    ("transient-start-0", ["transient", BASE, "--start", "0", "--times", "1"],
+     "--start 0: out of range; allowed: a finite amplitude > 0"),
+    ("transient-start-nan", ["transient", BASE, "--start", "nan", "--times", "1"],
+     "--start nan: out of range"),
+    ("transient-cost", ["transient", BASE, "--start", "1", "--times", "1e9"],
+     "this transient (4 Monte Carlo runs to t = 1e+09): estimated at least"),
+    ("transient-out-proc", ["transient", BASE, "--start", "1", "--times", "1", "--out",
+                            "/proc/vifpk"], "cannot write in /proc"),
 ]
 IDS = [c[0] for c in CATALOGUE]
+# refused by the argument parser itself (SystemExit 2 in-process; one line all the same)
+PARSER_CATALOGUE = [
+    ("passage-no-threshold", ["passage", BASE], "the following arguments are required: "
+     "--threshold"),
+    ("passage-threshold-word", ["passage", BASE, "--threshold", "high"], "'high' is not a "
+     "number"),
+    ("passage-start-word", ["passage", BASE, "--threshold", "2", "--start", "equilibrium"],
+     "is not an amplitude or 'stationary'"),
+    ("passage-time", ["passage", BASE, "--threshold", "2", "--time", "100"],
+     "unrecognized arguments: --time 100"),
+    ("transient-no-times", ["transient", BASE, "--start", "1"], "required: --times"),
+    ("transient-no-start", ["transient", BASE, "--times", "1,2"], "required: --start"),
+    ("transient-times-word", ["transient", BASE, "--start", "1", "--times", "2,soon"],
+     "is not a comma-separated list of times"),
+]
 SUBPROCESS = ["paths-33", "dt-10", "time-prime", "grid-averaging", "model-montecarlo", "set-twice",
               "json-folder", "json-proc", "scene-folder", "D-1e-320", "cost-dt", "check-out-file",
-              "range-nan", "figures-out-file", "wp-repeats-0"]
+              "range-nan", "figures-out-file", "wp-repeats-0", "passage-threshold-below-start",
+              "transient-times-unsorted"]
 
 
 def _materialise(case: tuple, folder: Path) -> tuple[list[str], str]:
@@ -266,3 +327,15 @@ def test_yes_lets_a_costly_run_past_the_estimate(no_computation, tmp_path, capsy
 
     with pytest.raises(AssertionError, match="computation started"):
         main(["solve", BASE, *MC, "--dt", "1e-9", "--yes"])
+
+
+@pytest.mark.parametrize("case", PARSER_CATALOGUE, ids=[c[0] for c in PARSER_CATALOGUE])
+def test_bad_arguments_are_refused_by_the_parser(no_computation, tmp_path, capsys, case):
+    from vifpk.harness.cli import main
+
+    args, needle = _materialise(case, tmp_path / "case")
+    with pytest.raises(SystemExit) as exc:
+        main(args)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and needle in err[0], err

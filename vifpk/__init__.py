@@ -22,6 +22,8 @@ _API: dict[str, tuple[str, str]] = {
     "solve": ("vifpk.api", "solve"),
     "check": ("vifpk.api", "check"),
     "sweep": ("vifpk.api", "sweep"),
+    "passage": ("vifpk.api", "passage"),
+    "transient": ("vifpk.api", "transient"),
     # results
     "Result": ("vifpk.core.result", "Result"),
     "Status": ("vifpk.core.result", "Status"),
@@ -32,6 +34,8 @@ _API: dict[str, tuple[str, str]] = {
     # tolerance tests (numpy.testing style)
     "assert_density_close": ("vifpk.harness.testing", "assert_density_close"),
     "assert_averaging_error": ("vifpk.harness.testing", "assert_averaging_error"),
+    "assert_mfpt_close": ("vifpk.harness.testing", "assert_mfpt_close"),
+    "assert_relaxation_close": ("vifpk.harness.testing", "assert_relaxation_close"),
 }
 
 __all__ = sorted(_API)

@@ -1,0 +1,330 @@
+"""Command line of the time-domain workflows (registered by harness/cli.py):
+
+    vifpk passage SCENE --threshold Ac [--start A0 | --start stationary] [--model M ...]
+                  [--horizon T] [--out DIR] [--json] [--paths N] [--dt H] [--seed S] [--yes]
+    vifpk transient SCENE --start A0 --times t1,t2,... [--model M ...] [--out DIR] [--json]
+                  [--paths N] [--dt H] [--seed S] [--yes]
+
+Every input is checked before any computation (one line, exit 2: :func:`check_passage`,
+:func:`check_transient`); the passage plan is priced by the cost guard once the averaged
+models have given their MFPT (seconds), before any Monte Carlo.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+from typing import Any
+
+from vifpk.core.defaults import CHECK_MODELS
+
+from . import validate
+
+
+def _number(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+
+
+def _start(text: str) -> float | str:
+    if text == "stationary":
+        return text
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an amplitude or 'stationary'"
+                                         ) from None
+
+
+def _times(text: str) -> tuple[float, ...]:
+    try:
+        return tuple(float(t) for t in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a comma-separated list of times, "
+                                         "e.g. 5,10,20,40") from None
+
+
+def _amplitude_ok(scene: Any, option: str, value: float) -> None:
+    """A finite amplitude > 0 inside the oscillation domain: the restoring force g(A) > 0 on
+    (0, A] (a softening spring's potential well ends where g turns back)."""
+    import numpy as np
+
+    from .run import restoring_force
+
+    if not (math.isfinite(value) and value > 0):
+        raise validate.InputError(f"{option} {value:g}: out of range; allowed: a finite "
+                                  "amplitude > 0")
+    grid = np.linspace(value / 1000.0, value, 1000)
+    with np.errstate(all="ignore"):
+        g = np.asarray(restoring_force(grid, tuple(scene.system.restoring_law)), float)
+    from .run import potential_energy
+
+    with np.errstate(all="ignore"):
+        u = float(potential_energy(scene, value))
+    if not math.isfinite(u):
+        raise validate.InputError(f"{option} {value:g}: beyond the domain: its energy U(A) "
+                                  "overflows a double; allowed: an amplitude whose energy is "
+                                  "finite")
+    if not np.all(np.isfinite(g) & (g > 0)):
+        edge = float(grid[np.argmax(~(np.isfinite(g) & (g > 0)))])
+        raise validate.InputError(f"{option} {value:g}: beyond the domain of oscillation "
+                                  f"(the restoring force vanishes near A = {edge:.4g}); "
+                                  f"allowed: 0 < A < {edge:.4g}")
+
+
+def _refuse_common(args: argparse.Namespace, command: str) -> None:
+    if args.dt == "auto":
+        raise validate.InputError(f"--dt auto: does not apply to {command} (auto picks the "
+                                  "step from a target floor of the stationary p(A)); give a "
+                                  "number")
+    validate.output_folder(args.out, "--out", replaced=True)
+
+
+def _scene(args: argparse.Namespace) -> Any:
+    from .cli import _checked_scene
+    from .run import SolverFailure
+
+    scene = _checked_scene(args, mc=True)
+    if scene.montecarlo.dt == "auto":
+        raise validate.InputError("montecarlo.dt = 'auto': does not apply to the time-domain "
+                                  "workflows; give a number with --dt")
+    if scene.system.f == 0.0:
+        raise SolverFailure("f = 0: there is no noise, so nothing passes or relaxes "
+                            "stochastically; nothing to check")
+    return scene
+
+
+def _models(args: argparse.Namespace, scene: Any) -> tuple[str, ...]:
+    outside = scene.system.paper_family_problem()
+    if args.model and "paper" in args.model and outside is not None:
+        raise validate.InputError(f"--model paper: {outside}; allowed here: --model exact or "
+                                  "--model corrected")
+    return tuple(dict.fromkeys(args.model)) if args.model else CHECK_MODELS
+
+
+def check_passage(args: argparse.Namespace) -> Any:
+    """Every passage input, before any computation: the scene, the options, the folder."""
+    _refuse_common(args, "passage")
+    scene = _scene(args)
+    passage_values(scene, threshold=args.threshold, start=args.start, horizon=args.horizon)
+    validate.refuse_oversized(scene)
+    return scene
+
+
+def passage_values(scene: Any, *, threshold: float, start: float | str,
+                   horizon: float | None = None) -> None:
+    """The threshold, start and horizon of a passage run (InputError, one line)."""
+    ac = threshold
+    if not math.isfinite(ac) or ac <= 0:
+        raise validate.InputError(f"--threshold {ac:g}: out of range; allowed: a finite "
+                                  "amplitude > 0")
+    _amplitude_ok(scene, "--threshold", ac)
+    if start != "stationary":
+        if isinstance(start, str):
+            raise validate.InputError(f"--start {start!r}: allowed: an amplitude or "
+                                      "'stationary'")
+        a0 = float(start)
+        if not math.isfinite(a0) or a0 < 0:
+            raise validate.InputError(f"--start {a0:g}: out of range; allowed: an amplitude "
+                                      f"0 <= A0 < Ac = {ac:g}, or 'stationary'")
+        if a0 >= ac:
+            raise validate.InputError(f"--start {a0:g}: at or above the threshold Ac = {ac:g}; "
+                                      "the path has already passed; allowed: 0 <= A0 < Ac, "
+                                      "or 'stationary'")
+    if horizon is not None and not (math.isfinite(horizon) and horizon > 0):
+        raise validate.InputError(f"--horizon {horizon:g}: out of range; allowed: a "
+                                  "finite time > 0")
+    if horizon is not None and scene.montecarlo.dt != "auto":
+        validate.at_least("--horizon", horizon / float(scene.montecarlo.dt), 1.0)
+
+
+def check_transient(args: argparse.Namespace) -> Any:
+    _refuse_common(args, "transient")
+    scene = _scene(args)
+    transient_values(scene, start=args.start, times=args.times)
+    validate.refuse_oversized(scene)
+    return scene
+
+
+def transient_values(scene: Any, *, start: float, times: Any) -> None:
+    """The start and the snapshot times of a transient run (InputError, one line)."""
+    _amplitude_ok(scene, "--start", start)
+    t = tuple(float(x) for x in times)
+    if not t:
+        raise validate.InputError("--times: empty; allowed: times > 0 in increasing order")
+    if not all(math.isfinite(x) for x in t):
+        raise validate.InputError(f"--times {','.join(f'{x:g}' for x in t)}: not finite; "
+                                  "allowed: finite times > 0 in increasing order")
+    if min(t) <= 0:
+        raise validate.InputError(f"--times: {min(t):g} is not > 0; allowed: times > 0 in "
+                                  "increasing order (t = 0 is the start itself)")
+    if any(b <= a for a, b in zip(t, t[1:], strict=False)):
+        raise validate.InputError(f"--times {','.join(f'{x:g}' for x in t)}: not increasing; "
+                                  "allowed: times > 0 in strictly increasing order")
+
+
+def _cores(scene: Any) -> int:
+    return scene.montecarlo.threads or min(validate.numba_threads_available(),
+                                           os.cpu_count() or 1)
+
+
+def _out(args: argparse.Namespace, scene: Any, suffix: str) -> str:
+    from .provenance import folder_name
+
+    out = args.out or f"out/{folder_name(scene.name)}-{suffix}"
+    if args.out is None:
+        validate.output_folder(out, "--out (default)", replaced=True)
+    return out
+
+
+def _print(res: Any, files: dict[str, Any], as_json: bool) -> None:
+    if as_json:
+        from .io import jsonable
+
+        doc = {k: v for k, v in res.metrics.items() if k not in ("R",)}
+        print(json.dumps(jsonable(doc), indent=1, allow_nan=False))
+        return
+    for v in res.verdicts:
+        print(v)
+    if getattr(res, "recommendation", ""):
+        print(res.recommendation)
+    for w in res.warnings:
+        print(f"warning: {w}")
+    print(f"report: {files['report.html']}")
+
+
+def cmd_passage(args: argparse.Namespace) -> int:
+    from . import outdir
+    from .cli import _provenance
+    from .passage import passage, run_seconds
+    from .timereport import PASSAGE_FILES, write_time_report
+
+    scene = check_passage(args)
+    models = _models(args, scene)
+    out = _out(args, scene, f"passage-{args.threshold:g}")
+    prov = _provenance(args)
+
+    def price(p: dict[str, Any]) -> None:
+        what = (f"--threshold {args.threshold:g}: the averaged models put the MFPT at up to "
+                f"{p['largest_model_mfpt']:.3g} time units, so the first-passage Monte Carlo "
+                f"({p['paths']} paths to a horizon of {p['horizon']:.3g}, dt "
+                f"{p['dt']:g}) is out of reach as a direct simulation (rare events need "
+                "another method)")
+        runs = 1 + len(models)
+        validate.refuse_costly(lambda sp: run_seconds(p, runs, sp or validate.MC_STEPS_PER_CORE,
+                                                      _cores(scene)), what, args.yes)
+
+    with outdir.hold(out, run_id=prov["run_id"], allowed=PASSAGE_FILES, kind="passage report"):
+        with validate.guarded_run(scene, args.yes):
+            res = passage(scene, threshold=args.threshold, start=args.start, models=models,
+                          horizon=args.horizon, paths=args.paths, quiet=args.quiet, price=price)
+        _finite(res.metrics)
+        files = write_time_report(res, out, prov=prov)
+    _print(res, files, args.json)
+    return 0
+
+
+def cmd_transient(args: argparse.Namespace) -> int:
+    from . import outdir
+    from .cli import _provenance
+    from .timereport import TRANSIENT_FILES, write_time_report
+    from .transient import transient
+
+    scene = check_transient(args)
+    models = _models(args, scene)
+    runs = 1 + len(models)
+    dt = float(scene.montecarlo.dt)
+    steps = (args.paths or scene.montecarlo.paths) * max(args.times) / dt
+    validate.refuse_costly(lambda sp: runs * steps / ((sp or validate.MC_STEPS_PER_CORE)
+                                                      * _cores(scene)),
+                           f"this transient ({runs} Monte Carlo runs to t = {max(args.times):g})",
+                           args.yes)
+    out = _out(args, scene, f"transient-{args.start:g}")
+    prov = _provenance(args)
+    with outdir.hold(out, run_id=prov["run_id"], allowed=TRANSIENT_FILES,
+                     kind="transient report"):
+        with validate.guarded_run(scene, args.yes):
+            res = transient(scene, start=args.start, times=args.times, models=models,
+                            paths=args.paths, quiet=args.quiet)
+        _finite(res.metrics)
+        files = write_time_report(res, out, prov=prov)
+    _print(res, files, args.json)
+    return 0
+
+
+def _finite(metrics: dict[str, Any]) -> None:
+    """Never exit 0 with NaN: a non-finite MFPT or distance is a numerical failure (exit 3)."""
+    from .run import SolverFailure
+
+    bad: list[str] = []
+
+    def walk(v: Any, where: str) -> None:
+        if isinstance(v, dict):
+            for k, x in v.items():
+                walk(x, f"{where}.{k}" if where else str(k))
+        elif isinstance(v, float) and math.isnan(v) and not where.startswith(("timings",
+                                                                              "monte_carlo")):
+            bad.append(where)
+
+    walk({k: metrics[k] for k in ("mfpt", "models", "relaxation") if k in metrics}, "")
+    if bad:
+        raise SolverFailure(f"not finite: {', '.join(bad[:3])}"
+                            + (" ..." if len(bad) > 3 else "") + "; no report written")
+
+
+def add_commands(sub: Any, model_name: Any, set_help: str, quiet_help: str) -> None:
+    """The passage and transient subcommands (called by harness.cli.build_parser)."""
+    from .cli import _dt_value, _whole_number
+
+    def common(p: argparse.ArgumentParser) -> None:
+        p.add_argument("scene", help="scene TOML file (or the name of a shipped scene)")
+        p.add_argument("--model", action="append", type=model_name, metavar="NAME",
+                       help="an averaged model, any registered one (repeat for several; "
+                            f"default: {', '.join(CHECK_MODELS)}, without paper outside its "
+                            "family)")
+        p.add_argument("--out", metavar="DIR",
+                       help="report directory (default: out/<scene>-<command>-<value>)")
+        p.add_argument("--json", action="store_true",
+                       help="print metrics.json's results on stdout instead of the verdicts "
+                            "(default: off; the report is written either way)")
+        p.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
+                       help=set_help)
+        p.add_argument("--quiet", action="store_true", help=quiet_help)
+        p.add_argument("--paths", type=_whole_number, metavar="N",
+                       help="Monte Carlo: paths of each run, a whole multiple of "
+                            "montecarlo.blocks (default: the scene's montecarlo.paths)")
+        p.add_argument("--dt", type=_dt_value, metavar="H",
+                       help="Monte Carlo: time step (default: the scene's montecarlo.dt)")
+        p.add_argument("--seed", type=_whole_number, metavar="S",
+                       help="Monte Carlo: root seed; the averaged SDE of the i-th model gets "
+                            "S + 1 + i (default: the scene's montecarlo.seed)")
+        p.add_argument("--yes", action="store_true",
+                       help="run even when the estimated cost exceeds an hour (default: off)")
+
+    p = sub.add_parser("passage", help="first passage out of A < Ac: reliability R(t), FPT "
+                                       "density and MFPT of each averaged model against the "
+                                       "original system")
+    common(p)
+    p.add_argument("--threshold", type=_number, required=True, metavar="Ac",
+                   help="the amplitude threshold Ac (energy U(Ac)); required")
+    p.add_argument("--start", type=_start, default="stationary", metavar="A0|stationary",
+                   help="start amplitude A0 < Ac, or 'stationary': the stationary law "
+                        "restricted to A < Ac (default: %(default)s)")
+    p.add_argument("--horizon", type=_number, metavar="T",
+                   help="Monte Carlo censoring horizon (default: "
+                        "8 x the largest averaged-model MFPT)")
+    p.set_defaults(func=cmd_passage)
+    t = sub.add_parser("transient", help="the law of the amplitude at given times from a "
+                                         "start A0: each averaged model against the original "
+                                         "system, and the relaxation times")
+    common(t)
+    t.add_argument("--start", type=_number, required=True, metavar="A0",
+                   help="start amplitude (energy U(A0), phase uniform in time along that "
+                        "orbit, noise from its stationary law); required")
+    t.add_argument("--times", type=_times, required=True, metavar="t1,t2,...",
+                   help="snapshot times > 0, increasing; required")
+    t.set_defaults(func=cmd_transient)

@@ -1,0 +1,224 @@
+"""The time-domain workflows in sweeps (harness/sweep.py): ``workflow = "passage"`` and
+``workflow = "transient"``, their tables, their point functions and their sweep figures::
+
+    workflow = "passage"
+    [passage]
+    threshold = 2.0              # Ac; or vary it: [vary] "passage.threshold" = [...]
+    start = "stationary"         # or an amplitude A0 < Ac (default "stationary")
+    horizon = 5000.0             # optional; default 8 x the largest model MFPT
+    sde = false                  # optional: also the averaged SDEs' Monte Carlo (default off)
+
+    workflow = "transient"
+    [transient]
+    start = 1.0                  # A0; or vary "transient.start"
+    times = [5.0, 10.0, 20.0, 40.0]
+
+A sweep over ``passage.threshold`` gives the MFPT-versus-threshold curve of every model against
+the original system (log scale). A point whose first-passage Monte Carlo would cost more than
+POINT_SECONDS at MC_STEPS_PER_CORE fails with that estimate instead of running (rare events).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+#: workflow parameters that a sweep may vary or fix in its table, by workflow
+TIME_PARAMS = {"passage.threshold": "passage", "passage.start": "passage",
+               "transient.start": "transient"}
+KEYS = {"passage": ("threshold", "start", "horizon", "sde"),
+        "transient": ("start", "times", "sde")}
+POINT_SECONDS = 3600.0  # a point's Monte Carlo is refused above an hour at the fastest rate
+
+
+class _Field:
+    type = "float"
+
+
+def field_of(path: str) -> Any:
+    """A numeric stand-in field for a time workflow parameter, else None."""
+    return _Field() if path in TIME_PARAMS else None
+
+
+def options(src: str, raw: Mapping[str, Any], workflow: str, vary: Mapping[str, Any]
+            ) -> dict[str, Any]:
+    """The [passage] or [transient] table, validated (SweepError naming the key); {} for the
+    other workflows (which may not have these tables nor vary their parameters)."""
+    from .sweep import SweepError
+
+    for wf in KEYS:
+        if wf != workflow and wf in raw:
+            raise SweepError(f"{src}: [{wf}]: only for workflow = '{wf}'")
+    for key in vary:
+        if key in TIME_PARAMS and TIME_PARAMS[key] != workflow:
+            raise SweepError(f"{src}: [vary] {key!r}: only for workflow = "
+                             f"'{TIME_PARAMS[key]}'")
+    if workflow not in KEYS:
+        return {}
+    table = raw.get(workflow, {})
+    if not isinstance(table, Mapping):
+        raise SweepError(f"{src}: [{workflow}] must be a table")
+    for k in table:
+        if k not in KEYS[workflow]:
+            raise SweepError(f"{src}: [{workflow}] {k}: unknown key; allowed: "
+                             + ", ".join(KEYS[workflow]))
+        if f"{workflow}.{k}" in vary:
+            raise SweepError(f"{src}: [{workflow}] {k}: also in [vary]; keep one")
+    opts = dict(table)
+    if workflow == "passage":
+        if "threshold" not in opts and "passage.threshold" not in vary:
+            raise SweepError(f"{src}: [passage] threshold: missing (a number, or vary "
+                             "\"passage.threshold\")")
+        opts.setdefault("start", "stationary")
+        st = opts["start"]
+        if st != "stationary" and not _finite(st):
+            raise SweepError(f"{src}: [passage] start = {st!r}: an amplitude or 'stationary'")
+        if "horizon" in opts and not (_finite(opts["horizon"]) and opts["horizon"] > 0):
+            raise SweepError(f"{src}: [passage] horizon = {opts['horizon']!r}: a time > 0")
+    else:
+        if "start" not in opts and "transient.start" not in vary:
+            raise SweepError(f"{src}: [transient] start: missing (an amplitude)")
+        t = opts.get("times")
+        if (not isinstance(t, list) or not t or not all(_finite(x) and x > 0 for x in t)
+                or any(b <= a for a, b in zip(t, t[1:], strict=False))):
+            raise SweepError(f"{src}: [transient] times = {t!r}: a list of times > 0 in "
+                             "increasing order")
+        opts["times"] = [float(x) for x in t]
+    sde = opts.setdefault("sde", False)
+    if not isinstance(sde, bool):
+        raise SweepError(f"{src}: [{workflow}] sde = {sde!r}: true or false")
+    return opts
+
+
+def _finite(v: Any) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def point_options(opts: Mapping[str, Any], params: tuple[tuple[str, float], ...]
+                  ) -> dict[str, Any]:
+    """The workflow's options at a point: the table with the point's varied ones."""
+    out = dict(opts)
+    for k, v in params:
+        if k in TIME_PARAMS:
+            out[k.split(".", 1)[1]] = float(v)
+    return out
+
+
+def check_point(workflow: str, opts: Mapping[str, Any]) -> None:
+    """The point's options as the command checks them (InputError, one line)."""
+    from .validate import InputError
+
+    if workflow == "passage":
+        ac, st = opts["threshold"], opts["start"]
+        if not (_finite(ac) and ac > 0):
+            raise InputError(f"passage.threshold = {ac!r}: allowed: an amplitude > 0")
+        if st != "stationary" and not 0 <= st < ac:
+            raise InputError(f"passage.start = {st:g}: allowed: 0 <= A0 < threshold = {ac:g}")
+    elif not (_finite(opts["start"]) and opts["start"] > 0):
+        raise InputError(f"transient.start = {opts['start']!r}: allowed: an amplitude > 0")
+
+
+def _price(p: dict[str, Any], runs: int) -> None:
+    from .passage import run_seconds
+    from .run import SolverFailure
+    from .validate import MC_STEPS_PER_CORE
+
+    s = run_seconds(p, runs, MC_STEPS_PER_CORE, 1)
+    if s > POINT_SECONDS:
+        raise SolverFailure(f"out of reach: the averaged models put the MFPT at up to "
+                            f"{p['largest_model_mfpt']:.3g}, so the Monte Carlo would take at "
+                            f"least {s / 3600:.3g} core-hours (rare events)")
+
+
+def passage_point(job: Any) -> dict[str, Any]:
+    from vifpk.core.defaults import CHECK_MODELS
+
+    from .passage import passage
+
+    o = point_options(job.bifurcation, job.params)
+    models = job.models if job.models is not None else CHECK_MODELS
+    res = passage(job.scene, threshold=o["threshold"], start=o["start"], models=models,
+                  horizon=o.get("horizon"), sde=o["sde"], quiet=True,
+                  price=lambda p: _price(p, 1 + (len(models) if o["sde"] else 0)))
+    mc = res.metrics["mfpt"]["original_system"]
+    out: dict[str, Any] = {"models": {}}
+    for m in res.models:
+        e = res.metrics["models"][m]
+        err = e.get("mfpt_error_restricted", e["mfpt_error"])
+        out["models"][m] = {"mfpt": res.metrics["mfpt"][m]["value"],
+                            "mfpt_error": err["value"], "mfpt_error_err": err["err"],
+                            "R_sup": e["R_sup"]["value"], "R_sup_floor": e["R_sup"]["floor"],
+                            "verdict_class": e["verdict_class"]}
+    out.update(mfpt_original=mc["value"], mfpt_original_err=mc["stderr"],
+               censored_fraction=res.metrics["plan"]["censored_fraction"],
+               recommended_model=res.metrics["recommended_model"],
+               warnings=res.warnings, verdicts=res.verdicts)
+    return out
+
+
+def transient_point(job: Any) -> dict[str, Any]:
+    from vifpk.core.defaults import CHECK_MODELS
+
+    from .transient import transient
+
+    o = point_options(job.bifurcation, job.params)
+    res = transient(job.scene, start=o["start"], times=tuple(o["times"]),
+                    models=job.models if job.models is not None else CHECK_MODELS,
+                    sde=o["sde"], quiet=True)
+    meas = res.metrics["relaxation"]["original_system"]
+    out: dict[str, Any] = {"models": {}}
+    for m in res.models:
+        e = res.metrics["models"][m]
+        worst = max(r["fpk"]["L1"] for r in e["snapshots"])
+        out["models"][m] = {"relaxation_time": e["relaxation"]["predicted"],
+                            "relaxation_fitted": e["relaxation"]["fitted"],
+                            "worst_L1_A": worst, "verdict_class": e["verdict_class"]}
+    out.update(relaxation_original=meas["value"] if meas else math.nan,
+               relaxation_original_err=meas["err"] if meas else math.nan,
+               warnings=res.warnings, verdicts=res.verdicts)
+    return out
+
+
+#: point-level scalars of these workflows that sweep.dataset writes as variables
+SCALARS = ("mfpt_original", "mfpt_original_err", "censored_fraction", "relaxation_original",
+           "relaxation_original_err")
+
+
+def figures(ds: Any) -> list[tuple[str, str]]:
+    """The sweep figures of passage and transient sweeps along one parameter."""
+    import json
+
+    from .sweepmaps import _axis, _png
+
+    wf = ds.attrs.get("workflow")
+    params = json.loads(ds.attrs.get("varied", "[]"))
+    if wf not in KEYS or len(params) != 1 or ds.attrs.get("mode") == "adaptive":
+        return []
+    var, orig, label = (("mfpt", "mfpt_original", "MFPT (time units, log scale)")
+                        if wf == "passage" else
+                        ("relaxation_time", "relaxation_original",
+                         "relaxation time (time units, log scale)"))
+    if var not in ds or orig not in ds:
+        return []
+    from .io import pyplot
+
+    plt = pyplot()
+    x, xl = _axis(ds, params[0]) if params[0] in ds.coords else (
+        np.arange(ds.sizes["point"]), "point")
+    fig, ax = plt.subplots(figsize=(6.4, 4.2), constrained_layout=True)
+    for m in ds["model"].values:
+        ax.plot(x, ds[var].sel(model=m).values, "-o", ms=4, label=f"{m} model")
+    ax.errorbar(x, ds[orig].values, yerr=2 * ds[f"{orig}_err"].values, fmt="s", color="k",
+                capsize=3, label="original system: MC (±2 s.e.)")
+    ax.set_yscale("log")
+    ax.set_xlabel(xl)
+    ax.set_ylabel(label)
+    ax.legend(fontsize=8)
+    what = ("Mean first-passage time of each averaged model (Pontryagin quadrature) against "
+            "the Monte Carlo of the original system" if wf == "passage" else
+            "Relaxation time each averaged model predicts (its FPK's slowest decay) against "
+            "the one fitted on the original system")
+    return [(what + ", log scale.", _png(fig))]
