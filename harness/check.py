@@ -567,8 +567,9 @@ def verdict(model: str, entry: dict[str, Any], warnings: list[WarningRecord], *,
 
 
 # ------------------------------------------------------------------ which model to trust
-#: models check may recommend (``paper`` drops the sgn(y) of the excitation: never)
-RECOMMENDABLE = ("exact", "corrected")
+#: the order of preference between models whose errors agree within the noise (the derived
+#: O(eps) terms first); any checked model whose error is measured is a candidate
+RECOMMENDABLE = ("corrected", "exact")
 BAND_MIN = 0.5  # narrow-band warning: alpha1 / Omega(E) below this anywhere in the bulk
 WALL_MAX = 0.2  # corrected trusted only while delta / E <= this at the 10% energy
 CORRELATION_MAX = 0.045  # advisory: sigma_E^2 / (alpha1 E^2) at the median energy
@@ -579,20 +580,21 @@ def recommend(metrics: dict[str, Any], warnings: list[WarningRecord], val: dict[
     """(model, one line): the averaged model to trust for this scene and why, or "none".
 
     The recommendation follows the tolerance verdict (harness/tolerance.py; the question is
-    ``metrics["tolerance"]``, default L1(A) <= 0.02 at 95%): (1) the Monte Carlo of the
-    original system must have converged, else "none"; a model whose averaged-SDE check failed
-    is no candidate; (2) of ``exact`` and ``corrected``, the ones INSIDE the tolerance at the
-    stated confidence are candidates, and the one with the lower error estimate (noise
-    removed) is recommended; when both are inside and their estimates differ by less than
-    the noise floor, ``corrected`` (its extra terms are derived) unless its wall-energy term
-    is outside its derivation over the bulk of p(E) (delta / E above WALL_MAX at the 10%
-    energy), then ``exact``; (3) "none" only when no model is inside, saying which are
-    undecided (a longer run decides) and which outside; with no model inside, the best
-    undecided one whose P(error <= tolerance) is at least 1/2 is recommended *provisionally*
-    (the line says so: more likely within than not, not yet at the confidence). Warnings no
-    longer veto a model whose measured error is small: they are named as advice (the
-    assumptions that fail here, so the measured error holds for this scene, not as a trend).
-    The line names the tolerance used.
+    ``metrics["tolerance"]``, default L1(A) <= 0.02 at 95%): (1) the Monte Carlo of the original
+    system must have converged, else "none"; a model whose averaged-SDE check failed is no
+    candidate; (2) of the models checked (plugins and ``paper`` included: the measured error
+    decides, not the name), the ones INSIDE the tolerance at the stated confidence are
+    candidates, and the one with the lowest error estimate (noise removed) is recommended;
+    models within the noise floor of the lowest are tied, and a tie goes to the model with the
+    most derived terms (RECOMMENDABLE's order: ``corrected``, then ``exact``), except that
+    ``corrected`` yields to ``exact`` where its wall-energy term is outside its derivation over
+    the bulk of p(E) (delta / E above WALL_MAX at the 10% energy); (3) "none" only when no model
+    is inside, saying which are undecided (a longer run decides) and which outside; with no
+    model inside, the best undecided one whose P(error <= tolerance) is at least 1/2 is
+    recommended *provisionally* (the line says so: more likely within than not, not yet at the
+    confidence). Warnings no longer veto a model whose measured error is small: they are named
+    as advice (the assumptions that fail here, so the measured error holds for this scene, not
+    as a trend). The line names the tolerance used.
     """
     from .tolerance import Tolerance, tolerance_verdict
 
@@ -604,12 +606,13 @@ def recommend(metrics: dict[str, Any], warnings: list[WarningRecord], val: dict[
     if conv.get("equilibrated") is False:
         return "none", (head + f"none -- the Monte Carlo has not converged, so no model's error "
                         f"is measured here ({used})")
-    cand = [m for m in RECOMMENDABLE if m in models
-            and models[m].get("sampling_ok") is not False
-            and tol.observable in models[m].get("averaging_error", {})]
+    measured = [m for m in models if tol.observable in models[m].get("averaging_error", {})]
+    cand = [m for m in measured if models[m].get("sampling_ok") is not False]
     if not cand:
-        return "none", (head + "none -- the averaged-SDE check of every candidate model "
-                        f"failed, so no model's error is measured here ({used})")
+        why = ("the averaged-SDE check of every model failed" if measured
+               else "no model's averaging error was measured")
+        return "none", (head + f"none -- {why}, so no model's error is measured here "
+                        f"({used})")
     tv = {m: models[m].get("tolerance") or tolerance_verdict(
         models[m]["averaging_error"][tol.observable], tol) for m in cand}
     desc = ", ".join(f"{m} {tv[m]['error_estimate']:.3f} (P = "
@@ -641,7 +644,9 @@ def recommend(metrics: dict[str, Any], warnings: list[WarningRecord], val: dict[
                         f"the noise removed: {desc}; floor {floor:.3f}){more}{advice}")
     wall = (val.get("wall") or [0.0])[0]  # at the 10% energy, where delta / E is largest
     est = {m: tv[m]["error_estimate"] for m in inside}
-    if len(inside) == 2 and abs(est["corrected"] - est["exact"]) <= floor:
+    best = min(est.values())
+    tied = {m for m in inside if est[m] - best <= floor}  # equal within the noise
+    if {"exact", "corrected"} <= tied:
         if wall > WALL_MAX:
             pick = "exact"
             why = (f"exact and corrected are both within the {used} and agree within the "
@@ -654,9 +659,13 @@ def recommend(metrics: dict[str, Any], warnings: list[WarningRecord], val: dict[
                    f"noise ({desc}; floor {floor:.3f}); corrected keeps the derived O(eps) "
                    "impact terms")
     else:
-        pick = min(inside, key=lambda m: est[m])
+        # within the noise of each other, a model with the derived O(eps) terms first
+        pick = min(tied, key=lambda m: (RECOMMENDABLE.index(m) if m in RECOMMENDABLE
+                                        else len(RECOMMENDABLE), est[m]))
         why = (f"within the {used}, lowest error estimate with the noise removed ({desc}; "
-               f"floor {floor:.3f})")
+               f"floor {floor:.3f})" if len(tied) == 1 else
+               f"within the {used}; {', '.join(sorted(tied))} agree within the noise "
+               f"({desc}; floor {floor:.3f}) and {pick} keeps the most derived terms")
         if pick == "exact" and "corrected" in cand and wall > WALL_MAX:
             why += (f"; corrected's energy-at-the-wall term is outside its derivation here "
                     f"(delta/E = {wall:.2f} at the 10% energy > {WALL_MAX:g})")

@@ -245,3 +245,19 @@ def test_passage_splitting_door_gives_the_mfpt_layout():
     assert m["ci"][0] < m["value"] < m["ci"][1] and m["stderr"] > 0
     assert 0 < r.info["low"] < r.info["entry"] < 0.9
     assert "quantiles" in r.info["levels_source"]
+
+
+def test_recommend_any_measured_model_by_its_error_not_its_name():
+    """Issue 27/28: a check of the paper model alone, or of a plugin alone, crashed in
+    recommend (min of an empty list); any model whose error is measured is a candidate, and
+    among models tied within the noise the one with the most derived terms is preferred."""
+    from vifpk.harness.check import recommend
+
+    m, line = recommend(_canned({"paper": 0.5}), [], VAL)
+    assert m == "none" and "paper 0.5" in line and "outside" in line
+    m, line = recommend(_canned({"my-plugin": 0.004}), [], VAL)
+    assert m == "my-plugin" and "within the tolerance" in line
+    m, line = recommend(_canned({"paper": 0.010, "exact": 0.011, "my-plugin": 0.012}), [], VAL)
+    assert m == "exact" and "agree within the noise" in line
+    m, _ = recommend(_canned({"paper": 0.003, "exact": 0.016}), [], VAL)  # beyond the floor
+    assert m == "paper"
