@@ -497,7 +497,8 @@ def splitting_levels(scene: Any, *, start: float, threshold: float) -> dict[str,
     return {"low": low, "entry": entry, "source": source}
 
 
-def passage_splitting(scene: Any, *, threshold: float, start: float, low: float | None = None,
+def passage_splitting(scene: Any, *, threshold: float, start: float | str,
+                      low: float | None = None,
                       entry: float | None = None, groups: int = 20, particles: int = 200,
                       levels: int = 200, kill: int = 0, paths: int = 8, cycles: int = 25,
                       dt: float | None = None, seed: int | None = None,
@@ -506,19 +507,34 @@ def passage_splitting(scene: Any, *, threshold: float, start: float, low: float 
     """MFPT of the original system from amplitude ``start`` to ``threshold`` by adaptive
     multilevel splitting on the energy and the cycle decomposition (montecarlo.splitting):
     data["mfpt"] = info["mfpt"] = {"value", "stderr", "ci" (Student-t 95% over ``groups``
-    independent repetitions), ...}. Levels low < entry default to splitting_levels; dt, seed
+    independent repetitions), ...}. ``start``: an amplitude or "stationary" (the law below the
+    threshold after a burn-in: the scene's montecarlo.burn_in, or for "auto" BURN_FACTOR x the
+    exact model's relaxation time; info["burn_in_rule"]). Levels low < entry default to
+    splitting_levels; dt, seed
     and threads as passage_montecarlo takes them. rel_ci > 0: batches of ``groups`` groups
     until the interval's half-width is within rel_ci of the value, within ``budget`` seconds
     (info["target"] says whether it was reached)."""
     from vifpk.montecarlo.splitting import SplittingSettings
     from vifpk.montecarlo.splitting import passage_splitting as split
 
-    if start == "stationary":
-        raise ValueError("start = 'stationary' is not supported by splitting: give an "
-                         "amplitude")
+    stationary = start == "stationary"
+    burn: dict[str, Any] = {}
+    if stationary:  # the free run before the clock starts, as passage_montecarlo's "auto"
+        from vifpk.core.defaults import BURN_FACTOR
+
+        if scene.montecarlo.burn_in != "auto":
+            burn = {"burn_in": float(scene.montecarlo.burn_in),
+                    "rule": "the scene's montecarlo.burn_in"}
+        else:
+            m = averaged_model(scene, "exact")
+            tau = float(fpk_stationary(m.drift, m.diffusion, method="direct").info[
+                "relaxation_time"])
+            burn = {"burn_in": BURN_FACTOR * tau,
+                    "rule": f"BURN_FACTOR x the exact model's relaxation time ({tau:.4g})"}
     chosen = {"low": low, "entry": entry, "source": "given"}
     if low is None or entry is None:
-        auto = splitting_levels(scene, start=float(start), threshold=float(threshold))
+        auto = splitting_levels(scene, start=0.0 if stationary else float(start),
+                                threshold=float(threshold))
         chosen = {"low": low if low is not None else auto["low"],
                   "entry": entry if entry is not None else auto["entry"],
                   "source": auto["source"]}
@@ -529,11 +545,14 @@ def passage_splitting(scene: Any, *, threshold: float, start: float, low: float 
                           threads=int(st.threads))
     try:
         res = split(scene.system, scene.noise, s, threshold=float(threshold),
-                    start=float(start), low=chosen["low"], entry=chosen["entry"])
+                    start="stationary" if stationary else float(start), low=chosen["low"],
+                    entry=chosen["entry"], burn_in=burn.get("burn_in", 0.0))
     except RuntimeError as exc:
         raise SolverFailure(str(exc)) from None
     info = dict(res.info)
     info["levels_source"] = chosen["source"]
+    if burn:
+        info["burn_in_rule"] = burn["rule"]
     return Result(data=res.data, info=info)
 
 

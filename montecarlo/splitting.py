@@ -249,7 +249,7 @@ class _SDE:
     def cycles(self, starts: np.ndarray, rng: np.ndarray, n_cycles: int, q0: float, q1: float,
                qc: float, t_max: float) -> tuple[np.ndarray, np.ndarray]:
         entries = np.zeros((starts.shape[0], n_cycles, self.width))
-        summary = np.zeros((starts.shape[0], 6))
+        summary = np.zeros((starts.shape[0], 7))
         SK.cycles_sde(starts[:, 0].copy(), rng, n_cycles, q0, q1, qc, t_max, self.h,
                       self.a_tab, self.b_tab, self.inv_d, entries, summary)
         return entries, summary
@@ -295,11 +295,15 @@ def _groups_direct(dyn: Any, start_rows: Callable[[int, int, int], np.ndarray], 
     starts = np.concatenate([start_rows(P, s.seed, first + g) for g in range(G)])
     rng = np.concatenate([_words(s.seed, (KEY_DIRECT, first + g), P) for g in range(G)])
     entries, summ = dyn.cycles(starts, rng, s.cycles, q0, q1, qc, s.max_time)
+    if (summ[:, 5] == 2).any():
+        raise RuntimeError(f"start 'stationary': {int((summ[:, 5] == 2).sum())} direct path(s) "
+                           f"reached the threshold in more than {SK.MAX_RESTARTS} burn-ins in "
+                           "a row: the threshold is inside the bulk of the stationary law")
     if summ[:, 5].any():
         raise RuntimeError(f"{int(summ[:, 5].sum())} direct path(s) reached max_time = "
                            f"{s.max_time:g} before completing their cycles: lower levels "
                            "(low/entry) closer to the bulk of the law, or raise max_time")
-    summ = summ.reshape(G, P, 6)
+    summ = summ.reshape(G, P, summ.shape[1])
     ent = entries.reshape(G, P, s.cycles, dyn.width)
     valid = np.arange(s.cycles)[None, None, :] < summ[:, :, 2, None]
     pools = np.zeros((G, N, dyn.width))
@@ -414,9 +418,10 @@ class _Original:
 
     width = 5
 
-    def __init__(self, system: Any, noise: Any, dt: float) -> None:
+    def __init__(self, system: Any, noise: Any, dt: float, burn_in: float = 0.0) -> None:
         self.phys = physics(system, noise)
         self.h = float(dt)
+        self.n_burn = int(round(burn_in / self.h))
         ph = self.phys
         self.args = (ph["c1"], ph["c2"], ph["w0sq"], ph["alpha"], ph["f"], ph["D"], ph["mu"],
                      ph["r"], ph["alpha1"], ph["khi"], ph["dhi"], ph["ev"])
@@ -446,35 +451,44 @@ class _Original:
     def cycles(self, starts: np.ndarray, rng: np.ndarray, n_cycles: int, q0: float, q1: float,
                qc: float, t_max: float) -> tuple[np.ndarray, np.ndarray]:
         entries = np.zeros((starts.shape[0], n_cycles, self.width))
-        summary = np.zeros((starts.shape[0], 6))
-        SK.cycles_orig(starts, rng, n_cycles, q0, q1, qc, t_max, self.h, *self.args, entries,
-                       summary)
+        summary = np.zeros((starts.shape[0], 7))
+        SK.cycles_orig(starts, rng, n_cycles, q0, q1, qc, t_max, self.n_burn, self.h,
+                       *self.args, entries, summary)
         return entries, summary
 
 
 def passage_splitting(system: Any, noise: Any, settings: SplittingSettings, *,
-                      threshold: float, start: float, low: float, entry: float) -> Result:
+                      threshold: float, start: float | str, low: float, entry: float,
+                      burn_in: float = 0.0) -> Result:
     """MFPT of the ORIGINAL system from a start at amplitude ``start`` (energy U(start), phase
-    uniform in time on that conservative orbit, xi from its stationary law) to the energy
+    uniform in time on that conservative orbit, xi from its stationary law), or "stationary"
+    (the stationary law restricted below the threshold: ``burn_in`` > 0 time units of free
+    simulation from the orbit of amplitude ``low``, begun again when it reaches the threshold;
+    splitting_kernels.cycles_orig), to the energy
     U(threshold), by the cycle decomposition with levels U(low) < U(entry) < U(threshold)
     (module docstring), the energy as the reaction coordinate. The same seed gives the same
     numbers for any thread count (every path and every clone has its own stream).
     data["mfpt"] = info["mfpt"] = {"value", "stderr", "ci", "level", "replicas",
     "mean_cycle", "mean_warm_up", "warm_up_hits", "p": {...}} (time units)."""
-    if not 0.0 < low < entry < threshold or not 0.0 <= start < threshold:
+    stationary = start == "stationary"
+    if stationary and not burn_in > 0:
+        raise ValueError("start 'stationary' needs burn_in > 0 (time units)")
+    a0 = low if stationary else start
+    if not 0.0 < low < entry < threshold or not 0.0 <= a0 < threshold:
         raise ValueError(f"need 0 < low < entry < threshold and 0 <= start < threshold, got "
                          f"low = {low}, entry = {entry}, threshold = {threshold}, "
                          f"start = {start}")
     s = settings
-    dyn = _Original(system, noise, s.dt)
+    dyn = _Original(system, noise, s.dt, burn_in if stationary else 0.0)
     q0, q1, qc = dyn.U(low), dyn.U(entry), dyn.U(threshold)
 
     def rows(n: int, seed: int, g: int) -> np.ndarray:
-        return dyn.starts(start, n, seed, g)
+        return dyn.starts(a0, n, seed, g)
 
     rec, det = _mfpt(dyn, rows, dyn.q, q0, q1, qc, s)
     info = {"solver": "montecarlo", "method": "splitting", "threshold": threshold,
-            "start": start, "low": low, "entry": entry, "energies": [q0, q1, qc],
+            "start": start, "burn_in": burn_in if stationary else 0.0, "low": low,
+            "entry": entry, "energies": [q0, q1, qc],
             "reaction_coordinate": "energy E = v^2/2 + U(x)", "settings": asdict(s),
             "mfpt": rec, **det, "status": Status.SIMULATED.record()}
     return Result(data={"mfpt": rec}, info=info)

@@ -40,6 +40,7 @@ from .rng import uniform
 
 OUT_FAIL, OUT_SUCCESS, OUT_TIMEOUT = 0, 1, -1
 BRIDGE_CUT = 40.0  # no uniform is drawn when the bridge probability is below e^-40
+MAX_RESTARTS = 100  # burn-ins a path may begin again (cycles_orig)
 
 
 @jit(inline="always")
@@ -255,11 +256,16 @@ def _advance_orig(recs, row, st, s0, s1, s2, s3, q_lo, q_hi, M, t_max, h, c1, c2
 
 
 @jit(parallel=True)
-def cycles_orig(starts, rng, n_cycles, q0, q1, q_hi, t_max, h, c1, c2, w0sq, alpha, f, D, mu,
-                r, alpha1, khi, dhi, ev, entries, summary):
+def cycles_orig(starts, rng, n_cycles, q0, q1, q_hi, t_max, n_burn, h, c1, c2, w0sq, alpha, f,
+                D, mu, r, alpha1, khi, dhi, ev, entries, summary):
     """cycles_sde for the original system: starts[p] = (x, v, xi, 0, 0), entries[p, k] the
     state row at the start of cycle k (its time and time at rest set to 0). A success's time
-    is interpolated linearly in the energy inside its step. (The path: ``_cycles_orig``.)"""
+    is interpolated linearly in the energy inside its step. (The path: ``_cycles_orig``.)
+    n_burn > 0: first n_burn steps of free simulation, begun again from starts[p] (the stream
+    goes on) whenever the energy reaches q_hi, at most MAX_RESTARTS times (then summary[p, 5]
+    = 2); the clock starts after it: the start law is then the law at q < q_hi after a long
+    run that stayed below, i.e. the stationary law restricted below the threshold when n_burn
+    is several relaxation times. summary[p, 6] counts the restarts."""
     if alpha1 is None:
         ou_a = 0.0
         ou_s = 0.0
@@ -269,16 +275,31 @@ def cycles_orig(starts, rng, n_cycles, q0, q1, q_hi, t_max, h, c1, c2, w0sq, alp
     kick = f * math.sqrt(2.0 * D * h)
     for p in prange(starts.shape[0]):
         _cycles_orig(p, starts, rng[p, 0], rng[p, 1], rng[p, 2], rng[p, 3], n_cycles, q0, q1,
-                     q_hi, t_max, h, c1, c2, w0sq, alpha, f, mu, r, alpha1, khi, dhi, ev, ou_a,
-                     ou_s, kick, entries, summary)
+                     q_hi, t_max, n_burn, h, c1, c2, w0sq, alpha, f, mu, r, alpha1, khi, dhi, ev,
+                     ou_a, ou_s, kick, entries, summary)
 
 
 @jit
-def _cycles_orig(p, starts, s0, s1, s2, s3, n_cycles, q0, q1, q_hi, t_max, h, c1, c2, w0sq,
-                 alpha, f, mu, r, alpha1, khi, dhi, ev, ou_a, ou_s, kick, entries, summary):
+def _cycles_orig(p, starts, s0, s1, s2, s3, n_cycles, q0, q1, q_hi, t_max, n_burn, h, c1, c2,
+                 w0sq, alpha, f, mu, r, alpha1, khi, dhi, ev, ou_a, ou_s, kick, entries, summary):
     half = 0.5 * h
     x, v, xi = starts[p, 0], starts[p, 1], starts[p, 2]
     rest = 0.0
+    n = 0
+    restarts = 0
+    while n < n_burn:
+        x, v, xi, rest, s0, s1, s2, s3 = _orig_move(
+            x, v, xi, rest, s0, s1, s2, s3, h, half, c1, c2, w0sq, alpha, f, mu, r, alpha1,
+            khi, dhi, ev, ou_a, ou_s, kick)
+        n += 1
+        if energy(x, v, w0sq, alpha, khi) >= q_hi:
+            restarts += 1
+            if restarts > MAX_RESTARTS:
+                summary[p, 5] = 2.0
+                return
+            x, v, xi = starts[p, 0], starts[p, 1], starts[p, 2]
+            n = 0
+    summary[p, 6] = restarts
     t = 0.0
     q = energy(x, v, w0sq, alpha, khi)
     armed = q <= q0

@@ -261,3 +261,16 @@ def test_recommend_any_measured_model_by_its_error_not_its_name():
     assert m == "exact" and "agree within the noise" in line
     m, _ = recommend(_canned({"paper": 0.003, "exact": 0.016}), [], VAL)  # beyond the floor
     assert m == "paper"
+
+
+@pytest.mark.slow
+def test_passage_splitting_door_stationary_start_says_its_burn_in():
+    from vifpk.harness.run import passage_splitting
+
+    from vifpk.core.scene import load_scene
+
+    sc = load_scene("paper-base")
+    r = passage_splitting(sc, threshold=0.9, start="stationary", groups=3, particles=20,
+                          levels=30, paths=4, cycles=6)
+    assert r.info["burn_in"] > 0 and "relaxation time" in r.info["burn_in_rule"]
+    assert r.info["mfpt"]["value"] > 0
