@@ -145,7 +145,20 @@ def run(disc: Discretisation, p0: Array, *, t_end: float, stepper: str = "bdf",
     # (seen under numpy errors raised: bdf.py "D[order + 2] = d - D[order + 1]"); that is its
     # own business, and every state it hands back is checked for finiteness by the guard
     with np.errstate(invalid="ignore", over="ignore"):
-        final, info = eq.solve(state, t_range=t_end, tracker=trackers, ret_info=True, **args)
+        try:
+            final, info = eq.solve(state, t_range=t_end, tracker=trackers, ret_info=True,
+                                   **args)
+        except FPKFailure:
+            raise
+        except (AttributeError, RuntimeError, ValueError, ArithmeticError) as exc:
+            # the integrator gave up (scipy's solve_ivp failing: py-pde then reads its
+            # solution list as an array, AttributeError); say so in one line, the solver's
+            # failure, not an internal error
+            raise FPKFailure(
+                f"the FPK time stepping ({stepper}, {disc.centres.size} cells, t_end = "
+                f"{t_end:.3g}) stopped: {type(exc).__name__}: {str(exc).splitlines()[0][:160]}"
+                "; the time range or the coefficients' range is too extreme for the "
+                "integrator") from None
     seconds = time.perf_counter() - t0
     p = final.data.copy()
     guard(final, float(info["controller"].get("t_final", t_end)))

@@ -36,7 +36,7 @@ import numpy as np
 from vifpk.core.defaults import BURN_FACTOR, CHECK_MODELS
 
 from . import run
-from .check import RECOMMENDABLE, _Stages, models_of
+from .check import RECOMMENDABLE, _Stages, models_of, sde_seed
 
 HORIZON_FACTOR = 8.0  # horizon = 8 x the largest model MFPT (censoring e^-8 if a model is right)
 CENSORED_WARN = 0.01  # more censored paths than this: warn, compare restricted means
@@ -190,16 +190,16 @@ def passage(scene: Any, *, threshold: float, start: float | str = "stationary",
             "paths": int(t_mc.size), "censored": int(np.sum(cens)),
             "restricted": bool(rmean.get("restricted", frac > 0)), "horizon": p["horizon"]}
     entries: dict[str, Any] = {}
-    for i, m in enumerate(models):
+    for m in models:
         r = sol[f"fpk:{m}"]
         e = _compare_model(survival, r, mfpt[m], km, rmean, t_mc, cens, p["horizon"], frac)
         if sde:
             stages(f"Monte Carlo of the {m} averaged SDE (first passage)")
             s = run.passage_sde(scene, named[m], threshold=threshold,
                                 start=sde_start(scene, named[m], start, threshold, p["paths"],
-                                                scene.montecarlo.seed + 1 + i),
+                                                sde_seed(scene.montecarlo.seed, m)),
                                 horizon=p["horizon"], paths=p["paths"],
-                                seed=scene.montecarlo.seed + 1 + i)
+                                seed=sde_seed(scene.montecarlo.seed, m))
             sol[f"sde:{m}"] = s
             e["sde"] = _sde_check(survival, s, r, mfpt[m], p["horizon"])
             if not e["sde"]["sampling_ok"]:

@@ -19,6 +19,7 @@ import os
 from typing import Any
 
 from vifpk.core.defaults import CHECK_MODELS
+from vifpk.core.scene import no_noise
 
 from . import validate
 
@@ -92,9 +93,9 @@ def _scene(args: argparse.Namespace) -> Any:
     if scene.montecarlo.dt == "auto":
         raise validate.InputError("montecarlo.dt = 'auto': does not apply to the time-domain "
                                   "workflows; give a number with --dt")
-    if scene.system.f == 0.0:
-        raise SolverFailure("f = 0: there is no noise, so nothing passes or relaxes "
-                            "stochastically; nothing to check")
+    if no_noise(scene.system):
+        raise SolverFailure(f"{no_noise(scene.system)}; nothing passes or relaxes "
+                            "stochastically, nothing to check")
     return scene
 
 
@@ -165,6 +166,15 @@ def transient_values(scene: Any, *, start: float, times: Any) -> None:
     if any(b <= a for a, b in zip(t, t[1:], strict=False)):
         raise validate.InputError(f"--times {','.join(f'{x:g}' for x in t)}: not increasing; "
                                   "allowed: times > 0 in strictly increasing order")
+    dt = scene.montecarlo.dt
+    if isinstance(dt, int | float):  # the simulation snapshots at whole steps: say so, no move
+        for x in t:
+            k = round(x / dt)
+            if k < 1 or abs(k * dt - x) > 1e-9 * x:
+                near = ", ".join(f"{v:g}" for v in sorted({max(k, 1) * dt, (max(k, 1) + 1) * dt}))
+                raise validate.InputError(
+                    f"--times: {x:g} is not a whole number of steps of dt = {dt:g} (the "
+                    f"simulation takes its snapshots at whole steps); nearest valid: {near}")
 
 
 def _cores(scene: Any) -> int:
@@ -300,8 +310,9 @@ def add_commands(sub: Any, model_name: Any, set_help: str, quiet_help: str) -> N
         p.add_argument("--dt", type=_dt_value, metavar="H",
                        help="Monte Carlo: time step (default: the scene's montecarlo.dt)")
         p.add_argument("--seed", type=_whole_number, metavar="S",
-                       help="Monte Carlo: root seed; the averaged SDE of the i-th model gets "
-                            "S + 1 + i (default: the scene's montecarlo.seed)")
+                       help="Monte Carlo: root seed; each model's averaged SDE gets a seed "
+                            "of S and the model's name alone, as in check (default: the "
+                            "scene's montecarlo.seed)")
         p.add_argument("--yes", action="store_true",
                        help="run even when the estimated cost exceeds an hour (default: off)")
 

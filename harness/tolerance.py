@@ -102,6 +102,9 @@ def tolerance_verdict(e: dict[str, Any], tol: Tolerance) -> dict[str, Any]:
     z = NormalDist().inv_cdf(0.5 + tol.confidence / 2)
     est = debias(value, floor)
     lo, hi = debias(max(value - z * sigma, 0.0), floor), debias(value + z * sigma, floor)
+    # the class is one-sided (P(error <= T) against the confidence): its bounds are too
+    z1 = NormalDist().inv_cdf(tol.confidence)
+    bounds = [debias(max(value - z1 * sigma, 0.0), floor), debias(value + z1 * sigma, floor)]
     at_tol = math.hypot(tol.value, floor)  # the expected measured value of an error = tol
     if sigma > 0:
         p = NormalDist().cdf((at_tol - value) / sigma)
@@ -111,7 +114,8 @@ def tolerance_verdict(e: dict[str, Any], tol: Tolerance) -> dict[str, Any]:
            "outside" if p <= 1 - tol.confidence else "undecided")
     return {**tol.record(), "tolerance": tol.value, "measured": value, "floor": floor,
             "error_estimate": est, "error_estimate_err": (hi - lo) / (2 * z),
-            "error_estimate_ci": [lo, hi], "p_within_tolerance": p, "class": cls,
+            "error_estimate_ci": [lo, hi], "error_estimate_bounds": bounds,
+            "p_within_tolerance": p, "class": cls,
             "within_noise": bool(value < 2 * floor)}
 
 
@@ -126,9 +130,10 @@ def model_verdicts(metrics: dict[str, Any], tol: Tolerance) -> dict[str, dict[st
 
 
 def line(model: str, v: dict[str, Any]) -> str:
-    """One line: the model's estimated error, interval, probability and class."""
-    lo, hi = v["error_estimate_ci"]
+    """One line: the model's estimated error, the one-sided bounds its class is decided by
+    (error above ``lo`` and below ``hi``, each at the confidence), probability and class."""
+    lo, hi = v.get("error_estimate_bounds", v["error_estimate_ci"])
     return (f"{model} model: {v['metric']}({v['observable']}) error estimate "
-            f"{v['error_estimate']:.4f} (noise removed; {100 * v['confidence']:g}% interval "
-            f"{lo:.4f}-{hi:.4f}), P(error <= {v['tolerance']:g}) = "
+            f"{v['error_estimate']:.4f} (noise removed; at {100 * v['confidence']:g}% "
+            f"confidence above {lo:.4f} and below {hi:.4f}), P(error <= {v['tolerance']:g}) = "
             f"{v['p_within_tolerance']:.2f}: {v['class'].upper()} the tolerance")

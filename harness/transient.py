@@ -28,7 +28,7 @@ import numpy as np
 from vifpk.core.defaults import CHECK_MODELS
 
 from . import run
-from .check import _Stages, observable_class
+from .check import _Stages, observable_class, sde_seed
 from .compare import compare
 from .passage import applicable, plain_info
 
@@ -99,11 +99,11 @@ def transient(scene: Any, *, start: float, times: tuple[float, ...],
                                   progress=not quiet)
     sol["mc:original"] = mc
     hists = snapshot_hists(mc)
-    for i, m in enumerate(models if sde else ()):
+    for m in models if sde else ():
         stages(f"Monte Carlo of the {m} averaged SDE (snapshots)")
         sol[f"sde:{m}"] = run.transient_sde(scene, named[m], start=start, times=times,
                                             edges_A=edges["edges_A"], paths=n,
-                                            seed=scene.montecarlo.seed + 1 + i)
+                                            seed=sde_seed(scene.montecarlo.seed, m))
     stages("metrics")
     entries: dict[str, Any] = {}
     warnings: list[str] = []

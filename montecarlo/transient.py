@@ -7,7 +7,7 @@ law), drawn from each path's own generator (simulate.block_seeds). The paths are
 advanced by the kernel of the stationary run (kernels.run_paths, nothing sampled), from one
 snapshot time to the next, in calls of about CHUNK_SECONDS (simulate._Stepper: the progress
 bar, Ctrl-C between calls, a non-finite state raises SimulationDiverged in one line). Each
-time is taken at the nearest whole step, t_j = round(t / dt) dt (info["times_requested"]).
+time must be a whole number of steps, t_j = k_j dt (BadInput otherwise: a snapshot is never moved).
 
 Densities are per unit length over all paths of a block (a sample outside the edges is not
 counted, so the mass inside the edges is reported), averaged over blocks, with the standard
@@ -66,6 +66,10 @@ def snapshots(system: Any, noise: Any, settings: PassageSettings, *, start: floa
     phys = physics(system, noise)
     h = float(st.dt)
     marks = np.round(t_req / h).astype(np.int64)
+    if np.any(np.abs(marks * h - t_req) > 1e-9 * t_req) \
+            or np.any(np.diff(marks) < 1):
+        raise BadInput(f"times must be whole numbers of steps of dt = {h:g} (snapshots are "
+                       f"taken at whole steps), got {list(t_req)}")
     count = layout(st.paths, st.blocks)
     per = int(count.max())
     mask = np.arange(per)[None, :] < count[:, None]

@@ -339,3 +339,14 @@ def test_bad_arguments_are_refused_by_the_parser(no_computation, tmp_path, capsy
     assert exc.value.code == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and needle in err[0], err
+
+
+def test_transient_times_off_the_step_grid_are_refused_not_moved(no_computation, capsys):
+    """Review of issue 30: --times 0.001,0.002 with dt = 0.01 ran, both Monte Carlo snapshots
+    taken at t = 0 while metrics.json said 0.001 and 0.002; now exit 2 with the nearest valid
+    times, before any work."""
+    from vifpk.harness.cli import main
+
+    assert main(["transient", BASE, "--start", "1.0", "--times", "0.001,0.002"]) == 2
+    err = capsys.readouterr().err
+    assert "not a whole number of steps of dt = 0.01" in err and "nearest valid: 0.01" in err

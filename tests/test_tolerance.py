@@ -128,3 +128,24 @@ def test_debiasing_removes_the_noise_on_one_case():
         REPS = keep
     assert abs(np.mean([x["error_estimate"] for x in v]) - 0.01) < 0.1 * 0.01
     assert np.mean([x["measured"] for x in v]) - 0.01 > 0.3 * 0.01
+
+
+def test_the_line_states_the_bounds_its_class_is_decided_by():
+    """Review: a line said INSIDE while printing a two-sided 95% interval reaching above the
+    tolerance (the class is one-sided). The line now prints the one-sided bounds: an INSIDE
+    model's upper bound is below the tolerance, an OUTSIDE model's lower bound above it."""
+    from vifpk.harness.tolerance import Tolerance, line, tolerance_verdict
+
+    tol = Tolerance()
+    for e in ({"L1": 0.0165, "L1_floor": 0.0, "L1_err": 0.002},
+              {"L1": 0.0300, "L1_floor": 0.0, "L1_err": 0.004},
+              {"L1": 0.0190, "L1_floor": 0.0, "L1_err": 0.004}):
+        v = tolerance_verdict(e, tol)
+        lo, hi = v["error_estimate_bounds"]
+        if v["class"] == "inside":
+            assert hi <= tol.value
+        elif v["class"] == "outside":
+            assert lo >= tol.value
+        else:
+            assert lo < tol.value < hi
+        assert f"below {hi:.4f}" in line("m", v)
