@@ -656,3 +656,15 @@ def transient_averaged(scene: Any, model: Any, *, start: float, times: Any,
         snaps["x2"] = {"x": x2[0]["x"], "p": np.array([d["p"] for d in x2])}
         data["snapshots"] = snaps
     return Result(data=data, info=info)
+
+
+def mfpt_averaged(scene: Any, model: Any, *, threshold: float, start: float | str) -> dict:
+    """An averaged model's MFPT alone (fpk.mfpt, the Pontryagin quadrature; no R(t)): what
+    `vifpk passage --method splitting` compares the original system's against."""
+    from vifpk import fpk
+
+    m = _averaged_coefficients(scene, model)
+    try:
+        return fpk.mfpt(m.drift, m.diffusion, threshold=threshold, start=start)
+    except (fpk.FPKFailure, fpk.CoefficientError) as exc:
+        raise SolverFailure(str(exc)) from None

@@ -16,6 +16,7 @@ import argparse
 import json
 import math
 import os
+from pathlib import Path
 from typing import Any
 
 from vifpk.core.defaults import CHECK_MODELS
@@ -223,18 +224,60 @@ def cmd_passage(args: argparse.Namespace) -> int:
                 f"{p['largest_model_mfpt']:.3g} time units, so the first-passage Monte Carlo "
                 f"({p['paths']} paths to a horizon of {p['horizon']:.3g}, dt "
                 f"{p['dt']:g}) is out of reach as a direct simulation (rare events need "
-                "another method)")
+                "another method: --method splitting)")
         runs = 1 + len(models)
-        validate.refuse_costly(lambda sp: run_seconds(p, runs, sp or validate.MC_STEPS_PER_CORE,
-                                                      _cores(scene)), what, args.yes)
+        try:
+            validate.refuse_costly(lambda sp: run_seconds(
+                p, runs, sp or validate.MC_STEPS_PER_CORE, _cores(scene)), what, args.yes)
+        except validate.InputError as exc:
+            if args.method != "auto":
+                raise
+            raise _Splitting(f"chosen automatically: {exc}") from None
 
-    with outdir.hold(out, run_id=prov["run_id"], allowed=PASSAGE_FILES, kind="passage report"):
-        with validate.guarded_run(scene, args.yes):
-            res = passage(scene, threshold=args.threshold, start=args.start, models=models,
-                          horizon=args.horizon, paths=args.paths, quiet=args.quiet, price=price)
-        _finite(res.metrics)
-        files = write_time_report(res, out, prov=prov)
+    if args.method == "splitting":
+        return _splitting(args, scene, models, out, prov, "asked for (--method splitting)")
+
+    try:
+        with outdir.hold(out, run_id=prov["run_id"], allowed=PASSAGE_FILES,
+                         kind="passage report"):
+            with validate.guarded_run(scene, args.yes):
+                res = passage(scene, threshold=args.threshold, start=args.start,
+                              models=models, horizon=args.horizon, paths=args.paths,
+                              quiet=args.quiet, price=price)
+            _finite(res.metrics)
+            files = write_time_report(res, out, prov=prov)
+    except _Splitting as why:  # raised by the guard before any Monte Carlo or file
+        return _splitting(args, scene, models, out, prov, str(why))
     _print(res, files, args.json)
+    return 0
+
+
+class _Splitting(Exception):
+    """Direct simulation is priced beyond the guard: --method auto turns to splitting."""
+
+
+def _splitting(args: argparse.Namespace, scene: Any, models: tuple[str, ...], out: str,
+               prov: dict[str, Any], reason: str) -> int:
+    """vifpk passage --method splitting (harness/rarepassage.py): the MFPT only."""
+    from . import outdir
+    from .rarepassage import passage_splitting_report
+    from .timereport import PASSAGE_FILES
+
+    print(f"method: splitting ({reason})")
+    with outdir.hold(out, run_id=prov["run_id"], allowed=PASSAGE_FILES, kind="passage report"):
+        met = passage_splitting_report(scene, threshold=args.threshold, start=args.start,
+                                       models=models, out=out, prov=prov, reason=reason)
+        _finite(met)
+    o = met["mfpt"]["original_system"]
+    if args.json:
+        print(json.dumps({"mfpt": met["mfpt"], "method": "splitting"}))
+    else:
+        print(f"original system: MFPT {o['value']:.4g} +- {o['stderr']:.2g} "
+              f"(95%: {o['ci'][0]:.4g} to {o['ci'][1]:.4g}; {met['splitting']['target']})")
+        for m, e in met["models"].items():
+            print(f"{m} model: MFPT {e['mfpt']:.4g}, relative error "
+                  f"{e['mfpt_error']['value']:+.3f} +- {e['mfpt_error']['err']:.3f}")
+    print(f"report: {Path(out) / 'report.md'}")
     return 0
 
 
@@ -325,6 +368,11 @@ def add_commands(sub: Any, model_name: Any, set_help: str, quiet_help: str) -> N
     p.add_argument("--start", type=_start, default="stationary", metavar="A0|stationary",
                    help="start amplitude A0 < Ac, or 'stationary': the stationary law "
                         "restricted to A < Ac (default: %(default)s)")
+    p.add_argument("--method", choices=("auto", "direct", "splitting"), default="auto",
+                   help="the original system's Monte Carlo: direct simulation, or splitting "
+                        "(the MFPT only, at thresholds direct simulation cannot reach); auto: "
+                        "direct unless the cost guard prices it out, then splitting, said so "
+                        "(default: %(default)s)")
     p.add_argument("--horizon", type=_number, metavar="T",
                    help="Monte Carlo censoring horizon (default: "
                         "8 x the largest averaged-model MFPT)")

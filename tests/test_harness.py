@@ -274,3 +274,21 @@ def test_passage_splitting_door_stationary_start_says_its_burn_in():
                           levels=30, paths=4, cycles=6)
     assert r.info["burn_in"] > 0 and "relaxation time" in r.info["burn_in_rule"]
     assert r.info["mfpt"]["value"] > 0
+
+
+@pytest.mark.slow
+def test_cli_passage_method_splitting_writes_the_mfpt(tmp_path):
+    """vifpk passage --method splitting: metrics.json with the original system's MFPT by
+    splitting (value, stderr, 95% interval within 10% or the budget said), each model's
+    MFPT and relative error, and report.md."""
+    out = tmp_path / "p"
+    code = main(["passage", "paper-base", "--threshold", "0.9", "--start", "0.4", "--method",
+                 "splitting", "--out", str(out), "--quiet"])
+    assert code == 0
+    met = json.loads((out / "metrics.json").read_text())
+    o = met["mfpt"]["original_system"]
+    assert met["method"] == "splitting" and o["method"] == "splitting"
+    assert o["ci"][0] < o["value"] < o["ci"][1]
+    assert "reached" in met["splitting"]["target"]
+    assert set(met["models"]) >= {"exact"} and "mfpt_error" in met["models"]["exact"]
+    assert (out / "report.md").exists()
