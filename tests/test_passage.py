@@ -165,10 +165,11 @@ def test_transient_command_writes_a_report(doubles, tmp_path, capsys):
 
 def test_out_of_reach_threshold_exits_2_with_the_estimate(doubles, tmp_path, capsys,
                                                            monkeypatch):
-    """The averaged models' MFPT prices the Monte Carlo: 1e9 time units is out of reach."""
+    """The averaged models' MFPT prices the Monte Carlo: 1e9 time units is out of reach of
+    --method direct (--method auto, the default, would turn to splitting instead)."""
     monkeypatch.setitem(td.T_MODEL, "exact", 1e9)
     code, cap = _cli(["passage", str(TINY), "--threshold", "2", "--model", "exact", "--out",
-                      str(tmp_path / "p"), "--quiet"], capsys)
+                      str(tmp_path / "p"), "--quiet", "--method", "direct"], capsys)
     assert code == 2
     line = cap.err.strip().splitlines()
     assert len(line) == 1 and "MFPT at up to 1e+09" in line[0] and "estimated at least" in line[0]
