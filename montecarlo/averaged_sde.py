@@ -204,7 +204,7 @@ def run_sde_blocks(states, n_paths, n_burn, n_samples, stride, h, a_tab, b_tab, 
                                                                      + 4.0 * oalpha * Eo)))
                     else:  # the amplitude of energy Eo: the orbit through x = 0, v^2/2 = Eo
                         A = amplitude_general(0.0, math.sqrt(2.0 * Eo), ow0sq, oalpha, okhi)
-                i = int((A - a_lo) * a_inv)
+                i = math.floor((A - a_lo) * a_inv)
                 if 0 <= i < hist_A.shape[1]:
                     hist_A[b, i] += 1.0
                 sums[b, 0] += A
@@ -215,10 +215,10 @@ def run_sde_blocks(states, n_paths, n_burn, n_samples, stride, h, a_tab, b_tab, 
                     if barrier and y < 0.0:
                         y = -y
                         yp = -yp
-                    ix = int((y - x_lo) * x_inv)
+                    ix = math.floor((y - x_lo) * x_inv)
                     if 0 <= ix < hist_x.shape[1]:
                         hist_x[b, ix] += 1.0
-                    iv = int((yp - v_lo) * v_inv)
+                    iv = math.floor((yp - v_lo) * v_inv)
                     if 0 <= iv < hist_v.shape[1]:
                         hist_v[b, iv] += 1.0
         states[b, 0], states[b, 1], states[b, 2], states[b, 3] = s0, s1, s2, s3

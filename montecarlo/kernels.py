@@ -397,7 +397,7 @@ def _block(b, rng, state, n_steps, step0, n_burn, stride, h, c1, c2, w0sq, alpha
                     if w < windows.shape[2]:
                         windows[b, p, w] += A
                 if hist_A is not None:
-                    i = int((A - a_lo) * a_inv)
+                    i = math.floor((A - a_lo) * a_inv)
                     if 0 <= i < hist_A.shape[1]:
                         hist_A[b, i] += 1.0
                     else:
@@ -405,9 +405,9 @@ def _block(b, rng, state, n_steps, step0, n_burn, stride, h, c1, c2, w0sq, alpha
                 ix = -1
                 iv = -1
                 if hist_x is not None or hist_joint is not None:
-                    ix = int((x - x_lo) * x_inv)
+                    ix = math.floor((x - x_lo) * x_inv)
                 if hist_v is not None or hist_joint is not None:
-                    iv = int((v - v_lo) * v_inv)
+                    iv = math.floor((v - v_lo) * v_inv)
                     if v == 0.0:
                         iv = -2
                         events[b, EV_ATOM] += 1.0

@@ -114,7 +114,7 @@ def run_sde_snapshots(states, starts, offset, count, done, k, marks, h, a_tab, b
                 if not math.isfinite(A):
                     bad[g] = 1
                     break
-                q = int((A - a_lo) * a_inv)
+                q = math.floor((A - a_lo) * a_inv)
                 if 0 <= q < nb:
                     hist[b, j, q] += 1.0
             states[b, i, 0], states[b, i, 1], states[b, i, 2], states[b, i, 3] = s0, s1, s2, s3
