@@ -128,8 +128,9 @@ def test_doors_passage_sde_and_transient_sde(base):
                       horizon=20.0, paths=40, blocks=4, seed=1)
     assert res.info["dt_mode"] == "auto" and res.info["model"] == "Rayleigh"
     # the Rayleigh amplitude's slowest relaxation is 1/C (the CIR process Z = A^2 relaxes at
-    # rate C); 2% is the measured gap of averaged_sde.relaxation_time's estimate on this case
-    assert res.info["relaxation_time"] == pytest.approx(1 / C, rel=0.02)
+    # rate C); averaged_sde.relaxation_time discretises the generator on 400 cells: measured
+    # 3.9e-5 relative here (2026-11-24); 1e-3 leaves 25x
+    assert res.info["relaxation_time"] == pytest.approx(1 / C, rel=1e-3)
     assert set(np.unique(res.data["start"]["A"])) <= {0.2, 0.4, 0.6}
     assert res.data["fpt"]["time"].shape == (40,)
     with pytest.raises(BadInput, match="stationary"):
