@@ -13,7 +13,8 @@ the varied parameters::
                                   # bifurcation: BIFURCATION_MODELS, vifpk.core.defaults)
     tolerance = 0.02              # optional, check only: the tolerance verdict's L1(A); per
                                   # point and model error_estimate(_err), p_within_tolerance,
-                                  # tolerance_class (harness/tolerance.py)
+                                  # tolerance_class (harness/tolerance.py); or a table
+                                  # {value, metric, observable, confidence}
     [vary]
     "system.r" = [0.95, 0.96, 0.97, 0.98]
     "system.mu" = {start = 0.0, stop = 0.004, num = 5}
@@ -59,7 +60,7 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-from vifpk.core.defaults import BIFURCATION_MODELS, CHECK_MODELS, TOLERANCE
+from vifpk.core.defaults import BIFURCATION_MODELS, CHECK_MODELS, TOLERANCE, TOLERANCE_CONFIDENCE
 from vifpk.core.result import BadInput
 from vifpk.core.scene import INDEXED, MAX_TERMS, SECTIONS, Scene, SceneError, load_scene
 
@@ -137,7 +138,9 @@ class Sweep:
     #: ranges as (start, stop), and ``points`` the initial lattice (run_adaptive adds the rest)
     adaptive: Mapping[str, Any] = field(default_factory=dict)
     models: tuple[str, ...] | None = None  # None: the workflow's default models
-    tolerance: float = TOLERANCE  # check: the tolerance verdict's L1(A) (harness/tolerance.py)
+    tolerance: float = TOLERANCE  # check: the tolerance verdict's value (harness/tolerance.py)
+    #: check: the rest of the tolerance question (metric, observable, confidence)
+    tolerance_question: tuple[str, str, float] = ("L1", "A", TOLERANCE_CONFIDENCE)
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -165,10 +168,13 @@ def point_seed(seed: int, params: tuple[tuple[str, float], ...]) -> int:
 
 
 def fingerprint(workflow: str, scene: Scene, bifurcation: Mapping[str, Any], *,
-                sde: bool = False, models: tuple[str, ...] | None = None) -> str:
+                sde: bool = False, models: tuple[str, ...] | None = None,
+                tolerance: Any = None) -> str:
     """sha256 of everything a point's result depends on (the scene includes the seed; ``sde``:
     the point runs the averaged SDEs' Monte Carlo, SDE_CHECK_EVERY; the models only when the
-    sweep names them, so a sweep without ``models`` keeps its records)."""
+    sweep names them, so a sweep without ``models`` keeps its records; the tolerance question
+    only when it is not the default one, likewise: a changed tolerance recomputes the points'
+    verdicts instead of keeping the old ones)."""
     d = scene.to_dict()
     d.pop("name", None)
     d.pop("description", None)
@@ -177,6 +183,11 @@ def fingerprint(workflow: str, scene: Scene, bifurcation: Mapping[str, Any], *,
         what["sde_check"] = bool(sde)
     if models is not None:
         what["models"] = list(models)
+    if tolerance is not None and workflow == "check":
+        from .tolerance import Tolerance
+
+        if tolerance != Tolerance():
+            what["tolerance"] = tolerance.record()
     blob = json.dumps(what, sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()
 
@@ -331,10 +342,25 @@ def load_sweep(path: str | Path) -> Sweep:
     if "tolerance" in raw and workflow != "check":
         raise SweepError(f"{src}: tolerance: only for workflow = \"check\" (the tolerance "
                          "verdict of the averaging error)")
+    question: dict[str, Any] = {}
+    if isinstance(tolerance, Mapping):  # {value, metric, observable, confidence}
+        allowed = ("value", "metric", "observable", "confidence")
+        unknown = sorted(set(tolerance) - set(allowed))
+        if unknown:
+            raise SweepError(f"{src}: tolerance.{unknown[0]}: unknown key; allowed: "
+                             + ", ".join(allowed))
+        question = {k: tolerance[k] for k in allowed[1:] if k in tolerance}
+        tolerance = tolerance.get("value", TOLERANCE)
     if (not isinstance(tolerance, int | float) or isinstance(tolerance, bool)
             or not math.isfinite(tolerance) or tolerance <= 0):
         raise SweepError(f"{src}: tolerance = {tolerance!r}: a number > 0 (the largest "
-                         "accepted L1 of p(A))")
+                         "accepted averaging error)")
+    from .tolerance import Tolerance, ToleranceError
+
+    try:
+        tol = Tolerance(value=float(tolerance), **question)
+    except ToleranceError as exc:
+        raise SweepError(f"{src}: tolerance: {exc}") from None
     name = raw.get("name", Path(p.name).stem)
     description = raw.get("description", "")
     if not isinstance(name, str) or not name or not isinstance(description, str):
@@ -434,12 +460,13 @@ def load_sweep(path: str | Path) -> Sweep:
                                                                base.montecarlo.dt)):
         fixed["montecarlo.dt"] = "auto"
     points = [make_point(base, fixed, seed=seed, workflow=workflow, bifurcation=bif,
-                         params=params, first=i == 0, where=src, models=models)
+                         params=params, first=i == 0, where=src, models=models, tolerance=tol)
               for i, params in enumerate(combos)]
     return Sweep(path=str(p), text=text, name=name, workflow=workflow, mode=mode, seed=seed,
                  vary=tuple(vary), fixed=fixed, bifurcation=bif, base=base,
                  points=tuple(points), adaptive=adaptive, models=models,
-                 tolerance=float(tolerance))
+                 tolerance=tol.value,
+                 tolerance_question=(tol.metric, tol.observable, tol.confidence))
 
 
 def _range(where: str, spec: Any) -> tuple[float, float]:
@@ -515,7 +542,7 @@ def sde_check_at(key: str, *, first: bool) -> bool:
 def make_point(base: Scene, fixed: Mapping[str, Any], *, seed: int, workflow: str,
                bifurcation: Mapping[str, Any], params: tuple[tuple[str, float], ...],
                first: bool = False, where: str = "sweep",
-               models: tuple[str, ...] | None = None) -> Point:
+               models: tuple[str, ...] | None = None, tolerance: Any = None) -> Point:
     """The point of a sweep at ``params`` (varied values by name): its scene (the base scene
     with ``fixed`` and ``params`` set, no wall-clock budget, its own seed), key and
     fingerprint. SweepError (naming the point) when the scene is out of range there."""
@@ -541,7 +568,8 @@ def make_point(base: Scene, fixed: Mapping[str, Any], *, seed: int, workflow: st
     key = point_key(params)
     sde = workflow == "check" and sde_check_at(key, first=first)
     return Point(params=params, seed=s, key=key, scene=scene, sde=sde,
-                 fingerprint=fingerprint(workflow, scene, bifurcation, sde=sde, models=models))
+                 fingerprint=fingerprint(workflow, scene, bifurcation, sde=sde, models=models,
+                                         tolerance=tolerance))
 
 
 _CHECKED: set[Any] = set()  # Monte Carlo settings already validated in this process
@@ -595,7 +623,8 @@ class Job:
     bifurcation: Mapping[str, Any]
     sde: bool = True  # check: run the averaged SDEs' Monte Carlo (Point.sde)
     models: tuple[str, ...] | None = None  # None: the workflow's default models
-    tolerance: float = TOLERANCE  # check: the tolerance verdict's L1(A)
+    tolerance: float = TOLERANCE  # check: the tolerance verdict's value
+    tolerance_question: tuple[str, str, float] = ("L1", "A", TOLERANCE_CONFIDENCE)
 
 
 def run_point(job: Job) -> dict[str, Any]:
@@ -636,7 +665,10 @@ def _check_point(job: Job) -> dict[str, Any]:
 
     res = cross_check(job.scene, quiet=True, fpk=False, sde=job.sde, tail_mass=False,
                       models=_models(job, CHECK_MODELS),
-                      tolerance=Tolerance(value=job.tolerance))
+                      tolerance=Tolerance(value=job.tolerance,
+                                          metric=job.tolerance_question[0],
+                                          observable=job.tolerance_question[1],
+                                          confidence=job.tolerance_question[2]))
     mc = res.solutions["mc:original"]
     conv = res.metrics["monte_carlo"]["convergence"]
     models = {}
@@ -1001,7 +1033,17 @@ def finished(sweep: Sweep, out: Path) -> dict[str, dict[str, Any]]:
 def _job(sweep: Sweep, pt: Point) -> Job:
     return Job(key=pt.key, fingerprint=pt.fingerprint, params=pt.params, seed=pt.seed,
                workflow=sweep.workflow, scene=pt.scene, bifurcation=sweep.bifurcation,
-               sde=pt.sde, models=sweep.models, tolerance=sweep.tolerance)
+               sde=pt.sde, models=sweep.models, tolerance=sweep.tolerance,
+               tolerance_question=sweep.tolerance_question)
+
+
+def _tolerance(sweep: Sweep) -> Any:
+    """The sweep's tolerance question as a harness.tolerance.Tolerance."""
+    from .tolerance import Tolerance
+
+    metric, observable, confidence = sweep.tolerance_question
+    return Tolerance(value=sweep.tolerance, metric=metric, observable=observable,
+                     confidence=confidence)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -1250,7 +1292,7 @@ def run_adaptive(sweep: Sweep, out: str | Path, *, executor: ExecutorSpec,
                     pt = make_point(sweep.base, sweep.fixed, seed=sweep.seed,
                                     workflow=sweep.workflow, bifurcation=sweep.bifurcation,
                                     params=adaptive_params(sweep.vary, u), where=sweep.name,
-                                    models=sweep.models)
+                                    models=sweep.models, tolerance=_tolerance(sweep))
                 pts.append(replace(pt, batch=batch_no))
             recs: dict[str, dict[str, Any]] = {}
             todo = []
@@ -1450,11 +1492,16 @@ def dataset(sweep: Sweep, records: Mapping[str, dict[str, Any]], *,
     if sweep.workflow == "check":
         ds.attrs["within_noise"] = ("a model is within the Monte Carlo noise where "
                                     "averaging_error_A < 2 L1_floor_A (the check's verdict)")
-        ds.attrs["tolerance"] = sweep.tolerance
+        tol = _tolerance(sweep)
+        ds.attrs["tolerance"] = tol.value
+        ds.attrs["tolerance_metric"] = tol.metric
+        ds.attrs["tolerance_observable"] = tol.observable
+        ds.attrs["tolerance_confidence"] = tol.confidence
         ds.attrs["tolerance_meaning"] = (
-            "error_estimate: L1 of p(A) with the Monte Carlo noise removed, "
-            "sqrt(max(L1^2 - floor^2, 0)); p_within_tolerance: P(error <= tolerance); "
-            "tolerance_class: inside / outside / undecided at 95% (harness/tolerance.py)")
+            f"the question: {tol.words()}; error_estimate: {tol.metric} of "
+            f"p({tol.observable}) with the Monte Carlo noise removed, sqrt(max(d^2 - floor^2, "
+            "0)); p_within_tolerance: P(error <= tolerance); tolerance_class: inside / outside "
+            "/ undecided at that confidence (harness/tolerance.py)")
     if provenance is not None:
         ds.attrs["provenance"] = json.dumps(dict(provenance))
         ds.attrs["versions"] = json.dumps(provenance.get("versions", {}))

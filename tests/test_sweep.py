@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from vifpk.harness.cli import main
-from vifpk.harness.sweep import load_sweep, run_sweep
+from vifpk.harness.sweep import SweepError, load_sweep, run_sweep
 
 from vifpk.core.defaults import CHECK_MODELS as MODELS
 
@@ -328,3 +328,27 @@ def test_a_check_sweep_carries_the_tolerance_verdict(canned_check, tmp_path):
             'workflow = "check"\n', "" if "averaging" in bad else 'workflow = "check"\n'))
         with pytest.raises(SweepError, match="tolerance"):
             load_sweep(f)
+
+
+def test_a_check_sweep_takes_the_whole_tolerance_question(canned_check, tmp_path):
+    """Review of issue 29: sweeps took the tolerance's value only; a table gives the metric,
+    the observable and the confidence too, checked like --tolerance-*, written as sweep.nc
+    attributes; a changed question changes the points' fingerprints (no stale verdicts on a
+    resume), the default one keeps them."""
+    text = CHECK.read_text()
+    base = load_sweep(_write(tmp_path, text, "base.toml"))
+    q = text.replace("seed = 11", 'seed = 11\ntolerance = {value = 0.05, metric = "ks", '
+                     'confidence = 0.9}')
+    sw = load_sweep(_write(tmp_path, q, "q.toml"))
+    assert sw.tolerance == 0.05 and sw.tolerance_question == ("ks", "A", 0.9)
+    assert all(a.fingerprint != b.fingerprint for a, b in zip(base.points, sw.points,
+                                                              strict=True))
+    same = load_sweep(_write(tmp_path, text.replace("seed = 11", "seed = 11\ntolerance = 0.02"),
+                             "same.toml"))
+    assert [p.fingerprint for p in same.points] == [p.fingerprint for p in base.points]
+    for bad, needle in (('tolerance = {value = 0.05, metric = "L7"}', "--tolerance-metric"),
+                        ("tolerance = {value = 0.05, confidence = 1.5}", "--confidence"),
+                        ("tolerance = {valu = 0.05}", "tolerance.valu: unknown key")):
+        with pytest.raises(SweepError, match=needle):
+            load_sweep(_write(tmp_path, text.replace("seed = 11", f"seed = 11\n{bad}"),
+                              "bad.toml"))
