@@ -94,7 +94,7 @@ def plan(scene: Any, mfpts: dict[str, float], *, paths: int | None = None,
     t_max = max(finite) if finite else math.inf
     h = float(horizon) if horizon is not None else HORIZON_FACTOR * t_max
     n = int(paths or mc.paths)
-    dt = float(mc.dt) if mc.dt != "auto" else math.nan
+    dt = run.time_step(scene)
     # E[min(tau, H)] <= min(T, H) for each model's T: the largest of them bounds the run
     mean_run = min(t_max, h) if math.isfinite(t_max) else h
     out = {"horizon": h, "paths": n, "dt": dt, "seed": int(mc.seed), "blocks": int(mc.blocks),

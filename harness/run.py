@@ -331,20 +331,31 @@ def solution_record(scene: Any, solver: str, model: str | None, result: Any, *,
 
 
 # ------------------------------------------------------- time domain (issue 30): Monte Carlo
-def _passage_settings(scene: Any, *, paths: int, horizon: float, **given: Any) -> Any:
-    """montecarlo.PassageSettings: ``given`` (not None) over the scene's [montecarlo] dt, blocks,
-    seed, threads. A scene dt of "auto" (a step tuned to a stationary floor) gives the
-    field's default step, MonteCarloSettings.dt."""
+def time_step(scene: Any, dt: Any = None) -> float:
+    """The step of the original system's time-domain runs (first passage, splitting,
+    snapshots), the one rule every caller uses (the CLI's plan and price, the doors): ``dt``
+    when given, else the scene's montecarlo.dt; "auto" -- a step tuned to a stationary
+    target floor, which has no meaning for a first-passage time -- gives the field's default
+    step, MonteCarloSettings.dt."""
     import dataclasses
 
-    from vifpk import montecarlo
     from vifpk.core.scene import MonteCarloSettings
 
+    h = scene.montecarlo.dt if dt is None else dt
+    if h == "auto":
+        h = {f.name: f.default for f in dataclasses.fields(MonteCarloSettings)}["dt"]
+    return float(h)
+
+
+def _passage_settings(scene: Any, *, paths: int, horizon: float, **given: Any) -> Any:
+    """montecarlo.PassageSettings: ``given`` (not None) over the scene's [montecarlo] dt (by
+    time_step), blocks, seed, threads."""
+    from vifpk import montecarlo
+
     mc = scene.montecarlo
-    kw = {k: getattr(mc, k) for k in ("dt", "blocks", "seed", "threads")}
-    kw.update({k: v for k, v in given.items() if v is not None})
-    if kw["dt"] == "auto":
-        kw["dt"] = {f.name: f.default for f in dataclasses.fields(MonteCarloSettings)}["dt"]
+    kw = {k: getattr(mc, k) for k in ("blocks", "seed", "threads")}
+    kw.update({k: v for k, v in given.items() if v is not None and k != "dt"})
+    kw["dt"] = time_step(scene, given.get("dt"))
     return montecarlo.PassageSettings(paths=paths, horizon=horizon, **kw)
 
 

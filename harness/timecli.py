@@ -88,12 +88,11 @@ def _refuse_common(args: argparse.Namespace, command: str) -> None:
 
 def _scene(args: argparse.Namespace) -> Any:
     from .cli import _checked_scene
-    from .run import SolverFailure
+    from .run import SolverFailure, time_step
 
     scene = _checked_scene(args, mc=True)
-    if scene.montecarlo.dt == "auto":
-        raise validate.InputError("montecarlo.dt = 'auto': does not apply to the time-domain "
-                                  "workflows; give a number with --dt")
+    if scene.montecarlo.dt == "auto":  # the time domain's one step rule (run.time_step)
+        scene = scene.with_values({"montecarlo.dt": time_step(scene)})
     if no_noise(scene.system):
         raise SolverFailure(f"{no_noise(scene.system)}; nothing passes or relaxes "
                             "stochastically, nothing to check")
