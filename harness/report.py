@@ -428,6 +428,17 @@ def arrays(res: CheckResult) -> dict[str, np.ndarray]:
 REPORT_FILES = ("report.html", "report.md", "metrics.json", "arrays.npz", "figures")
 
 
+def write_figures(folder: Path, pngs: dict[str, bytes]) -> dict[str, str]:
+    """Write each figure as ``folder/figures/NAME.png``; {name: its path relative to the
+    folder} for the markdown report (every report of vifpk lays its figures out so)."""
+    (folder / "figures").mkdir()
+    figs = {}
+    for k, b in pngs.items():
+        (folder / "figures" / f"{k}.png").write_bytes(b)
+        figs[k] = f"figures/{k}.png"
+    return figs
+
+
 def write_report(res: CheckResult, out_dir: str | Path, *,
                  prov: dict[str, Any] | None = None) -> dict[str, Path]:
     """Write the report folder out_dir as a unit (harness/outdir.py), every file stamped with
@@ -442,11 +453,7 @@ def write_report(res: CheckResult, out_dir: str | Path, *,
         text = {"vifpk run id": run_id, "Software": f"vifpk {prov['vifpk']}"}
         pngs = {"densities": _figure_densities(res, text),
                 "decomposition": _figure_decomposition(res, text)}
-        (tmp / "figures").mkdir()
-        figs = {}
-        for k, b in pngs.items():
-            (tmp / "figures" / f"{k}.png").write_bytes(b)
-            figs[k] = f"figures/{k}.png"
+        figs = write_figures(tmp, pngs)
         outdir._hook("fill")
         (tmp / "report.md").write_text(render_markdown(res, figs), encoding="utf-8")
         (tmp / "report.html").write_text(render_html(res, pngs), encoding="utf-8")

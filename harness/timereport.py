@@ -18,7 +18,7 @@ import numpy as np
 
 from . import outdir, provenance
 from .io import dumps, png_bytes, pyplot
-from .report import MODEL_COLORS
+from .report import MODEL_COLORS, write_figures
 
 #: the files of a time-domain report; arrays-<workflow>.npz tells its kind (outdir.KINDS)
 PASSAGE_FILES = ("report.html", "report.md", "metrics.json", "passage.npz", "figures")
@@ -340,11 +340,7 @@ def write_time_report(res: Any, out_dir: str | Path, *, prov: dict[str, Any] | N
             extra = [f"Start: {res.metrics['start_law']}. L1 and KS of p(A, t) against the "
                      "original system's histogram, with error bars and noise floors "
                      "(harness/compare.py)."]
-        (tmp / "figures").mkdir()
-        figs = {}
-        for k, b in pngs.items():
-            (tmp / "figures" / f"{k}.png").write_bytes(b)
-            figs[k] = f"figures/{k}.png"
+        figs = write_figures(tmp, pngs)
         outdir._hook("fill")
         (tmp / "report.md").write_text(_markdown(title, res, figs, head, rows, extra),
                                        encoding="utf-8")
