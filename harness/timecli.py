@@ -235,6 +235,18 @@ def cmd_passage(args: argparse.Namespace) -> int:
 
     if args.method == "splitting":
         return _splitting(args, scene, models, out, prov, "asked for (--method splitting)")
+    if args.method == "auto" and not args.yes:  # priced up front by the quadrature alone,
+        from . import run  # before any R(t) stepping (slow, and fragile, at high thresholds)
+        from .passage import plan
+
+        try:
+            mf = {m: float(run.mfpt_averaged(scene, m, threshold=args.threshold,
+                                             start=args.start)["value"]) for m in models}
+            price(plan(scene, mf, paths=args.paths, horizon=args.horizon))
+        except run.SolverFailure:
+            pass  # the workflow below meets it again and says so
+        except _Splitting as why:
+            return _splitting(args, scene, models, out, prov, str(why))
 
     try:
         with outdir.hold(out, run_id=prov["run_id"], allowed=PASSAGE_FILES,
