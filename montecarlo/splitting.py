@@ -48,7 +48,7 @@ from typing import Any
 
 import numpy as np
 
-from vifpk.core.result import Result, Status
+from vifpk.core.result import BadInput, Result, Status
 
 from . import splitting_kernels as SK
 from .averaged_sde import sde_tables
@@ -84,6 +84,44 @@ class SplittingSettings:
     rel_ci: float = 0.0
     budget: float = 0.0
     max_groups: int = 400
+
+    def __post_init__(self) -> None:
+        """Every setting in its range, one line naming it (BadInput): a negative dt ran time
+        backwards and never ended, particles = 0 failed deep in numpy, groups = 1 left the
+        Student-t interval with no degree of freedom (review of issue 31)."""
+        def whole(name: str, lo: int, why: str) -> None:
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int | np.integer) or v < lo:
+                raise BadInput(f"splitting {name} = {v!r}: allowed: a whole number >= {lo} "
+                               f"({why})")
+
+        def positive(name: str, zero_ok: bool = False) -> None:
+            v = getattr(self, name)
+            ok = (not isinstance(v, bool) and isinstance(v, int | float | np.floating)
+                  and math.isfinite(v) and (v >= 0 if zero_ok else v > 0))
+            if not ok:
+                raise BadInput(f"splitting {name} = {v!r}: allowed: a finite number "
+                               f"{'>= 0' if zero_ok else '> 0'}")
+
+        whole("groups", 2, "independent groups: the interval needs at least two")
+        whole("particles", 2, "replicas per AMS run")
+        whole("kill", 0, "0: max(1, particles // 10)")
+        whole("levels", 1, "levels of the reaction coordinate")
+        whole("cycles", 1, "cycles per direct path")
+        whole("paths", 1, "direct paths per group")
+        whole("threads", 0, "0: numba's default")
+        whole("max_groups", 2, "the most groups rel_ci may add")
+        whole("seed", 0, "the root seed")
+        positive("dt")
+        positive("max_time")
+        positive("rel_ci", zero_ok=True)
+        positive("budget", zero_ok=True)
+        if self.kill >= self.particles:
+            raise BadInput(f"splitting kill = {self.kill}: allowed: fewer than particles = "
+                           f"{self.particles}")
+        if self.dt >= self.max_time:
+            raise BadInput(f"splitting dt = {self.dt:g}: allowed: below max_time = "
+                           f"{self.max_time:g}")
 
 
 def _words(seed: int, key: tuple[int, ...], n: int) -> np.ndarray:

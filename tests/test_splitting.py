@@ -221,3 +221,20 @@ def test_original_system_same_seed_same_answer_for_any_thread_count(paper_base):
                 for n in (1, 2))
     assert one.info["mfpt"] == two.info["mfpt"]
     assert one.info["iterations"] == two.info["iterations"]
+
+
+@pytest.mark.parametrize("bad, needle", [
+    ({"dt": -0.01}, "dt = -0.01"), ({"particles": 0}, "particles = 0"),
+    ({"groups": 1}, "groups = 1"), ({"levels": float("nan")}, "levels = nan"),
+    ({"kill": 5, "particles": 5}, "kill = 5"), ({"dt": 1.0, "max_time": 1.0}, "dt = 1"),
+])
+def test_bad_settings_are_one_line_before_any_run(bad, needle):
+    """Review of issue 31: dt < 0 ran forever, particles = 0 failed in numpy, groups = 1 died
+    on a Student-t with no degree of freedom; each is refused by the settings themselves."""
+    from vifpk.montecarlo.splitting import SplittingSettings
+
+    from vifpk.core.result import BadInput
+
+    with pytest.raises(BadInput) as err:
+        SplittingSettings(**bad)
+    assert needle in str(err.value) and "\n" not in str(err.value)
