@@ -362,9 +362,12 @@ def first_passage(system: Any, noise: Any, settings: PassageSettings, *, thresho
     rate = 5e6 * threads
     t1 = time.perf_counter()
     shown = 0.0
+    # the lanes that hold paths (a block with fewer paths than the widest has padding lanes,
+    # which the kernel never advances: counted as active they kept this loop going forever)
+    mask = np.arange(per)[None, :] < count[:, None]
     try:
         while True:
-            active = int(np.sum(a["phase"] < CROSSED))
+            active = int(np.sum(a["phase"][mask] < CROSSED))
             if active == 0:
                 break
             budget = int(max(1, min(CHUNK_SECONDS * rate / active, n_max + n_burn)))
@@ -391,7 +394,6 @@ def first_passage(system: Any, noise: Any, settings: PassageSettings, *, thresho
         if bar is not None:
             bar.close()
     run_s = time.perf_counter() - t1
-    mask = np.arange(per)[None, :] < count[:, None]
     tm = a["fpt"][mask]
     censored = (a["phase"] == CENSORED)[mask]
     s = a["init"][mask]

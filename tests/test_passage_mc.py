@@ -275,3 +275,12 @@ def test_switched_off_effects_reach_the_kernel_as_none(base):
             for sig in P.run_passage.signatures]
     assert {"mu": "float64", "r": "float64", "alpha1": "float64", "khi": "none",
             "dhi": "none", "ev": "none", "bridge": "none"} in sigs, sigs
+
+
+def test_paths_not_a_multiple_of_blocks_finish(base):
+    """Found by the splitting helper: with 100 paths in 32 blocks some blocks have a padding
+    lane the kernel never advances; counted as active, it kept the driver's loop going for
+    ever. Every real path is returned, and the run ends."""
+    res = first_passage(base.system, base.noise, settings(paths=40, blocks=32, horizon=5.0),
+                        threshold=1.05, start=1.0)
+    assert res.data["fpt"]["time"].shape == (40,)
