@@ -292,14 +292,19 @@ class CorrectedModel(CompoundedModel):
         return et
 
     def wall_energy(self, A: Array) -> Array:
-        """The mean energy at the wall, E e^{-delta/E}: E - delta to the order derived (the
-        linear response holds for delta << E), kept positive where it does not hold (at small
-        E the noise work over a flight is not small against E; the exponential differs from
-        E - delta by delta^2 / 2E, below 0.5% of E wherever delta < 0.1 E)."""
+        """The mean energy at the wall: E - delta to the order derived (the linear response
+        holds for |delta| << E), kept within (0, 2E) where it does not hold: E e^{-delta/E}
+        for delta >= 0 (at small E the noise work over a flight is not small against E) and
+        E (2 - e^{delta/E}) for delta < 0 (a slow orbit, e.g. k1 = 0 at small A, where the
+        flight outlasts the correlation time and delta grows like the flight: E e^{-delta/E}
+        was e^{1e17}, an infinite loss). Both differ from E - delta by delta^2 / 2E, below
+        0.5% of E wherever |delta| < 0.1 E."""
         A = np.asarray(A, dtype=float)
         E = potential_k(A, self.restoring)
+        d = self.wall_offset(A)
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            out = E * np.exp(-self.wall_offset(A) / E)
+            x = -np.abs(d) / E  # <= 0: the exponentials stay in (0, 1]
+            out = np.where(d >= 0, E * np.exp(x), E * (2.0 - np.exp(x)))
         return np.where(E > 0, out, 0.0)
 
     # ---------------------------------------------------------------- observation map
