@@ -155,6 +155,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
     if args.joint and not args.json:
         validate.refuse_options(["joint"], "without --json (the summary has no joint density)")
     validate.output_file(args.json, "--json")
+    validate.outputs_apart_from_inputs(args, replaced=False)
     req = request.prepare_solve(args.scene, solver=args.solver, model=args.model,
                                 grid=args.grid, joint=args.joint, overrides=args.set,
                                 allow_unequilibrated=args.allow_unequilibrated,
@@ -251,6 +252,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     from .report import REPORT_FILES, write_report
 
     validate.output_folder(args.out, "--out", replaced=True)
+    validate.outputs_apart_from_inputs(args, replaced=True)
     req = request.prepare_check(args.scene, models=args.model, overrides=args.set,
                                 tolerance=args.tolerance,
                                 tolerance_metric=args.tolerance_metric,
@@ -287,6 +289,7 @@ def cmd_bifurcation(args: argparse.Namespace) -> int:
     if args.no_mc:
         validate.refuse_options(_mc_given(args), "with --no-mc (no Monte Carlo is run)")
     validate.output_file(args.json, "--json")
+    validate.outputs_apart_from_inputs(args, replaced=False)
     section, key, (d_lo, d_hi) = VARIABLES[args.vary]
     for text in args.set:
         if text.partition("=")[0].strip() == f"{section}.{key}":
@@ -411,6 +414,7 @@ def cmd_workprecision(args: argparse.Namespace) -> int:
     # each repeat times every run of the ladder again: 100 is past any useful minimum of times
     validate.at_least("--repeats", args.repeats, 1, 100)
     validate.output_folder(args.out, "--out", replaced=True)
+    validate.outputs_apart_from_inputs(args, replaced=True)
     scene = _checked_scene(args, mc=True)
     outside = scene.system.paper_family_problem()
     if outside is not None:  # its ladders time the paper model's closed form and FPK
@@ -449,6 +453,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     from .provenance import folder_name
 
     validate.output_folder(args.out, "--out")
+    validate.outputs_apart_from_inputs(args, replaced=False, names=sw.SWEEP_FILES)
     sweep = sw.load_sweep(args.sweep)
     spec = sw.parse_executor(args.executor)
     sw.require_output_libraries()

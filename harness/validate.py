@@ -32,6 +32,7 @@ The checks, and where each bound comes from:
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import tempfile
@@ -421,6 +422,71 @@ def output_folder(path: str | None, option: str, *, replaced: bool = False) -> N
                              "pull it from under the shell; give a new subfolder, e.g. "
                              f"{option.split()[0]} out")
     _probe(_nearest_existing(p), option, p)
+
+
+def run_inputs(args: Any) -> list[tuple[str, Path]]:
+    """(what, resolved path) of every file a command reads: its scene or sweep file (a shipped
+    one too: in a source checkout it is a file of the repository), the sweep's base scene, and
+    the source of every registered model plugin."""
+    import importlib.util
+    import tomllib
+
+    from vifpk.core import registry
+    from vifpk.core.scene import find_scene, shipped_scenes
+
+    found: list[tuple[str, Path]] = []
+
+    def add(what: str, p: Any) -> None:
+        if isinstance(p, Path) and p.is_file():
+            found.append((what, p.resolve()))
+
+    scene = getattr(args, "scene", None)
+    if isinstance(scene, str):
+        with contextlib.suppress(OSError, ValueError):
+            add("the scene file", find_scene(scene))
+    sweep = getattr(args, "sweep", None)
+    if isinstance(sweep, str):
+        sp: Any = Path(sweep)
+        with contextlib.suppress(OSError, ValueError):
+            if not sp.is_file():
+                sp = shipped_scenes() / "sweeps" / f"{sweep}.toml"
+            add("the sweep file", sp)
+            base = tomllib.loads(Path(sp).read_text(encoding="utf-8")).get("scene")
+            if isinstance(base, str):
+                beside = Path(sp).parent / (base if base.endswith(".toml") else f"{base}.toml")
+                add("the sweep's scene file", beside if beside.is_file() else find_scene(base))
+    for entry in registry.models():
+        if entry.distribution == registry.DISTRIBUTION:
+            continue
+        with contextlib.suppress(Exception):  # a plugin that cannot even be found: no file
+            spec = importlib.util.find_spec(entry.value.split(":")[0].strip())
+            if spec is not None and spec.origin:
+                add(f"the source of model plugin {entry.name!r}", Path(spec.origin))
+    return found
+
+
+def outputs_apart_from_inputs(args: Any, *, replaced: bool, names: Iterable[str] = ()) -> None:
+    """No output overwrites what the run reads: ``--json`` is not an input file; an ``--out``
+    folder the run replaces as a unit (``replaced``) holds no input; one it writes into holds
+    no input under one of the ``names`` it writes. One line, exit 2, before any work."""
+    inputs = run_inputs(args)
+    json_out = getattr(args, "json", None)
+    if isinstance(json_out, str):
+        target = Path(json_out).expanduser().resolve()
+        for what, p in inputs:
+            if target == p or target.is_file() and os.path.samefile(target, p):  # hard links
+                raise InputError(f"--json {json_out}: is {what} this run reads; give "
+                                 "another file name (the output would replace it)")
+    out = getattr(args, "out", None)
+    if isinstance(out, str):
+        folder = Path(out).expanduser().resolve()
+        for what, p in inputs:
+            inside = folder in p.parents
+            if inside and (replaced or any(p == folder / n or folder / n in p.parents
+                                           for n in names)):
+                raise InputError(f"--out {out}: holds {what} ({_short(p)}), which the run "
+                                 f"would {'replace with the folder' if replaced else 'overwrite'}"
+                                 "; give another folder")
 
 
 # --------------------------------------------------------------------------------------------
