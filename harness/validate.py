@@ -447,7 +447,7 @@ def run_inputs(args: Any) -> list[tuple[str, Path]]:
     sweep = getattr(args, "sweep", None)
     if isinstance(sweep, str):
         sp: Any = Path(sweep)
-        with contextlib.suppress(OSError, ValueError):
+        with contextlib.suppress(Exception):  # a bad sweep file is the sweep loader's to name
             if not sp.is_file():
                 sp = shipped_scenes() / "sweeps" / f"{sweep}.toml"
             add("the sweep file", sp)
