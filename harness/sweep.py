@@ -288,7 +288,13 @@ def _resolve_scene(name: Any, sweep_path: Any) -> Scene:
 def load_sweep(path: str | Path) -> Sweep:
     """Read and validate a sweep file (a path, or the bare name of a shipped sweep), building
     every point's scene (SweepError on any problem, one line naming the key)."""
-    from vifpk.core.scene import is_toml_file, read_toml, shipped_name, shipped_scenes
+    from vifpk.core.scene import (
+        is_toml_file,
+        read_toml,
+        shared_term,
+        shipped_name,
+        shipped_scenes,
+    )
 
     p: Any = Path(path)
     if not is_toml_file(p, SweepError, "sweep"):
@@ -387,6 +393,12 @@ def load_sweep(path: str | Path) -> Sweep:
         _field_of(f"{src}: [set]", key)
         if key in vary_raw:
             raise SweepError(f"{src}: [set] {key!r}: also in [vary]; keep one")
+    clash = shared_term([*vary_raw, *fixed_raw])
+    if clash is not None:  # the rule --set follows (validate.duplicate_overrides)
+        earlier, key, law = clash
+        where = "[vary]" if key in vary_raw else "[set]"
+        raise SweepError(f"{src}: {where} {key!r}: sets the {law} law's coefficient that "
+                         f"{earlier!r} already sets (two spellings of one term); give it once")
 
     from .timesweep import options
 

@@ -124,31 +124,20 @@ def duplicate_overrides(overrides: Sequence[str]) -> None:
     are two ``--set`` that reach one coefficient of a law under different spellings
     (``system.alpha`` and ``system.restoring[1]``, or a whole ``system.restoring`` and any of
     its coefficients): a scene file refuses both spellings of one law the same way."""
-    from vifpk.core.scene import ALIASES, INDEXED
+    from vifpk.core.scene import shared_term
 
     seen: dict[str, str] = {}
-    reach: dict[tuple[str, int | None], str] = {}  # (law, index or None: all) -> the --set
     for text in overrides:
         key = text.partition("=")[0].strip()
         if key in seen:
             raise InputError(f"--set {key}: given twice ({seen[key]!r} and {text!r}); give each "
                              "key once")
         seen[key] = text
-        section, _, name = key.partition(".")
-        m = INDEXED.fullmatch(name)
-        target = ((ALIASES[name][0], ALIASES[name][1]) if name in ALIASES
-                  else (m.group(1), int(m.group(2))) if m
-                  else (name, None) if name in {law for law, _, _ in ALIASES.values()}
-                  | {"velocity_damping"} else None)
-        if section != "system" or target is None:
-            continue
-        law, index = target
-        clash = [t for (lw, ix), t in reach.items()
-                 if lw == law and (ix is None or index is None or ix == index)]
-        if clash:
-            raise InputError(f"--set {key}: sets the {law} law's coefficient that {clash[0]!r} "
-                             "already sets (two spellings of one term); give it once")
-        reach[target] = text
+    clash = shared_term(list(seen))
+    if clash is not None:
+        earlier, key, law = clash
+        raise InputError(f"--set {key}: sets the {law} law's coefficient that {seen[earlier]!r} "
+                         "already sets (two spellings of one term); give it once")
 
 
 # --------------------------------------------------------------------------------------------

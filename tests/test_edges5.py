@@ -126,3 +126,29 @@ def test_an_output_never_overwrites_an_input(case, no_computation, tmp_path, mon
     monkeypatch.setenv("VIFPK_STEPS_PER_SECOND", "2e7")
     monkeypatch.chdir(tmp_path)
     _refused(case[1](tmp_path, monkeypatch), tmp_path, capsys, case[2])
+
+
+# ------------------------------------------------ two spellings of one term: one rule
+TWO_SPELLINGS = [
+    ("vary damping[1] and c2", '[vary]\n"system.damping[1]" = [0.04, 0.05]\n'
+                               '"system.c2" = [0.01, 0.02]\n', "[vary] 'system.c2'"),
+    ("vary alpha, set restoring[1]", '[vary]\n"system.alpha" = [0.5, 0.6]\n'
+                                     '[set]\n"system.restoring[1]" = 0.7\n',
+     "[set] 'system.restoring[1]'"),
+    ("vary omega0, set the whole restoring law", '[vary]\n"system.omega0" = [1.0, 1.1]\n'
+                                                 '[set]\n"system.restoring" = [1.0, 0.6]\n',
+     "[set] 'system.restoring'"),
+]
+
+
+@pytest.mark.parametrize("case", TWO_SPELLINGS, ids=[c[0] for c in TWO_SPELLINGS])
+def test_a_sweep_refuses_two_spellings_of_one_term_as_set_does(case, no_computation, tmp_path,
+                                                                monkeypatch, capsys):
+    """It used to run with an axis that has no effect (the last spelling won); ``--set``
+    refused the same pair: now both follow vifpk.core.scene.shared_term."""
+    monkeypatch.chdir(tmp_path)
+    _write(tmp_path, "sw.toml", 'scene = "paper-base"\nworkflow = "averaging"\n' + case[1])
+    _refused(["sweep", "sw.toml", "--out", "o"], tmp_path, capsys,
+             f"{case[2]}: sets the ")
+    _refused(["solve", "paper-base", "--set", "system.c2=0.1", "--set", "system.damping[1]=0.2"],
+             tmp_path, capsys, "two spellings of one term")

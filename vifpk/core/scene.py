@@ -20,7 +20,7 @@ import difflib
 import math
 import re
 import tomllib
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, fields, replace
 from importlib import resources
 from importlib.resources.abc import Traversable
@@ -520,6 +520,40 @@ def _field_of(path: str) -> str:
     section, _, key = path.partition(".")
     m = INDEXED.fullmatch(key)
     return f"{section}.{m.group(1) if m else key}"
+
+
+def law_term(key: str) -> tuple[str, int | None] | None:
+    """The law and coefficient that ``system.NAME`` sets: ("damping", 1) for ``system.c2``
+    and ``system.damping[1]``, ("restoring", None) for the whole ``system.restoring``; None
+    for a key that sets no law."""
+    section, _, name = key.strip().partition(".")
+    if section != "system":
+        return None
+    m = INDEXED.fullmatch(name)
+    if name in ALIASES:
+        return ALIASES[name][0], ALIASES[name][1]
+    if m:
+        return m.group(1), int(m.group(2))
+    laws = {law for law, _, _ in ALIASES.values()} | {"velocity_damping"}
+    return (name, None) if name in laws else None
+
+
+def shared_term(keys: Sequence[str]) -> tuple[str, str, str] | None:
+    """The first two of ``keys`` that reach one coefficient of a law under different
+    spellings (``system.c2`` and ``system.damping[1]``; a whole law and any of its terms):
+    (the earlier key, the later key, the law), or None. The one rule for ``--set`` and for
+    a sweep's [vary] and [set] (a scene file refuses both spellings the same way)."""
+    reach: dict[tuple[str, int | None], str] = {}
+    for key in keys:
+        target = law_term(key)
+        if target is None:
+            continue
+        law, index = target
+        for (lw, ix), earlier in reach.items():
+            if lw == law and (ix is None or index is None or ix == index):
+                return earlier, key, law
+        reach[target] = key
+    return None
 
 
 def _set_system(raw: dict[str, Any], path: str, key: str, value: Any) -> None:
