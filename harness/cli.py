@@ -15,6 +15,7 @@ from typing import Any
 
 from vifpk.core import registry
 from vifpk.core.defaults import BIFURCATION_MODELS, BURN_FACTOR, CHECK_MODELS, FPK_CELLS
+from vifpk.core.guard import PluginError
 from vifpk.core.registry import SOLVERS
 from vifpk.core.result import BadInput
 from vifpk.core.scene import Scene, load_scene, no_noise
@@ -537,15 +538,24 @@ def _model_name(text: str) -> str:
 
 def cmd_models(args: argparse.Namespace) -> int:
     """List the registered averaged models: name, who registered it, its entry point."""
+    from vifpk.core.guard import source_of
+
     entries = registry.models()
     width = max(len(e.name) for e in entries)
     for e in entries:
+        missing = not e.builtin and source_of(e.value.partition(":")[0].strip()) is None
         tags = [t for t, on in (("check default", e.name in CHECK_MODELS),
-                                ("built-in", e.builtin)) if on]
+                                ("built-in", e.builtin),
+                                ("CANNOT BE LOADED: module not installed", missing)) if on]
         print(f"{e.name:<{width}}  {e.value}  ({e.distribution}"
               + (f"; {', '.join(tags)}" if tags else "") + ")")
     for c in registry.model_conflicts():
         print(f"warning: model registered twice: {c}", file=sys.stderr)
+    for e in entries:  # found without importing it (a listing runs no plugin code)
+        module = e.value.partition(":")[0].strip()
+        if not e.builtin and source_of(module) is None:
+            print(f"warning: model {e.name!r} (from {e.distribution}) cannot be loaded: its "
+                  f"module {module!r} is not installed", file=sys.stderr)
     return 0
 
 
@@ -709,7 +719,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BadInput as exc:  # a scene field, an option, an output folder
         print(f"vifpk: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except SolverFailure as exc:
+    except (SolverFailure, PluginError) as exc:  # PluginError: names the plugin and its file
         print(f"vifpk: {exc}{_first_warning(caught)}", file=sys.stderr)
         return EXIT_SOLVER
     except ArithmeticError as exc:  # overflow, 0 division, numpy errors, FPK coefficients

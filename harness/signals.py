@@ -1,12 +1,14 @@
-"""Ctrl-C and SIGTERM for every command: stop within seconds, clean up, say what was kept.
+"""Ctrl-C, SIGTERM and SIGHUP for every command: stop within seconds, clean up, say what was
+kept.
 
-``install()`` (the console script only, not in-process calls) makes SIGTERM raise
+``install()`` (the console script only, not in-process calls) makes SIGTERM and SIGHUP (a
+closed terminal) raise
 :class:`Terminated`, a ``KeyboardInterrupt``, so every ``except KeyboardInterrupt`` and
 ``finally`` runs for either signal, and starts a watchdog thread: the signal's wakeup byte
 reaches it even while the main thread is inside a long numba or C call; it gives the main
 thread ``GRACE`` seconds to unwind, then runs the registered cleanups (stop worker processes,
 release output-folder locks), prints the current message and exits with 128 + the signal
-number (130 Ctrl-C, 143 SIGTERM).
+number (130 Ctrl-C, 143 SIGTERM, 129 SIGHUP).
 
 What a run keeps on interruption depends on the command; the command says so by setting
 :func:`set_message` (a function returning the one line): a check or solve keeps nothing, a
@@ -32,7 +34,7 @@ _keep: list[Any] = []
 
 
 class Terminated(KeyboardInterrupt):
-    """SIGTERM, handled like Ctrl-C (exit 143 instead of 130)."""
+    """SIGTERM or SIGHUP, handled like Ctrl-C (exit 143 or 129 instead of 130)."""
 
 
 def exit_code() -> int:
@@ -47,6 +49,8 @@ def message() -> str:
         text = "vifpk: interrupted"
     if _state["signum"] == signal.SIGTERM:
         text = text.replace("interrupted", "terminated (SIGTERM)", 1)
+    elif _state["signum"] == getattr(signal, "SIGHUP", None):
+        text = text.replace("interrupted", "hung up (SIGHUP: the terminal closed)", 1)
     return text
 
 
@@ -72,7 +76,10 @@ def announce(stream: Any = None) -> None:
         if _state["announced"]:
             return
         _state["announced"] = True
-    print(fresh_line() + message(), file=stream or sys.stderr, flush=True)
+    try:  # after SIGHUP the terminal may be gone: the exit code still says it
+        print(fresh_line() + message(), file=stream or sys.stderr, flush=True)
+    except (OSError, ValueError):
+        pass
 
 
 def on_interrupt(fn: Callable[[], None]) -> int:
@@ -106,7 +113,8 @@ def _int_handler(signum: int, frame: Any) -> None:
 
 
 def install() -> None:
-    """Handlers for SIGINT and SIGTERM and the watchdog (main thread only; else nothing)."""
+    """Handlers for SIGINT, SIGTERM, SIGHUP and the watchdog (main thread only; else
+    nothing). SIGHUP keeps a handler someone set (e.g. nohup's SIG_IGN)."""
     import socket
     import time
 
@@ -122,6 +130,10 @@ def install() -> None:
         signal.signal(signal.SIGINT, _int_handler)
     signal.signal(signal.SIGTERM, _term_handler)
     wanted = {signal.SIGINT, signal.SIGTERM}
+    hup = getattr(signal, "SIGHUP", None)  # POSIX: a closed terminal, treated as SIGTERM
+    if hup is not None and signal.getsignal(hup) is signal.SIG_DFL:
+        signal.signal(hup, _term_handler)
+        wanted.add(hup)
 
     def watch() -> None:
         while True:
@@ -136,7 +148,10 @@ def install() -> None:
                     except Exception:  # noqa: BLE001,S110 - exiting regardless
                         pass
                 if not _state["announced"]:
-                    os.write(2, (fresh_line() + message() + "\n").encode())
+                    try:
+                        os.write(2, (fresh_line() + message() + "\n").encode())
+                    except OSError:  # the terminal is gone (SIGHUP)
+                        pass
                 os._exit(exit_code())
 
     _keep.extend((r, w))  # open for the life of the process

@@ -647,9 +647,12 @@ def run_point(job: Job) -> dict[str, Any]:
     try:
         result = WORKFLOW_FUNCTIONS[job.workflow](job)
     except Exception as exc:  # noqa: BLE001 - recorded with its message; the sweep goes on
+        from vifpk.core.guard import PluginError
+
         from .run import SolverFailure
 
-        kind = "numerical" if isinstance(exc, SolverFailure | ArithmeticError) else "error"
+        kind = ("numerical" if isinstance(exc, SolverFailure | ArithmeticError | PluginError)
+                else "error")
         text = str(exc).splitlines()[0] if str(exc) else ""
         rec.update(status="failed", failure=kind,
                    message=f"{type(exc).__name__}: {text}" if kind == "error" else text)
@@ -672,15 +675,26 @@ def _check_point(job: Job) -> dict[str, Any]:
     """The cross-check without the FPK: the averaging error of p(A) of each model."""
     import numpy as np
 
+    from vifpk.core.guard import PluginError
+
     from .check import cross_check
     from .tolerance import Tolerance
 
-    res = cross_check(job.scene, quiet=True, fpk=False, sde=job.sde, tail_mass=False,
-                      models=_models(job, CHECK_MODELS),
-                      tolerance=Tolerance(value=job.tolerance,
-                                          metric=job.tolerance_question[0],
-                                          observable=job.tolerance_question[1],
-                                          confidence=job.tolerance_question[2]))
+    names, failed = list(_models(job, CHECK_MODELS)), {}
+    while True:  # a plugin that fails is dropped, named, and the check run without it
+        try:
+            res = cross_check(job.scene, quiet=True, fpk=False, sde=job.sde, tail_mass=False,
+                              models=tuple(names),
+                              tolerance=Tolerance(value=job.tolerance,
+                                                  metric=job.tolerance_question[0],
+                                                  observable=job.tolerance_question[1],
+                                                  confidence=job.tolerance_question[2]))
+            break
+        except PluginError as exc:
+            if exc.model not in names or len(names) == 1:
+                raise
+            failed[exc.model] = str(exc)
+            names.remove(exc.model)
     mc = res.solutions["mc:original"]
     conv = res.metrics["monte_carlo"]["convergence"]
     models = {}
@@ -706,6 +720,7 @@ def _check_point(job: Job) -> dict[str, Any]:
             "err": float(mc.info["moments"]["A"]["mean"]["err"])}
     converged = conv.get("equilibrated") is not False and all(
         v.get("sampling_ok", True) for v in models.values())
+    models.update({m: {"failure": t} for m, t in failed.items()})
     return {"models": models, "mean_A_simulation": mean["value"],
             "mean_A_simulation_err": mean["err"], "converged": converged,
             "extensions": conv.get("extensions", 0),
@@ -717,20 +732,29 @@ def _check_point(job: Job) -> dict[str, Any]:
 def _averaging_point(job: Job) -> dict[str, Any]:
     """Closed forms of each model (computed once), the L1 between them, the assumption
     warnings that need no simulation (strong damping, narrow band, strong noise)."""
+    from vifpk.core.guard import PluginError
+
     from .check import assumption_warnings, models_of
     from .compare import compare
     from .run import run_solver
     from .validate import finite_result
 
-    closed = {m: run_solver(job.scene, "averaging", model=m)
-              for m in models_of(job.scene, _models(job, CHECK_MODELS))[0]}
+    closed, failed = {}, {}
+    for m in models_of(job.scene, _models(job, CHECK_MODELS))[0]:
+        try:
+            closed[m] = run_solver(job.scene, "averaging", model=m)
+        except PluginError as exc:  # the plugin's failure; the other models' numbers stay
+            failed[m] = str(exc)
+    if not closed and failed:
+        raise PluginError(next(iter(failed.values())))
     for r in closed.values():  # a point is "ok" only with finite numbers, as `solve` exits 3
         finite_result(r, job.scene)
     warnings = assumption_warnings(job.scene, closed, {})
     flags = _flags(warnings)
     flags.pop("warn_sticking")  # needs the simulation
-    out: dict[str, Any] = {"models": {m: {"mean_A": r.info["summary"]["mean"]}
-                                      for m, r in closed.items()},
+    out: dict[str, Any] = {"models": {**{m: {"mean_A": r.info["summary"]["mean"]}
+                                         for m, r in closed.items()},
+                                      **{m: {"failure": t} for m, t in failed.items()}},
                            "flags": flags, "warnings": [w.text for w in warnings]}
     if "paper" in closed and "exact" in closed:
         out["L1_paper_exact_A"] = compare(closed["paper"].data["A"],

@@ -139,17 +139,56 @@ def model_entry(name: str) -> ModelEntry:
     raise UnknownName(f"model must be one of {model_names()}, not {name!r}")
 
 
+def _plugin_label(entry: ModelEntry) -> str:
+    from .guard import source_of
+
+    src = source_of(entry.value.partition(":")[0].strip())
+    return f"model plugin {entry.name!r} (from {entry.distribution}" + \
+        (f", {src})" if src else ")")
+
+
+def _load(entry: ModelEntry) -> Any:
+    """The entry point's factory. Not importable: UnknownName naming the entry point. A
+    plugin whose import raises anything else (or calls sys.exit): PluginError naming it."""
+    from .guard import PluginError, describe, source_of
+
+    try:
+        return entry.load()
+    except (ImportError, AttributeError) as exc:
+        raise UnknownName(f"model {entry.name!r}: its entry point {entry.value!r} (from "
+                          f"{entry.distribution}) cannot be loaded: {exc}") from None
+    except (KeyboardInterrupt, GeneratorExit):
+        raise
+    except BaseException as exc:  # noqa: BLE001 - the plugin's own failure, named
+        if entry.builtin:
+            raise
+        src = source_of(entry.value.partition(":")[0].strip())
+        raise PluginError(f"{_plugin_label(entry)}: importing it "
+                          f"{describe(exc, src)}", entry.name) from exc
+
+
 def build_model(scene: Any, name: str, **options: Any) -> Any:
     """The averaged model ``name`` for ``scene``: its factory called as
     ``factory(scene, **options)``. A factory that cannot be loaded raises UnknownName naming
-    the entry point."""
+    the entry point. A plugin's model (another distribution's) comes guarded
+    (vifpk.core.guard): what its factory or methods raise or return out of protocol is a
+    PluginError naming the plugin and its file."""
+    from .guard import PluginError, describe, guard, source_of
+    from .result import BadInput
+
     entry = model_entry(name)
+    factory = _load(entry)
+    if entry.builtin:
+        return factory(scene, **options)
+    label = _plugin_label(entry)
     try:
-        factory = entry.load()
-    except (ImportError, AttributeError) as exc:
-        raise UnknownName(f"model {name!r}: its entry point {entry.value!r} (from "
-                          f"{entry.distribution}) cannot be loaded: {exc}") from None
-    return factory(scene, **options)
+        model = factory(scene, **options)
+    except (KeyboardInterrupt, GeneratorExit, BadInput):
+        raise
+    except BaseException as exc:  # noqa: BLE001 - the plugin's own failure, named
+        src = source_of(entry.value.partition(":")[0].strip())
+        raise PluginError(f"{label}: its factory {describe(exc, src)}", name) from exc
+    return guard(model, label, source_of(entry.value.partition(":")[0].strip()), name)
 
 
 def applicability_of(factory: Any) -> Callable[[Any], str | None] | None:
@@ -164,14 +203,33 @@ def applicability_of(factory: Any) -> Callable[[Any], str | None] | None:
 
 def model_applies(name: str, scene: Any) -> str | None:
     """None when the registered model ``name`` applies to ``scene``, else its one-line reason
-    (the model's own ``applies``; vifpk.core.protocols)."""
+    (the model's own ``applies``; vifpk.core.protocols). A plugin's ``applies`` that raises
+    is a PluginError naming it."""
+    from .guard import PluginError, describe, source_of
+
     entry = model_entry(name)
     try:
-        factory = entry.load()
-    except (ImportError, AttributeError):
+        factory = _load(entry)
+    except UnknownName:
         return None  # build_model names the broken entry point when the model is built
     fn = applicability_of(factory)
-    return fn(scene) if fn is not None else None
+    if fn is None:
+        return None
+    if entry.builtin:
+        return fn(scene)
+    try:
+        why = fn(scene)
+    except (KeyboardInterrupt, GeneratorExit):
+        raise
+    except BaseException as exc:  # noqa: BLE001 - the plugin's own failure, named
+        src = source_of(entry.value.partition(":")[0].strip())
+        raise PluginError(f"{_plugin_label(entry)}: applies(scene) "
+                          f"{describe(exc, src)}", entry.name) from exc
+    if why is not None and not isinstance(why, str):
+        raise PluginError(f"{_plugin_label(entry)}: applies(scene) returned "
+                          f"{type(why).__name__}; it must return None or one line (str)",
+                          entry.name)
+    return why
 
 
 def applicable(scene: Any, names: tuple[str, ...]) -> tuple[tuple[str, ...], dict[str, str]]:
