@@ -110,10 +110,16 @@ def bifurcation(scene: Any, vary: str, *, lo: float | None = None, hi: float | N
                     "D": scene.noise.D, "alpha1": scene.noise.alpha1, "noise": scene.noise.kind}
     claim_at = PAPER_CLAIM_FIXED[vary]
     out["paper_claim_fixed"] = claim_at
+    outside = scene.system.paper_family_problem()
+    if outside is not None:  # the claim is about the paper's system only: not shown here
+        out.update(paper_claim=None, paper_claim_comparable=False,
+                   paper_claim_note=f"the paper's claim is about its own system; this scene is "
+                                    f"outside it ({outside})")
+        claim_at = {}
     differs = {k: v for k, v in claim_at.items()
                if not isinstance(out["fixed"].get(k), float)
                or not math.isclose(out["fixed"][k], v)}
-    out["paper_claim_comparable"] = not differs
+    out["paper_claim_comparable"] = not differs and outside is None
     if differs:
         out["paper_claim_note"] = (
             "the paper's claim holds " + ", ".join(f"{k} = {v:g}" for k, v in differs.items())

@@ -341,8 +341,9 @@ def cmd_bifurcation(args: argparse.Namespace) -> int:
               f" -- {chk['words']}")
     if res.get("mc_disagreement"):
         print(f"FLAG: {res['mc_disagreement']}")
-    print(f"paper claims: {res['paper_claim']}")
-    if res.get("paper_claim_note"):
+    if res.get("paper_claim"):  # None outside the paper's system
+        print(f"paper claims: {res['paper_claim']}")
+    if res.get("paper_claim_note") and res.get("paper_claim"):
         print(f"  NOTE: {res['paper_claim_note']}")
     if args.json:
         write_json(args.json, dict(res, provenance=_provenance(args)))

@@ -370,3 +370,17 @@ def test_progress_into_a_file_is_plain_lines(monkeypatch):
     text = buf.getvalue()
     assert "\r" not in text and text.count("\n") == 3, repr(text)
     assert all("monte carlo: pilot" in ln for ln in text.splitlines())
+
+
+def test_the_papers_bifurcation_claim_only_for_the_papers_system(monkeypatch, capsys):
+    """`bifurcation systems/quintic` printed 'paper claims: mu near 0.038 at r = 0.975'."""
+    from vifpk.core.scene import load_scene
+    from vifpk.harness import bifurcation as bif
+
+    monkeypatch.setattr(bif, "critical_value", lambda *a, **k: 0.01)
+    quintic = bif.bifurcation(load_scene("systems/quintic"), "mu", mc=False,
+                              models=("exact",))
+    assert quintic["paper_claim"] is None and not quintic["paper_claim_comparable"]
+    assert "outside it" in quintic["paper_claim_note"]
+    base = bif.bifurcation(load_scene("paper-base"), "mu", mc=False, models=("exact",))
+    assert "0.975" in base["paper_claim"]
