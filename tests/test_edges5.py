@@ -374,8 +374,9 @@ def test_progress_into_a_file_is_plain_lines(monkeypatch):
 
 def test_the_papers_bifurcation_claim_only_for_the_papers_system(monkeypatch, capsys):
     """`bifurcation systems/quintic` printed 'paper claims: mu near 0.038 at r = 0.975'."""
-    from vifpk.core.scene import load_scene
     from vifpk.harness import bifurcation as bif
+
+    from vifpk.core.scene import load_scene
 
     monkeypatch.setattr(bif, "critical_value", lambda *a, **k: 0.01)
     quintic = bif.bifurcation(load_scene("systems/quintic"), "mu", mc=False,
