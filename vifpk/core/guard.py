@@ -90,8 +90,10 @@ class GuardedModel:
 
     def _call(self, name: str, fn: Any, A: Any) -> Any:
         A = np.asarray(A, dtype=float)
+        given = A.view()
+        given.flags.writeable = False  # a plugin writing into A would change vifpk's grid
         try:
-            out = fn(A)
+            out = fn(given)
         except (KeyboardInterrupt, GeneratorExit):
             raise
         except BaseException as exc:  # noqa: BLE001 - the plugin's, named as such
@@ -120,6 +122,8 @@ class GuardedModel:
 
     def _values(self, name: str, out: Any, A: Any, part: str = "") -> Any:
         what = f"{name}(A)" + (f"'s {part}" if part else "")
+        if np.iscomplexobj(out):
+            raise self._fail(f"{what} returned complex numbers; it must return real ones")
         try:
             values = np.asarray(out, dtype=float)
         except (TypeError, ValueError):
