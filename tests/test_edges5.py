@@ -401,3 +401,28 @@ def test_the_papers_bifurcation_claim_only_for_the_papers_system(monkeypatch, ca
     assert "outside it" in quintic["paper_claim_note"]
     base = bif.bifurcation(load_scene("paper-base"), "mu", mc=False, models=("exact",))
     assert "0.975" in base["paper_claim"]
+
+
+SIZES = [
+    (["solve", "paper-base", "--set", "averaging.points=1e8"],
+     "averaging.points x theta_nodes = 100000000 x 64"),
+    (["solve", "paper-base", "--set", "averaging.theta_nodes=1e6"],
+     "averaging.points x theta_nodes = 801 x 1000000"),
+    (["solve", "paper-base", "--solver", "fpk", "--grid", "5e6"],
+     "this solve: estimated at least"),
+]
+
+
+@pytest.mark.parametrize("case", SIZES, ids=[c[1][:40] for c in SIZES])
+def test_sizes_are_refused_for_their_true_reason(case, no_computation, tmp_path, monkeypatch,
+                                                 capsys):
+    """1e8 is a whole number: refused for memory (points x theta_nodes) or cost (the FPK's
+    stepping, priced as growing faster than the cells), not as 'not a whole number'."""
+    monkeypatch.chdir(tmp_path)
+    _refused(case[0], tmp_path, capsys, case[1])
+
+
+def test_a_whole_number_with_an_exponent_is_taken(tmp_path):
+    from vifpk.harness.request import concrete
+
+    assert concrete("paper-base", ["averaging.points=1.5e3"]).averaging.points == 1500
