@@ -338,7 +338,8 @@ def test_a_failing_plugin_in_a_sweep_keeps_the_other_models_numbers(tmp_path, mo
     monkeypatch.setattr(check, "cross_check", fake_cross_check)
     with pytest.raises(RuntimeError, match="stop here"):
         sweep._check_point(SimpleNamespace(scene=job.scene, models=("exact", "mine"),
-                                           sde=False, tolerance=0.02))
+                                           sde=False, tolerance=0.02,
+                                           tolerance_question=("L1", "A", 0.95)))
     assert seen == [("exact", "mine"), ("exact",)]
 
 
