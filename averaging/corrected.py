@@ -127,6 +127,13 @@ WALL_FLIGHT_STEPS = 120  # RK4 steps per flight (error ~ (pi / steps)^4 ~ 5e-8 r
 # (relative error ~ (alpha1 h)^2 / 12 ~ 1e-3 of the cusp's part); at 120 steps a wide band
 # (alpha1 tau >~ 20) gave delta of the wrong sign and a blown-up corrected model
 WALL_STEPS_PER_CORRELATION_TIME = 10
+# beyond this many steps a flight is many correlation times long (alpha1 tau > 200): the
+# noise is white on the flight's scale and delta is at its white-noise limit, 0 (measured on
+# the linear oscillator omega0 = 1.3 with S(0) fixed, D = 0.01 alpha1^2: delta = 9.7e-4,
+# 5.3e-5, 1.2e-5, 2.5e-6 at alpha1 tau = 4.8, 24, 48, 97, falling like 1/alpha1^2; the wall
+# term vanishes for white noise). Without the cap
+# a spring with k1 = 0 (tau -> infinity as A -> 0) asked for unbounded flights.
+WALL_STEPS_MAX = 2000
 
 
 def _flight(E: Array, k: tuple[float, ...], tau: Array, n: int) -> tuple[Array, Array]:
@@ -181,9 +188,10 @@ def wall_offset(omega0: float, alpha: float, f: float, D: float, alpha1: float, 
     # enough steps to resolve the covariance's cusp (WALL_STEPS_PER_CORRELATION_TIME per
     # 1/alpha1): amplitudes that need more than ``steps`` are done one by one (the kernel is
     # (n + 1)^2 numbers an amplitude)
-    need = np.ceil(WALL_STEPS_PER_CORRELATION_TIME * alpha1 * tau).astype(int)
+    need = np.ceil(WALL_STEPS_PER_CORRELATION_TIME * np.minimum(alpha1 * tau, 1e12))
     if np.any(need > steps):
-        return np.array([_wall_offset_flight(f, D, alpha1, E[i:i + 1], tau[i:i + 1], k,
+        return np.array([0.0 if need[i] > WALL_STEPS_MAX else
+                         _wall_offset_flight(f, D, alpha1, E[i:i + 1], tau[i:i + 1], k,
                                              max(steps, int(need[i])))[0]
                          for i in range(A.size)])
     return _wall_offset_flight(f, D, alpha1, E, tau, k, steps)

@@ -414,7 +414,9 @@ def test_wall_energy_is_first_order_and_bounded_on_a_slow_orbit():
     assert np.all((Ew > 0) & (Ew <= 2 * E))
     small = np.abs(d) < 0.1 * E
     assert small.sum() >= 1 and np.all(d[~small] < 0)  # both regimes are exercised
-    np.testing.assert_array_less(np.abs(Ew - (E - d))[small], (d**2 / E)[small])
+    # <=: where the flight is many correlation times long (A -> 0 here) delta is at its
+    # white-noise limit 0 and E_wall = E exactly (corrected.WALL_STEPS_MAX)
+    assert np.all(np.abs(Ew - (E - d))[small] <= (d**2 / E)[small])
 
 
 def test_slow_orbit_sigma2_tends_to_white_noise_with_the_impact_correction():
