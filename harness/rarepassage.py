@@ -15,6 +15,8 @@ import time
 from pathlib import Path
 from typing import Any
 
+from vifpk.core import registry
+
 from . import run, survival
 from .io import write_atomic, write_json
 
@@ -28,7 +30,7 @@ def passage_splitting_report(scene: Any, *, threshold: float, start: float | str
     """Run and write DIR/metrics.json and DIR/report.md; returns the metrics."""
     t0 = time.perf_counter()
     mfpt: dict[str, Any] = {}
-    for m in models:
+    for m in registry.applicable(scene, models)[0]:  # the models that apply to the scene
         q = run.mfpt_averaged(scene, m, threshold=threshold, start=start)
         mfpt[m] = {"value": float(q["value"]), "error_estimate": q.get("error_estimate")}
     sp = run.passage_splitting(scene, threshold=threshold, start=start, rel_ci=REL_CI,

@@ -19,6 +19,7 @@ import os
 from pathlib import Path
 from typing import Any
 
+from vifpk.core import registry
 from vifpk.core.defaults import CHECK_MODELS
 from vifpk.core.scene import no_noise
 
@@ -100,11 +101,14 @@ def _scene(args: argparse.Namespace) -> Any:
 
 
 def _models(args: argparse.Namespace, scene: Any) -> tuple[str, ...]:
-    outside = scene.system.paper_family_problem()
-    if args.model and "paper" in args.model and outside is not None:
-        raise validate.InputError(f"--model paper: {outside}; allowed here: --model exact or "
-                                  "--model corrected")
-    return tuple(dict.fromkeys(args.model)) if args.model else CHECK_MODELS
+    """The models named (each must apply: one line otherwise), else the check models that
+    apply to the scene (request.applicable_models, as check does): every route below, the
+    auto pricing and splitting included, runs only models that apply."""
+    from .request import applicable_models
+
+    names = tuple(dict.fromkeys(args.model)) if args.model else CHECK_MODELS
+    applicable_models(scene, names, chosen=bool(args.model))
+    return names  # the workflows report why a default model does not apply
 
 
 def check_passage(args: argparse.Namespace) -> Any:
@@ -241,7 +245,8 @@ def cmd_passage(args: argparse.Namespace) -> int:
 
         try:
             mf = {m: float(run.mfpt_averaged(scene, m, threshold=args.threshold,
-                                             start=args.start)["value"]) for m in models}
+                                             start=args.start)["value"])
+                  for m in registry.applicable(scene, models)[0]}
             price(plan(scene, mf, paths=args.paths, horizon=args.horizon))
         except run.SolverFailure:
             pass  # the workflow below meets it again and says so
