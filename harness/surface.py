@@ -9,7 +9,7 @@ standard error s_i (``error_estimate_err``). The error surface is exp(g), with t
 Gaussian process, and the estimates its noisy observations:
 
     L_i = exp(g(x_i)) + e_i,      e_i ~ N(0, s_i^2)        (tolerance.py's interval, too)
-    g   ~ m + GP(0, c Matern_5/2(x, x'; l_1..l_d)),
+    g   ~ GP(m, b + c Matern_5/2(x, x'; l_1..l_d)),
 
 the logarithm making relative changes of the error the smooth quantity and the surface
 positive. exp(g) is linearised at the current estimate g0_i of g(x_i) (Gauss-Newton), which
@@ -24,20 +24,37 @@ the fixed point (|change| < ITERATION_TOL, at most ITERATIONS): the Laplace appr
 the Gauss-Newton Hessian (R&W section 3.4 for the idea). The obvious shortcut, y_i = log L_i
 with tau_i = s_i / L_i, weights each point by its *own* noise (a point that came out high gets a
 small tau, one that came out low a large one) and biases the surface up: on the synthetic test
-(noise 0.3 x tolerance) the true boundary sat 1.1 posterior sd inside the estimated one and the
-5-95% band covered 68% of it instead of 90%; linearised at the surface, -0.2 sd and 93%.
+(noise 0.3 x tolerance, 20 seeds) the surface stood 1.1 posterior sd too high on the true
+boundary and the 5-95% band covered 68% of it instead of 90%; linearised at the surface,
+0.2 sd too low and 93%.
 
-**The floor.** g0 and the y_i are kept >= log(FLOOR_FRACTION x tolerance): an error a thousand
-times below the tolerance is inside it whatever its exact value, and without a floor estimates
-of 0 (the debiasing returns 0 where the measured L1 is below its noise floor) would drive g to
--inf (the likelihood of L = 0 grows without bound as exp(g) -> 0). ``floored`` marks the points
-whose y_i is at the floor. Where s_i = 0 (no error bar) the point enters with the nugget alone.
+**Below the noise.** Where exp(g0_i) < s_i the likelihood N(L_i; exp(g), s_i^2) is flat in g
+(any error much below s_i fits): what the point knows is one-sided, "the error is about s_i or
+less", and a linearisation at g0_i -> -inf would make it worthless (tau_i -> inf). So exp(g) is
+linearised at max(g0_i, log s_i): tau_i <= 1, and an estimate of 0 (the debiasing returns 0
+where the measured L1 is below its noise floor) reads y_i = log s_i - 1 +/- 1, "about s_i / e,
+give or take a factor e". The price is a false lower bound (the surface cannot go much below
+s_i / e^2 near such a point), on the side of "outside": it matters for the boundary only where
+the tolerance is within a factor e^2 of s_i, where the point cannot decide anyway. Without it
+a map whose estimates are all 0 +/- 1e-3 (tolerance 0.02) came out inside with P = 0.80 only.
 
-m is the mean of the y_i (the GP reverts to it far from the points). The hyperparameters
+**The floor.** g0 and the y_i are kept >= log(FLOOR_FRACTION x tolerance), the linearisation
+point too where s_i = 0: an error a thousand times below the tolerance is inside it whatever
+its exact value, and estimates of 0 +/- 0 would drive g to -inf. ``floored`` marks the points
+whose y_i is at the floor.
+
+The constant mean is integrated out: a constant kernel term of variance MEAN_VARIANCE = 100
+(sd 10 in log units, vague: every L1 lies in (1e-4, 2), a log range of 10) about a centre m,
+the median of the informative y_i (tau_i <= 1); far from the points the GP reverts to the
+generalised-least-squares mean, with its uncertainty in sd. (The plain mean of the y_i as a
+fixed centre failed on a real map: the corrected model of docs/data/maps-r-mu-adaptive.nc has
+53 of 400 estimates at 0, whose uninformative y_i at the floor dragged the mean 6 log units
+down and the amplitude to its bound.) The hyperparameters
 (c, l_1..l_d, nugget) maximise the log marginal likelihood (R&W eq. 5.8) on the first
-pseudo-observations and again on the converged ones (then the iteration is repeated with
-them), L-BFGS-B from the current values and RESTARTS log-uniform restarts drawn with a fixed
-seed (RANDOM_STATE): the same points give the same surface. Their bounds (BOUNDS) and why:
+pseudo-observations (L-BFGS-B from fixed initial values and RESTARTS log-uniform restarts drawn
+with a fixed seed, RANDOM_STATE) and again on the converged ones, from the first optimum
+(then the iteration is repeated with them): the same points give the same surface. Their
+bounds (BOUNDS) and why:
 
 - c (variance of g about m): 1e-4 to 1e2, a 1% to a factor-e^10 (2e4) variation over the map;
   every L1 lies in (1e-4, 2), so no real surface needs more;
@@ -62,9 +79,9 @@ BAND[0] < P(inside) < BAND[1] (5% to 95%), i.e. |mu - log T| < 1.645 sd: a true 
 x_b (g(x_b) = log T) lies in the band exactly when the pointwise 90% credible interval of
 g(x_b) covers its true value, so the band's nominal coverage of the true boundary is 90%.
 Measured on a synthetic map with a known boundary and known heteroscedastic Gaussian noise
-(tests/test_surface.py, 49 points, 40 seeds a level): 0.947, 0.932, 0.933 (standard errors
-0.02) at noise 0.3, 0.1, 0.03 x tolerance, the misclassified area 0.029, 0.010, 0.003 of the
-map. The hyperparameters'
+(tests/test_surface.py, 49 points, 40 seeds a level): 0.951, 0.935, 0.934 (standard errors
+0.02) at noise 0.3, 0.1, 0.03 x tolerance, the misclassified area 0.025, 0.010, 0.003 of the
+map (3 seeds). The hyperparameters'
 own uncertainty is not propagated (type-II maximum likelihood), which narrows the band a little.
 
 Points' own numbers travel beside the surface's: ``error_estimate``, ``error_estimate_err``,
@@ -95,6 +112,7 @@ BAND = (0.05, 0.95)  # P(inside) between these: the band (nominal coverage 90%)
 MIN_POINTS = 3  # fewer points than this cannot fit a length scale and an amplitude
 RESTARTS = 4  # restarts of the marginal-likelihood optimiser
 RANDOM_STATE = 0  # their seed: the same points give the same surface
+MEAN_VARIANCE = 1e2  # the constant mean's prior variance (log units^2; see the module docstring)
 BOUNDS = {"amplitude": (1e-4, 1e2), "length_scale": (0.05, 20.0), "nugget": (1e-6, 1.0)}
 RESOLUTION = {1: 400, 2: 101}  # fine-grid points per axis by dimension
 LOG_SPACED_RTOL = 1e-6  # a list of values is log-spaced when its log steps agree to this
@@ -251,10 +269,11 @@ def _p_inside(mu: np.ndarray, sd: np.ndarray, tolerance: float) -> np.ndarray:
 def pseudo_observations(g0: np.ndarray, error_estimate: np.ndarray,
                         error_estimate_err: np.ndarray, log_floor: float
                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(y, tau, floored): exp(g) linearised at g0 (module docstring), y floored at
-    ``log_floor``."""
-    e0 = np.exp(g0)
-    y = g0 + (error_estimate - e0) / e0
+    """(y, tau, floored): exp(g) linearised at max(g0, log s_i, ``log_floor``) (module
+    docstring: tau_i <= 1), y floored at ``log_floor``."""
+    g = np.maximum(g0, np.log(np.maximum(error_estimate_err, math.exp(log_floor))))
+    e0 = np.exp(g)
+    y = g + (error_estimate - e0) / e0
     floored = y <= log_floor
     return np.maximum(y, log_floor), error_estimate_err / e0, floored
 
@@ -350,8 +369,8 @@ def _fit_iterated(u: np.ndarray, L: np.ndarray, s: np.ndarray, log_floor: float,
     kernel = None
     for rnd in range(2):
         y, tau, floored = pseudo_observations(g0, L, s, log_floor)
-        kernel, nugget, lml, at_bound = _hyperparameters(
-            u, y, tau, kernel, restarts=restarts, random_state=random_state + rnd)
+        kernel, nugget, lml, at_bound = _hyperparameters(  # the second from the first's
+            u, y, tau, kernel, restarts=restarts if rnd == 0 else 0, random_state=random_state)
         for _ in range(ITERATIONS):
             y, tau, floored = pseudo_observations(g0, L, s, log_floor)
             model, mean = _posterior(u, y, tau, kernel, nugget)
@@ -362,8 +381,8 @@ def _fit_iterated(u: np.ndarray, L: np.ndarray, s: np.ndarray, log_floor: float,
                 break
         y, tau, floored = pseudo_observations(g0, L, s, log_floor)
     model, mean = _posterior(u, y, tau, kernel, nugget)
-    ls = np.atleast_1d(kernel.k2.length_scale).astype(float)
-    hyper = {"amplitude": float(kernel.k1.constant_value),
+    ls = np.atleast_1d(kernel.k2.k2.length_scale).astype(float)
+    hyper = {"amplitude": float(kernel.k2.k1.constant_value),
              "length_scale": [float(v) for v in ls], "nugget": nugget, "mean": mean,
              "bounds": {k: list(v) for k, v in BOUNDS.items()}, "at_bound": at_bound,
              "restarts": restarts, "random_state": random_state,
@@ -382,10 +401,11 @@ def _hyperparameters(u: np.ndarray, y: np.ndarray, tau: np.ndarray, start: Any, 
         from sklearn.gaussian_process.kernels import ConstantKernel, Matern, WhiteKernel
     except ImportError:  # pragma: no cover - the sweep extra installs it
         raise SurfaceError("surface: needs scikit-learn (pip install 'vifpk[sweep]')") from None
-    yc = y - float(np.mean(y))
+    yc = y - _centre(y, tau)
     if start is None:
-        start = (ConstantKernel(float(np.clip(np.var(yc), *BOUNDS["amplitude"])),
-                                BOUNDS["amplitude"])
+        start = (ConstantKernel(MEAN_VARIANCE, "fixed")
+                 + ConstantKernel(float(np.clip(np.var(yc), *BOUNDS["amplitude"])),
+                                  BOUNDS["amplitude"])
                  * Matern(length_scale=np.full(u.shape[1], 0.3),
                           length_scale_bounds=BOUNDS["length_scale"], nu=2.5))
     kernel = start + WhiteKernel(1e-3, BOUNDS["nugget"])
@@ -402,12 +422,18 @@ def _hyperparameters(u: np.ndarray, y: np.ndarray, tau: np.ndarray, start: Any, 
             at_bound)
 
 
+def _centre(y: np.ndarray, tau: np.ndarray) -> float:
+    """The prior's centre m: the median of the informative y_i (tau_i <= 1), else of all."""
+    good = y[tau <= 1.0]
+    return float(np.median(good if good.size else y))
+
+
 def _posterior(u: np.ndarray, y: np.ndarray, tau: np.ndarray, kernel: Any, nugget: float
                ) -> tuple[Any, float]:
     """The latent g's posterior with fixed hyperparameters: (regressor, mean m)."""
     from sklearn.gaussian_process import GaussianProcessRegressor
 
-    mean = float(np.mean(y))
+    mean = _centre(y, tau)
     model = GaussianProcessRegressor(kernel=kernel, alpha=tau**2 + nugget, normalize_y=False,
                                      optimizer=None)
     model.fit(u, y - mean)
@@ -433,3 +459,243 @@ def _level_set(g: np.ndarray, mu: np.ndarray, level: float, axes: Sequence[Axis]
         seg = np.asarray(seg, float)
         lines.append(np.column_stack([axes[0].value(seg[:, 0]), axes[1].value(seg[:, 1])]))
     return tuple(lines)
+
+
+# --- sweep.nc: the surfaces of a check sweep, and their maps (issue 29 item 2) ---------------
+
+#: the fine grid's dimensions in sweep.nc: "surface." + the parameter's name
+GRID_PREFIX = "surface."
+POINT_VARS = ("surface_error_estimate", "surface_error_estimate_log_sd",
+              "surface_p_within_tolerance")
+
+
+def resolved_error(estimate: Any, estimate_err: Any, measured_err: Any, floor: Any
+                   ) -> np.ndarray:
+    """The standard error a point's estimate enters the surface with: its own, but at least
+    the point's resolution r = sqrt(2 F sigma + sigma^2) = debias(F + sigma, F) where the
+    estimate is below r (F the Monte Carlo noise floor of L1, sigma the measured L1's error).
+
+    Why: tolerance.py's interval is clamped at 0, so an estimate well below its noise reads
+    0 +/- 0 (a quarter of the corrected model's points in docs/data/maps-r-mu-adaptive.nc),
+    which as data says "the error is exactly 0" and made the surface's fit collapse (length
+    scales and nugget at their bounds). A perfect model's L1 scatters about F by sigma, and
+    r is the estimate a draw one sigma high gives: the smallest error the point tells from
+    0. Below r the point says "0, give or take r"."""
+    L = np.asarray(estimate, float)
+    s = np.asarray(estimate_err, float)
+    sg = np.asarray(measured_err, float)
+    F = np.asarray(floor, float)
+    r = np.sqrt(np.maximum(2 * F * sg + sg * sg, 0.0))
+    with np.errstate(invalid="ignore"):
+        return np.where(np.isfinite(r) & (L < r), np.maximum(s, r), s)
+
+
+def dataset_surfaces(ds: Any, *, resolution: int | None = None
+                     ) -> tuple[dict[str, Surface], list[str]]:
+    """The surface of every model of a check sweep's Dataset (variables ``error_estimate``,
+    ``error_estimate_err``, ``p_within_tolerance`` per point and model, attribute
+    ``tolerance``), and notes (one line each) for the models that have none: fewer than
+    MIN_POINTS points with an estimate, or not one or two varied parameters. Axes: an adaptive
+    sweep's ranges (linear, as it refines them); else the span of the values, logarithmic
+    where they are log-spaced (:func:`log_spaced`)."""
+    import json
+
+    names = list(json.loads(ds.attrs.get("varied", "[]")))
+    if "error_estimate" not in ds or "tolerance" not in ds.attrs:
+        return {}, []
+    if len(names) not in (1, 2):
+        return {}, [f"no error surface: {len(names)} varied parameters (it needs one or two)"]
+    tol = float(ds.attrs["tolerance"])
+    point_dims = [d for d in ds["error_estimate"].dims if d != "model"]
+    have = [k for k in ("error_estimate", "error_estimate_err", "p_within_tolerance",
+                        "averaging_error_A_err", "L1_floor_A") if k in ds]
+    flat = ds[have].stack(
+        _pt=point_dims) if point_dims != ["point"] else ds.rename({"point": "_pt"})
+    coords = [np.asarray(flat[n].values, float) for n in names]
+    ranges = None
+    if ds.attrs.get("mode") == "adaptive" and "adaptive" in ds.attrs:
+        r = json.loads(ds.attrs["adaptive"])["ranges"]
+        ranges = [tuple(r[n]) for n in names]
+    values = [np.asarray(ds[n].values, float).ravel() for n in names]
+    try:
+        axes = axes_for(names, values, ranges=ranges)
+    except SurfaceError as exc:
+        return {}, [f"no error surface: {exc}"]
+    x = np.column_stack(coords)
+    out, notes = {}, []
+    for m in ds["model"].values:
+        sel = flat.sel(model=m)
+        est, err = sel["error_estimate"].values.ravel(), sel["error_estimate_err"].values.ravel()
+        if (ds.attrs.get("tolerance_metric", "L1"), ds.attrs.get("tolerance_observable", "A")
+                ) == ("L1", "A") and {"averaging_error_A_err", "L1_floor_A"} <= set(have):
+            err = resolved_error(est, err, sel["averaging_error_A_err"].values.ravel(),
+                                 sel["L1_floor_A"].values.ravel())
+        try:
+            out[str(m)] = fit_surface(
+                x, est, err,
+                tolerance=tol, axes=axes, p_within_tolerance=sel["p_within_tolerance"].values,
+                resolution=resolution)
+        except SurfaceError as exc:
+            notes.append(f"{m} model: no error surface: {exc}")
+    return out, notes
+
+
+def add_surfaces(ds: Any, surfaces: dict[str, Surface]) -> Any:
+    """``ds`` with the surfaces: on the fine grid (dims ``surface.<param>``, model)
+    ``surface_error`` (exp mu), ``surface_error_log_sd`` (sd of log L), ``surface_p_inside``
+    (P(L <= tolerance)) and ``surface_band`` (1 where BAND[0] < P < BAND[1]); per point and
+    model POINT_VARS (the surface at the points); the fit of each model in the attribute
+    ``surface`` (JSON: kernel, hyperparameters, band levels, floor, method)."""
+    import json
+
+    if not surfaces:
+        return ds
+    models = [str(m) for m in ds["model"].values]
+    first = next(iter(surfaces.values()))
+    gdims = [GRID_PREFIX + a.name for a in first.axes]
+    shape = first.log_error.shape
+    grid = {"surface_error": np.full(shape + (len(models),), np.nan),
+            "surface_error_log_sd": np.full(shape + (len(models),), np.nan),
+            "surface_p_inside": np.full(shape + (len(models),), np.nan),
+            "surface_band": np.full(shape + (len(models),), -1, dtype=np.int8)}
+    point_dims = [d for d in ds["error_estimate"].dims if d != "model"]
+    pshape = tuple(ds.sizes[d] for d in point_dims)
+    per_point = {k: np.full(pshape + (len(models),), np.nan) for k in POINT_VARS}
+    fits = {}
+    for m, s in surfaces.items():
+        j = models.index(m)
+        grid["surface_error"][..., j] = s.error
+        grid["surface_error_log_sd"][..., j] = s.log_error_sd
+        grid["surface_p_inside"][..., j] = s.p_inside
+        grid["surface_band"][..., j] = s.band.astype(np.int8)
+        for k, v in zip(POINT_VARS, (s.surface_error_estimate, s.surface_error_estimate_sd,
+                                     s.surface_p_within_tolerance), strict=True):
+            per_point[k][..., j] = v.reshape(pshape)
+        fits[m] = {"kernel": s.kernel, **s.hyperparameters,
+                   "log_marginal_likelihood": s.log_marginal_likelihood,
+                   "band_area": s.band_area, "inside_area": s.inside_area,
+                   "floored_points": int(s.floored.sum())}
+    out = ds.assign_coords({d: (d, g) for d, g in zip(gdims, first.grid, strict=True)})
+    for k, v in grid.items():
+        out[k] = (gdims + ["model"], v)
+    for k, v in per_point.items():
+        out[k] = (point_dims + ["model"], v)
+    out["surface_band"].attrs["flag_values"] = (
+        f"1: {first.band_levels[0]:g} < P(inside) < {first.band_levels[1]:g} (the band), 0: "
+        "not, -1: no surface for this model")
+    out.attrs["surface"] = json.dumps({
+        "method": "Gaussian process of log(error_estimate) over the varied parameters (unit "
+                  "axes; log10 where log-spaced), each point's error_estimate_err as its own "
+                  "noise through exp(g) linearised at the surface; P(inside) = "
+                  "Phi((log tolerance - mu) / sd); boundary: P = 1/2 (harness/surface.py)",
+        "band": list(first.band_levels), "floor": FLOOR_FRACTION * first.tolerance,
+        "axes": [{"name": a.name, "lo": a.lo, "hi": a.hi, "log": a.log} for a in first.axes],
+        "models": fits})
+    return out
+
+
+def surface_figure(ds: Any, *, axis: Any = None) -> str | None:
+    """The maps of the surfaces in ``ds`` (add_surfaces) as a base64 PNG, models side by side
+    (None without surfaces). Two parameters: colour the surface exp(mu) (one log scale for all
+    models), white line the boundary P(inside) = 1/2, hatched and lighter the band, points
+    coloured by their own verdict (white circle inside, black dot outside, grey triangle
+    undecided) with marker area growing with their Monte Carlo noise floor / tolerance. One
+    parameter: the surface with its 90% interval, the points' estimates with their error bars
+    and noise floors, the tolerance, the band shaded. ``axis(name, values) -> (values, label)``
+    transforms an axis for display (sweepmaps: system.r as 1 - r)."""
+    import base64
+    import json
+
+    from matplotlib.colors import LogNorm
+
+    from .io import png_bytes, pyplot
+
+    if "surface_error" not in ds:
+        return None
+    axis = axis or (lambda name, v: (np.asarray(v, float), name))
+    meta = json.loads(ds.attrs["surface"])
+    names = [a["name"] for a in meta["axes"]]
+    tol = float(ds.attrs["tolerance"])
+    models = [m for m in ds["model"].values if str(m) in meta["models"]]
+    lo, hi = meta["band"]
+    plt = pyplot()
+    fig, axs = plt.subplots(1, len(models), figsize=(4.6 * len(models) + 1, 4), squeeze=False,
+                            constrained_layout=True)
+    gx, xl = axis(names[0], ds[GRID_PREFIX + names[0]].values)
+    px, _ = axis(names[0], ds[names[0]].values)
+    point_dims = [d for d in ds["error_estimate"].dims if d != "model"]
+    if point_dims != ["point"] and len(names) == 2:  # a product grid: every point's coordinates
+        px, _ = axis(names[0], ds[names[0]].broadcast_like(ds["error_estimate"].isel(model=0))
+                     .transpose(*point_dims).values.ravel())
+    own_cls = ds["tolerance_class"] if "tolerance_class" in ds else None
+    floor = ds["L1_floor_A"] if "L1_floor_A" in ds else None
+    if len(names) == 1:
+        ax = axs[0][0]
+        fig.set_size_inches(6.4, 4.2)
+        for m in models:
+            mu = np.log(ds["surface_error"].sel(model=m).values)
+            sd = ds["surface_error_log_sd"].sel(model=m).values
+            line, = ax.plot(gx, np.exp(mu), label=f"{m} model")
+            ax.fill_between(gx, np.exp(mu - 1.645 * sd), np.exp(mu + 1.645 * sd),
+                            color=line.get_color(), alpha=0.2, lw=0)
+            est = ds["error_estimate"].sel(model=m).values.ravel()
+            err = ds["error_estimate_err"].sel(model=m).values.ravel()
+            ax.errorbar(px, np.maximum(est, meta["floor"]), yerr=err, fmt="o",
+                        color=line.get_color(), ms=4, capsize=2)
+            if floor is not None:
+                ax.plot(px, floor.sel(model=m).values.ravel(), "_", color=line.get_color(),
+                        ms=8)
+            band = ds["surface_band"].sel(model=m).values == 1
+            ax.fill_between(gx, 0, 1, where=band, transform=ax.get_xaxis_transform(),
+                            color=line.get_color(), alpha=0.08, hatch="//", lw=0)
+        ax.axhline(tol, color="0.3", ls="--", label=f"tolerance {tol:g}")
+        ax.set_yscale("log")
+        ax.set_xlabel(xl)
+        ax.set_ylabel("error estimate (noise removed)")
+        ax.legend(fontsize=8)
+        return base64.b64encode(png_bytes(fig, dpi=110, bbox_inches="tight")).decode()
+    gy, yl = axis(names[1], ds[GRID_PREFIX + names[1]].values)
+    if point_dims != ["point"]:
+        py, _ = axis(names[1], ds[names[1]].broadcast_like(ds["error_estimate"].isel(model=0))
+                     .transpose(*point_dims).values.ravel())
+    else:
+        py, _ = axis(names[1], ds[names[1]].values)
+    surf = np.asarray(ds["surface_error"].sel(model=models).values, float)
+    vmin, vmax = float(np.nanmin(surf)), float(np.nanmax(surf))
+    norm = LogNorm(min(vmin, tol), max(vmax, tol * 1.0001))
+    X, Y = np.meshgrid(gx, gy, indexing="ij")
+    mesh = None
+    for ax, m in zip(axs[0], models, strict=True):
+        z = ds["surface_error"].sel(model=m).values
+        p = ds["surface_p_inside"].sel(model=m).values
+        mesh = ax.pcolormesh(X, Y, z, norm=norm, cmap="viridis", shading="gouraud")
+        ax.contourf(X, Y, p, levels=[lo, hi], colors=["white"], alpha=0.25)
+        ax.contourf(X, Y, p, levels=[lo, hi], colors="none", hatches=["///"])
+        ax.contour(X, Y, p, levels=[lo, hi], colors="white", linewidths=0.6,
+                   linestyles=":")
+        ax.contour(X, Y, p, levels=[0.5], colors="white", linewidths=2)
+        fl = (floor.sel(model=m).transpose(*point_dims).values.ravel() if floor is not None
+              else np.full(px.size, tol / 4))
+        size = 5 + 20 * np.clip(fl / tol, 0, 2)
+        cls = (own_cls.sel(model=m).transpose(*point_dims).values.ravel()
+               if own_cls is not None else np.full(px.size, ""))
+        for c, kw in (("inside", {"marker": "o", "facecolors": "white",
+                                  "edgecolors": "black", "linewidths": 0.5}),
+                      ("outside", {"marker": "o", "facecolors": "black",
+                                   "edgecolors": "white", "linewidths": 0.5}),
+                      ("undecided", {"marker": "^", "facecolors": "0.6",
+                                     "edgecolors": "black", "linewidths": 0.5})):
+            sel = cls == c
+            if sel.any():
+                ax.scatter(px[sel], py[sel], s=size[sel], **kw)
+            if ax is axs[0][0]:  # the legend's keys, every class whether present or not
+                ax.scatter([], [], s=12, label=c, **kw)
+        fit = meta["models"][str(m)]
+        ax.set_title(f"{m} model: band {100 * fit['band_area']:.0f}% of the map", fontsize=10)
+        ax.set_xlabel(xl)
+        ax.set_ylabel(yl)
+    axs[0][0].legend(fontsize=7, loc="best", title="the point's own verdict",
+                     title_fontsize=7)
+    bar = fig.colorbar(mesh, ax=axs[0].tolist(), label=f"error surface (tolerance {tol:g})")
+    bar.ax.axhline(tol, color="white", lw=2)
+    return base64.b64encode(png_bytes(fig, dpi=110, bbox_inches="tight")).decode()

@@ -15,6 +15,8 @@ of tolerance.py does to an estimate below its noise.
 
 from __future__ import annotations
 
+import base64
+import json
 import math
 
 import numpy as np
@@ -25,11 +27,16 @@ pytest.importorskip("sklearn", reason="scikit-learn: the sweep and test extras")
 from vifpk.harness.surface import (  # noqa: E402
     BAND,
     FLOOR_FRACTION,
+    POINT_VARS,
     Axis,
     SurfaceError,
+    add_surfaces,
     axes_for,
+    dataset_surfaces,
     fit_surface,
     log_spaced,
+    resolved_error,
+    surface_figure,
 )
 
 T = 0.02
@@ -70,8 +77,8 @@ def _scores(noise: float, seed: int, resolution: int = 61) -> dict[str, float]:
 def test_surface_recovers_known_boundary_and_shrinks_with_noise():
     """The misclassified area falls as the noise falls (3 seeds a level, means), and with
     little noise the estimated boundary is close to the true one. Noise levels 0.3, 0.1, 0.03
-    x T; measured (seeds 0-2, 61 x 61 grid): misclassified 0.029 -> 0.0099 -> 0.0028 of the
-    map, band 0.126 -> 0.044 -> 0.016. The bound asserted at the lowest noise, 0.02 of the
+    x T; measured (seeds 0-2, 61 x 61 grid): misclassified 0.025 -> 0.0099 -> 0.0027 of the
+    map, band 0.115 -> 0.044 -> 0.016. The bound asserted at the lowest noise, 0.02 of the
     map, is the area of a strip 0.02 wide along the boundary (length about 1): a boundary off
     by 2% of the range."""
     levels = (0.3, 0.1, 0.03)
@@ -95,9 +102,9 @@ def test_band_covers_true_boundary_at_nominal_rate():
     |mean - 0.90| < 3 SE + 0.03: 3 SE for the sampling of seeds, and 0.03 for what the
     method knowingly neglects (the hyperparameters' uncertainty, type-II ML, which narrows
     the band; the linearisation of exp(g) at the surface). Measured (2026-11-24, seeds 0-39,
-    21 x 21 grid, about 12 s a level): coverage 0.947 (SE 0.021) at noise 0.3 T, 0.932
-    (0.024) at 0.1 T, 0.933 (0.022) at 0.03 T: the band is a little wider than nominal, on the
-    safe side; no seed's band missed more than 61% of the boundary."""
+    21 x 21 grid, about 8 s a level): coverage 0.951 (SE 0.020) at noise 0.3 T, 0.935
+    (0.023) at 0.1 T, 0.934 (0.022) at 0.03 T: the band is a little wider than nominal, on the
+    safe side; the worst seed's band held 39% of the boundary."""
     for noise in (0.3, 0.1, 0.03):
         cov = np.array([_scores(noise, seed, resolution=21)["coverage"] for seed in range(40)])
         se = cov.std(ddof=1) / math.sqrt(cov.size)
@@ -150,16 +157,22 @@ def test_per_point_numbers_and_boundary_shape():
     assert surf.band.shape == surf.p_inside.shape == (41, 41)
 
 
-def test_all_zero_errors_sit_at_the_floor():
-    """Every estimate 0 (every point below its noise): the surface sits at the stated floor
-    FLOOR_FRACTION x T, far inside the tolerance, and every point is marked floored."""
+def test_all_zero_errors():
+    """Every estimate 0 (every point below its noise). With error bars s = 1e-3 each point
+    reads "about s / e, give or take a factor e" (module docstring), so the surface sits at
+    s / e = 3.7e-4, inside the tolerance with P > 0.999; with no error bars (0 +/- 0) it sits
+    at the stated floor FLOOR_FRACTION x T and every point is marked floored."""
     x = LATTICE[::4]
     surf = fit_surface(x, np.zeros(len(x)), np.full(len(x), 1e-3), tolerance=T, axes=AXES,
+                       resolution=11)
+    assert np.allclose(surf.error, 1e-3 / math.e, rtol=1e-3)
+    assert np.all(surf.p_inside > 0.999) and not surf.floored.any()
+    assert surf.boundary == ()
+    surf = fit_surface(x, np.zeros(len(x)), np.zeros(len(x)), tolerance=T, axes=AXES,
                        resolution=11)
     assert np.all(surf.floored)
     assert np.allclose(surf.error, FLOOR_FRACTION * T, rtol=1e-3)
     assert np.all(surf.p_inside > 0.999)
-    assert surf.boundary == ()
 
 
 @pytest.mark.parametrize(("kwargs", "words"), [
@@ -185,3 +198,93 @@ def test_axis_range_checked():
         Axis(name="x", lo=1.0, hi=1.0)
     with pytest.raises(SurfaceError, match="log axis needs values > 0"):
         Axis(name="x", lo=0.0, hi=1.0, log=True)
+
+
+# --- sweep.nc and the maps -------------------------------------------------------------------
+
+
+def _sweep_ds(mode: str = "product", names=("system.r", "system.mu")):
+    """A check sweep's Dataset as sweep.dataset writes it (the variables the surface reads),
+    from the synthetic truth on the unit square mapped to r in [0.95, 0.99], mu in [0, 0.004];
+    model "bad" has only two points with an estimate."""
+    xr = pytest.importorskip("xarray")
+    lo, hi = np.array([0.95, 0.0]), np.array([0.99, 0.004])
+    obs, s = _observe(0.1, 5)
+    est = np.stack([obs, np.where(np.arange(obs.size) < 2, obs, np.nan)], axis=-1)
+    err = np.stack([s, s], axis=-1)
+    floor = np.full(est.shape, 0.01)
+    cls = np.where(est < T, "inside", "outside")
+    data = {"error_estimate": est, "error_estimate_err": err, "p_within_tolerance": est * 0 + 0.5,
+            "tolerance_class": cls, "averaging_error_A_err": err, "L1_floor_A": floor}
+    params = lo + LATTICE * (hi - lo)
+    attrs = {"varied": json.dumps(list(names)), "tolerance": T, "mode": mode,
+             "workflow": "check"}
+    if mode == "product":
+        shape = (7, 7, 2)
+        coords = {names[0]: params[::7, 0], names[1]: params[:7, 1]}
+        dims = [names[0], names[1], "model"]
+        data = {k: (dims, v.reshape(shape)) for k, v in data.items()}
+    else:
+        attrs["adaptive"] = json.dumps({"ranges": {names[0]: [0.95, 0.99],
+                                                   names[1]: [0.0, 0.004]}})
+        coords = {names[0]: ("point", params[:, 0]), names[1]: ("point", params[:, 1])}
+        data = {k: (["point", "model"], v) for k, v in data.items()}
+    coords["model"] = ["exact", "bad"]
+    return xr.Dataset(data, coords=coords, attrs=attrs)
+
+
+@pytest.mark.parametrize("mode", ["product", "adaptive"])
+def test_sweep_dataset_carries_the_surface(mode, tmp_path):
+    """dataset_surfaces + add_surfaces: the fine grid, P(inside) and the band per model, the
+    surface at the points, the fit as an attribute; netCDF round trip; the map draws."""
+    ds = _sweep_ds(mode)
+    surfaces, notes = dataset_surfaces(ds, resolution=31)
+    assert list(surfaces) == ["exact"]
+    assert notes == ["bad model: no error surface: surface: 2 points with an error estimate; "
+                     "at least 3 are needed for a surface"]
+    out = add_surfaces(ds, surfaces)
+    assert out["surface_p_inside"].dims == ("surface.system.r", "surface.system.mu", "model")
+    assert out["surface_p_inside"].shape == (31, 31, 2)
+    assert np.all(out["surface_band"].sel(model="bad").values == -1)
+    assert np.all(np.isnan(out["surface_error"].sel(model="bad").values))
+    assert out["surface.system.r"].values[[0, -1]] == pytest.approx([0.95, 0.99])
+    for k in POINT_VARS:
+        assert out[k].dims == ds["error_estimate"].dims
+    # the surface at the points agrees with the truth's side where the truth is clear
+    lt = (_log_truth(LATTICE[:, 0], LATTICE[:, 1]) - math.log(T)).reshape(
+        out["surface_p_within_tolerance"].sel(model="exact").shape)
+    p = out["surface_p_within_tolerance"].sel(model="exact").values
+    assert np.all(p[lt < -0.5] > 0.9) and np.all(p[lt > 0.5] < 0.1)
+    meta = json.loads(out.attrs["surface"])
+    assert set(meta["models"]) == {"exact"} and meta["band"] == list(BAND)
+    pytest.importorskip("netCDF4")
+    out.to_netcdf(tmp_path / "s.nc", engine="netcdf4")
+    png = surface_figure(out)
+    assert base64.b64decode(png)[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_sweep_dataset_surface_one_parameter_and_three():
+    xr = pytest.importorskip("xarray")
+    x = np.linspace(0.0, 1.0, 9)
+    L = T * np.exp(3.0 * (x - 0.4))
+    ds = xr.Dataset({k: (["system.mu", "model"], v[:, None]) for k, v in (
+        ("error_estimate", L), ("error_estimate_err", 0.05 * L),
+        ("p_within_tolerance", 0.5 + 0 * L), ("L1_floor_A", 0.01 + 0 * L),
+        ("averaging_error_A_err", 0.05 * L))},
+        coords={"system.mu": x, "model": ["exact"]},
+        attrs={"varied": json.dumps(["system.mu"]), "tolerance": T, "mode": "product"})
+    surfaces, notes = dataset_surfaces(ds)
+    out = add_surfaces(ds, surfaces)
+    assert out["surface_p_inside"].dims == ("surface.system.mu", "model") and not notes
+    assert base64.b64decode(surface_figure(out))[:4] == b"\x89PNG"
+    ds.attrs["varied"] = json.dumps(["a", "b", "c"])
+    assert dataset_surfaces(ds) == ({}, ["no error surface: 3 varied parameters (it needs one "
+                                         "or two)"])
+
+
+def test_resolved_error_below_the_resolution():
+    """An estimate 0 +/- 0 (tolerance.py's interval clamped at 0) enters as 0 +/- r,
+    r = sqrt(2 F sigma + sigma^2); an estimate above r keeps its own error."""
+    r = math.sqrt(2 * 0.01 * 0.002 + 0.002**2)
+    got = resolved_error([0.0, 0.05], [0.0, 0.003], [0.002, 0.002], [0.01, 0.01])
+    assert got == pytest.approx([r, 0.003])
