@@ -21,7 +21,8 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from timing import timed  # noqa: E402
-from vifpk.harness.run import averaged_model, passage_averaged  # noqa: E402
+from vifpk.harness.door.solvers import averaged_model
+from vifpk.harness.door.timedomain import passage_averaged  # noqa: E402
 
 import vifpk  # noqa: E402
 from vifpk import fpk  # noqa: E402

@@ -26,7 +26,7 @@ import platform
 import time
 
 import numpy as np
-from vifpk.harness.run import passage_montecarlo, passage_splitting
+from vifpk.harness.door.timedomain import passage_montecarlo, passage_splitting
 
 from vifpk.core.scene import load_scene
 

@@ -37,12 +37,9 @@ sys.path.insert(0, str(ROOT))
 os.environ["PYTHONPATH"] = os.pathsep.join(  # worker processes import this checkout
     [str(ROOT), *filter(None, [os.environ.get("PYTHONPATH")])])
 
-from vifpk.harness.sweep import (  # noqa: E402
-    Runner,
-    load_sweep,
-    parse_executor,
-    run_sweep,
-)
+from vifpk.harness.sweeps.executors import Runner, parse_executor  # noqa: E402
+from vifpk.harness.sweeps.runs import run_sweep  # noqa: E402
+from vifpk.harness.sweeps.spec import load_sweep  # noqa: E402
 
 SWEEP = """scene = "paper-base"
 workflow = "check"
@@ -145,8 +142,9 @@ def point_against_bare(repeats: int = 3) -> dict:
     import statistics
     from dataclasses import replace
 
-    from vifpk.harness.run import run_solver
-    from vifpk.harness.sweep import SDE_CHECK_EVERY, _job, run_point
+    from vifpk.harness.door.solvers import run_solver
+    from vifpk.harness.sweeps.points import SDE_CHECK_EVERY, run_point
+    from vifpk.harness.sweeps.store import _job
 
     sweep = load_sweep(ROOT / "scenes" / "sweeps" / "r-mu.toml")
     rows = []

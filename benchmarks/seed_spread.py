@@ -18,7 +18,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from vifpk.harness.check import cross_check
+from vifpk.harness.workflows.check import cross_check
 
 from vifpk.core.scene import load_scene
 

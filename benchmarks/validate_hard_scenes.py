@@ -21,9 +21,9 @@ import time
 from pathlib import Path
 from typing import Any
 
-from vifpk.harness.check import cross_check, output_problems
-from vifpk.harness.io import write_atomic
-from vifpk.harness.provenance import collect
+from vifpk.harness.outputs.io import write_atomic
+from vifpk.harness.outputs.provenance import collect
+from vifpk.harness.workflows.check import cross_check, output_problems
 
 from vifpk.core.defaults import CHECK_MODELS as MODELS
 from vifpk.core.scene import load_scene

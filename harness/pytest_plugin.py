@@ -30,7 +30,7 @@ def pytest_addoption(parser: pytest.Parser) -> None:
 
 
 def pytest_configure(config: pytest.Config) -> None:
-    from . import testing
+    from vifpk.harness import testing
 
     testing.configure(cache=config.getoption("--vifpk-cache"),
                       refresh=config.getoption("--vifpk-refresh"))
@@ -49,13 +49,13 @@ def vifpk_scene() -> Callable[..., Any]:
 
 @pytest.fixture
 def vifpk_reference() -> Callable[..., Any]:
-    from .testing import mc_reference
+    from vifpk.harness.testing import mc_reference
 
     return mc_reference
 
 
 @pytest.fixture
 def vifpk_mfpt() -> Callable[..., Any]:
-    from .testing import assert_mfpt_close
+    from vifpk.harness.testing import assert_mfpt_close
 
     return assert_mfpt_close

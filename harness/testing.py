@@ -39,13 +39,12 @@ from pathlib import Path
 from typing import Any, Protocol
 
 import numpy as np
+from vifpk.harness.outputs.io import atomic_path, jsonable, write_atomic
+from vifpk.harness.workflows.compare import compare, is_histogram
 
 from vifpk.core.defaults import DENSITY_OBSERVABLES
 from vifpk.core.registry import one_of
 from vifpk.core.scene import Scene, load_scene
-
-from .compare import compare, is_histogram
-from .io import atomic_path, jsonable, write_atomic
 
 METRICS = ("L1", "hellinger", "ks")
 _STATE: dict[str, Any] = {"cache": None, "refresh": False, "stats": {"hits": 0, "misses": 0}}
@@ -90,7 +89,7 @@ def assert_density_close(actual: Any, desired: Any, *, metric: str = "L1", atol:
     """Assert metric(actual, desired) <= atol + noise floor; return the metrics.
 
     The noise floor is that of the Monte Carlo side(s) for this metric (a parametric
-    bootstrap of their batch errors, harness/compare.py), unless given.
+    bootstrap of their batch errors, harness/workflows/compare.py), unless given.
     """
     one_of("metric", metric, METRICS)
     a, d = _record(actual), _record(desired)
@@ -172,7 +171,7 @@ def mc_reference(scene: Any, **montecarlo: Any) -> Reference:
 
     ``montecarlo`` overrides the scene's [montecarlo] settings (paths, dt, time, seed, ...).
     """
-    from .run import montecarlo_solution
+    from vifpk.harness.door.solvers import montecarlo_solution
 
     sc = _scene(scene)
     if montecarlo:
@@ -206,7 +205,7 @@ def model_densities(scene: Scene, model: Any) -> dict[str, dict[str, Any]]:
     """p(A), p(x1), p(x2) of an averaged model (a registered name, or an object with the
     averaged-model protocol): its closed form when it has one, else the FPK direct solve of its
     m and sigma^2 mapped to phase space (``harness.run.closed_form``)."""
-    from .run import closed_form
+    from vifpk.harness.door.solvers import closed_form
 
     return closed_form(scene, model=model).data
 
@@ -253,12 +252,12 @@ def assert_mfpt_close(scene: Any, model: Any, threshold: float, *, rtol: float,
     """Assert that the model's mean first-passage time to ``threshold`` is within ``rtol`` of
     the original system's, noise-aware: |T_model / T_MC - 1| <= rtol + 2 x its error bar (the
     Monte Carlo's standard error carried to the ratio). When the Monte Carlo censored more than
-    1% of its paths, restricted means over [0, horizon] are compared (harness/passage.py).
+    1% of its paths, restricted means over [0, horizon] are compared (harness/workflows/passage.py).
     Returns the model's metrics (``mfpt_error``, ``R_sup``, ...); the failure message gives
     both MFPTs, the error bar, the Monte Carlo's settings and the command that reproduces it."""
-    from .passage import passage
-    from .run import model_label
-    from .timecli import passage_values
+    from vifpk.harness.cli.timedomain import passage_values
+    from vifpk.harness.door.solvers import model_label
+    from vifpk.harness.workflows.passage import passage
 
     sc = _scene(scene)
     passage_values(sc, threshold=threshold, start=start, horizon=horizon)
@@ -289,9 +288,9 @@ def assert_relaxation_close(scene: Any, model: Any, *, start: float, times: Any,
     """Assert that the relaxation time the model's FPK predicts (1 / its slowest decay rate) is
     within ``rtol`` of the one fitted on the original system's mean amplitude (harness/
     transient.py), noise-aware: |tau_model / tau_MC - 1| <= rtol + 2 x its error bar."""
-    from .run import model_label
-    from .timecli import transient_values
-    from .transient import transient
+    from vifpk.harness.cli.timedomain import transient_values
+    from vifpk.harness.door.solvers import model_label
+    from vifpk.harness.workflows.transient import transient
 
     sc = _scene(scene)
     transient_values(sc, start=start, times=times)

@@ -329,7 +329,7 @@ def _relaxation(phys: dict[str, Any], h: float, seed: int, step: _Stepper, a_hi:
 def _density(counts: np.ndarray, samples: np.ndarray, widths: np.ndarray) -> dict[str, Any]:
     """Block-mean density per unit length, its standard error, the L1 noise floor and the
     blocks' own densities (``blocks``: the batch means, whose spread a metric's error bar reads,
-    harness/compare.py)."""
+    harness/workflows/compare.py)."""
     per_block = counts / (samples.reshape((-1,) + (1,) * (counts.ndim - 1)) * widths)
     mean = per_block.mean(axis=0)
     se = per_block.std(axis=0, ddof=1) / math.sqrt(counts.shape[0])

@@ -35,7 +35,8 @@ hypothesis_settings.register_profile("ci", derandomize=True, print_blob=True)
 if os.environ.get("CI"):
     hypothesis_settings.load_profile("ci")
 # The canned check is not extended: check doubles a run the evidence calls too short only
-# while three times the time spent fits montecarlo.budget (harness/check.py), so a budget of
+# while three times the time spent fits montecarlo.budget (harness/workflows/check.py), so a budget
+# of
 # 1 ms stops it on any machine (with floor = 0 the budget bounds nothing else).
 TINY_CHECK_SET = ["montecarlo.budget=0.001"]
 
@@ -60,8 +61,8 @@ def base() -> Scene:
 def tiny_check():
     """One cross-check (harness.check.cross_check) of the tiny scene, computed once a session:
     the canned input of the tests of writing, interruption, rendering and sweeps."""
-    from vifpk.harness.check import cross_check
-    from vifpk.harness.cli import concrete_scene
+    from vifpk.harness.cli.options import concrete_scene
+    from vifpk.harness.workflows.check import cross_check
 
     return cross_check(concrete_scene(str(TINY), TINY_CHECK_SET), quiet=True)
 
@@ -75,7 +76,7 @@ def canned_check(tiny_check, monkeypatch):
     and the recommendation made again from the canned numbers); ``sde=False`` drops the
     averaged SDEs' runs as cross_check does. Commands that check then write, interrupt and
     render without computing. Returns the canned result."""
-    import vifpk.harness.check
+    import vifpk.harness.workflows.check
 
     def canned(scene, *, quiet=False, fpk=True, sde=True, tail_mass=True, models=None,
                tolerance=None):
@@ -94,8 +95,8 @@ def canned_check(tiny_check, monkeypatch):
                                        if not any(v.startswith(f"{m} model") for m in drop)]
             res = replace(res, verdicts=list(res.metrics["verdicts"]))
         if models is not None or tolerance is not None:  # the verdicts of what was asked
-            from vifpk.harness.check import recommend
-            from vifpk.harness.tolerance import Tolerance, line, model_verdicts
+            from vifpk.harness.workflows.tolerance import Tolerance, line, model_verdicts
+            from vifpk.harness.workflows.verdict import recommend
 
             met = res.metrics
             tol = tolerance or Tolerance(**met["tolerance"])
@@ -122,7 +123,7 @@ def canned_check(tiny_check, monkeypatch):
                     entry["sampling_ok"] = None
         return res
 
-    monkeypatch.setattr(vifpk.harness.check, "cross_check", canned)
+    monkeypatch.setattr(vifpk.harness.workflows.check, "cross_check", canned)
     return tiny_check
 
 
@@ -168,27 +169,30 @@ pytest_plugins = ["pytester"]
 def no_computation(monkeypatch):
     """Replace every entry point of real work by one that fails the test (the catalogues of
     bad input in test_cli_validation.py and test_edges.py: refused before any work)."""
-    import vifpk.harness.bifurcation
-    import vifpk.harness.check
-    import vifpk.harness.cli
-    import vifpk.harness.figures
-    import vifpk.harness.passage
-    import vifpk.harness.run
-    import vifpk.harness.sweep
-    import vifpk.harness.transient
-    import vifpk.harness.workprecision
+    import importlib
+    import sys
 
     def forbidden(*a, **k):
         raise AssertionError("computation started before the input was checked")
 
-    h = vifpk.harness
-    for mod, name in ((h.cli, "run_solver"), (h.run, "run_solver"),
-                      (h.run, "montecarlo_solution"), (h.run, "fpk_solution"),
-                      (h.check, "cross_check"), (h.bifurcation, "bifurcation"),
-                      (h.figures, "draw_figures"), (h.sweep, "run_point"),
-                      (h.workprecision, "run_workprecision"), (h.passage, "passage"),
-                      (h.transient, "transient")):
-        monkeypatch.setattr(mod, name, forbidden)
-    for name in ("passage_averaged", "passage_montecarlo", "passage_sde", "transient_averaged",
-                 "transient_montecarlo", "transient_sde"):  # the time-domain doors
-        monkeypatch.setattr(h.run, name, forbidden, raising=False)
+    # every harness module is loaded, then each entry point is replaced wherever a module
+    # holds it (its home and every module that imported it by name)
+    for p in (ROOT / "harness").rglob("*.py"):
+        parts = ("vifpk", *p.relative_to(ROOT).with_suffix("").parts)
+        if parts[-1] not in ("__init__", "__main__", "pytest_plugin"):
+            importlib.import_module(".".join(parts))
+    homes = {"door.solvers": ("run_solver", "montecarlo_solution", "fpk_solution"),
+             "door.timedomain": ("passage_averaged", "passage_montecarlo", "passage_sde",
+                                 "transient_averaged", "transient_montecarlo",
+                                 "transient_sde"),
+             "workflows.check": ("cross_check",), "workflows.bifurcation": ("bifurcation",),
+             "workflows.figures": ("draw_figures",), "sweeps.points": ("run_point",),
+             "workflows.workprecision": ("run_workprecision",),
+             "workflows.passage": ("passage",), "workflows.transient": ("transient",)}
+    targets = {id(getattr(sys.modules[f"vifpk.harness.{m}"], n)) for m, ns in homes.items()
+               for n in ns}
+    for modname, mod in list(sys.modules.items()):
+        if modname.startswith("vifpk.harness"):
+            for name, value in list(vars(mod).items()):
+                if id(value) in targets:
+                    monkeypatch.setattr(mod, name, forbidden)

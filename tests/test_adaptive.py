@@ -1,4 +1,4 @@
-"""Adaptive sweeps (issue 22): where the points go (harness/adaptive.py, on synthetic verdict
+"""Adaptive sweeps (issue 22): where the points go (harness/sweeps/adaptive.py, on synthetic verdict
 fields: no simulation), the sweep file's contract, and (slow) a real 16-point sweep that is
 identical on serial, processes:2, dask:2 and a tcp:// scheduler, is not a lattice, and
 resumes."""
@@ -10,10 +10,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from vifpk.harness.adaptive import initial_design, log_ratio, min_edge, next_batch
-from vifpk.harness.sweep import SweepError, load_sweep, run_sweep
+from vifpk.harness.sweeps.adaptive import initial_design, log_ratio, min_edge, next_batch
+from vifpk.harness.sweeps.errors import SweepError
+from vifpk.harness.sweeps.runs import run_sweep
+from vifpk.harness.sweeps.spec import load_sweep
 
-from .conftest import ROOT
+from tests.conftest import ROOT
 
 DATA = ROOT / "tests" / "data"
 ADAPTIVE = DATA / "sweep-adaptive.toml"

@@ -1,7 +1,10 @@
 """The rooms and the one-way flow (docs/architecture.md), checked on the source by an AST scan:
 
-- ``harness/run.py`` is the only harness module that imports a solver package (``averaging``,
-  ``fpk``, ``montecarlo``): every workflow reaches the solvers through it;
+- ``harness/door/`` is the only harness package that imports a solver package (``averaging``,
+  ``fpk``, ``montecarlo``): every workflow reaches the solvers through it, and it imports no
+  harness module outside itself;
+- the harness is in layers: no module over ``MAX_LINES`` lines, no import cycle between its
+  modules (imports inside functions count), every sub-package named in docs/architecture.md;
 - a solver package imports neither ``harness`` nor another solver package: of ours, only
   ``vifpk.core`` (the shared vocabulary);
 - ``vifpk.core`` imports no solver, no ``harness`` and nothing of ``vifpk`` outside itself;
@@ -19,10 +22,11 @@ from pathlib import Path
 
 import pytest
 
-from .conftest import ROOT
+from tests.conftest import ROOT
 
 SOLVERS = ("averaging", "fpk", "montecarlo")
-DOOR = Path("harness") / "run.py"
+DOOR = Path("harness") / "door"
+MAX_LINES = 500  # issue 27: "no module over ~500 lines except the numba kernel"
 CORE = "vifpk.core"
 
 
@@ -36,8 +40,8 @@ def imported_modules(path: Path) -> set[str]:
             found.update(a.name for a in node.names)
         elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
             found.add(node.module)
-            if node.module == "vifpk":  # from vifpk import averaging: a sub-package by name
-                found.update(f"vifpk.{a.name}" for a in node.names)
+            if node.module.startswith("vifpk"):  # from vifpk.x import y: y may be a module
+                found.update(f"{node.module}.{a.name}" for a in node.names)
         elif (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
               and node.func.attr == "import_module" and node.args
               and isinstance(node.args[0], ast.Constant) and isinstance(node.args[0].value, str)):
@@ -84,14 +88,17 @@ def test_the_scan_sees_imports(tmp_path: Path):
     assert imported_packages(src) == {CORE, "vifpk"}
 
 
-@pytest.mark.parametrize("path", modules("harness"), ids=lambda p: p.name)
-def test_only_run_py_imports_the_solvers(path: Path):
+@pytest.mark.parametrize("path", modules("harness"), ids=lambda p: str(p.relative_to(ROOT)))
+def test_only_the_door_imports_the_solvers(path: Path):
     rel = path.relative_to(ROOT)
     solvers = imported_packages(path) & set(SOLVERS)
-    if rel == DOOR:
-        assert solvers == set(SOLVERS)  # the door knows every solver
-    else:
-        assert not solvers, f"{rel} imports {sorted(solvers)}: go through harness/run.py"
+    if DOOR not in rel.parents:
+        assert not solvers, f"{rel} imports {sorted(solvers)}: go through harness/door/"
+
+
+def test_the_door_knows_every_solver():
+    found = set().union(*(imported_packages(p) for p in modules(str(DOOR))))
+    assert found & set(SOLVERS) == set(SOLVERS)
 
 
 @pytest.mark.parametrize("package", SOLVERS)
@@ -182,14 +189,14 @@ def test_fpk_rejects_unknown_methods_and_steppers():
 def test_montecarlo_rejects_an_unknown_noise_kind(base):
     """(The Monte Carlo's own test is tests/test_montecarlo.py::test_unknown_noise_kind_raises;
     here through the door, as every workflow calls it.)"""
-    from vifpk.harness.run import run_solver
+    from vifpk.harness.door.solvers import run_solver
 
     with pytest.raises(ValueError, match="noise kind must be one of"):
         run_solver(_pink(base), "montecarlo")
 
 
 def test_run_rejects_an_unknown_solver(base):
-    from vifpk.harness.run import run_solver
+    from vifpk.harness.door.solvers import run_solver
 
     with pytest.raises(ValueError, match="solver must be one of"):
         run_solver(base, "oracle")
@@ -208,7 +215,11 @@ def _rooms() -> dict[str, set[str]]:
     return rows
 
 
-@pytest.mark.parametrize("room", ["vifpk", "vifpk/core", *SOLVERS, "harness"])
+HARNESS_ROOMS = ["harness", *sorted(str(p.parent.relative_to(ROOT))
+                                      for p in (ROOT / "harness").glob("*/__init__.py"))]
+
+
+@pytest.mark.parametrize("room", ["vifpk", "vifpk/core", *SOLVERS, *HARNESS_ROOMS])
 def test_architecture_names_every_module_and_no_other(room: str):
     named = _rooms()[room]
     actual = {p.name for p in (ROOT / room).glob("*.py")} - {"__init__.py"} | (
@@ -218,10 +229,70 @@ def test_architecture_names_every_module_and_no_other(room: str):
 
 
 def test_the_door_imports_no_harness_module():
-    """harness/run.py, the door to the solvers, is called by every workflow and calls none of
-    them: of ours it imports the solvers and vifpk.core only (issue 27: run.py and validate.py
-    imported each other; the cost guard's words now wrap the door from validate.py)."""
-    tree = ast.parse((ROOT / DOOR).read_text(encoding="utf-8"))
-    relative = [n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and n.level]
-    assert not relative, relative
-    assert not {m for m in imported_modules(ROOT / DOOR) if m.startswith("vifpk.harness")}
+    """harness/door/, the door to the solvers, is called by every workflow and calls none of
+    them: of ours it imports the solvers, vifpk.core and its own modules only (issue 27:
+    run.py and validate.py imported each other; the cost guard's words now wrap the door from
+    the request layer)."""
+    for path in modules(str(DOOR)):
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        relative = [n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and n.level]
+        assert not relative, (path, relative)
+        outside = {m for m in imported_modules(path)
+                   if m.startswith("vifpk.harness") and not m.startswith("vifpk.harness.door")}
+        assert not outside, (path, outside)
+
+
+def _harness_modules() -> dict[str, Path]:
+    out = {}
+    for p in modules("harness"):
+        parts = ("vifpk", *p.relative_to(ROOT).with_suffix("").parts)
+        out[".".join(parts).removesuffix(".__init__")] = p
+    return out
+
+
+@pytest.mark.parametrize("path", modules("harness"), ids=lambda p: str(p.relative_to(ROOT)))
+def test_no_harness_module_over_the_line_limit(path: Path):
+    n = len(path.read_text(encoding="utf-8").splitlines())
+    assert n <= MAX_LINES, f"{path.relative_to(ROOT)}: {n} lines > {MAX_LINES}; split it"
+
+
+def test_no_import_cycles_in_the_harness():
+    """Tarjan's strongly connected components of the harness's import graph (every import,
+    inside functions too): none larger than one module."""
+    mods = _harness_modules()
+    graph = {m: {d for d in imported_modules(p) if d in mods} for m, p in mods.items()}
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    cycles = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        for w in graph[v]:
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                cycles.append(sorted(comp))
+
+    for v in graph:
+        if v not in index:
+            visit(v)
+    assert not cycles, cycles
+
+
+def test_the_cycle_check_sees_a_cycle(tmp_path: Path):
+    """The scanner the cycle test relies on finds a function-local import."""
+    src = tmp_path / "m.py"
+    src.write_text("def f():\n    from vifpk.harness.sweeps import spec\n")
+    assert "vifpk.harness.sweeps.spec" in imported_modules(src)

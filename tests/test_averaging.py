@@ -19,7 +19,7 @@ from vifpk.averaging.exact import ExactModel
 from vifpk.averaging.geometry import nu_exact, period, potential, restoring, w1_eta
 from vifpk.averaging.paper import PaperModel
 
-from .conftest import phase_mass_gap, vary
+from tests.conftest import phase_mass_gap, vary
 
 A_TEST = np.array([0.1, 0.7, 1.5, 3.0])
 

@@ -7,10 +7,10 @@ import math
 from pathlib import Path
 
 import pytest
-from vifpk.harness.bifurcation import critical_value, mc_shape, with_param
-from vifpk.harness.cli import main
+from vifpk.harness.cli.app import main
+from vifpk.harness.workflows.bifurcation import critical_value, mc_shape, with_param
 
-from .conftest import ROOT, vary
+from tests.conftest import ROOT, vary
 
 
 def mu_critical(c1: float, c2: float, w0: float, loss: float) -> float:
@@ -63,7 +63,7 @@ def test_bifurcation_command_takes_the_corrected_model(tmp_path: Path, base):
     """--model picks the models (issue 15: the corrected model too); its critical r is a sign
     change of its own shape index F, checked 1e-4 either side of the root (brentq's xtol is
     1e-6; the exact model's root, 0.96867, is 9.6e-4 away, so it would fail this check)."""
-    from vifpk.harness.bifurcation import shape_index
+    from vifpk.harness.workflows.bifurcation import shape_index
 
     out = tmp_path / "b.json"
     assert main(["bifurcation", "paper-base", "--vary", "r", "--range", "0.96", "0.98",
@@ -76,7 +76,7 @@ def test_bifurcation_command_takes_the_corrected_model(tmp_path: Path, base):
 
 
 def test_mc_checks_sit_on_both_sides_of_each_critical_value_never_at_the_ends():
-    from vifpk.harness.bifurcation import check_points
+    from vifpk.harness.workflows.bifurcation import check_points
 
     # the paper's critical mu at the base scene is 0.0025, close to the range's lower end 0
     pts = check_points([0.0025, None], 0.0, 0.05, 0.1)
@@ -91,7 +91,7 @@ def test_bifurcation_names_fixed_parameters_and_flags_disagreement(base, monkeyp
     """The output names what is held fixed, and a Monte Carlo shape that contradicts a model's
     prediction is flagged in words (the MC is replaced by a stub that always sees a crater, to
     test the wording, not the physics)."""
-    import vifpk.harness.bifurcation as B
+    import vifpk.harness.workflows.bifurcation as B
 
     monkeypatch.setattr(B, "mc_shape", lambda s: {"shape": "crater", "max_rise_in_se": 9.0,
                                                   "bins_used": 50})
@@ -107,7 +107,7 @@ def test_bifurcation_names_fixed_parameters_and_flags_disagreement(base, monkeyp
 
 def test_bifurcation_says_when_the_paper_claim_holds_other_parameters(base):
     """The paper's critical mu is at r = 0.975; the base scene holds r = 0.96: said in words."""
-    import vifpk.harness.bifurcation as B
+    import vifpk.harness.workflows.bifurcation as B
 
     res = B.bifurcation(base, "mu", models=("paper",), mc=False)
     assert res["paper_claim_fixed"] == {"r": 0.975}

@@ -1,4 +1,4 @@
-"""harness/check.py: a model's measured error belongs to the model (issue 29, item 0).
+"""harness/workflows/check.py: a model's measured error belongs to the model (issue 29, item 0).
 
 The simulation of the original system must not know which models are checked: its ranges,
 burn-in, extensions and seeds, and each averaged SDE's seed and extensions, depend on the scene
@@ -12,9 +12,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from tests.conftest import ROOT
 from vifpk.core import registry
-
-from .conftest import ROOT
 
 PLUGIN = ROOT / "docs" / "examples" / "plugin"
 
@@ -31,7 +30,7 @@ def white_envelope(monkeypatch):
 
 
 def test_the_sde_seed_follows_the_name_not_the_place():
-    from vifpk.harness.check import sde_seed
+    from vifpk.harness.workflows.check import sde_seed
 
     assert sde_seed(7, "exact") == sde_seed(7, "exact")
     seeds = {sde_seed(7, m) for m in ("paper", "exact", "corrected", "white-envelope")}
@@ -45,7 +44,7 @@ def test_exact_is_measured_the_same_whatever_else_is_checked(white_envelope):
     ``exact`` (averaging and sampling errors, all observables and metrics) and the simulation
     itself (edges, densities, burn-in) are bit-identical. The plugin's support (2.3) is far
     beyond the others' (1.3-1.6): it used to stretch the range of every histogram."""
-    from vifpk.harness.check import cross_check
+    from vifpk.harness.workflows.check import cross_check
 
     from vifpk.core.scene import load_scene
 
@@ -79,7 +78,7 @@ def test_check_tolerance_verdict_end_to_end(tmp_path, capsys, canned_check):
     that names it; a tolerance out of range exits 2 before any work."""
     import json
 
-    from vifpk.harness.cli import main
+    from vifpk.harness.cli.app import main
 
     tiny = str(ROOT / "tests" / "data" / "tiny.toml")
     out = tmp_path / "rep"

@@ -10,9 +10,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from vifpk.harness.cli import main
+from vifpk.harness.cli.app import main
 
-from .conftest import ROOT
+from tests.conftest import ROOT
 
 BASE = str(ROOT / "scenes" / "paper-base.toml")
 
@@ -27,7 +27,7 @@ def test_solve_json_contract(tmp_path: Path, model: str):
     assert d["scene"]["system"]["r"] == 0.96
     # the JSON round trip is exact (json writes floats with repr): the densities in the file
     # are bit for bit the solver's (their normalisation is the solver's own doing)
-    from vifpk.harness.run import closed_form
+    from vifpk.harness.door.solvers import closed_form
 
     from vifpk.core.scene import load_scene
 
@@ -128,9 +128,9 @@ def test_budget_too_small_for_the_pilots_is_refused_up_front(capsys):
 def test_budget_spent_before_the_first_window_exits_3_with_one_line(monkeypatch, capsys):
     """A budget above the up-front lower bound that still runs out in the pilots (here the
     bound is disabled by an infinite assumed speed): exit 3, one line, no file written."""
-    from vifpk.harness import validate
+    from vifpk.harness.request import cost
 
-    monkeypatch.setattr(validate, "MC_STEPS_PER_CORE", math.inf)
+    monkeypatch.setattr(cost, "MC_STEPS_PER_CORE", math.inf)
     code = main(["solve", BASE, "--solver", "montecarlo", "--paths", "64", "--floor", "1e-4",
                  "--budget", "1e-6", "--set", "montecarlo.burn_in=20"])
     err = capsys.readouterr().err
@@ -142,14 +142,14 @@ def test_budget_spent_before_the_first_window_exits_3_with_one_line(monkeypatch,
 
 
 def test_a_value_error_inside_a_run_is_one_line_exit_3(monkeypatch, capsys):
-    """cli.main lets no ValueError out as a traceback (issue 19): one line, exit 3."""
-    import vifpk.harness.cli as cli
+    """app.main lets no ValueError out as a traceback (issue 19): one line, exit 3."""
+    from vifpk.harness.cli import app
 
     def boom(args):
         raise ValueError("no sample was taken: time must be at least sample_every")
 
-    parser = cli.build_parser
-    monkeypatch.setattr(cli, "build_parser", lambda: _with_func(parser(), boom))
+    parser = app.build_parser
+    monkeypatch.setattr(app, "build_parser", lambda: _with_func(parser(), boom))
     code = main(["solve", BASE])
     err = capsys.readouterr().err
     assert code == 3, err

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import pytest
 
-from .conftest import ROOT
+from tests.conftest import ROOT
 
 BASE = "paper-base"
 MC = ("--solver", "montecarlo")
@@ -237,7 +237,7 @@ def test_bad_input_exit_2_one_line_nothing_written(subprocess_results, case_id):
 @pytest.mark.parametrize("case", CATALOGUE, ids=IDS)
 def test_bad_input_is_refused_before_any_computation(no_computation, tmp_path, capsys,
                                                      monkeypatch, case):
-    from vifpk.harness.cli import main
+    from vifpk.harness.cli.app import main
 
     monkeypatch.chdir(tmp_path)
     args, needle = _materialise(case, tmp_path / "case")
@@ -254,7 +254,7 @@ def test_values_on_the_grid_are_accepted_exactly(tmp_path):
     --allow-unequilibrated, the settings being the subject)."""
     import json
 
-    from vifpk.harness.cli import main
+    from vifpk.harness.cli.app import main
 
     out = tmp_path / "mc.json"
     assert main(["solve", BASE, *MC, "--paths", "64", "--time", "48", "--dt", "0.03125",
@@ -266,7 +266,7 @@ def test_values_on_the_grid_are_accepted_exactly(tmp_path):
 
 
 def test_utf8_bom_scene_is_accepted(tmp_path, capsys):
-    from vifpk.harness.cli import main
+    from vifpk.harness.cli.app import main
 
     scene = tmp_path / "bom.toml"
     scene.write_bytes(b"\xef\xbb\xbf[system]\nr = 0.9\n")
@@ -323,7 +323,7 @@ def test_ctrl_c_stops_a_monte_carlo_within_seconds(tmp_path):
 
 def test_yes_lets_a_costly_run_past_the_estimate(no_computation, tmp_path, capsys):
     """--yes skips only the cost refusal: the (forbidden) computation is then reached."""
-    from vifpk.harness.cli import main
+    from vifpk.harness.cli.app import main
 
     with pytest.raises(AssertionError, match="computation started"):
         main(["solve", BASE, *MC, "--dt", "1e-9", "--yes"])
@@ -331,7 +331,7 @@ def test_yes_lets_a_costly_run_past_the_estimate(no_computation, tmp_path, capsy
 
 @pytest.mark.parametrize("case", PARSER_CATALOGUE, ids=[c[0] for c in PARSER_CATALOGUE])
 def test_bad_arguments_are_refused_by_the_parser(no_computation, tmp_path, capsys, case):
-    from vifpk.harness.cli import main
+    from vifpk.harness.cli.app import main
 
     args, needle = _materialise(case, tmp_path / "case")
     with pytest.raises(SystemExit) as exc:
@@ -345,7 +345,7 @@ def test_transient_times_off_the_step_grid_are_refused_not_moved(no_computation,
     """Review of issue 30: --times 0.001,0.002 with dt = 0.01 ran, both Monte Carlo snapshots
     taken at t = 0 while metrics.json said 0.001 and 0.002; now exit 2 with the nearest valid
     times, before any work."""
-    from vifpk.harness.cli import main
+    from vifpk.harness.cli.app import main
 
     assert main(["transient", BASE, "--start", "1.0", "--times", "0.001,0.002"]) == 2
     err = capsys.readouterr().err

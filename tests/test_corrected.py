@@ -6,10 +6,9 @@ import numpy as np
 import pytest
 from vifpk.averaging.corrected import CompoundedModel, q_frame_density, wall_offset
 
+from tests.conftest import ROOT
 from vifpk import averaging
 from vifpk.core.scene import load_scene
-
-from .conftest import ROOT
 
 BASE = load_scene(ROOT / "scenes" / "paper-base.toml")
 
@@ -155,8 +154,8 @@ def test_observation_map_is_a_markov_kernel_adding_the_fast_variance():
 def test_fpk_of_corrected_is_observed_alike():
     """With the observation map on, the FPK goes through the same map: its p(A) matches the
     closed form to the FPK's own discretisation error (400 cells: 4e-5; bound 1e-3)."""
-    from vifpk.harness.compare import compare
-    from vifpk.harness.run import closed_form, fpk_solution
+    from vifpk.harness.door.solvers import closed_form, fpk_solution
+    from vifpk.harness.workflows.compare import compare
 
     scene = BASE.with_values({"noise.alpha1": 1.0})
     c = closed_form(scene, model="corrected", fast=True)

@@ -36,7 +36,7 @@ def test_readme_headline_numbers_agree_with_a_fresh_small_run():
     inequality: |L1(p, q*) - L1(p, q)| <= L1(q, q*), whose mean is the noise floor; 2 x the floor
     covers its spread), so the two runs agree within 2 x (floor_small + floor_recorded), plus
     0.005 for the README's rounding to 2 decimals."""
-    from vifpk.harness.check import cross_check
+    from vifpk.harness.workflows.check import cross_check
 
     from vifpk.core.scene import load_scene
 

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import pytest
 
-from .conftest import ROOT
+from tests.conftest import ROOT
 
 DATA = ROOT / "tests" / "data"
 BASE = "paper-base"
@@ -356,7 +356,7 @@ def _snapshot(folder: Path) -> dict[str, bytes]:
 
 @pytest.mark.parametrize("case", CASES, ids=[c[0] for c in CASES])
 def test_refused_before_any_work(case, no_computation, tmp_path, monkeypatch, capsys):
-    from vifpk.harness.cli import main
+    from vifpk.harness.cli.app import main
 
     monkeypatch.chdir(tmp_path)
     _ENV.clear()
@@ -379,7 +379,7 @@ def test_refused_before_any_work(case, no_computation, tmp_path, monkeypatch, ca
 # A: the lock, and the name of the default folder
 def _canned(monkeypatch):
     """The averaging workflow replaced by a canned result: plumbing only, no physics."""
-    import vifpk.harness.sweep
+    import vifpk.harness.sweeps.points
 
     def canned(job):
         r = dict(job.params)["system.r"]
@@ -387,12 +387,12 @@ def _canned(monkeypatch):
                 "flags": {"warn_narrow_band": False, "warn_strong_damping": False,
                           "warn_strong_noise": False}, "warnings": [], "L1_paper_exact_A": 0.1}
 
-    monkeypatch.setitem(vifpk.harness.sweep.WORKFLOW_FUNCTIONS, "averaging", canned)
+    monkeypatch.setitem(vifpk.harness.sweeps.points.WORKFLOW_FUNCTIONS, "averaging", canned)
 
 
 def test_second_sweep_into_a_held_folder_is_refused(tmp_path, monkeypatch, capsys):
     """Another live run holds the folder (its lock taken by a second process): refused."""
-    from vifpk.harness.cli import main
+    from vifpk.harness.cli.app import main
 
     _canned(monkeypatch)
     out = tmp_path / "o"
@@ -414,7 +414,7 @@ def test_second_sweep_into_a_held_folder_is_refused(tmp_path, monkeypatch, capsy
 
 def test_sweep_then_check_then_sweep_neither_overwrites(tmp_path, monkeypatch, capsys):
     """A finished sweep folder: the check refuses it; the sweep again skips its points."""
-    from vifpk.harness.cli import main
+    from vifpk.harness.cli.app import main
 
     _canned(monkeypatch)
     out = tmp_path / "o"
@@ -432,7 +432,7 @@ def test_sweep_then_check_then_sweep_neither_overwrites(tmp_path, monkeypatch, c
 
 def test_sweep_name_cannot_escape_out(tmp_path, monkeypatch, capsys):
     """name = "../../escaped": the default folder is out/<the name made one folder name>."""
-    from vifpk.harness.cli import main
+    from vifpk.harness.cli.app import main
 
     _canned(monkeypatch)
     monkeypatch.chdir(tmp_path)
@@ -444,7 +444,7 @@ def test_sweep_name_cannot_escape_out(tmp_path, monkeypatch, capsys):
 
 
 def test_sweep_file_with_bom_is_read(tmp_path, monkeypatch, capsys):
-    from vifpk.harness.sweep import load_sweep
+    from vifpk.harness.sweeps.spec import load_sweep
 
     p = _sweep_file(tmp_path)
     p.write_bytes(b"\xef\xbb\xbf" + p.read_bytes())
@@ -454,7 +454,7 @@ def test_sweep_file_with_bom_is_read(tmp_path, monkeypatch, capsys):
 
 def test_shipped_names_still_resolve():
     """A bare name finds a shipped scene or sweep; hard/NAME too."""
-    from vifpk.harness.sweep import load_sweep
+    from vifpk.harness.sweeps.spec import load_sweep
 
     from vifpk.core.scene import load_scene
 
@@ -549,7 +549,7 @@ def test_sigterm_on_check_is_like_ctrl_c(tmp_path):
 # --------------------------------------------------------------------------------------------
 # E: failures that are found only while computing exit 3 with one line
 def test_numba_threads_zero_in_the_environment(monkeypatch, capsys, no_computation):
-    from vifpk.harness.cli import main
+    from vifpk.harness.cli.app import main
 
     monkeypatch.setenv("NUMBA_NUM_THREADS", "0")
     assert main(["solve", BASE]) == 2
@@ -559,7 +559,7 @@ def test_numba_threads_zero_in_the_environment(monkeypatch, capsys, no_computati
 
 
 def test_bifurcation_without_noise_exits_3(tmp_path, capsys, no_computation):
-    from vifpk.harness.cli import main
+    from vifpk.harness.cli.app import main
 
     assert main(["bifurcation", _scene(tmp_path, "[system]\nf = 0.0\n"), "--vary", "mu",
                  "--no-mc"]) == 3
@@ -584,7 +584,7 @@ def test_full_disk_on_stdout_exits_3_one_line(tmp_path):
 def test_averaging_sweep_point_with_nonsense_numbers_fails():
     """D = 1e-90 (inside the magnitude box) overflows the closed forms: `solve` exits 3 on it,
     and the sweep records the point as failed (numerical), never "ok" with nonsense."""
-    from vifpk.harness.sweep import Job, run_point
+    from vifpk.harness.sweeps.points import Job, run_point
 
     from vifpk.core.scene import load_scene
 
@@ -599,7 +599,7 @@ def test_workprecision_prints_no_nan_fit():
     """A bias fit the ladder cannot determine is said in words, not printed as nan."""
     import math
 
-    from vifpk.harness.workprecision import table_markdown
+    from vifpk.harness.workflows.workprecision import table_markdown
 
     data = {"seconds_to_reach": {"closed form (paper)": {"1e-2": 0.1, "1e-3": math.nan}},
             "mc_bias_variance": {"paths": 64, "time": 10.0, "ladder": [
@@ -615,13 +615,13 @@ def test_workprecision_prints_no_nan_fit():
 # --------------------------------------------------------------------------------------------
 # D: the measured speed of this machine
 def test_machine_speed_is_measured_once_and_cached(tmp_path, monkeypatch):
-    from vifpk.harness import validate
+    from vifpk.harness.request import cost
 
     monkeypatch.delenv("VIFPK_STEPS_PER_SECOND")
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
     calls = []
-    monkeypatch.setattr(validate, "_calibrate", lambda: calls.append(1) or 1.5e7)
-    assert validate.machine_speed() == 1.5e7 and validate.machine_speed() == 1.5e7
+    monkeypatch.setattr(cost, "_calibrate", lambda: calls.append(1) or 1.5e7)
+    assert cost.machine_speed() == 1.5e7 and cost.machine_speed() == 1.5e7
     assert calls == [1]
     cached = json.loads((tmp_path / "vifpk" / "speed.json").read_text())
     assert cached["steps_per_second_per_core"] == 1.5e7 and cached["cores"] == os.cpu_count()
@@ -631,23 +631,23 @@ def test_cost_between_the_bounds_uses_the_measured_speed(monkeypatch):
     """At the fastest rate a run looks like 20 minutes; at this machine's measured speed
     (3x slower) it is an hour: refused; the estimate above an hour at the fastest rate needs
     no measurement; far below it neither."""
-    from vifpk.harness import validate
+    from vifpk.harness.request import cost, validate
 
     speeds = []
 
     def estimate(sp):
         speeds.append(sp)
-        return 1200.0 * validate.MC_STEPS_PER_CORE / (sp or validate.MC_STEPS_PER_CORE)
+        return 1200.0 * cost.MC_STEPS_PER_CORE / (sp or cost.MC_STEPS_PER_CORE)
 
-    monkeypatch.setenv("VIFPK_STEPS_PER_SECOND", str(validate.MC_STEPS_PER_CORE / 3.5))
+    monkeypatch.setenv("VIFPK_STEPS_PER_SECOND", str(cost.MC_STEPS_PER_CORE / 3.5))
     with pytest.raises(validate.InputError, match="estimated at least 70 minutes"):
-        validate.refuse_costly(estimate, "this run", False)
-    assert speeds == [None, validate.MC_STEPS_PER_CORE / 3.5]
-    validate.refuse_costly(lambda sp: 60.0, "this run", False)
-    validate.refuse_costly(lambda sp: 1e9, "this run", True)  # --yes
+        cost.refuse_costly(estimate, "this run", False)
+    assert speeds == [None, cost.MC_STEPS_PER_CORE / 3.5]
+    cost.refuse_costly(lambda sp: 60.0, "this run", False)
+    cost.refuse_costly(lambda sp: 1e9, "this run", True)  # --yes
     monkeypatch.setenv("VIFPK_STEPS_PER_SECOND", "fast")
     with pytest.raises(validate.InputError, match="VIFPK_STEPS_PER_SECOND=fast"):
-        validate.refuse_costly(estimate, "this run", False)
+        cost.refuse_costly(estimate, "this run", False)
 
 
 # --------------------------------------------------------------------------------------------
@@ -662,7 +662,7 @@ def _entry(**l1):
 def test_headline_verdict_is_the_worst_observable():
     """The issue's case: p(A) within the noise but p(x2) 2.8 x its floor: not called
     indistinguishable; the line names each observable's class."""
-    from vifpk.harness.check import verdict, verdict_class
+    from vifpk.harness.workflows.verdict import verdict, verdict_class
 
     e = _entry(A=0.02, x1=0.03, x2=2.8 * 0.018)
     cls, cause = verdict_class(e, [])
@@ -675,8 +675,8 @@ def test_headline_verdict_is_the_worst_observable():
 
 
 def test_each_class_has_its_own_colour():
-    from vifpk.harness.check import RANK
-    from vifpk.harness.report import CLASS_COLOURS, _class_css
+    from vifpk.harness.outputs.report import CLASS_COLOURS, _class_css
+    from vifpk.harness.workflows.verdict import RANK
 
     CLASSES = [*RANK, "not an estimate"]  # every class verdict_class returns
 
@@ -687,7 +687,7 @@ def test_each_class_has_its_own_colour():
 
 
 def test_help_texts_count_the_models():
-    from vifpk.harness.cli import build_parser
+    from vifpk.harness.cli.app import build_parser
 
     sub = next(a for a in build_parser()._actions if hasattr(a, "choices") and a.choices)
     helps = {a.dest: a.help for a in sub._choices_actions}
@@ -697,8 +697,8 @@ def test_help_texts_count_the_models():
 
 
 def test_bifurcation_prints_words_not_python_reprs(monkeypatch, capsys):
-    import vifpk.harness.bifurcation
-    from vifpk.harness.cli import main
+    import vifpk.harness.workflows.bifurcation
+    from vifpk.harness.cli.app import main
 
     def canned(scene, vary, **kw):
         return {"fixed": {"r": 0.96}, "critical": {"paper": None, "exact": 0.0123},
@@ -707,7 +707,7 @@ def test_bifurcation_prints_words_not_python_reprs(monkeypatch, capsys):
                               "monte_carlo": {"shape": "peak", "max_rise_in_se": 1.5},
                               "words": "agrees"}]}
 
-    monkeypatch.setattr(vifpk.harness.bifurcation, "bifurcation", canned)
+    monkeypatch.setattr(vifpk.harness.workflows.bifurcation, "bifurcation", canned)
     assert main(["bifurcation", BASE, "--vary", "mu", "--no-mc", "--quiet"]) == 0
     out = capsys.readouterr().out
     assert "{" not in out and "[" not in out and "'paper'" not in out, out
@@ -718,7 +718,7 @@ def test_bifurcation_prints_words_not_python_reprs(monkeypatch, capsys):
 def test_leftover_temporaries_are_cleared_not_refused(tmp_path, monkeypatch, capsys):
     """A killed write leaves `.sweep.nc.<hex>.tmp.nc` or `.KEY.json.<hex>.tmp.json`: the next
     run into the folder clears them (with the lock held) instead of calling them foreign."""
-    from vifpk.harness.cli import main
+    from vifpk.harness.cli.app import main
 
     _canned(monkeypatch)
     out = _sweep_folder(tmp_path / "o")
@@ -739,7 +739,7 @@ def _unequilibrated(out: Path, *extra: str) -> list[str]:
 def test_not_equilibrated_exits_3_and_keeps_the_output(tmp_path, capsys):
     """R-hat fails (the paths remember their start): exit 3, one line naming the diagnostic
     and the remedy; the JSON is written, its certificate inside (nothing lost)."""
-    from vifpk.harness.cli import main
+    from vifpk.harness.cli.app import main
 
     out = tmp_path / "mc.json"
     assert main(_unequilibrated(out)) == 3
@@ -757,7 +757,7 @@ def test_not_equilibrated_exits_3_and_keeps_the_output(tmp_path, capsys):
 def test_allow_unequilibrated_exits_0_with_the_warning(tmp_path, capsys):
     """--allow-unequilibrated: exit 0; --json hides the summary, so the warning is said on
     stderr."""
-    from vifpk.harness.cli import main
+    from vifpk.harness.cli.app import main
 
     out = tmp_path / "mc.json"
     assert main(_unequilibrated(out, "--allow-unequilibrated")) == 0
@@ -769,7 +769,7 @@ def test_allow_unequilibrated_exits_0_with_the_warning(tmp_path, capsys):
 def test_too_few_samples_alone_is_a_warning_not_a_failure():
     """An effective sample size below 400 alone (a short exploratory run, e.g. 64 paths x 50:
     ESS 68-86 in 6 seeds, R-hat and drift passing) keeps exit 0: its error bars say it."""
-    from vifpk.harness.cli import _not_equilibrated
+    from vifpk.harness.cli.commands import _not_equilibrated
 
     conv = {"equilibrated": False, "failed": ["ess"], "rhat": 1.0, "rhat_limit": 1.1,
             "drift_z": 0.3, "drift_limit": 4.0, "burn_in": 20.0}
@@ -796,7 +796,7 @@ def test_energy_balance_agrees_with_the_averaged_model(values):
     """energy_balance's verdict from the exponents alone (no constants) against an independent
     truth: the exact averaged model's stationary density by orbit quadrature (averaging/),
     which exists exactly when the averaged energy drift turns negative at large amplitude."""
-    from vifpk.harness.run import SolverFailure, run_solver
+    from vifpk.harness.door.solvers import SolverFailure, run_solver
 
     from vifpk.core.scene import energy_balance, load_scene
 
@@ -816,7 +816,7 @@ def test_a_tie_is_left_to_the_solvers():
     """A linear spring with c1 > 0, c2 = 0 and impacts: gain and loss both ~ A^2, so the
     constants decide: not refused up front (c1 = 0.5, c2 = 0 with the cubic spring is not a
     tie: the impacts win, and the averaged model has a density there)."""
-    from vifpk.harness import validate
+    from vifpk.harness.request import validate
 
     from vifpk.core.scene import energy_balance, load_scene
 
@@ -832,7 +832,7 @@ def test_a_tie_is_left_to_the_solvers():
 def test_a_blow_up_leads_with_energy_growth(capsys):
     """The tie above blows up at run time (the gain wins): the one line says the energy grows
     without bound before any time-step advice."""
-    from vifpk.harness.cli import main
+    from vifpk.harness.cli.app import main
 
     assert main(["solve", str(DATA / "tiny.toml"), *MC, "--set", "system.alpha=0", "--set",
                  "system.c2=0", "--set", "system.c1=0.5"]) == 3
@@ -855,7 +855,7 @@ def test_auto_burn_in_is_priced_after_the_relaxation_pilot(command, tmp_path, mo
     so any burn-in is above the hour): exit 2 before the burn-in, one line naming the measured
     relaxation time, the price and the ways out; nothing written. The up-front estimate is
     far below an hour/8 at the fastest rate, so it passes without the measured speed."""
-    from vifpk.harness.cli import main
+    from vifpk.harness.cli.app import main
 
     monkeypatch.setenv("VIFPK_STEPS_PER_SECOND", "1e-3")
     out = tmp_path / ("mc.json" if command == "solve" else "report")
@@ -873,14 +873,14 @@ def test_auto_burn_in_is_priced_after_the_relaxation_pilot(command, tmp_path, mo
 
 
 def test_yes_lifts_the_price_of_the_measured_burn_in(monkeypatch):
-    from vifpk.harness import validate
+    from vifpk.harness.request import cost
 
     from vifpk.core.scene import load_scene
 
     monkeypatch.setenv("VIFPK_STEPS_PER_SECOND", "2e7")
     scene = load_scene(BASE).with_values({"montecarlo.threads": 1})
-    assert validate.run_cost_limit(scene, True) is None
-    assert validate.run_cost_limit(scene, False) == (validate.HOUR, 2e7)
+    assert cost.run_cost_limit(scene, True) is None
+    assert cost.run_cost_limit(scene, False) == (cost.HOUR, 2e7)
 
 
 # --------------------------------------------------------------------------------------------
@@ -892,21 +892,21 @@ def test_unwritable_folder_is_refused_before_any_work(err, command, tmp_path, mo
                                                       capsys, no_computation):
     import tempfile
 
-    import vifpk.harness.validate
+    import vifpk.harness.request.validate
 
     def refuse(*a, **k):
         raise OSError(err[0], err[1])
 
     args = (["sweep", str(_sweep_file(tmp_path / "in"))] if command == "sweep"
             else ["check", BASE])
-    from vifpk.harness.cli import main
+    from vifpk.harness.cli.app import main
 
     before = _snapshot(tmp_path)
-    monkeypatch.setattr(vifpk.harness.validate.tempfile, "mkstemp", refuse)
+    monkeypatch.setattr(vifpk.harness.request.validate.tempfile, "mkstemp", refuse)
     try:
         code = main([*args, "--out", str(tmp_path / "o")])
     finally:
-        monkeypatch.setattr(vifpk.harness.validate.tempfile, "mkstemp", tempfile.mkstemp)
+        monkeypatch.setattr(vifpk.harness.request.validate.tempfile, "mkstemp", tempfile.mkstemp)
     out = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(out) == 1, out
     assert f"--out {tmp_path / 'o'}: cannot write in {tmp_path} ({err[1]})" in out[0]

@@ -14,9 +14,8 @@ from pathlib import Path
 
 import pytest
 
+from tests.conftest import ROOT
 from vifpk.core import registry
-
-from .conftest import ROOT
 
 DATA = ROOT / "tests" / "data"
 SCENE = 'name = "s"\n[system]\nr = 0.95\n'
@@ -110,7 +109,7 @@ def _snapshot(folder: Path) -> dict[str, bytes]:
 
 
 def _refused(args: list[str], tmp_path: Path, capsys, contains: str) -> None:
-    from vifpk.harness.cli import main
+    from vifpk.harness.cli.app import main
 
     before = _snapshot(tmp_path)
     try:
@@ -228,7 +227,7 @@ PLUGINS = [
 def test_a_misbehaving_plugin_is_named_with_its_file(case, tmp_path, monkeypatch, capsys):
     """Exit 3, one line naming the plugin, its distribution and file, and what it did --
     never a vifpk 'internal error', never 'the scene's magnitudes', never exit 0."""
-    from vifpk.harness.cli import main
+    from vifpk.harness.cli.app import main
 
     src = _plugin(tmp_path, monkeypatch, case[1])
     monkeypatch.chdir(tmp_path)
@@ -242,7 +241,7 @@ def test_a_misbehaving_plugin_is_named_with_its_file(case, tmp_path, monkeypatch
 
 
 def test_a_good_plugin_solves_through_the_guard(tmp_path, monkeypatch, capsys):
-    from vifpk.harness.cli import main
+    from vifpk.harness.cli.app import main
 
     _plugin(tmp_path, monkeypatch, GOOD)
     monkeypatch.chdir(tmp_path)
@@ -252,7 +251,7 @@ def test_a_good_plugin_solves_through_the_guard(tmp_path, monkeypatch, capsys):
 
 
 def test_models_lists_an_entry_point_to_a_missing_module_as_broken(monkeypatch, capsys):
-    from vifpk.harness.cli import main
+    from vifpk.harness.cli.app import main
 
     entry = registry.ModelEntry("ghost", "no_such_module_xyz:build", "ghost-dist")
     builtin = tuple(e for e in registry.models() if e.builtin)
@@ -273,7 +272,7 @@ def test_the_example_plugin_runs_on_its_family_and_refuses_the_rest(monkeypatch,
     import sys
 
     import numpy as np
-    from vifpk.harness.cli import main
+    from vifpk.harness.cli.app import main
 
     from vifpk.core.scene import load_scene, shipped_names
 
@@ -314,7 +313,8 @@ def test_a_failing_plugin_in_a_sweep_keeps_the_other_models_numbers(tmp_path, mo
     check workflow runs the cross-check again without the plugin."""
     from types import SimpleNamespace
 
-    from vifpk.harness import check, sweep
+    from vifpk.harness.sweeps import points as sweeps_points
+    from vifpk.harness.workflows import check
 
     from vifpk.core.guard import PluginError
     from vifpk.core.scene import load_scene
@@ -322,7 +322,7 @@ def test_a_failing_plugin_in_a_sweep_keeps_the_other_models_numbers(tmp_path, mo
     _plugin(tmp_path, monkeypatch, GOOD.replace("return -0.1 * A + 0.005 / A",
                                                 "return {}['k']"))
     job = SimpleNamespace(scene=load_scene("paper-base"), models=("exact", "mine"))
-    out = sweep._averaging_point(job)
+    out = sweeps_points._averaging_point(job)
     assert out["models"]["exact"]["mean_A"] > 0
     assert "model plugin 'mine'" in out["models"]["mine"]["failure"]
     assert "drift(A) raised KeyError" in out["models"]["mine"]["failure"]
@@ -337,7 +337,7 @@ def test_a_failing_plugin_in_a_sweep_keeps_the_other_models_numbers(tmp_path, mo
 
     monkeypatch.setattr(check, "cross_check", fake_cross_check)
     with pytest.raises(RuntimeError, match="stop here"):
-        sweep._check_point(SimpleNamespace(scene=job.scene, models=("exact", "mine"),
+        sweeps_points._check_point(SimpleNamespace(scene=job.scene, models=("exact", "mine"),
                                            sde=False, tolerance=0.02,
                                            tolerance_question=("L1", "A", 0.95)))
     assert seen == [("exact", "mine"), ("exact",)]
@@ -391,7 +391,7 @@ def test_progress_into_a_file_is_plain_lines(monkeypatch):
 
 def test_the_papers_bifurcation_claim_only_for_the_papers_system(monkeypatch, capsys):
     """`bifurcation systems/quintic` printed 'paper claims: mu near 0.038 at r = 0.975'."""
-    from vifpk.harness import bifurcation as bif
+    from vifpk.harness.workflows import bifurcation as bif
 
     from vifpk.core.scene import load_scene
 
@@ -424,6 +424,6 @@ def test_sizes_are_refused_for_their_true_reason(case, no_computation, tmp_path,
 
 
 def test_a_whole_number_with_an_exponent_is_taken(tmp_path):
-    from vifpk.harness.request import concrete
+    from vifpk.harness.request.prepare import concrete
 
     assert concrete("paper-base", ["averaging.points=1.5e3"]).averaging.points == 1500

@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from vifpk.harness.cli import main
+from vifpk.harness.cli.app import main
 
 
 def test_figures_command(tmp_path: Path):

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import argparse
 
-from vifpk.harness.cli import _checked_scene
-from vifpk.harness.sweep import load_sweep
+from vifpk.harness.cli.options import _checked_scene
+from vifpk.harness.sweeps.spec import load_sweep
 
 
 def _args(**kw):

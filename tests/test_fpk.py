@@ -11,11 +11,10 @@ import numpy as np
 import pytest
 from scipy.interpolate import CubicSpline
 from vifpk.averaging import build_model, solve
-from vifpk.harness.run import run_solver
+from vifpk.harness.door.solvers import run_solver
 
+from tests.conftest import phase_mass_gap, vary
 from vifpk import fpk
-
-from .conftest import phase_mass_gap, vary
 
 # Rayleigh: m = -a A + s/(2A), sigma^2 = s  =>  p = (2a/s) A exp(-a A^2 / s);
 # A is the radius of a 2-D OU process, whose radial generator has eigenvalues -2ak: tau = 1/(2a)

@@ -9,12 +9,12 @@ from pathlib import Path
 
 import pytest
 from vifpk.averaging import solve
-from vifpk.harness.check import WARNING_KINDS, assumption_warnings, cross_check, output_problems
-from vifpk.harness.cli import main
+from vifpk.harness.cli.app import main
+from vifpk.harness.workflows.assumptions import WARNING_KINDS, assumption_warnings
+from vifpk.harness.workflows.check import cross_check, output_problems
 
+from tests.conftest import ROOT
 from vifpk.core.scene import load_scene
-
-from .conftest import ROOT
 
 HARD = sorted((ROOT / "scenes" / "hard").glob("*.toml"))
 # What the warnings must say (one keyword a failed assumption). Each expectation comes from a

@@ -10,10 +10,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from vifpk.harness.cli import main
-from vifpk.harness.compare import bin_average, compare
+from vifpk.harness.cli.app import main
+from vifpk.harness.workflows.compare import bin_average, compare
 
-from .conftest import ROOT
+from tests.conftest import ROOT
 
 TINY = str(ROOT / "tests" / "data" / "tiny.toml")
 
@@ -121,7 +121,7 @@ def test_check_end_to_end(tmp_path: Path, capsys, canned_check):
 
 def test_interrupted_report_leaves_no_complete_looking_file(tmp_path: Path, monkeypatch,
                                                            canned_check):
-    from vifpk.harness import report
+    from vifpk.harness.outputs import report
 
     def boom(*a, **k):
         raise KeyboardInterrupt
@@ -153,7 +153,7 @@ VAL = {"wall": [0.05, 0.01, 0.0], "band": [2.0, 1.9, 1.8]}
 def test_recommend_takes_the_model_within_the_tolerance():
     """Default tolerance L1(A) <= 0.02 at 95%: the model inside it with the lower error
     estimate, and the line names the tolerance."""
-    from vifpk.harness.check import recommend
+    from vifpk.harness.workflows.verdict import recommend
 
     m, line = recommend(_canned({"exact": 0.08, "corrected": 0.015}), [], VAL)
     assert m == "corrected" and line.startswith("recommended model: corrected -- within the")
@@ -171,7 +171,8 @@ def test_recommend_takes_the_model_within_the_tolerance():
 def test_recommend_within_the_noise_follows_the_wall_term_validity():
     """Both inside and their estimates within the floor: corrected unless its wall term is
     outside its derivation (delta/E above WALL_MAX at the 10% energy), then exact."""
-    from vifpk.harness.check import WALL_MAX, recommend
+    from vifpk.harness.workflows.assumptions import WALL_MAX
+    from vifpk.harness.workflows.verdict import recommend
 
     tie = _canned({"exact": 0.011, "corrected": 0.013})
     assert recommend(tie, [], VAL)[0] == "corrected"
@@ -180,7 +181,7 @@ def test_recommend_within_the_noise_follows_the_wall_term_validity():
 
 
 def test_recommend_none_only_when_no_model_is_within_the_tolerance():
-    from vifpk.harness.check import recommend
+    from vifpk.harness.workflows.verdict import recommend
 
     m, line = recommend(_canned({"exact": 0.01, "corrected": 0.01}), [], VAL,
                         convergence={"equilibrated": False})
@@ -192,7 +193,7 @@ def test_recommend_none_only_when_no_model_is_within_the_tolerance():
 def test_failing_assumptions_are_advice_not_a_veto():
     """Issue 29: a strong-noise or narrow-band warning no longer vetoes a model whose measured
     error is small; the warning stays in the line as advice."""
-    from vifpk.harness.check import recommend
+    from vifpk.harness.workflows.verdict import recommend
 
     from vifpk.core.result import WarningRecord
 
@@ -205,7 +206,7 @@ def test_failing_assumptions_are_advice_not_a_veto():
 def test_an_undecided_model_is_recommended_only_provisionally():
     """Estimate below the tolerance but not at 95%: named provisionally (P >= 1/2); a model
     more likely outside than inside is not."""
-    from vifpk.harness.check import recommend
+    from vifpk.harness.workflows.verdict import recommend
 
     m, line = recommend(_canned({"exact": 0.019, "corrected": 0.06}, err=0.004), [], VAL)
     assert m == "exact" and "provisionally" in line and "longer run" in line
@@ -215,7 +216,8 @@ def test_an_undecided_model_is_recommended_only_provisionally():
 
 def test_advisory_warning_keeps_the_recommendation_and_the_estimate():
     """correlated noise is advisory: the verdict stays an estimate and a model is named."""
-    from vifpk.harness.check import ADVISORY, recommend, verdict_class
+    from vifpk.harness.workflows.assumptions import ADVISORY
+    from vifpk.harness.workflows.verdict import recommend, verdict_class
 
     from vifpk.core.result import WarningRecord
 
@@ -234,7 +236,7 @@ def test_passage_splitting_door_gives_the_mfpt_layout():
     """harness.run.passage_splitting: info["mfpt"] with value, stderr and a 95% interval that
     holds the value; default levels from the exact model's quartile and median, below the
     threshold."""
-    from vifpk.harness.run import passage_splitting
+    from vifpk.harness.door.timedomain import passage_splitting
 
     from vifpk.core.scene import load_scene
 
@@ -251,7 +253,7 @@ def test_recommend_any_measured_model_by_its_error_not_its_name():
     """Issue 27/28: a check of the paper model alone, or of a plugin alone, crashed in
     recommend (min of an empty list); any model whose error is measured is a candidate, and
     among models tied within the noise the one with the most derived terms is preferred."""
-    from vifpk.harness.check import recommend
+    from vifpk.harness.workflows.verdict import recommend
 
     m, line = recommend(_canned({"paper": 0.5}), [], VAL)
     assert m == "none" and "paper 0.5" in line and "outside" in line
@@ -265,7 +267,7 @@ def test_recommend_any_measured_model_by_its_error_not_its_name():
 
 @pytest.mark.slow
 def test_passage_splitting_door_stationary_start_says_its_burn_in():
-    from vifpk.harness.run import passage_splitting
+    from vifpk.harness.door.timedomain import passage_splitting
 
     from vifpk.core.scene import load_scene
 

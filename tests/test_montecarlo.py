@@ -21,10 +21,9 @@ from vifpk.montecarlo import kernels as K
 from vifpk.montecarlo.averaged_sde import simulate_sde
 from vifpk.montecarlo.rng import fill_normals, states_from_seed
 
+from tests.conftest import vary
 from vifpk import montecarlo as mc
 from vifpk.core.scene import MonteCarloSettings
-
-from .conftest import vary
 
 
 def settings(**kw) -> mc.Settings:
@@ -575,7 +574,7 @@ def test_a_budget_too_small_says_so(base):
 def test_cli_floor_dt_auto_and_convergence_in_the_json(tmp_path):
     import json
 
-    from vifpk.harness.cli import main
+    from vifpk.harness.cli.app import main
 
     out = tmp_path / "mc.json"
     rc = main(["solve", "paper-base", "--solver", "montecarlo", "--paths", "64", "--time", "200",
@@ -591,7 +590,7 @@ def test_cli_floor_dt_auto_and_convergence_in_the_json(tmp_path):
 
 
 def test_cli_blow_up_exits_3_naming_the_time_step(tmp_path, capsys):
-    from vifpk.harness.cli import main
+    from vifpk.harness.cli.app import main
 
     out = tmp_path / "mc.json"
     # dt = 0.5 passes the up-front checks (a whole fraction of sample_every, dt omega0 < 2)

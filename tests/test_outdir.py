@@ -1,4 +1,5 @@
-"""Output folders written as a unit (harness/outdir.py): the swap, the lock, stale leftovers,
+"""Output folders written as a unit (harness/outputs/outdir.py): the swap, the lock, stale
+leftovers,
 file modes under a umask. Fast: the folders hold a few small files, no numerics."""
 
 from __future__ import annotations
@@ -13,8 +14,8 @@ import time
 from pathlib import Path
 
 import pytest
-from vifpk.harness import outdir
-from vifpk.harness.io import write_json
+from vifpk.harness.outputs import outdir
+from vifpk.harness.outputs.io import write_json
 
 ROOT = Path(__file__).resolve().parent.parent
 NAMES = ("a.txt", "b.txt", "sub")
@@ -160,7 +161,7 @@ def test_second_run_into_a_held_folder_is_refused(tmp_path: Path):
 
 
 def test_cli_refuses_a_held_folder_before_any_work(tmp_path: Path, capsys):
-    from vifpk.harness.cli import main
+    from vifpk.harness.cli.app import main
 
     out = tmp_path / "rep"
     flag = tmp_path / "go"

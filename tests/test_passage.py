@@ -11,8 +11,8 @@ import math
 import numpy as np
 import pytest
 
-from . import time_doubles as td
-from .conftest import TINY
+from tests import time_doubles as td
+from tests.conftest import TINY
 
 
 @pytest.fixture
@@ -30,7 +30,7 @@ def tiny():
 def test_passage_mfpt_errors_match_the_known_ratio(doubles, tiny):
     """With exponential FPTs of means T_M and T0 the relative MFPT error is T_M / T0 - 1; the
     workflow's value must sit within 4 of its own error bars of it (1024 paths: ~3%)."""
-    from vifpk.harness.passage import HORIZON_FACTOR, passage
+    from vifpk.harness.workflows.passage import HORIZON_FACTOR, passage
 
     res = passage(tiny, threshold=2.0, start=0.5, models=("paper", "exact", "corrected"))
     mf = res.metrics["mfpt"]
@@ -55,7 +55,7 @@ def test_passage_mfpt_errors_match_the_known_ratio(doubles, tiny):
 def test_passage_warns_and_compares_restricted_means_when_censored(doubles, tiny):
     """A horizon of one MFPT censors e^-1 = 37% of the paths: the run says so, and compares
     restricted means: int_0^H R dt = T (1 - e^-H/T) on the model side."""
-    from vifpk.harness.passage import passage
+    from vifpk.harness.workflows.passage import passage
 
     h = 100.0
     res = passage(tiny, threshold=2.0, start=0.5, models=("exact",), horizon=h, sde=False)
@@ -68,13 +68,13 @@ def test_passage_warns_and_compares_restricted_means_when_censored(doubles, tiny
 
 
 def test_passage_price_sees_the_plan_before_any_monte_carlo(doubles, tiny, monkeypatch):
-    import vifpk.harness.run
-    from vifpk.harness.passage import passage
+    import vifpk.harness.door.solvers
+    from vifpk.harness.workflows.passage import passage
 
     def no_mc(*a, **k):
         raise AssertionError("Monte Carlo before the price")
 
-    monkeypatch.setattr(vifpk.harness.run, "passage_montecarlo", no_mc)
+    monkeypatch.setattr(vifpk.harness.door.solvers, "passage_montecarlo", no_mc)
     seen = {}
 
     class Refused(Exception):
@@ -91,7 +91,7 @@ def test_passage_price_sees_the_plan_before_any_monte_carlo(doubles, tiny, monke
 
 
 def test_transient_relaxation_fit_recovers_tau(doubles, tiny):
-    from vifpk.harness.transient import transient
+    from vifpk.harness.workflows.transient import transient
 
     times = (2.0, 5.0, 10.0, 20.0, 40.0)
     res = transient(tiny, start=2.5, times=times, models=("exact", "corrected"))
@@ -110,7 +110,7 @@ def test_transient_relaxation_fit_recovers_tau(doubles, tiny):
 
 
 def test_fit_relaxation_needs_three_times():
-    from vifpk.harness.transient import fit_relaxation
+    from vifpk.harness.workflows.transient import fit_relaxation
 
     assert fit_relaxation((1.0, 2.0), [(1.0, 0.01), (1.1, 0.01)], 0.5) is None
     t = (1.0, 3.0, 9.0, 27.0)
@@ -120,7 +120,7 @@ def test_fit_relaxation_needs_three_times():
 
 
 def _cli(args, capsys):
-    from vifpk.harness.cli import main
+    from vifpk.harness.cli.app import main
 
     code = main(args)
     return code, capsys.readouterr()
@@ -188,7 +188,7 @@ def test_passage_sweep_over_threshold_gives_mfpt_per_model_and_original(doubles,
     """workflow = "passage" varying passage.threshold: sweep.nc holds each model's MFPT and
     the original system's with its error bar, per threshold; the map draws them."""
     import xarray as xr
-    from vifpk.harness.sweep import load_sweep
+    from vifpk.harness.sweeps.spec import load_sweep
 
     p = _sweep(tmp_path, 'workflow = "passage"\nmodels = ["exact", "corrected"]\n'
                          '[passage]\nstart = 0.5\n[vary]\n"passage.threshold" = [1.5, 2.0, 3.0]\n')
@@ -289,8 +289,8 @@ def test_transient_arrays_hold_every_snapshot(doubles, tiny, tmp_path):
 def test_sde_stationary_start_samples_the_restricted_model_law(tiny):
     """The averaged SDE's 'stationary' start: the model's own p(A) restricted to A < Ac; the
     sample mean matches the restricted law's mean within 4 standard errors, all below Ac."""
-    from vifpk.harness.passage import sde_start
-    from vifpk.harness.run import amplitude_density
+    from vifpk.harness.door.solvers import amplitude_density
+    from vifpk.harness.workflows.passage import sde_start
 
     d = amplitude_density(tiny, "exact")
     ac = float(np.interp(0.7, np.cumsum(d.p) / np.sum(d.p), d.A))  # ~70% of the mass below
@@ -308,7 +308,7 @@ def test_transient_law_in_too_few_bins_is_not_an_estimate(doubles, tiny, monkeyp
     """Review of issue 30: a snapshot law narrower than a bin (from A0 = 1e6, every model's
     L1 came out 0.000 and the verdict SMALL) is NOT AN ESTIMATE, with a warning saying why;
     laws that spread over the grid keep their classes (the test above)."""
-    from vifpk.harness.transient import MIN_RESOLVED_BINS, transient
+    from vifpk.harness.workflows.transient import MIN_RESOLVED_BINS, transient
 
     monkeypatch.setattr(td, "WIDTH", 0.01)  # 4 sd = 0.04, below one bin of the grid (~0.14)
     res = transient(tiny, start=2.5, times=(2.0, 5.0), models=("exact",))

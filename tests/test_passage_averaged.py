@@ -9,12 +9,12 @@ import math
 import numpy as np
 import pytest
 from scipy.special import i0e
-from vifpk.harness.run import SolverFailure, passage_averaged, transient_averaged
+from vifpk.harness.door.solvers import SolverFailure
+from vifpk.harness.door.timedomain import passage_averaged, transient_averaged
 
 import vifpk
+from tests.test_passage_fpk import RC, RV, ray_decay, ray_m, ray_s2, ray_T
 from vifpk.core.result import BadInput
-
-from .test_passage_fpk import RC, RV, ray_decay, ray_m, ray_s2, ray_T
 
 
 class Rayleigh:

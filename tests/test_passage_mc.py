@@ -16,9 +16,8 @@ import vifpk.montecarlo.passage as P
 from scipy.integrate import solve_ivp
 from vifpk.montecarlo import PassageSettings, first_passage, sample_starts
 
+from tests.conftest import vary
 from vifpk.core.result import BadInput
-
-from .conftest import vary
 
 
 def settings(**kw) -> PassageSettings:
@@ -185,7 +184,8 @@ def test_door_turns_failures_into_one_line(base, monkeypatch):
     seed; the solver's failures (a blow-up, a stationary start it cannot place) become
     SolverFailure with the solver's one line; bad input stays BadInput."""
     import vifpk.montecarlo
-    from vifpk.harness.run import SolverFailure, passage_montecarlo
+    from vifpk.harness.door.solvers import SolverFailure
+    from vifpk.harness.door.timedomain import passage_montecarlo
 
     res = passage_montecarlo(base, threshold=1.05, start=1.0, horizon=10.0, paths=4,
                              blocks=2, progress=False)
@@ -212,7 +212,7 @@ def test_stationary_start_is_the_restricted_stationary_law(base):
     energy: Kolmogorov-Smirnov p > 1e-4; the restarts are about P(A >= Ac) per path. Then
     through the door, whose burn-in is "auto" (the relaxation pilot's): the same law."""
     from scipy import stats
-    from vifpk.harness.run import passage_montecarlo
+    from vifpk.harness.door.timedomain import passage_montecarlo
 
     from vifpk.core.defaults import BURN_FACTOR
 

@@ -12,7 +12,7 @@ band's width at 20000 paths.
 from __future__ import annotations
 
 import pytest
-from vifpk.harness import survival
+from vifpk.harness.workflows import survival
 from vifpk.montecarlo import sde_first_passage
 
 from vifpk import fpk

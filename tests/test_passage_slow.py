@@ -11,9 +11,9 @@ import json
 import math
 
 import pytest
-from vifpk.harness.check import SAMPLING_FACTOR
-from vifpk.harness.cli import main
-from vifpk.harness.passage import CENSORED_WARN
+from vifpk.harness.cli.app import main
+from vifpk.harness.workflows.passage import CENSORED_WARN
+from vifpk.harness.workflows.verdict import SAMPLING_FACTOR
 
 pytestmark = pytest.mark.slow
 

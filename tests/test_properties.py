@@ -9,7 +9,7 @@ from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 from vifpk.averaging import solve
 
-from .conftest import phase_mass_gap, vary
+from tests.conftest import phase_mass_gap, vary
 
 # the box: wide but with a stationary density (c2 > 0 bounds the energy)
 params = st.fixed_dictionaries({

@@ -19,9 +19,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from tests.conftest import ROOT
 from vifpk.core import registry
-
-from .conftest import ROOT
 
 PLUGIN = ROOT / "docs" / "examples" / "plugin"
 
@@ -148,8 +147,8 @@ def test_the_plugin_model_in_harness_testing_and_bifurcation(plugin_path: Path):
     sys.path.insert(0, str(plugin_path))
     registry.refresh()
     try:
-        from vifpk.harness.bifurcation import shape_index
         from vifpk.harness.testing import model_densities
+        from vifpk.harness.workflows.bifurcation import shape_index
 
         from vifpk.core.scene import load_scene
 

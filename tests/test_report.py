@@ -5,9 +5,9 @@ from __future__ import annotations
 import argparse
 
 import pytest
-from vifpk.harness.check import LARGE_L1, SMALL_L1, verdict, verdict_class
-from vifpk.harness.cli import build_parser, main
-from vifpk.harness.report import _column_format, _format_columns
+from vifpk.harness.cli.app import build_parser, main
+from vifpk.harness.outputs.report import _column_format, _format_columns
+from vifpk.harness.workflows.verdict import LARGE_L1, SMALL_L1, verdict, verdict_class
 
 
 def _entry(l1: float, floor: float = 0.01, disc: float = 1e-4, samp: float = 0.008,
@@ -87,7 +87,7 @@ def test_every_option_has_help_showing_its_default():
 
 
 def test_version_and_bare_usage(capsys):
-    from vifpk.harness.provenance import vifpk_version
+    from vifpk.harness.outputs.provenance import vifpk_version
 
     with pytest.raises(SystemExit) as exc:
         main(["--version"])

@@ -4,7 +4,7 @@ the folder swap under SIGKILL, byte-identical metrics.json for one seed, modes u
 One cross-check of the tiny scene (tests/data/tiny.toml) is computed for the session
 (tests/conftest.py ``tiny_check``) and reused; the kill tests re-write its report in
 subprocesses that pause at a named moment of the writing (``VIFPK_TEST_PAUSE``,
-harness/outdir.py) and are SIGKILLed there. The byte-identical test is in the slow tier.
+harness/outputs/outdir.py) and are SIGKILLed there. The byte-identical test is in the slow tier.
 """
 
 from __future__ import annotations
@@ -24,12 +24,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from vifpk.harness import provenance
-from vifpk.harness.cli import main
-from vifpk.harness.io import dumps
-from vifpk.harness.report import write_report
+from vifpk.harness.cli.app import main
+from vifpk.harness.outputs import provenance
+from vifpk.harness.outputs.io import dumps
+from vifpk.harness.outputs.report import write_report
 
-from .conftest import TINY_CHECK_SET
+from tests.conftest import TINY_CHECK_SET
 
 ROOT = Path(__file__).resolve().parent.parent
 TINY = str(ROOT / "tests" / "data" / "tiny.toml")
@@ -118,7 +118,7 @@ def test_metrics_byte_identical_across_runs_and_modes_follow_umask(run, tmp_path
 _KILLED = textwrap.dedent("""
     import pickle, sys
     from vifpk.harness import provenance
-    from vifpk.harness.report import write_report
+    from vifpk.harness.outputs.report import write_report
     res = pickle.loads(open(sys.argv[1], "rb").read())
     prov = provenance.collect(argv=["vifpk", "check"], run_id=sys.argv[3])
     write_report(res, sys.argv[2], prov=prov)
@@ -155,9 +155,9 @@ def test_sigkill_while_writing_leaves_one_whole_set(run, tmp_path: Path, moment)
 
 def test_overrides_name_the_title_and_the_default_folder(run, tmp_path: Path, monkeypatch,
                                                          capsys):
-    import vifpk.harness.check
+    import vifpk.harness.workflows.check
 
-    monkeypatch.setattr(vifpk.harness.check, "cross_check",
+    monkeypatch.setattr(vifpk.harness.workflows.check, "cross_check",
                         lambda scene, quiet, **_: dataclasses.replace(run["res"], scene=scene))
     monkeypatch.chdir(tmp_path)
     assert main(["check", TINY, "--set", "system.mu=0.01", "--quiet"]) == 0

@@ -7,14 +7,13 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from vifpk.harness import request
-from vifpk.harness.cli import build_parser, main
+from vifpk.harness.cli.app import build_parser, main
+from vifpk.harness.request import prepare as request
 
 import vifpk
+from tests.test_cli_validation import CATALOGUE, _materialise
 from vifpk.core import registry
 from vifpk.core.result import BadInput
-
-from .test_cli_validation import CATALOGUE, _materialise
 
 # what a command-line case needs that the API does not have (files it writes, the terminal)
 CLI_ONLY = ("--json", "--out", "--joint", "--quiet", "--yes", "--budget")
@@ -105,7 +104,7 @@ def test_a_paths_keyword_reaches_the_monte_carlo_as_paths(monkeypatch):
         seen.update(paths=scene.montecarlo.paths, solver=solver, kw=kw)
         return "ran"
 
-    monkeypatch.setattr("vifpk.harness.run.run_solver", door)
+    monkeypatch.setattr("vifpk.harness.door.solvers.run_solver", door)
     assert vifpk.solve("paper-base", "montecarlo", paths=64) == "ran"
     assert seen == {"paths": 64, "solver": "montecarlo", "kw": {"progress": False}}
 
@@ -165,7 +164,7 @@ def test_a_factory_without_applies_applies_everywhere_and_one_with_it_is_asked()
 def test_an_energy_only_run_is_accepted():
     """Issue 27: validate's copy of the observable names omitted `energy`, so a run recording
     only the power balance was refused; the check now reads the schema's own list."""
-    from vifpk.harness import validate
+    from vifpk.harness.request import validate
 
     off = {f"observables.{k}": False for k in ("A", "x1", "x2", "moments", "events")}
     validate.observables(vifpk.scene("paper-base", **off, **{"observables.energy": True}))
@@ -185,7 +184,7 @@ def test_the_f_0_rule_has_one_wording_everywhere(no_computation, capsys, tmp_pat
 
 
 def test_the_door_says_the_f_0_rule_in_its_words(tmp_path):
-    from vifpk.harness.run import SolverFailure, montecarlo_solution
+    from vifpk.harness.door.solvers import SolverFailure, montecarlo_solution
 
     from vifpk.core.scene import no_noise
 
@@ -214,15 +213,15 @@ def test_the_api_takes_the_tolerance_question_and_refuses_it_like_the_command(
 
 
 def test_the_api_check_passes_its_tolerance_to_the_check(canned_check, monkeypatch):
-    import vifpk.harness.check
+    import vifpk.harness.workflows.check
 
     seen = {}
-    real = vifpk.harness.check.cross_check
+    real = vifpk.harness.workflows.check.cross_check
 
     def spy(scene, **kw):
         seen.update(kw)
         return real(scene, **kw)
 
-    monkeypatch.setattr(vifpk.harness.check, "cross_check", spy)
+    monkeypatch.setattr(vifpk.harness.workflows.check, "cross_check", spy)
     vifpk.check("paper-base", tolerance=0.05, confidence=0.9)
     assert seen["tolerance"].value == 0.05 and seen["tolerance"].confidence == 0.9

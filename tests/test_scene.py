@@ -7,9 +7,8 @@ from pathlib import Path
 
 import pytest
 
+from tests.conftest import ROOT
 from vifpk.core.scene import SceneError, load_scene, scene_from_dict
-
-from .conftest import ROOT
 
 
 def test_shipped_scenes_load():

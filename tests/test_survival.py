@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from vifpk.harness.survival import (
+from vifpk.harness.workflows.survival import (
     bridge_sup_cdf,
     fpt_density_l1,
     hall_wellner_c,

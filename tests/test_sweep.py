@@ -14,12 +14,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from vifpk.harness.cli import main
-from vifpk.harness.sweep import SweepError, load_sweep, run_sweep
+from vifpk.harness.cli.app import main
+from vifpk.harness.sweeps.errors import SweepError
+from vifpk.harness.sweeps.runs import run_sweep
+from vifpk.harness.sweeps.spec import load_sweep
 
+from tests.conftest import ROOT
 from vifpk.core.defaults import CHECK_MODELS as MODELS
-
-from .conftest import ROOT
 
 DATA = ROOT / "tests" / "data"
 CHECK = DATA / "sweep-check.toml"
@@ -182,7 +183,7 @@ def test_sde_check_only_at_sampled_points(source, request):
     """The averaged SDEs' Monte Carlo runs at the first point and where the key is divisible by
     SDE_CHECK_EVERY (chosen by the parameters alone); sampling_ok is -1 elsewhere. On the
     canned check (fast tier) and on the real serial sweep (slow tier)."""
-    from vifpk.harness.sweep import SDE_CHECK_EVERY
+    from vifpk.harness.sweeps.points import SDE_CHECK_EVERY
 
     folder = request.getfixturevalue("canned_check_sweep" if source == "canned"
                                      else "serial_check")
@@ -281,8 +282,8 @@ def test_the_grid_map_boundary_is_the_cell_edges_between_verdicts():
     an interpolated contour that broke into dashes on coarse grids; issue 20 G); an unknown
     (failed) neighbour draws no edge."""
     import numpy as np
-    from vifpk.harness.io import pyplot
-    from vifpk.harness.sweepmaps import _edges, _verdict_boundary
+    from vifpk.harness.outputs.io import pyplot
+    from vifpk.harness.sweeps.maps import _edges, _verdict_boundary
 
     plt = pyplot()
 
@@ -309,7 +310,7 @@ def test_a_check_sweep_carries_the_tolerance_verdict(canned_check, tmp_path):
     removed, its error, P(error <= tolerance) and the class, and the tolerance as an
     attribute; refused with one line outside the check workflow or out of range."""
     import xarray as xr
-    from vifpk.harness.sweep import SweepError
+    from vifpk.harness.sweeps.errors import SweepError
 
     text = CHECK.read_text().replace('seed = 11', 'seed = 11\ntolerance = 0.05')
     f = _write(tmp_path, text)

@@ -216,7 +216,7 @@ MC_FACTOR = 2.5
 
 
 def _mc(scene):
-    from vifpk.harness.run import montecarlo_solution
+    from vifpk.harness.door.solvers import montecarlo_solution
 
     return montecarlo_solution(scene, progress=False)
 
@@ -261,7 +261,7 @@ def test_hard_springs_give_finite_normalised_densities(name):
     """Every solver of check (closed forms, FPKs, averaged SDEs, the original system's Monte
     Carlo) on the hard springs of scenes/hard/: finite, normalised densities and finite
     metrics (harness.check.output_problems, the same bounds as the other hard scenes)."""
-    from vifpk.harness.check import cross_check, output_problems
+    from vifpk.harness.workflows.check import cross_check, output_problems
 
     scene = load_scene(f"hard/{name}").with_values(
         {"montecarlo.paths": 64, "montecarlo.blocks": 16, "montecarlo.time": 100.0})
@@ -274,9 +274,9 @@ def test_hard_springs_give_finite_normalised_densities(name):
 def test_paper_model_absent_outside_its_family(capsys):
     """solve --model paper: exit 2, one line, before any computation; check and figures take
     the models that apply."""
-    from vifpk.harness.check import models_of
-    from vifpk.harness.cli import main
-    from vifpk.harness.figures import figure_models
+    from vifpk.harness.cli.app import main
+    from vifpk.harness.workflows.check import models_of
+    from vifpk.harness.workflows.figures import figure_models
 
     assert main(["solve", "systems/quintic", "--solver", "averaging", "--model", "paper"]) == 2
     err = capsys.readouterr().err.strip()
@@ -290,7 +290,7 @@ def test_paper_model_absent_outside_its_family(capsys):
 
 
 def test_sweep_over_a_coefficient_loads():
-    from vifpk.harness.sweep import load_sweep
+    from vifpk.harness.sweeps.spec import load_sweep
 
     sw = load_sweep("quintic-k5")
     ks = sorted(p.scene.system.restoring_law[2] for p in sw.points)
@@ -300,8 +300,8 @@ def test_sweep_over_a_coefficient_loads():
 def test_figures_of_your_own_scene_options(capsys, tmp_path):
     """figures --scene draws any scene (run in the slow tier below); with --figure it is
     refused before any work; the table takes the two models drawn as its columns."""
-    from vifpk.harness.cli import main
-    from vifpk.harness.figures import render_table
+    from vifpk.harness.cli.app import main
+    from vifpk.harness.workflows.figures import render_table
 
     assert main(["figures", "--scene", "systems/quintic", "--figure", "5",
                  "--out", str(tmp_path / "f")]) == 2
@@ -316,7 +316,7 @@ def test_figures_of_your_own_scene_options(capsys, tmp_path):
 
 @pytest.mark.slow
 def test_figures_of_your_own_scene(tmp_path):
-    from vifpk.harness.cli import main
+    from vifpk.harness.cli.app import main
 
     out = tmp_path / "f"
     assert main(["figures", "--scene", "systems/quintic", "--out", str(out), "--paths", "64",
@@ -346,7 +346,7 @@ def test_strong_velocity_damping_is_warned():
     strong-damping warning and is named as its main effect (energy_rates' "velocity
     damping"): with e2 = 3 the energy changes by 0.77 of itself per period at the mean
     amplitude (measured; the warning's threshold is 0.5, docs/report.md)."""
-    from vifpk.harness.check import assumption_warnings
+    from vifpk.harness.workflows.assumptions import assumption_warnings
 
     from vifpk import averaging
 

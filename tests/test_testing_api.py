@@ -12,7 +12,7 @@ import pytest
 from vifpk.harness import testing
 from vifpk.harness.testing import assert_averaging_error, assert_density_close
 
-from .conftest import ROOT
+from tests.conftest import ROOT
 
 SMALL = {"paths": 128, "time": 400.0, "blocks": 16}
 
@@ -140,7 +140,7 @@ def test_reproduce_command_gives_the_same_reference(tmp_path, dt):
     import json
     import shlex
 
-    from vifpk.harness.cli import main
+    from vifpk.harness.cli.app import main
 
     values = {"noise.kind": "white", "montecarlo.paths": 32, "montecarlo.time": 20.0,
               "montecarlo.blocks": 16}

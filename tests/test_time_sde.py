@@ -122,7 +122,7 @@ def test_doors_passage_sde_and_transient_sde(base):
     """harness.run.passage_sde / transient_sde: a model object, the SDE's own dt rule
     (tau / STEPS_PER_TAU; tau = 1 / c for the Rayleigh amplitude, the CIR's slowest rate),
     start amplitudes resampled to the paths, 'stationary' refused in one line."""
-    from vifpk.harness.run import passage_sde, transient_sde
+    from vifpk.harness.door.timedomain import passage_sde, transient_sde
 
     res = passage_sde(base, Rayleigh(), threshold=1.5, start=np.array([0.2, 0.4, 0.6]),
                       horizon=20.0, paths=40, blocks=4, seed=1)

@@ -20,9 +20,8 @@ from scipy.stats import norm
 from vifpk.montecarlo import PassageSettings
 from vifpk.montecarlo.transient import snapshots
 
+from tests.conftest import vary
 from vifpk.core.result import BadInput
-
-from .conftest import vary
 
 C, F, D, A0 = 0.2, 1.0, 0.05, 1.5
 EDGES = {"edges_A": np.linspace(0, 3, 31), "edges_x": np.linspace(-3, 3, 41),

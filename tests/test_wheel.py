@@ -19,7 +19,7 @@ from pathlib import Path
 
 import pytest
 
-from .conftest import ROOT
+from tests.conftest import ROOT
 
 # one wheel and venv for the module: under xdist the three tests stay on one worker
 pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("wheel")]

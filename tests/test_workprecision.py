@@ -8,8 +8,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from vifpk.harness.cli import main
-from vifpk.harness.workprecision import (
+from vifpk.harness.cli.app import main
+from vifpk.harness.workflows.workprecision import (
     DT_LADDER,
     TARGETS,
     reference_floor,

@@ -104,9 +104,9 @@ DOORS = ("mfpt_averaged", "passage_averaged", "passage_montecarlo", "passage_sde
 
 def install(monkeypatch) -> None:
     """Every time-domain door of harness.run replaced by its double."""
-    import vifpk.harness.run
+    import vifpk.harness.door.solvers
 
     this = globals()
     for name in DOORS:
-        monkeypatch.setattr(vifpk.harness.run, name, this[name], raising=False)
+        monkeypatch.setattr(vifpk.harness.door.solvers, name, this[name], raising=False)
 

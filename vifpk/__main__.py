@@ -1,7 +1,7 @@
-"""``python -m vifpk`` is the ``vifpk`` command (vifpk.harness.cli.main)."""
+"""``python -m vifpk`` is the ``vifpk`` command (vifpk.harness.cli.app.main)."""
 
 import sys
 
-from vifpk.harness.cli import main
+from vifpk.harness.cli.app import main
 
 sys.exit(main())

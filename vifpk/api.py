@@ -17,7 +17,7 @@ def scene(source: Scene | str | Path, **values: Any) -> Scene:
     """A scene from a Scene, a file or a shipped scene's name, with ``values`` set by their
     dotted names (``scene("paper-base", **{"noise.D": 0.02})``); validated like a file."""
     if not isinstance(source, Scene | str | Path):
-        from vifpk.harness.validate import InputError
+        from vifpk.harness.request.validate import InputError
 
         raise InputError(f"scene {source!r}: not a scene; give a Scene, a scene file's path or "
                          "the name of a shipped scene")
@@ -39,16 +39,16 @@ def solve(source: Scene | str | Path, solver: str = "averaging", *, model: str |
     ``"section.key=value"`` overrides. Input is checked as the command line checks it, with
     the same one-line messages (:class:`~vifpk.core.result.BadInput`), before any work; no
     cost guard."""
-    from vifpk.harness.request import prepare_solve
-    from vifpk.harness.run import run_solver
+    from vifpk.harness.door.solvers import run_solver
+    from vifpk.harness.request.prepare import prepare_solve
 
     overrides = _overrides(options)
     req = prepare_solve(source, solver=solver, model=model, grid=grid, joint=joint,
                         overrides=overrides, **options)
     if solver == "montecarlo":
-        from vifpk.harness import validate
+        from vifpk.harness.request import cost
 
-        validate.refuse_oversized(req.scene)  # memory is a hard limit; time is the caller's
+        cost.refuse_oversized(req.scene)  # memory is a hard limit; time is the caller's
         return run_solver(req.scene, "montecarlo", progress=progress)
     return run_solver(req.scene, solver, model=req.model, grid=req.grid)
 
@@ -64,9 +64,9 @@ def check(source: Scene | str | Path, *, models: tuple[str, ...] | None = None,
     0.02), ``tolerance_metric``, ``tolerance_observable``, ``confidence``: the tolerance verdict
     and the recommendation that follows it (``vifpk check --tolerance``). ``options``: the
     Monte Carlo options by flag name and ``set``, as for :func:`solve`."""
-    from vifpk.harness import validate
-    from vifpk.harness.check import cross_check
-    from vifpk.harness.request import prepare_check
+    from vifpk.harness.request import cost, validate
+    from vifpk.harness.request.prepare import prepare_check
+    from vifpk.harness.workflows.check import cross_check
 
     if out is not None:
         if not isinstance(out, str | Path):
@@ -76,10 +76,10 @@ def check(source: Scene | str | Path, *, models: tuple[str, ...] | None = None,
                         tolerance=tolerance, tolerance_metric=tolerance_metric,
                         tolerance_observable=tolerance_observable, confidence=confidence,
                         **options)
-    validate.refuse_oversized(req.scene)  # memory is a hard limit; time is the caller's
+    cost.refuse_oversized(req.scene)  # memory is a hard limit; time is the caller's
     res = cross_check(req.scene, quiet=quiet, models=req.models, tolerance=req.tolerance)
     if out is not None:
-        from vifpk.harness.report import write_report
+        from vifpk.harness.outputs.report import write_report
 
         write_report(res, out)
     return res
@@ -87,7 +87,7 @@ def check(source: Scene | str | Path, *, models: tuple[str, ...] | None = None,
 
 def _overrides(options: dict[str, Any]) -> tuple[str, ...]:
     """``set=[...]`` taken out of ``options``: "section.key=value" texts, as ``--set``."""
-    from vifpk.harness import validate
+    from vifpk.harness.request import validate
 
     given = options.pop("set", ())
     if isinstance(given, str) or not all(isinstance(o, str) for o in given):
@@ -99,7 +99,9 @@ def sweep(path: str | Path, out: str | Path, *, executor: str = "serial",
           quiet: bool = True) -> Any:
     """A sweep file run into the folder ``out`` (``vifpk sweep``): a ``SweepRun`` naming the
     points computed, skipped and failed and the files written (sweep.nc, maps)."""
-    from vifpk.harness.sweep import load_sweep, parse_executor, require_output_libraries, run_sweep
+    from vifpk.harness.sweeps.executors import parse_executor, require_output_libraries
+    from vifpk.harness.sweeps.runs import run_sweep
+    from vifpk.harness.sweeps.spec import load_sweep
 
     sw = load_sweep(path)
     require_output_libraries()
@@ -116,8 +118,8 @@ def _time_request(source: Any, models: Any, options: dict[str, Any], what: str
     and checked as the command checks them) and the models (default: the check models; names
     must be registered, objects with the averaged-model protocol pass as they are)."""
     from vifpk.core.defaults import CHECK_MODELS
-    from vifpk.harness import validate
-    from vifpk.harness.request import concrete, model_names, with_mc_options
+    from vifpk.harness.request import validate
+    from vifpk.harness.request.prepare import concrete, model_names, with_mc_options
 
     overrides = _overrides(options)
     unknown = sorted(set(options) - set(TIME_OPTIONS))
@@ -146,15 +148,15 @@ def passage(source: Scene | str | Path, *, threshold: float, start: float | str 
     check models that apply). ``options``: ``paths``, ``dt``, ``seed`` and ``set``, as the
     command's flags. The inputs are checked as the command checks them (BadInput, one line);
     no cost guard."""
-    from vifpk.harness.passage import passage as run_passage
-    from vifpk.harness.timecli import passage_values
+    from vifpk.harness.cli.timedomain import passage_values
+    from vifpk.harness.workflows.passage import passage as run_passage
 
     sc, chosen = _time_request(source, models, options, "passage")
     passage_values(sc, threshold=threshold, start=start, horizon=horizon)
     res = run_passage(sc, threshold=threshold, start=start, models=chosen,
                       paths=options.get("paths"), horizon=horizon, sde=sde, quiet=quiet)
     if out is not None:
-        from vifpk.harness.timereport import write_time_report
+        from vifpk.harness.outputs.timereport import write_time_report
 
         write_time_report(res, out)
     return res
@@ -167,15 +169,15 @@ def transient(source: Scene | str | Path, *, start: float, times: Any, models: A
     transient``): a ``TransientResult`` with ``metrics`` (per-snapshot L1 and KS with error
     bars and floors, ``relaxation``), ``verdicts``, ``warnings``; with ``out``, the report.
     ``models`` and ``options`` as for :func:`passage`."""
-    from vifpk.harness.timecli import transient_values
-    from vifpk.harness.transient import transient as run_transient
+    from vifpk.harness.cli.timedomain import transient_values
+    from vifpk.harness.workflows.transient import transient as run_transient
 
     sc, chosen = _time_request(source, models, options, "transient")
     transient_values(sc, start=start, times=times)
     res = run_transient(sc, start=start, times=tuple(float(t) for t in times),
                         models=chosen, paths=options.get("paths"), sde=sde, quiet=quiet)
     if out is not None:
-        from vifpk.harness.timereport import write_time_report
+        from vifpk.harness.outputs.timereport import write_time_report
 
         write_time_report(res, out)
     return res

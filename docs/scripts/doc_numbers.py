@@ -93,7 +93,7 @@ def render(n: dict[str, Any]) -> dict[str, str]:
             f"{n['sampling_over_floor_max']:.2f} × their noise floors.\n"),
     }
     if FIGURES.exists():  # the L1 table of `vifpk figures`, as that command wrote it
-        from vifpk.harness.figures import render_table
+        from vifpk.harness.workflows.figures import render_table
 
         doc = json.loads(FIGURES.read_text())
         table = {k: v for k, v in doc.items() if k.startswith("figure")}

@@ -22,7 +22,7 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "docs" / "scripts"))
 
 import regime_probes as rp  # noqa: E402
-from vifpk.harness.compare import compare  # noqa: E402
+from vifpk.harness.workflows.compare import compare  # noqa: E402
 
 from vifpk import averaging  # noqa: E402
 

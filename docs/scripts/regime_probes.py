@@ -28,8 +28,8 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from vifpk.averaging.validity import validity  # noqa: E402
-from vifpk.harness.compare import compare  # noqa: E402
-from vifpk.harness.run import montecarlo_solution  # noqa: E402
+from vifpk.harness.door.solvers import montecarlo_solution  # noqa: E402
+from vifpk.harness.workflows.compare import compare  # noqa: E402
 
 from vifpk import averaging  # noqa: E402
 from vifpk.core.scene import load_scene  # noqa: E402
@@ -213,7 +213,8 @@ def table(paths: list[Path]) -> None:
     """Markdown table of stored rows (later files override earlier ones for the same scene):
     L1(A) (mean shift) of exact, compounded, corrected, the floor, dt, and what check would
     recommend from these numbers (harness.check.recommend with the scene's warnings)."""
-    from vifpk.harness.check import assumption_warnings, recommend
+    from vifpk.harness.workflows.assumptions import assumption_warnings
+    from vifpk.harness.workflows.verdict import recommend
 
     rows: dict[str, dict] = {}
     for p in paths:

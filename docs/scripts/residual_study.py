@@ -34,8 +34,8 @@ sys.path.insert(0, str(ROOT))
 from vifpk.averaging.corrected import CorrectedModel, _flight  # noqa: E402
 from vifpk.averaging.geometry import potential, restoring  # noqa: E402
 from vifpk.averaging.stationary import amplitude_density  # noqa: E402
-from vifpk.harness.compare import compare  # noqa: E402
-from vifpk.harness.run import montecarlo_solution  # noqa: E402
+from vifpk.harness.door.solvers import montecarlo_solution  # noqa: E402
+from vifpk.harness.workflows.compare import compare  # noqa: E402
 
 from vifpk import averaging  # noqa: E402
 from vifpk.core.scene import load_scene  # noqa: E402

@@ -23,7 +23,7 @@ sys.path.insert(0, str(ROOT / "docs" / "scripts"))
 
 import regime_probes as rp  # noqa: E402
 from vifpk.averaging.validity import validity  # noqa: E402
-from vifpk.harness.check import BAND_MIN, CORRELATION_MAX, WALL_MAX  # noqa: E402
+from vifpk.harness.workflows.assumptions import BAND_MIN, CORRELATION_MAX, WALL_MAX  # noqa: E402
 
 
 def rows(paths: list[Path]) -> list[dict]:

@@ -28,7 +28,7 @@ CHECK_MODELS = ("paper", "exact", "corrected")
 DENSITY_OBSERVABLES = ("A", "x1", "x2")
 #: The models a bifurcation search runs when none is named (the paper's and the exact one).
 BIFURCATION_MODELS = ("paper", "exact")
-#: The tolerance verdict's defaults (issue 29; harness/tolerance.py, ``vifpk check
+#: The tolerance verdict's defaults (issue 29; harness/workflows/tolerance.py, ``vifpk check
 #: --tolerance``, the ``tolerance`` of check sweeps): the largest averaging error a user
 #: accepts, on L1 of p(A) (L1 / 2 = 1% of the probability mass misplaced), and the confidence
 #: at which a model is called inside or outside it.

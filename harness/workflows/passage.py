@@ -10,7 +10,7 @@ system, from a start at amplitude A0 (or the stationary law restricted to A < Ac
                      routes above: the same model, another method)
     original system  Monte Carlo stopped at the first energy crossing U(A) = U(Ac), censored at
                      a horizon: Kaplan-Meier R(t) with its band, restricted mean MFPT
-                     (harness/survival.py)
+                     (harness/workflows/survival.py)
 
 Plan (:func:`plan`): the horizon is HORIZON_FACTOR x the largest MFPT the averaged models give,
 so that a first-passage time distributed like an exponential of that mean is censored with
@@ -32,11 +32,11 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from vifpk.harness.door import solvers, timedomain
+from vifpk.harness.workflows.check import _Stages, models_of, sde_seed
+from vifpk.harness.workflows.verdict import RECOMMENDABLE
 
 from vifpk.core.defaults import BURN_FACTOR, CHECK_MODELS
-
-from . import run
-from .check import RECOMMENDABLE, _Stages, models_of, sde_seed
 
 HORIZON_FACTOR = 8.0  # horizon = 8 x the largest model MFPT (censoring e^-8 if a model is right)
 CENSORED_WARN = 0.01  # more censored paths than this: warn, compare restricted means
@@ -65,7 +65,7 @@ def applicable(scene: Any, models: tuple[Any, ...]
                ) -> tuple[dict[str, Any], tuple[str, ...], dict[str, str]]:
     """({label: model}, the labels that apply, {label: why not}) for registered names (their
     own ``applies``: check.models_of) and model objects (the averaged-model protocol; kept)."""
-    named = {run.model_label(m): m for m in models}
+    named = {solvers.model_label(m): m for m in models}
     kept, absent = models_of(scene, tuple(k for k, m in named.items() if isinstance(m, str)))
     labels = tuple(k for k, m in named.items() if not isinstance(m, str) or k in kept)
     return named, labels, absent
@@ -94,7 +94,7 @@ def plan(scene: Any, mfpts: dict[str, float], *, paths: int | None = None,
     t_max = max(finite) if finite else math.inf
     h = float(horizon) if horizon is not None else HORIZON_FACTOR * t_max
     n = int(paths or mc.paths)
-    dt = run.time_step(scene)
+    dt = timedomain.time_step(scene)
     # E[min(tau, H)] <= min(T, H) for each model's T: the largest of them bounds the run
     mean_run = min(t_max, h) if math.isfinite(t_max) else h
     out = {"horizon": h, "paths": n, "dt": dt, "seed": int(mc.seed), "blocks": int(mc.blocks),
@@ -127,10 +127,10 @@ def plan(scene: Any, mfpts: dict[str, float], *, paths: int | None = None,
 def stationary_numbers(scene: Any, model: Any, threshold: float) -> tuple[float, float]:
     """(relaxation time of the model's FPK, its stationary mass below Ac): what a "stationary"
     start's burn-in is planned and priced from (the FPK direct solve: milliseconds)."""
-    m = run.averaged_model(scene, model)
-    tau = float(run.fpk_stationary(m.drift, m.diffusion, method="direct").info[
+    m = solvers.averaged_model(scene, model)
+    tau = float(solvers.fpk_stationary(m.drift, m.diffusion, method="direct").info[
         "relaxation_time"])
-    d = run.amplitude_density(scene, model)
+    d = solvers.amplitude_density(scene, model)
     A, p = np.asarray(d.A, float), np.asarray(d.p, float)
     total = float(np.trapezoid(p, A))
     k = A < threshold
@@ -151,7 +151,7 @@ def passage(scene: Any, *, threshold: float, start: float | str = "stationary",
             price: Any = None) -> PassageResult:
     """The first-passage cross-check (module docstring). ``price(plan)`` is called with the
     Monte Carlo plan before any Monte Carlo and may raise (the CLI's cost guard)."""
-    from . import survival
+    from vifpk.harness.workflows import survival
 
     named, models, absent = applicable(scene, models)
     stages = _Stages(2 + len(models) * (1 + int(sde)), quiet)
@@ -159,7 +159,7 @@ def passage(scene: Any, *, threshold: float, start: float | str = "stationary",
     mfpt: dict[str, Any] = {}
     for m in models:
         stages(f"reliability of the {m} model (FPK + quadrature)")
-        r = run.passage_averaged(scene, named[m], threshold=threshold, start=start)
+        r = timedomain.passage_averaged(scene, named[m], threshold=threshold, start=start)
         sol[f"fpk:{m}"] = r
         mfpt[m] = _model_mfpt(r)
     relax, inside = None, 1.0
@@ -172,8 +172,9 @@ def passage(scene: Any, *, threshold: float, start: float | str = "stationary",
         price(p)
     stages("Monte Carlo of the original system (first passage)")
     burn = {"burn_in": p["burn_in"]} if isinstance(p.get("burn_in"), float) else {}
-    mc = run.passage_montecarlo(scene, threshold=threshold, start=start, horizon=p["horizon"],
-                                paths=p["paths"], progress=not quiet, **burn)
+    mc = timedomain.passage_montecarlo(scene, threshold=threshold, start=start,
+                                       horizon=p["horizon"], paths=p["paths"],
+                                       progress=not quiet, **burn)
     sol["mc:original"] = mc
     t_mc, cens = _fpt(mc)
     km = survival.kaplan_meier(t_mc, cens)
@@ -195,7 +196,7 @@ def passage(scene: Any, *, threshold: float, start: float | str = "stationary",
         e = _compare_model(survival, r, mfpt[m], km, rmean, t_mc, cens, p["horizon"], frac)
         if sde:
             stages(f"Monte Carlo of the {m} averaged SDE (first passage)")
-            s = run.passage_sde(scene, named[m], threshold=threshold,
+            s = timedomain.passage_sde(scene, named[m], threshold=threshold,
                                 start=sde_start(scene, named[m], start, threshold, p["paths"],
                                                 sde_seed(scene.montecarlo.seed, m)),
                                 horizon=p["horizon"], paths=p["paths"],
@@ -264,7 +265,7 @@ def sde_start(scene: Any, model: Any, start: float | str, threshold: float, path
     trapezoid interpolant, seeded), the start law of the model's FPK route it checks."""
     if start != "stationary":
         return float(start)
-    d = run.amplitude_density(scene, model)
+    d = solvers.amplitude_density(scene, model)
     A, p = np.asarray(d.A, float), np.asarray(d.p, float)
     inside = A < threshold
     A, p = np.append(A[inside], threshold), np.append(p[inside], np.interp(threshold, d.A, d.p))
@@ -298,7 +299,7 @@ def restricted_model_mean(r: Any, horizon: float) -> float:
     """int_0^H R_M dt of a model's reliability curve (``survival.restricted_model_mean`` over
     the curve's own times; beyond its last time R_M decays at its slowest rate,
     info["decay_rate"], as the FPK's own int R dt assumes)."""
-    from . import survival
+    from vifpk.harness.workflows import survival
 
     t, R = np.asarray(r.data["R"]["t"], float), np.asarray(r.data["R"]["R"], float)
     total = survival.restricted_model_mean(t, R, min(horizon, float(t[-1])))
@@ -373,7 +374,7 @@ def _curves(sol: dict[str, Any], km: dict[str, Any], models: tuple[str, ...], sd
         out[m] = {"t": c["t"], "R": c["y0"]}
         if sde and f"sde:{m}" in sol:
             ts, cs = _fpt(sol[f"sde:{m}"])
-            from . import survival
+            from vifpk.harness.workflows import survival
 
             ks = survival.kaplan_meier(ts, cs)
             c = _thin(np.asarray(ks["t"], float), np.asarray(ks["R"]))

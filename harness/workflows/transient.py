@@ -3,7 +3,8 @@ averaged model (its FPK time-stepped, and its averaged SDE by Monte Carlo) again
 Carlo of the original system started alike (energy U(A0), phase uniform in time along that
 orbit, noise state from its stationary law: montecarlo.snapshots).
 
-Per snapshot and model: L1 and KS of p(A, t) with error bars and noise floors (harness/compare.py,
+Per snapshot and model: L1 and KS of p(A, t) with error bars and noise floors
+(harness/workflows/compare.py,
 as check does for the stationary law), the class of the L1 as check's
 (:func:`harness.check.observable_class`). Relaxation: each model's predicted relaxation time
 (1 / the slowest decay rate of its FPK, fpk.transient) against the one measured on the original
@@ -24,13 +25,13 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from vifpk.harness.door import solvers, timedomain
+from vifpk.harness.workflows.check import _Stages, sde_seed
+from vifpk.harness.workflows.compare import compare
+from vifpk.harness.workflows.passage import applicable, plain_info
+from vifpk.harness.workflows.verdict import observable_class
 
 from vifpk.core.defaults import CHECK_MODELS
-
-from . import run
-from .check import _Stages, observable_class, sde_seed
-from .compare import compare
-from .passage import applicable, plain_info
 
 EDGE_MARGIN = 1.1  # histogram edges 10% beyond the farthest amplitude any model reaches
 TAIL = 1e-8  # a model "reaches" A while p(A, t) > TAIL x its peak at some snapshot
@@ -71,7 +72,7 @@ def snapshot_edges(scene: Any, fpks: dict[str, Any], start: float, bins: int
             reach = x[p > TAIL * np.max(p)] if np.max(p) > 0 else x[:1]
             top = max(top, float(reach[-1]))
     top *= EDGE_MARGIN
-    v = math.sqrt(2.0 * float(run.potential_energy(scene, top)))
+    v = math.sqrt(2.0 * float(solvers.potential_energy(scene, top)))
     lo = 0.0 if scene.system.barrier else -top
     return {"edges_A": np.linspace(0.0, top, bins + 1), "edges_x": np.linspace(lo, top, bins + 1),
             "edges_v": np.linspace(-v, v, bins + 1)}
@@ -88,20 +89,20 @@ def transient(scene: Any, *, start: float, times: tuple[float, ...],
     sol: dict[str, Any] = {}
     for m in models:
         stages(f"FPK of the {m} model (time stepping)")
-        sol[f"fpk:{m}"] = run.transient_averaged(scene, named[m], start=start, times=times)
+        sol[f"fpk:{m}"] = timedomain.transient_averaged(scene, named[m], start=start, times=times)
     n = int(paths or scene.montecarlo.paths)
     edges = snapshot_edges(scene, {m: sol[f"fpk:{m}"] for m in models}, start,
                            snapshot_bins(n, scene.montecarlo.bins))
     if price is not None:
         price(n)
     stages("Monte Carlo of the original system (snapshots)")
-    mc = run.transient_montecarlo(scene, start=start, times=times, edges=edges, paths=n,
+    mc = timedomain.transient_montecarlo(scene, start=start, times=times, edges=edges, paths=n,
                                   progress=not quiet)
     sol["mc:original"] = mc
     hists = snapshot_hists(mc)
     for m in models if sde else ():
         stages(f"Monte Carlo of the {m} averaged SDE (snapshots)")
-        sol[f"sde:{m}"] = run.transient_sde(scene, named[m], start=start, times=times,
+        sol[f"sde:{m}"] = timedomain.transient_sde(scene, named[m], start=start, times=times,
                                             edges_A=edges["edges_A"], paths=n,
                                             seed=sde_seed(scene.montecarlo.seed, m))
     stages("metrics")

@@ -9,7 +9,8 @@ by the names of their command-line flags, the models). Everything refused here i
 out of range, a model that does not apply to the scene, a list-valued scene where one value is
 needed. The request carries the concrete scene: overrides applied, Monte Carlo options applied
 and the time step following the floor (:func:`follow_floor`), so the door to the solvers
-(``harness/run.py``) receives settings and never has to re-read a file to know what was asked.
+(``harness/door/solvers.py``) receives settings and never has to re-read a file to know what was
+asked.
 """
 
 from __future__ import annotations
@@ -20,11 +21,11 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+from vifpk.harness.request import validate
+
 from vifpk.core import registry
 from vifpk.core.defaults import CHECK_MODELS
 from vifpk.core.scene import Scene, SceneError, check_value, load_scene, no_noise
-
-from . import validate
 
 #: the Monte Carlo options every workflow takes, by the names of their flags (``--paths``...),
 #: each the [montecarlo] field of the same name
@@ -126,7 +127,7 @@ def concrete(source: Scene | str | Path, overrides: Sequence[str] = (),
     """The one scene a request runs on: a Scene, a scene file or a shipped scene's name, with
     ``--set`` texts (``overrides``) or dotted ``values`` applied. A scene that still varies a
     parameter (a list of values) is refused: choose one value."""
-    from .provenance import overridden_name
+    from vifpk.harness.outputs.provenance import overridden_name
 
     if isinstance(source, Scene):
         scene = source
@@ -259,11 +260,11 @@ def prepare_check(source: Scene | str | Path, *, models: Sequence[str] | None = 
                   tolerance_observable: str = "A", confidence: float | None = None,
                   **mc: Any) -> Request:
     """``vifpk check``'s request: the models (default CHECK_MODELS, those that apply; models
-    named by the user must apply), the tolerance question (harness/tolerance.py; defaults
+    named by the user must apply), the tolerance question (harness/workflows/tolerance.py; defaults
     there) and the Monte Carlo options by flag name."""
-    from vifpk.core.defaults import TOLERANCE, TOLERANCE_CONFIDENCE
+    from vifpk.harness.workflows.tolerance import Tolerance
 
-    from .tolerance import Tolerance
+    from vifpk.core.defaults import TOLERANCE, TOLERANCE_CONFIDENCE
 
     unknown = sorted(set(mc) - set(MC_OPTIONS))
     if unknown:
@@ -277,7 +278,7 @@ def prepare_check(source: Scene | str | Path, *, models: Sequence[str] | None = 
     names = model_names(models, "--model") if chosen else CHECK_MODELS
     scene = with_mc_options(concrete(source, overrides, values), mc, mc=True)
     if no_noise(scene.system):
-        from .run import SolverFailure
+        from vifpk.harness.door.solvers import SolverFailure
 
         raise SolverFailure(f"{no_noise(scene.system)}; nothing to cross-check")
     _, skipped = applicable_models(scene, names, chosen=chosen)

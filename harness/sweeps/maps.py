@@ -20,15 +20,17 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-
-from .check import INDISTINGUISHABLE_FACTOR as WITHIN_NOISE  # the check's "indistinguishable"
+from vifpk.harness.sweeps.timesweep import KEYS
+from vifpk.harness.workflows.verdict import (
+    INDISTINGUISHABLE_FACTOR as WITHIN_NOISE,  # the check's "indistinguishable"
+)
 
 FLAG_VARS = ("warn_narrow_band", "warn_sticking", "warn_strong_damping", "warn_strong_noise",
              "warn_not_converged")
 
 
 def _png(fig: Any) -> str:
-    from .io import png_bytes
+    from vifpk.harness.outputs.io import png_bytes
 
     return base64.b64encode(png_bytes(fig, dpi=110, bbox_inches="tight")).decode()
 
@@ -77,7 +79,7 @@ def _verdict_boundary(ax: Any, inside: np.ndarray, known: np.ndarray, xe: np.nda
 
 def _map_figure(ds: Any, var: str, title: str, *, contour: bool) -> str:
     """Colour maps of ``var`` (dims: two parameters and model), models side by side."""
-    from .io import pyplot
+    from vifpk.harness.outputs.io import pyplot
 
     plt = pyplot()
     from matplotlib.patches import Rectangle
@@ -127,7 +129,7 @@ def _map_figure(ds: Any, var: str, title: str, *, contour: bool) -> str:
 def _scattered_map_figure(ds: Any, var: str, title: str) -> str:
     """An adaptive sweep over two parameters: for each model the error field interpolated
     linearly on the Delaunay triangulation of the points (in range-scaled coordinates, as the
-    points were chosen: harness/adaptive.py), the contour L1 = 2 x noise floor (white), and
+    points were chosen: harness/sweeps/adaptive.py), the contour L1 = 2 x noise floor (white), and
     the points (white circles: within the noise; black dots: outside; red crosses: failed)."""
     import matplotlib
 
@@ -177,7 +179,7 @@ def _scattered_map_figure(ds: Any, var: str, title: str) -> str:
 
 
 def _curve_figure(ds: Any, var: str, err: str | None, title: str) -> str:
-    from .io import pyplot
+    from vifpk.harness.outputs.io import pyplot
 
     plt = pyplot()
 
@@ -207,7 +209,7 @@ def _curve_figure(ds: Any, var: str, err: str | None, title: str) -> str:
 
 
 def _bifurcation_figure(ds: Any) -> str:
-    from .io import pyplot
+    from vifpk.harness.outputs.io import pyplot
 
     plt = pyplot()
 
@@ -273,7 +275,6 @@ def figures(ds: Any) -> list[tuple[str, str]]:
             out.append(("Mean amplitude of each averaged model.",
                         _curve_figure(ds, "mean_A", None, "mean A")))
     if wf in ("passage", "transient"):
-        from .timesweep import figures as time_figures
 
         out += time_figures(ds)
     if wf == "bifurcation" and "critical" in ds and len(params) == 1:
@@ -316,6 +317,41 @@ def render(sweep: Any, ds: Any) -> str:
 
 
 def write_maps(sweep: Any, ds: Any, out: Path) -> Path:
-    from .io import write_atomic
+    from vifpk.harness.outputs.io import write_atomic
 
     return write_atomic(Path(out) / "report.html", render(sweep, ds))
+
+
+def time_figures(ds: Any) -> list[tuple[str, str]]:
+    """The sweep figures of passage and transient sweeps along one parameter."""
+    import json
+
+    wf = ds.attrs.get("workflow")
+    params = json.loads(ds.attrs.get("varied", "[]"))
+    if wf not in KEYS or len(params) != 1 or ds.attrs.get("mode") == "adaptive":
+        return []
+    var, orig, label = (("mfpt", "mfpt_original", "MFPT (time units, log scale)")
+                        if wf == "passage" else
+                        ("relaxation_time", "relaxation_original",
+                         "relaxation time (time units, log scale)"))
+    if var not in ds or orig not in ds:
+        return []
+    from vifpk.harness.outputs.io import pyplot
+
+    plt = pyplot()
+    x, xl = _axis(ds, params[0]) if params[0] in ds.coords else (
+        np.arange(ds.sizes["point"]), "point")
+    fig, ax = plt.subplots(figsize=(6.4, 4.2), constrained_layout=True)
+    for m in ds["model"].values:
+        ax.plot(x, ds[var].sel(model=m).values, "-o", ms=4, label=f"{m} model")
+    ax.errorbar(x, ds[orig].values, yerr=2 * ds[f"{orig}_err"].values, fmt="s", color="k",
+                capsize=3, label="original system: MC (±2 s.e.)")
+    ax.set_yscale("log")
+    ax.set_xlabel(xl)
+    ax.set_ylabel(label)
+    ax.legend(fontsize=8)
+    what = ("Mean first-passage time of each averaged model (Pontryagin quadrature) against "
+            "the Monte Carlo of the original system" if wf == "passage" else
+            "Relaxation time each averaged model predicts (its FPK's slowest decay) against "
+            "the one fitted on the original system")
+    return [(what + ", log scale.", _png(fig))]

@@ -1,9 +1,10 @@
 """The generated error report of a cross-check: report.html (self-contained, figures
 embedded), report.md (+ figures/*.png), metrics.json (a contract scripts read), arrays.npz.
 
-The folder is written as a unit (harness/outdir.py): the whole new set is built beside DIR and
+The folder is written as a unit (harness/outputs/outdir.py): the whole new set is built beside DIR
+and
 swapped in with one atomic exchange, under a lock that refuses a second run into DIR. Every
-file carries the run's provenance (harness/provenance.py): metrics.json ``provenance``, a
+file carries the run's provenance (harness/outputs/provenance.py): metrics.json ``provenance``, a
 block in report.html and report.md, ``run_id`` in arrays.npz and a text chunk in each PNG.
 """
 
@@ -17,16 +18,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-
-from . import outdir, provenance
-from .check import (
-    INDISTINGUISHABLE_FACTOR,
-    LARGE_L1,
-    OBSERVABLES,
-    SMALL_L1,
-    CheckResult,
-)
-from .io import dumps, png_bytes
+from vifpk.harness.outputs import outdir, provenance
+from vifpk.harness.outputs.io import dumps, png_bytes
+from vifpk.harness.workflows.check import OBSERVABLES, CheckResult
+from vifpk.harness.workflows.verdict import INDISTINGUISHABLE_FACTOR, LARGE_L1, SMALL_L1
 
 LABELS = {"A": "amplitude A (dimensionless)", "x1": "displacement x1 (dimensionless)",
           "x2": "velocity x2 (dimensionless)"}
@@ -44,7 +39,7 @@ def _figure_densities(res: CheckResult, text: dict[str, str] | None = None) -> b
     closed form (solid line), its FPK (open circles), the Monte Carlo of its averaged SDE
     (dashed steps), in one colour per model; the Monte Carlo of the original system in black
     with +/- 2 s.e. bars. One legend for all panels."""
-    from .io import pyplot
+    from vifpk.harness.outputs.io import pyplot
 
     plt = pyplot()
 
@@ -88,7 +83,7 @@ def _figure_decomposition(res: CheckResult, text: dict[str, str] | None = None) 
     """Bars: the L1 distance of each part of the decomposition, with +/- 1 s.e. error bars
     (black, capped). Grey hatched boxes: the Monte Carlo noise floor, from the bottom of the
     axis up to the floor (a bar inside its box is noise)."""
-    from .io import pyplot
+    from vifpk.harness.outputs.io import pyplot
 
     plt = pyplot()
     from matplotlib.patches import Rectangle
@@ -262,7 +257,7 @@ def verdict_rows(res: CheckResult) -> list[list[str]]:
     """The ten-second verdict: per model, class (the worst over every observable), L1(A) +/-
     error bar, times the noise floor, share of the probability mass misplaced (L1 / 2, on
     L1's 0..2 scale), the class of each observable, dominant cause."""
-    from .check import observable_classes
+    from vifpk.harness.workflows.verdict import observable_classes
 
     rows = []
     for m in res.metrics["models"]:
@@ -319,7 +314,7 @@ def render_markdown(res: CheckResult, figures: dict[str, str]) -> str:
     out += ["", "L1 = ∫|p - q| runs from 0 (identical) to 2 (disjoint). Classes: "
             + "; ".join(_class_legend()) + ".", ""]
     out += [f"- {v}" for v in res.verdicts]
-    if res.tolerance_lines:  # the tolerance verdict (harness/tolerance.py)
+    if res.tolerance_lines:  # the tolerance verdict (harness/workflows/tolerance.py)
         out += ["", "Tolerance verdict (the error with the Monte Carlo noise removed):", ""]
         out += [f"- {v}" for v in res.tolerance_lines]
     if res.recommendation:
@@ -441,8 +436,8 @@ def write_figures(folder: Path, pngs: dict[str, bytes]) -> dict[str, str]:
 
 def write_report(res: CheckResult, out_dir: str | Path, *,
                  prov: dict[str, Any] | None = None) -> dict[str, Path]:
-    """Write the report folder out_dir as a unit (harness/outdir.py), every file stamped with
-    the run's provenance ``prov`` (default: :func:`provenance.collect` for this process)."""
+    """Write the report folder out_dir as a unit (harness/outputs/outdir.py), every file stamped
+    with the run's provenance ``prov`` (default: :func:`provenance.collect` for this process)."""
     if prov is None:
         prov = provenance.collect(scene_path=provenance.scene_file(res.scene.source)
                                   if res.scene.source else None)

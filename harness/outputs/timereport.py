@@ -1,8 +1,9 @@
-"""Reports of the time-domain workflows (harness/passage.py, harness/transient.py):
+"""Reports of the time-domain workflows (harness/workflows/passage.py,
+harness/workflows/transient.py):
 report.html (self-contained, figures embedded), report.md (+ figures/*.png), metrics.json (a
 public contract: docs/passage.md), arrays.npz (every curve and histogram in full).
 
-Written as a unit with provenance, like a check report (harness/report.py, outdir.py): the
+Written as a unit with provenance, like a check report (harness/outputs/report.py, outdir.py): the
 folder is built beside DIR and swapped in, every file stamped with the run id.
 """
 
@@ -15,10 +16,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-
-from . import outdir, provenance
-from .io import dumps, png_bytes, pyplot
-from .report import MODEL_COLORS, write_figures
+from vifpk.harness.outputs import outdir, provenance
+from vifpk.harness.outputs.io import dumps, png_bytes, pyplot
+from vifpk.harness.outputs.report import MODEL_COLORS, write_figures
 
 #: the files of a time-domain report; arrays-<workflow>.npz tells its kind (outdir.KINDS)
 PASSAGE_FILES = ("report.html", "report.md", "metrics.json", "passage.npz", "figures")
@@ -37,8 +37,8 @@ def _km_step(t: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 # ---------------------------------------------------------------------------- passage
 def _passage_figures(res: Any, text: dict[str, str]) -> dict[str, bytes]:
-    from . import survival
-    from .passage import _fpt
+    from vifpk.harness.workflows import survival
+    from vifpk.harness.workflows.passage import _fpt
 
     plt = pyplot()
     mc = res.metrics["mfpt"]["original_system"]
@@ -160,7 +160,7 @@ def _arrays(res: Any) -> dict[str, np.ndarray]:
 
 # --------------------------------------------------------------------------- transient
 def _transient_figures(res: Any, text: dict[str, str]) -> dict[str, bytes]:
-    from .transient import fpk_snapshots, mean_of, snapshot_hists
+    from vifpk.harness.workflows.transient import fpk_snapshots, mean_of, snapshot_hists
 
     plt = pyplot()
     n = len(res.times)
@@ -339,7 +339,7 @@ def write_time_report(res: Any, out_dir: str | Path, *, prov: dict[str, Any] | N
             title = f"Transient: {res.scene.name}, A0 = {res.start:g}"
             extra = [f"Start: {res.metrics['start_law']}. L1 and KS of p(A, t) against the "
                      "original system's histogram, with error bars and noise floors "
-                     "(harness/compare.py)."]
+                     "(harness/workflows/compare.py)."]
         figs = write_figures(tmp, pngs)
         outdir._hook("fill")
         (tmp / "report.md").write_text(_markdown(title, res, figs, head, rows, extra),

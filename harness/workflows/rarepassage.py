@@ -15,10 +15,11 @@ import time
 from pathlib import Path
 from typing import Any
 
-from vifpk.core import registry
+from vifpk.harness.door import timedomain
+from vifpk.harness.outputs.io import write_atomic, write_json
+from vifpk.harness.workflows import survival
 
-from . import run, survival
-from .io import write_atomic, write_json
+from vifpk.core import registry
 
 #: the target 95% half-width of the original system's MFPT, relative, and the wall budget
 REL_CI, BUDGET = 0.10, 900.0
@@ -31,9 +32,9 @@ def passage_splitting_report(scene: Any, *, threshold: float, start: float | str
     t0 = time.perf_counter()
     mfpt: dict[str, Any] = {}
     for m in registry.applicable(scene, models)[0]:  # the models that apply to the scene
-        q = run.mfpt_averaged(scene, m, threshold=threshold, start=start)
+        q = timedomain.mfpt_averaged(scene, m, threshold=threshold, start=start)
         mfpt[m] = {"value": float(q["value"]), "error_estimate": q.get("error_estimate")}
-    sp = run.passage_splitting(scene, threshold=threshold, start=start, rel_ci=REL_CI,
+    sp = timedomain.passage_splitting(scene, threshold=threshold, start=start, rel_ci=REL_CI,
                                budget=BUDGET)
     o = sp.info["mfpt"]
     orig = {"value": o["value"], "stderr": o["stderr"], "ci": o["ci"], "method": "splitting",

@@ -1,6 +1,6 @@
 """Where the next points of an adaptive sweep go: refinement of a validity boundary.
 
-An adaptive sweep (``mode = "adaptive"``, harness/sweep.py, docs/maps.md) varies one or two
+An adaptive sweep (``mode = "adaptive"``, harness/sweeps/spec.py, docs/maps.md) varies one or two
 parameters over ranges; each range is mapped to [0, 1] (``u = (value - start) / (stop - start)``)
 so that both directions weigh alike. What is refined is the model's verdict within the Monte
 Carlo noise, through

@@ -26,11 +26,15 @@ from typing import Any
 
 import numpy as np
 from scipy.optimize import brentq
+from vifpk.harness.door.solvers import (
+    amplitude_density,
+    montecarlo_solution,
+    orbit_period,
+    restoring_force,
+)
 
 from vifpk.core import registry
 from vifpk.core.defaults import BIFURCATION_MODELS
-
-from .run import amplitude_density, montecarlo_solution, orbit_period, restoring_force
 
 VARIABLES = {"mu": ("system", "mu", (0.0, 0.05)), "r": ("system", "r", (0.9, 1.0))}
 PAPER_CLAIMS = {

@@ -23,8 +23,7 @@ from dataclasses import replace
 from typing import Any
 
 import numpy as np
-
-from .compare import compare
+from vifpk.harness.workflows.compare import compare
 
 TARGETS = (1e-2, 1e-3, 1e-4)
 
@@ -80,7 +79,7 @@ def _ladders(quick: bool) -> dict[str, list[dict[str, Any]]]:
 
 def _amplitude_only(scene: Any, model: str) -> Any:
     """p(A) of an averaged model, and nothing else (the score is on p(A))."""
-    from .run import amplitude_density
+    from vifpk.harness.door.solvers import amplitude_density
 
     amp = amplitude_density(scene, model)
 
@@ -93,7 +92,7 @@ def _amplitude_only(scene: Any, model: str) -> Any:
 def run_workprecision(scene: Any, *, quick: bool = False, repeats: int = 3,
                       log: Callable[[str], None] | None = None) -> dict[str, Any]:
     """The work-precision data of every solver family (see module docstring)."""
-    from .run import (
+    from vifpk.harness.door.solvers import (
         averaged_model,
         averaged_sde_solution,
         closed_form,
@@ -282,7 +281,7 @@ def seconds_to_reach(solvers: dict[str, list[dict[str, Any]]]) -> dict[str, dict
 
 
 def plot(data: dict[str, Any], path: Any) -> None:
-    from .io import pyplot
+    from vifpk.harness.outputs.io import pyplot
 
     plt = pyplot()
 

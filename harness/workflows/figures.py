@@ -16,13 +16,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from vifpk.harness.door.solvers import closed_form, montecarlo_solution
+from vifpk.harness.outputs.io import atomic_path, write_atomic, write_json
+from vifpk.harness.workflows.check import models_of
+from vifpk.harness.workflows.compare import compare
 
 from vifpk.core.scene import Scene, Sweep, load_scene
-
-from .check import models_of
-from .compare import compare
-from .io import atomic_path, write_atomic, write_json
-from .run import closed_form, montecarlo_solution
 
 FIGURES = {2: "paper-fig2", 3: "paper-fig3", 4: "paper-fig4", 5: "paper-fig5", 6: "paper-fig6"}
 JOINT = {5, 6}
@@ -49,7 +48,7 @@ def _run_variant(scene: Scene, joint: bool) -> dict[str, Any]:
 
 
 def _plot_pdfs(fig_no: int, scene: Scene, runs: list[dict[str, Any]], path: Path) -> None:
-    from .io import pyplot
+    from vifpk.harness.outputs.io import pyplot
 
     plt = pyplot()
 
@@ -80,7 +79,7 @@ def _plot_pdfs(fig_no: int, scene: Scene, runs: list[dict[str, Any]], path: Path
 
 
 def _plot_joint(fig_no: int, scene: Scene, runs: list[dict[str, Any]], path: Path) -> None:
-    from .io import pyplot
+    from vifpk.harness.outputs.io import pyplot
 
     plt = pyplot()
 
@@ -163,7 +162,7 @@ def draw_scene_figures(out_dir: str | Path, scene: Scene, *, quiet: bool = False
                      for r in runs],
         "stuck_fraction": [r["mc"].info["events"]["stuck_fraction"]["value"] for r in runs]}}
     if prov is None:
-        from .provenance import collect
+        from vifpk.harness.outputs.provenance import collect
 
         prov = collect()
     write_json(out / "figures.json", dict(table, provenance=prov))
@@ -200,7 +199,7 @@ def draw_figures(out_dir: str | Path, *, numbers: tuple[int, ...] = tuple(FIGURE
             "stuck_fraction": [r["mc"].info["events"]["stuck_fraction"]["value"] for r in runs],
         }
     if prov is None:
-        from .provenance import collect
+        from vifpk.harness.outputs.provenance import collect
 
         prov = collect()
     write_json(out / "figures.json", dict(table, provenance=prov))

@@ -1,4 +1,4 @@
-"""Command line of the time-domain workflows (registered by harness/cli.py):
+"""Command line of the time-domain workflows (registered by harness/cli/options.py):
 
     vifpk passage SCENE --threshold Ac [--start A0 | --start stationary] [--model M ...]
                   [--horizon T] [--out DIR] [--json] [--paths N] [--dt H] [--seed S] [--yes]
@@ -19,11 +19,11 @@ import os
 from pathlib import Path
 from typing import Any
 
+from vifpk.harness.request import cost, validate
+
 from vifpk.core import registry
 from vifpk.core.defaults import CHECK_MODELS
 from vifpk.core.scene import no_noise
-
-from . import validate
 
 
 def _number(text: str) -> float:
@@ -55,8 +55,7 @@ def _amplitude_ok(scene: Any, option: str, value: float) -> None:
     """A finite amplitude > 0 inside the oscillation domain: the restoring force g(A) > 0 on
     (0, A] (a softening spring's potential well ends where g turns back)."""
     import numpy as np
-
-    from .run import restoring_force
+    from vifpk.harness.door.solvers import restoring_force
 
     if not (math.isfinite(value) and value > 0):
         raise validate.InputError(f"{option} {value:g}: out of range; allowed: a finite "
@@ -64,7 +63,7 @@ def _amplitude_ok(scene: Any, option: str, value: float) -> None:
     grid = np.linspace(value / 1000.0, value, 1000)
     with np.errstate(all="ignore"):
         g = np.asarray(restoring_force(grid, tuple(scene.system.restoring_law)), float)
-    from .run import potential_energy
+    from vifpk.harness.door.solvers import potential_energy
 
     with np.errstate(all="ignore"):
         u = float(potential_energy(scene, value))
@@ -88,11 +87,12 @@ def _refuse_common(args: argparse.Namespace, command: str) -> None:
 
 
 def _scene(args: argparse.Namespace) -> Any:
-    from .cli import _checked_scene
-    from .run import SolverFailure, time_step
+    from vifpk.harness.cli.options import _checked_scene
+    from vifpk.harness.door.solvers import SolverFailure
+    from vifpk.harness.door.timedomain import time_step
 
     scene = _checked_scene(args, mc=True)
-    if scene.montecarlo.dt == "auto":  # the time domain's one step rule (run.time_step)
+    if scene.montecarlo.dt == "auto":  # the time domain's one step rule (timedomain.time_step)
         scene = scene.with_values({"montecarlo.dt": time_step(scene)})
     if no_noise(scene.system):
         raise SolverFailure(f"{no_noise(scene.system)}; nothing passes or relaxes "
@@ -104,7 +104,7 @@ def _models(args: argparse.Namespace, scene: Any) -> tuple[str, ...]:
     """The models named (each must apply: one line otherwise), else the check models that
     apply to the scene (request.applicable_models, as check does): every route below, the
     auto pricing and splitting included, runs only models that apply."""
-    from .request import applicable_models
+    from vifpk.harness.request.prepare import applicable_models
 
     names = tuple(dict.fromkeys(args.model)) if args.model else CHECK_MODELS
     applicable_models(scene, names, chosen=bool(args.model))
@@ -116,7 +116,7 @@ def check_passage(args: argparse.Namespace) -> Any:
     _refuse_common(args, "passage")
     scene = _scene(args)
     passage_values(scene, threshold=args.threshold, start=args.start, horizon=args.horizon)
-    validate.refuse_oversized(scene)
+    cost.refuse_oversized(scene)
     return scene
 
 
@@ -151,7 +151,7 @@ def check_transient(args: argparse.Namespace) -> Any:
     _refuse_common(args, "transient")
     scene = _scene(args)
     transient_values(scene, start=args.start, times=args.times)
-    validate.refuse_oversized(scene)
+    cost.refuse_oversized(scene)
     return scene
 
 
@@ -187,7 +187,7 @@ def _cores(scene: Any) -> int:
 
 
 def _out(args: argparse.Namespace, scene: Any, suffix: str) -> str:
-    from .provenance import folder_name
+    from vifpk.harness.outputs.provenance import folder_name
 
     out = args.out or f"out/{folder_name(scene.name)}-{suffix}"
     if args.out is None:
@@ -197,7 +197,7 @@ def _out(args: argparse.Namespace, scene: Any, suffix: str) -> str:
 
 def _print(res: Any, files: dict[str, Any], as_json: bool) -> None:
     if as_json:
-        from .io import jsonable
+        from vifpk.harness.outputs.io import jsonable
 
         doc = {k: v for k, v in res.metrics.items() if k not in ("R",)}
         print(json.dumps(jsonable(doc), indent=1, allow_nan=False))
@@ -212,10 +212,10 @@ def _print(res: Any, files: dict[str, Any], as_json: bool) -> None:
 
 
 def cmd_passage(args: argparse.Namespace) -> int:
-    from . import outdir
-    from .cli import _provenance
-    from .passage import passage, run_seconds
-    from .timereport import PASSAGE_FILES, write_time_report
+    from vifpk.harness.cli.options import _provenance
+    from vifpk.harness.outputs import outdir
+    from vifpk.harness.outputs.timereport import PASSAGE_FILES, write_time_report
+    from vifpk.harness.workflows.passage import passage, run_seconds
 
     scene = check_passage(args)
     models = _models(args, scene)
@@ -230,8 +230,8 @@ def cmd_passage(args: argparse.Namespace) -> int:
                 "another method: --method splitting)")
         runs = 1 + len(models)
         try:
-            validate.refuse_costly(lambda sp: run_seconds(
-                p, runs, sp or validate.MC_STEPS_PER_CORE, _cores(scene)), what, args.yes)
+            cost.refuse_costly(lambda sp: run_seconds(
+                p, runs, sp or cost.MC_STEPS_PER_CORE, _cores(scene)), what, args.yes)
         except validate.InputError as exc:
             if args.method != "auto":
                 raise
@@ -240,15 +240,18 @@ def cmd_passage(args: argparse.Namespace) -> int:
     if args.method == "splitting":
         return _splitting(args, scene, models, out, prov, "asked for (--method splitting)")
     if args.method == "auto" and not args.yes:  # priced up front by the quadrature alone,
-        from . import run  # before any R(t) stepping (slow, and fragile, at high thresholds)
-        from .passage import plan
+        from vifpk.harness.door import (
+            solvers,
+            timedomain,  # before any R(t) stepping (slow, and fragile, at high thresholds)
+        )
+        from vifpk.harness.workflows.passage import plan
 
         try:
-            mf = {m: float(run.mfpt_averaged(scene, m, threshold=args.threshold,
+            mf = {m: float(timedomain.mfpt_averaged(scene, m, threshold=args.threshold,
                                              start=args.start)["value"])
                   for m in registry.applicable(scene, models)[0]}
             price(plan(scene, mf, paths=args.paths, horizon=args.horizon))
-        except run.SolverFailure:
+        except solvers.SolverFailure:
             pass  # the workflow below meets it again and says so
         except _Splitting as why:
             return _splitting(args, scene, models, out, prov, str(why))
@@ -256,7 +259,7 @@ def cmd_passage(args: argparse.Namespace) -> int:
     try:
         with outdir.hold(out, run_id=prov["run_id"], allowed=PASSAGE_FILES,
                          kind="passage report"):
-            with validate.guarded_run(scene, args.yes):
+            with cost.guarded_run(scene, args.yes):
                 res = passage(scene, threshold=args.threshold, start=args.start,
                               models=models, horizon=args.horizon, paths=args.paths,
                               quiet=args.quiet, price=price)
@@ -274,10 +277,10 @@ class _Splitting(Exception):
 
 def _splitting(args: argparse.Namespace, scene: Any, models: tuple[str, ...], out: str,
                prov: dict[str, Any], reason: str) -> int:
-    """vifpk passage --method splitting (harness/rarepassage.py): the MFPT only."""
-    from . import outdir
-    from .rarepassage import passage_splitting_report
-    from .timereport import PASSAGE_FILES
+    """vifpk passage --method splitting (harness/workflows/rarepassage.py): the MFPT only."""
+    from vifpk.harness.outputs import outdir
+    from vifpk.harness.outputs.timereport import PASSAGE_FILES
+    from vifpk.harness.workflows.rarepassage import passage_splitting_report
 
     print(f"method: splitting ({reason})")
     with outdir.hold(out, run_id=prov["run_id"], allowed=PASSAGE_FILES, kind="passage report"):
@@ -298,17 +301,17 @@ def _splitting(args: argparse.Namespace, scene: Any, models: tuple[str, ...], ou
 
 
 def cmd_transient(args: argparse.Namespace) -> int:
-    from . import outdir
-    from .cli import _provenance
-    from .timereport import TRANSIENT_FILES, write_time_report
-    from .transient import transient
+    from vifpk.harness.cli.options import _provenance
+    from vifpk.harness.outputs import outdir
+    from vifpk.harness.outputs.timereport import TRANSIENT_FILES, write_time_report
+    from vifpk.harness.workflows.transient import transient
 
     scene = check_transient(args)
     models = _models(args, scene)
     runs = 1 + len(models)
     dt = float(scene.montecarlo.dt)
     steps = (args.paths or scene.montecarlo.paths) * max(args.times) / dt
-    validate.refuse_costly(lambda sp: runs * steps / ((sp or validate.MC_STEPS_PER_CORE)
+    cost.refuse_costly(lambda sp: runs * steps / ((sp or cost.MC_STEPS_PER_CORE)
                                                       * _cores(scene)),
                            f"this transient ({runs} Monte Carlo runs to t = {max(args.times):g})",
                            args.yes)
@@ -316,7 +319,7 @@ def cmd_transient(args: argparse.Namespace) -> int:
     prov = _provenance(args)
     with outdir.hold(out, run_id=prov["run_id"], allowed=TRANSIENT_FILES,
                      kind="transient report"):
-        with validate.guarded_run(scene, args.yes):
+        with cost.guarded_run(scene, args.yes):
             res = transient(scene, start=args.start, times=args.times, models=models,
                             paths=args.paths, quiet=args.quiet)
         _finite(res.metrics)
@@ -327,7 +330,7 @@ def cmd_transient(args: argparse.Namespace) -> int:
 
 def _finite(metrics: dict[str, Any]) -> None:
     """Never exit 0 with NaN: a non-finite MFPT or distance is a numerical failure (exit 3)."""
-    from .run import SolverFailure
+    from vifpk.harness.door.solvers import SolverFailure
 
     bad: list[str] = []
 
@@ -347,7 +350,7 @@ def _finite(metrics: dict[str, Any]) -> None:
 
 def add_commands(sub: Any, model_name: Any, set_help: str, quiet_help: str) -> None:
     """The passage and transient subcommands (called by harness.cli.build_parser)."""
-    from .cli import _dt_value, _whole_number
+    from vifpk.harness.cli.options import _dt_value, _whole_number
 
     def common(p: argparse.ArgumentParser) -> None:
         p.add_argument("scene", help="scene TOML file (or the name of a shipped scene)")

@@ -1,4 +1,4 @@
-"""The time-domain workflows in sweeps (harness/sweep.py): ``workflow = "passage"`` and
+"""The time-domain workflows in sweeps (harness/sweeps/spec.py): ``workflow = "passage"`` and
 ``workflow = "transient"``, their tables, their point functions and their sweep figures::
 
     workflow = "passage"
@@ -24,8 +24,6 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
-import numpy as np
-
 #: workflow parameters that a sweep may vary or fix in its table, by workflow
 TIME_PARAMS = {"passage.threshold": "passage", "passage.start": "passage",
                "transient.start": "transient"}
@@ -47,7 +45,7 @@ def options(src: str, raw: Mapping[str, Any], workflow: str, vary: Mapping[str, 
             ) -> dict[str, Any]:
     """The [passage] or [transient] table, validated (SweepError naming the key); {} for the
     other workflows (which may not have these tables nor vary their parameters)."""
-    from .sweep import SweepError
+    from vifpk.harness.sweeps.errors import SweepError
 
     for wf in KEYS:
         if wf != workflow and wf in raw:
@@ -109,7 +107,7 @@ def point_options(opts: Mapping[str, Any], params: tuple[tuple[str, float], ...]
 
 def check_point(workflow: str, opts: Mapping[str, Any]) -> None:
     """The point's options as the command checks them (InputError, one line)."""
-    from .validate import InputError
+    from vifpk.harness.request.validate import InputError
 
     if workflow == "passage":
         ac, st = opts["threshold"], opts["start"]
@@ -122,9 +120,9 @@ def check_point(workflow: str, opts: Mapping[str, Any]) -> None:
 
 
 def _price(p: dict[str, Any], runs: int) -> None:
-    from .passage import run_seconds
-    from .run import SolverFailure
-    from .validate import MC_STEPS_PER_CORE
+    from vifpk.harness.door.solvers import SolverFailure
+    from vifpk.harness.request.cost import MC_STEPS_PER_CORE
+    from vifpk.harness.workflows.passage import run_seconds
 
     s = run_seconds(p, runs, MC_STEPS_PER_CORE, 1)
     if s > POINT_SECONDS:
@@ -134,9 +132,9 @@ def _price(p: dict[str, Any], runs: int) -> None:
 
 
 def passage_point(job: Any) -> dict[str, Any]:
-    from vifpk.core.defaults import CHECK_MODELS
+    from vifpk.harness.workflows.passage import passage
 
-    from .passage import passage
+    from vifpk.core.defaults import CHECK_MODELS
 
     o = point_options(job.bifurcation, job.params)
     models = job.models if job.models is not None else CHECK_MODELS
@@ -160,9 +158,9 @@ def passage_point(job: Any) -> dict[str, Any]:
 
 
 def transient_point(job: Any) -> dict[str, Any]:
-    from vifpk.core.defaults import CHECK_MODELS
+    from vifpk.harness.workflows.transient import transient
 
-    from .transient import transient
+    from vifpk.core.defaults import CHECK_MODELS
 
     o = point_options(job.bifurcation, job.params)
     res = transient(job.scene, start=o["start"], times=tuple(o["times"]),
@@ -185,40 +183,3 @@ def transient_point(job: Any) -> dict[str, Any]:
 #: point-level scalars of these workflows that sweep.dataset writes as variables
 SCALARS = ("mfpt_original", "mfpt_original_err", "censored_fraction", "relaxation_original",
            "relaxation_original_err")
-
-
-def figures(ds: Any) -> list[tuple[str, str]]:
-    """The sweep figures of passage and transient sweeps along one parameter."""
-    import json
-
-    from .sweepmaps import _axis, _png
-
-    wf = ds.attrs.get("workflow")
-    params = json.loads(ds.attrs.get("varied", "[]"))
-    if wf not in KEYS or len(params) != 1 or ds.attrs.get("mode") == "adaptive":
-        return []
-    var, orig, label = (("mfpt", "mfpt_original", "MFPT (time units, log scale)")
-                        if wf == "passage" else
-                        ("relaxation_time", "relaxation_original",
-                         "relaxation time (time units, log scale)"))
-    if var not in ds or orig not in ds:
-        return []
-    from .io import pyplot
-
-    plt = pyplot()
-    x, xl = _axis(ds, params[0]) if params[0] in ds.coords else (
-        np.arange(ds.sizes["point"]), "point")
-    fig, ax = plt.subplots(figsize=(6.4, 4.2), constrained_layout=True)
-    for m in ds["model"].values:
-        ax.plot(x, ds[var].sel(model=m).values, "-o", ms=4, label=f"{m} model")
-    ax.errorbar(x, ds[orig].values, yerr=2 * ds[f"{orig}_err"].values, fmt="s", color="k",
-                capsize=3, label="original system: MC (±2 s.e.)")
-    ax.set_yscale("log")
-    ax.set_xlabel(xl)
-    ax.set_ylabel(label)
-    ax.legend(fontsize=8)
-    what = ("Mean first-passage time of each averaged model (Pontryagin quadrature) against "
-            "the Monte Carlo of the original system" if wf == "passage" else
-            "Relaxation time each averaged model predicts (its FPK's slowest decay) against "
-            "the one fitted on the original system")
-    return [(what + ", log scale.", _png(fig))]

@@ -98,10 +98,10 @@ def hold(folder: str | Path, *, run_id: str = "", allowed: Collection[str] | Non
 
     ``kind`` (a key of :data:`KINDS`): a non-empty folder must hold that kind of output.
     Yields the resolved folder path. Re-entrant within one process. The lock file is removed
-    on exit, and by the interrupt watchdog (harness/signals.py) when Ctrl-C or SIGTERM force
+    on exit, and by the interrupt watchdog (harness/outputs/signals.py) when Ctrl-C or SIGTERM force
     an exit; a run killed with SIGKILL leaves the file, which the next run finds stale.
     """
-    from . import signals
+    from vifpk.harness.outputs import signals
 
     target = _resolve(folder)
     if target in _held:
@@ -187,7 +187,7 @@ KINDS = {"passage report": ("passage.npz",), "transient report": ("transient.npz
 
 
 def _temporary(name: str) -> bool:
-    """A temporary file of an atomic write (harness/io.py: ``.NAME.<hex>.tmp<suffix>``)."""
+    """A temporary file of an atomic write (harness/outputs/io.py: ``.NAME.<hex>.tmp<suffix>``)."""
     return name.startswith(".") and ".tmp" in name
 
 

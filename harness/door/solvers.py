@@ -1,0 +1,329 @@
+"""Run the solvers a scene asks for: the one door between the harness and the solvers.
+
+This is the only harness module that imports ``averaging``, ``fpk`` or ``montecarlo``
+(enforced by tests/test_architecture.py); check, bifurcation, figures, workprecision, testing
+and the CLI reach every solver through the functions below. The solvers never import the
+harness or each other: data flows one way, scene -> solver -> record -> comparison.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
+from typing import Any
+
+import numpy as np
+
+from vifpk.core.defaults import FPK_CELLS, REFERENCE_CELLS
+from vifpk.core.registry import SOLVERS, one_of
+from vifpk.core.result import Result
+from vifpk.core.scene import no_noise
+
+
+class SolverFailure(RuntimeError):
+    """A solver could not produce a trustworthy result; the message says why (one line)."""
+
+
+# (seconds allowed, path-steps per second on every core the run uses): the cost guard of the
+# command that runs the Monte Carlo (harness.validate.run_cost_limit); None: no limit
+_COST_LIMIT: ContextVar[tuple[float, float] | None] = ContextVar("cost_limit", default=None)
+
+
+@contextmanager
+def cost_limit(limit: tuple[float, float] | None) -> Iterator[None]:
+    """Within it, a Monte Carlo of the original system with an automatic burn-in is priced
+    again once its relaxation pilot has measured the burn-in: above ``seconds`` at ``rate``
+    path-steps per second it stops before the burn-in (CostRefused, exit 2)."""
+    token = _COST_LIMIT.set(limit)
+    try:
+        yield
+    finally:
+        _COST_LIMIT.reset(token)
+
+
+def run_solver(scene: Any, solver: str, *, model: str = "paper", grid: int | None = None,
+               **options: Any) -> Any:
+    """Run one solver on a concrete scene and return its Result(data, info).
+
+    ``--solver averaging`` of a model with no closed form (a plugin that gives only drift
+    and diffusion) is :func:`closed_form`'s FPK direct solve, and its info says so."""
+    from vifpk import averaging, fpk
+
+    one_of("solver", solver, SOLVERS)
+    try:
+        if solver == "averaging":
+            return closed_form(scene, model=model, **options)
+        if solver == "fpk":
+            return fpk_solution(scene, model=model, cells=grid or FPK_CELLS, **options)
+        return montecarlo_solution(scene, **options)
+    except (averaging.NoStationaryDensity, fpk.FPKFailure, fpk.CoefficientError) as exc:
+        raise SolverFailure(str(exc)) from None
+
+
+# ----------------------------------------------------------------------- averaged models
+def closed_form(scene: Any, *, model: Any, tail_mass: bool = True, **options: Any) -> Any:
+    """The averaged model's stationary densities: its closed form (``averaging.solve``) when
+    the model gives one (``log_stationary_parts`` and ``period``), else the FPK direct solve of
+    its drift and diffusion on REFERENCE_CELLS cells, mapped to phase space
+    (``info["closed_form"]`` is False and ``info["method"]`` says which). ``model``: a
+    registered name or a model object; ``tail_mass=False`` skips the closed form's measurement
+    of the mass beyond its grid. A scene with no stationary density raises SolverFailure."""
+    from vifpk import averaging
+
+    m = averaged_model(scene, model, **options)
+    try:
+        if averaging.has_closed_form(m):
+            res = averaging.solve(scene, model=m, tail_mass=tail_mass)
+            res.info.update(model=model_label(model), closed_form=True)
+            return res
+        res = fpk_solution(scene, model=m, cells=REFERENCE_CELLS, method="direct")
+    except averaging.NoStationaryDensity as exc:
+        raise SolverFailure(str(exc)) from None
+    res.info.update(model=model_label(model), closed_form=False,
+                    method=f"FPK direct solve, {REFERENCE_CELLS} cells (the model gives no "
+                           "closed form: no log_stationary_parts/period)")
+    return res
+
+
+def model_label(model: Any) -> str:
+    """A model's name in outputs: the registered name, or the class name of an object."""
+    return model if isinstance(model, str) else type(model).__name__
+
+
+def averaged_model(scene: Any, model: Any, **options: Any) -> Any:
+    """The averaged model named ``model`` (any registered name, vifpk.core.registry) or a
+    model object itself: something with drift(A), diffusion(A) and maybe period(A)."""
+    from vifpk import averaging
+
+    if isinstance(model, str):
+        return averaging.build_model(scene, model, **options)
+    for attr in ("drift", "diffusion"):
+        if not callable(getattr(model, attr, None)):
+            raise TypeError(f"model must be a registered name or provide {attr}(A) "
+                            "(the averaged-model protocol, docs/testing.md)")
+    return model
+
+
+def model_period(scene: Any, m: Any) -> tuple[Any, str]:
+    """(T(A), where it comes from): the model's ``period`` if it gives one, else the period of
+    the scene's exact orbit (the averaged-model protocol's default, docs/testing.md)."""
+    if callable(getattr(m, "period", None)):
+        return m.period, "model"
+    s = scene.system
+
+    def T(A: Any) -> Any:
+        return orbit_period(A, s.restoring_law)
+
+    return T, "exact orbit (the model gives no period)"
+
+
+def amplitude_density(scene: Any, model: Any, **options: Any) -> Any:
+    """p(A) alone (``averaging.stationary.AmplitudeDensity``: fields A, p, log_h) of the model
+    named ``model`` (or a model object), on the scene's [averaging] grid settings; a model with
+    no closed form gets it from the FPK direct solve (REFERENCE_CELLS cells)."""
+    from vifpk.averaging.stationary import AmplitudeDensity
+    from vifpk.averaging.stationary import amplitude_density as density
+
+    from vifpk import averaging
+
+    m = averaged_model(scene, model, **options)
+    if averaging.has_closed_form(m):
+        return density(m, points=scene.averaging.points, tail=scene.averaging.tail)
+    res = fpk_stationary(m.drift, m.diffusion, cells=REFERENCE_CELLS, method="direct")
+    A, p = res.data["A_cells"]["x"], res.data["A_cells"]["p"]
+    s = scene.system
+    T, _ = model_period(scene, m)
+    with np.errstate(divide="ignore"):
+        log_p = np.log(p)
+    log_h = log_p - np.log(restoring_force(A, s.restoring_law)) - np.log(T(A))
+    return AmplitudeDensity(A=A, p=p, log_p=log_p, log_h=log_h,
+                            tail_mass=float(res.info["diagnostics"].get("tail_mass", 0.0)),
+                            scans=0)
+
+
+def orbit_period(A: Any, restoring: tuple[float, ...]) -> Any:
+    """T(A) of the exact orbit of amplitude A of the spring g = k1 x + k3 x^3 + ...
+    (``restoring`` = (k1, k3, ...): System.restoring_law; ``averaging.geometry.period_k``)."""
+    from vifpk.averaging.geometry import period_k
+
+    return period_k(A, tuple(restoring))
+
+
+def restoring_force(A: Any, restoring: tuple[float, ...]) -> Any:
+    """g(A) = k1 A + k3 A^3 + ... (``averaging.geometry.restoring_k``)."""
+    from vifpk.averaging.geometry import restoring_k
+
+    return restoring_k(A, tuple(restoring))
+
+
+def potential_energy(scene: Any, A: Any) -> Any:
+    """U(A) of the scene's restoring law (``averaging.geometry.potential_k``): the energy of
+    the conservative orbit of amplitude A, which a threshold Ac stands for."""
+    from vifpk.averaging.geometry import potential_k
+
+    return potential_k(A, tuple(scene.system.restoring_law))
+
+
+def energy_rates(scene: Any, A: float) -> dict[str, float]:
+    """The exact orbit's energy rates by effect at amplitude A (``averaging.exact``)."""
+    from vifpk.averaging.exact import energy_rates as rates
+
+    return rates(scene, A)
+
+
+def validity(scene: Any) -> dict[str, Any]:
+    """How far the scene is from the averaging limits over the bulk of p(E)
+    (``averaging.validity``: band alpha1 / Omega, wall delta / E, noise sigma_E^2 T / E^2)."""
+    from vifpk.averaging.validity import validity as numbers
+
+    return numbers(scene)
+
+
+# ----------------------------------------------------------------------------- FPK
+def fpk_stationary(drift: Any, diffusion: Any, **options: Any) -> Any:
+    """``fpk.stationary`` on any drift m(A) and diffusion sigma^2(A) (cells, method, ...)."""
+    from vifpk import fpk
+
+    try:
+        return fpk.stationary(drift, diffusion, **options)
+    except fpk.FPKFailure as exc:
+        raise SolverFailure(str(exc)) from None
+
+
+def fpk_solution(scene: Any, *, model: Any, cells: int, method: str = "stepping",
+                  **options: Any) -> Result:
+    """FPK on the averaged model's m and sigma^2, mapped to phase space like the closed form
+    (with the model's period, or the exact orbit's: ``info["period"]`` says which)."""
+    from vifpk import averaging, fpk
+
+    if no_noise(scene.system):
+        raise averaging.NoStationaryDensity(no_noise(scene.system))
+    m = averaged_model(scene, model, **options)
+    res = fpk.stationary(m.drift, m.diffusion, cells=cells, method=method)
+    if getattr(m, "observes", False):  # the observed energy, as the closed form
+        from vifpk.averaging.corrected import observed_density
+
+        obs = {}
+        for key in ("A", "A_cells"):
+            x, p = observed_density(m, res.data[key]["x"], res.data[key]["p"])
+            obs[key] = {"x": x, "p": p}
+        res = Result(data=dict(res.data, **obs), info=res.info)
+    period, period_from = model_period(scene, m)
+    data, raw_mass = phase_solution(scene, res, period)
+    info = dict(res.info)
+    info["model"] = model_label(model)
+    info["period"] = period_from
+    xa, pa = data["A"]["x"], data["A"]["p"]
+    mean = float(np.trapezoid(xa * pa, xa))
+    info["summary"] = {"mean": mean, "mode": float(xa[int(np.argmax(pa))]),
+                       "std": float(np.sqrt(max(np.trapezoid((xa - mean) ** 2 * pa, xa), 0)))}
+    info["diagnostics"] = dict(info["diagnostics"], phase_mass_before_normalisation=raw_mass)
+    return Result(data=data, info=info)
+
+
+def phase_solution(scene: Any, res: Any, period: Any) -> tuple[dict[str, Any], dict]:
+    """An FPK result's p(A) mapped to p(E), p(x1, x2), p(x1), p(x2) as for the closed form,
+    with p(y, y') = p_A / (g T); ``period`` gives T(A). Returns (data, raw masses)."""
+    from vifpk.averaging.geometry import restoring_k
+    from vifpk.averaging.phase import phase_densities
+
+    s = scene.system
+    k = tuple(s.restoring_law)
+    A, p = res.data["A_cells"]["x"], res.data["A_cells"]["p"]
+    log_T = np.log(period(A))
+    log_h = np.log(np.maximum(p, 1e-300)) - np.log(restoring_k(A, k)) - log_T
+    ph = phase_densities(A, log_h, log_T, restoring=k, barrier=s.barrier,
+                         points=scene.averaging.phase_points)
+    data = {"A": res.data["A"], "E": {"x": ph.E, "p": ph.p_E}, "x1": {"x": ph.x1, "p": ph.p_x1},
+            "x2": {"x": ph.x2, "p": ph.p_x2},
+            "joint": {"x1": ph.x1, "x2": ph.x2, "p": ph.joint}}
+    return data, ph.raw_mass
+
+
+def montecarlo_solution(scene: Any, *, progress: bool = True, **edges: Any) -> Result:
+    """The Monte Carlo of the original system with the scene's settings and observables.
+
+    ``edges``: optional histogram edges (``edges_A``, ``edges_x``, ``edges_v``); by default
+    the Monte Carlo picks its ranges from a pilot run, independently of the other solvers.
+    """
+    import dataclasses
+    import math
+
+    from vifpk import montecarlo
+
+    if no_noise(scene.system):
+        raise SolverFailure(no_noise(scene.system))
+    limit = _COST_LIMIT.get()
+    settings = montecarlo.Settings(**dataclasses.asdict(scene.montecarlo),
+                                   observables=scene.observables.names(), progress=progress,
+                                   edges=edges,
+                                   max_path_steps=limit[0] * limit[1] if limit else math.inf)
+    try:
+        res = montecarlo.simulate(scene.system, scene.noise, settings)
+    except (montecarlo.SimulationDiverged, montecarlo.BudgetExhausted) as exc:
+        raise SolverFailure(str(exc)) from None
+    info = dict(res.info)
+    mom = info.get("moments", {}).get("A", {}).get("mean")
+    if mom is not None:
+        info["summary"] = {"mean": mom["value"], "mean_err": mom["err"]}
+    return Result(data=res.data, info=info)
+
+
+def averaged_sde_solution(scene: Any, model: Any, *, edges: dict[str, Any], seed: int,
+                          phase: bool = False, **settings: Any) -> Any:
+    """Monte Carlo of the averaged amplitude SDE of ``model`` (a name or a model object).
+
+    The run settings (paths, blocks, dt, time, burn_in, sample_every) are the scene's
+    [montecarlo] ones unless given in ``settings`` (e.g. the resolved dt of a run of the
+    original system). ``edges``: ``edges_A`` (and ``edges_x``, ``edges_v`` with ``phase``,
+    which also records x1, x2 from time-uniform points of each sampled orbit).
+    """
+    from vifpk.montecarlo.averaged_sde import simulate_sde
+
+    mc = scene.montecarlo
+    keys = ("paths", "blocks", "dt", "time", "burn_in", "sample_every")
+    unknown = set(settings) - set(keys)
+    if unknown:
+        raise ValueError(f"unknown averaged-SDE settings {sorted(unknown)}; allowed: {keys}")
+    kw = {k: settings.get(k, getattr(mc, k)) for k in keys}
+    m = averaged_model(scene, model)
+    s = scene.system
+    extra = ({"restoring": tuple(s.restoring_law), "barrier": s.barrier,
+              "edges_x": edges["edges_x"], "edges_v": edges["edges_v"]} if phase else None)
+    observe = ({"sd": m.observation_sd, "restoring": tuple(s.restoring_law)}
+               if getattr(m, "observes", False) else None)
+    return simulate_sde(m.drift, m.diffusion, edges=edges["edges_A"], paths=kw["paths"],
+                        blocks=kw["blocks"], dt=kw["dt"], time_=kw["time"],
+                        burn_in=kw["burn_in"], sample_every=kw["sample_every"], seed=seed,
+                        phase=extra, observe=observe)
+
+
+def montecarlo_plan(scene: Any) -> Any:
+    """What the Monte Carlo would do with the scene's settings, before running it
+    (``montecarlo.plan``: the time step, the sampling interval, the sampled time, the nearest
+    times it samples exactly, the path-steps including the pilots'), as a ``montecarlo.Plan``."""
+    from vifpk import montecarlo
+
+    return montecarlo.plan(scene.system, scene.noise, scene.montecarlo)
+
+
+def solution_record(scene: Any, solver: str, model: str | None, result: Any, *,
+                    joint: bool = False, provenance: dict[str, Any] | None = None
+                    ) -> dict[str, Any]:
+    """The public JSON contract of ``vifpk solve``::
+
+        {"scene": {...}, "solver": ..., "model": ..., "pdf": {"A": {"x", "p"[, "edges", "err"]},
+         "x1": {...}, "x2": {...}[, "E", "joint"]}, "info": {..., "provenance": {...}}}
+
+    ``provenance``: the run's block (harness/outputs/provenance.py), stored as ``info.provenance``.
+    """
+    # the blocks' own densities (p_blocks: the error bars' input) stay out of the contract
+    pdf = {k: {f: a for f, a in v.items() if f != "p_blocks"} for k, v in result.data.items()
+           if k in ("A", "E", "x1", "x2") or (joint and k == "joint")}
+    rec: dict[str, Any] = {"scene": scene.to_dict(), "solver": solver}
+    if model is not None:
+        rec["model"] = model
+    rec["pdf"] = pdf
+    rec["info"] = result.info if provenance is None else dict(result.info, provenance=provenance)
+    return rec

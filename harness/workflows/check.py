@@ -1,0 +1,328 @@
+"""The three-way cross-check of one scene: how wrong is each averaged model, and why.
+
+For each averaged model M (``paper``, ``exact``, ``corrected``) on the observables A, x1, x2:
+
+    discretisation_error  FPK(M) against the closed form of M         (numerics of the FPK)
+    sampling_error        MC of M's averaged SDE against M's closed form (MC noise + bias)
+    averaging_error       MC of the ORIGINAL system against M's closed form (the answer)
+
+Every metric against an MC histogram carries its noise floor and error bar (compare.py).
+**The simulation of the original system does not know which models are checked** (issue 29):
+its histogram ranges come from its own scale pilot (montecarlo.simulate, the range every
+``solve --solver montecarlo`` uses), its burn-in from its own relaxation pilot, its extensions
+from its own equilibration certificate, so the same seed gives the same numbers for a model
+whatever else is checked. The averaged SDEs' runs share its edges (bin by bin comparisons);
+each is seeded from the root seed and the model's *name* (:func:`sde_seed`) and extended on its
+own evidence only.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+import zlib
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+from vifpk.harness.door.solvers import (
+    averaged_sde_solution,
+    closed_form,
+    fpk_solution,
+    montecarlo_solution,
+    validity,
+)
+from vifpk.harness.workflows.assumptions import assumption_warnings
+from vifpk.harness.workflows.compare import compare
+from vifpk.harness.workflows.tolerance import Tolerance, model_verdicts
+from vifpk.harness.workflows.tolerance import line as tolerance_line
+from vifpk.harness.workflows.verdict import (
+    _evidence,
+    _sampling_ok,
+    observable_classes,
+    recommend,
+    verdict,
+    verdict_class,
+)
+
+from vifpk.core import registry
+from vifpk.core.defaults import CHECK_MODELS, DENSITY_OBSERVABLES, FPK_CELLS
+from vifpk.core.result import WarningRecord
+
+OBSERVABLES = DENSITY_OBSERVABLES
+
+
+def models_of(scene: Any, models: tuple[str, ...] = CHECK_MODELS
+              ) -> tuple[tuple[str, ...], dict[str, str]]:
+    """Of ``models`` (registered names; default CHECK_MODELS), the ones that apply to the
+    scene's system, and why each other one does not (each model's own ``applies``:
+    vifpk.core.registry.applicable)."""
+    return registry.applicable(scene, tuple(models))
+
+
+@dataclass(frozen=True)
+class CheckResult:
+    scene: Any
+    solutions: dict[str, Any]  # name -> Result(data, info)
+    metrics: dict[str, Any]
+    warnings: list[WarningRecord]
+    verdicts: list[str]
+    provenance: dict[str, Any] | None = None  # harness.provenance.collect(); set by the writer
+    recommendation: str = ""  # one line: the model to trust here and why (recommend())
+    models: tuple[str, ...] = CHECK_MODELS  # the averaged models checked, in report order
+    tolerance_lines: tuple[str, ...] = ()  # per model: the tolerance verdict (tolerance.line)
+
+
+class _Stages:
+    """Progress on the terminal: one line a stage, with its time."""
+
+    def __init__(self, total: int, quiet: bool):
+        self.total, self.quiet, self.i = total, quiet, 0
+        self.t = self.start = time.perf_counter()
+        self.name = ""
+        self.label = ""
+        self.seconds: dict[str, float] = {}  # stage -> wall seconds (metrics.json "timings")
+
+    def _end(self, now: float) -> None:
+        """The stage's time; on a terminal the label is written again from the line's start
+        ("\r"), since a progress bar drawn on the same line (the Monte Carlo's) erases it
+        when it closes."""
+        again = f"\r{self.label}" if sys.stderr.isatty() else ""
+        print(f"{again} {now - self.t:.1f} s", file=sys.stderr, flush=True)
+
+    def __call__(self, name: str) -> None:
+        now = time.perf_counter()
+        if self.i:
+            self.seconds[self.name] = self.seconds.get(self.name, 0.0) + now - self.t
+            if not self.quiet:
+                self._end(now)
+        self.i += 1
+        self.t, self.name = now, name
+        self.label = f"[{self.i}/{self.total}] {name} ..."
+        if not self.quiet:
+            print(self.label, end="", file=sys.stderr, flush=True)
+
+    def done(self) -> None:
+        now = time.perf_counter()
+        if self.i:
+            self.seconds[self.name] = self.seconds.get(self.name, 0.0) + now - self.t
+        if not self.quiet and self.i:
+            self._end(now)
+
+
+def mc_edges_of(mc: Any) -> dict[str, np.ndarray]:
+    """The histogram edges of a Monte Carlo run of the original system (its own, from its
+    scale pilot: they depend on the scene, the step and the seed, never on a model), for the
+    averaged SDEs' runs that are compared with it bin by bin."""
+    return {"edges_A": np.asarray(mc.data["A"]["edges"]),
+            "edges_x": np.asarray(mc.data["x1"]["edges"]),
+            "edges_v": np.asarray(mc.data["x2"]["edges"])}
+
+
+def sde_seed(root: int, model: str) -> int:
+    """The root seed of the Monte Carlo of ``model``'s averaged SDE: the first word of
+    numpy.random.SeedSequence([root, crc32(name)]), so a function of the scene's seed and the
+    model's name alone, never of its place in the list of models checked."""
+    ss = np.random.SeedSequence([int(root), zlib.crc32(model.encode())])
+    return int(ss.generate_state(1, dtype=np.uint32)[0])
+
+
+def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool = True,
+                tail_mass: bool = True, models: tuple[str, ...] = CHECK_MODELS,
+                tolerance: Tolerance | None = None) -> CheckResult:
+    """Run every solver on a concrete scene and compute the error decomposition.
+
+    ``models``: registered averaged models (vifpk.core.registry), in report order (those that
+    do not apply to the scene are named in ``models_absent``); the Monte Carlo of model i's
+    averaged SDE is seeded with the scene's seed + 1 + i. A model with no closed form (a
+    plugin giving only drift and diffusion) has the FPK direct solve as its reference
+    density (harness.run.closed_form), so no FPK is measured against it (no
+    ``discretisation_error``; its entry holds ``reference`` instead).
+
+    ``fpk=False`` skips the FPK of each model (no ``discretisation_error``): a sweep point
+    needs only the averaging error, and the FPK is the costliest part of a check.
+    ``sde=False`` skips the Monte Carlo of each averaged SDE (no ``sampling_error``, and
+    ``sampling_ok`` is None): it checks the closed forms and the Monte Carlo machinery against
+    each other, not the averaging error, so a sweep makes it at a few sampled points only
+    (harness/sweeps/spec.py); without it only the equilibration certificate can ask for an
+    extension. ``tail_mass=False`` skips the closed forms' measurement of the mass beyond
+    their grids (a diagnostic of the closed form, about half its cost). ``tolerance``: the
+    question of the tolerance verdict (harness/workflows/tolerance.py; default Tolerance(): L1 of
+    p(A)
+    <= 0.02 at 95%): each model's entry gets ``tolerance`` (its estimate with the noise
+    removed, interval, P(error <= tolerance), class), and the recommendation follows it.
+    """
+    tol = tolerance if tolerance is not None else Tolerance()
+    models, absent = models_of(scene, models)
+    # closed forms, the original system's Monte Carlo and the metrics; FPK and SDE per model
+    stages = _Stages(3 + len(models) * (int(fpk) + int(sde)), quiet)
+    sol: dict[str, Any] = {}
+    closed = {}
+    stages("averaged models (closed forms)")
+    for m in models:
+        closed[m] = closed_form(scene, model=m, tail_mass=tail_mass)
+        sol[f"closed:{m}"] = closed[m]
+    # the FPK of a model measured against its closed form (none: nothing to measure against)
+    with_fpk = [m for m in models if fpk and closed[m].info.get("closed_form", True)]
+    stages.total -= len(models) - len(with_fpk) if fpk else 0
+    for m in with_fpk:
+        stages(f"FPK of the {m} model")
+        sol[f"fpk:{m}"] = fpk_solution(scene, model=m, cells=FPK_CELLS)
+    # the original system's simulation: its ranges, burn-in and extensions are its own
+    t_mc = time.perf_counter()
+    budget = scene.montecarlo.budget or math.inf
+    extensions = 0
+    run_scene = scene
+    while True:
+        stages("Monte Carlo of the original system" + (f" (extended x{2 ** extensions})"
+                                                       if extensions else ""))
+        mc = montecarlo_solution(replace(run_scene, observables=replace(
+            run_scene.observables, A=True, x1=True, x2=True, events=True, moments=True)),
+            progress=not quiet)
+        st = mc.info["settings"]
+        bad = _evidence(mc.info.get("convergence", {}), {})
+        spent = time.perf_counter() - t_mc
+        # extend (twice the burn-in and the sampled time) while the certificate says the run
+        # is too short and the budget allows another run of twice the cost
+        if not bad or extensions >= 3 or spent * 3 > budget - spent:
+            break
+        extensions += 1
+        stages.total += 1
+        mcs = run_scene.montecarlo
+        run_scene = replace(run_scene, montecarlo=replace(
+            mcs, time=2 * st["time"], burn_in=2 * st["burn_in"], dt=st["dt"], floor=0.0))
+    sol["mc:original"] = mc
+    edges = mc_edges_of(mc)
+    sde_extensions = {}
+    for m in models if sde else ():
+        sol[f"mc:{m}"], sde_extensions[m] = _sde_run(
+            scene, m, closed[m], edges, st, run_scene.montecarlo.burn_in, budget, stages)
+    stages("metrics")
+    metrics: dict[str, Any] = {"models": {}}
+    if absent:
+        metrics["models_absent"] = dict(absent)
+    for m in models:
+        cf = closed[m].data
+        entry: dict[str, Any] = {}
+        for kind, key in (("discretisation_error", f"fpk:{m}"), ("sampling_error", f"mc:{m}"),
+                          ("averaging_error", "mc:original")):
+            if key in sol:
+                entry[kind] = {o: compare(cf[o], sol[key].data[o]) for o in OBSERVABLES}
+        entry["sampling_ok"] = (_sampling_ok(entry["sampling_error"]["A"])
+                                if "sampling_error" in entry else None)
+        if m in sde_extensions:
+            entry["sampling_extensions"] = sde_extensions[m]
+        if not closed[m].info.get("closed_form", True):
+            entry["reference"] = closed[m].info["method"]
+        metrics["models"][m] = entry
+    conv = dict(mc.info.get("convergence", {}))
+    conv["extensions"] = extensions
+    if bad:
+        conv["equilibrated"] = False
+        conv["reason"] = "; ".join(bad)
+    val = validity(scene)
+    warnings = assumption_warnings(scene, closed, mc.info, val)
+    outside = mc.info.get("events", {}).get("outside_fraction", {})
+    worst = max(outside.values(), default=0.0)
+    if worst > 1e-3:
+        warnings.append(WarningRecord(
+            "outside_range",
+            f"the simulation of the original system puts {100 * worst:.1f}% of its "
+            "samples outside the range where the averaged models hold their mass "
+            "(not converged, or a different state altogether); its densities there "
+            "are not shown and count toward L1 as one cell beyond the range"))
+    verdicts = [verdict(m, metrics["models"][m], warnings, convergence=conv) for m in models]
+    verdicts += [f"{m} model: not checked, {why}" for m, why in absent.items()]
+    for m in models:
+        cls, cause = verdict_class(metrics["models"][m], warnings, convergence=conv)
+        metrics["models"][m]["verdict_class"] = cls
+        metrics["models"][m]["verdict_cause"] = cause
+        metrics["models"][m]["verdict_by_observable"] = observable_classes(metrics["models"][m])
+    metrics["tolerance"] = tol.record()
+    tverdicts = model_verdicts(metrics, tol)
+    for m, v in tverdicts.items():
+        metrics["models"][m]["tolerance"] = v
+    stages.done()
+    rec_model, rec_line = recommend(metrics, warnings, val, convergence=conv)
+    metrics["recommended_model"] = rec_model
+    metrics["recommendation"] = rec_line
+    metrics["validity"] = val
+    metrics["verdicts"] = verdicts
+    metrics["warnings"] = [w.text for w in warnings]
+    metrics["warning_kinds"] = [w.kind for w in warnings]
+    metrics["monte_carlo"] = {k: mc.info[k] for k in ("settings", "effects", "events", "L1_floor",
+                                                     "seed", "atoms", "relaxation")
+                              if k in mc.info}
+    metrics["monte_carlo"]["convergence"] = conv
+    # everything that depends on the machine's speed lives under "timings" only, so that the
+    # rest of metrics.json is a function of (scene, settings, seed) alone (issue 11.5)
+    metrics["timings"] = {
+        "wall_seconds": time.perf_counter() - stages.start,
+        "stages": stages.seconds,
+        "steps_per_second": {name: s.info["steps_per_second"] for name, s in sol.items()
+                             if "steps_per_second" in s.info},
+        "solutions": {name: s.info["seconds"] for name, s in sol.items()
+                      if "seconds" in s.info},
+        "threads": mc.info.get("threads"),
+    }
+    metrics["tolerance_verdicts"] = [tolerance_line(m, v) for m, v in tverdicts.items()]
+    return CheckResult(scene=scene, solutions=sol, metrics=metrics, warnings=warnings,
+                       verdicts=verdicts, recommendation=rec_line, models=models,
+                       tolerance_lines=tuple(metrics["tolerance_verdicts"]))
+
+
+def _sde_run(scene: Any, model: str, closed: Any, edges: dict[str, np.ndarray],
+             st: dict[str, Any], burn_in: Any, budget: float, stages: _Stages
+             ) -> tuple[Any, int]:
+    """The Monte Carlo of ``model``'s averaged SDE on the original system's edges and sample
+    plan (its own step, from its relaxation time: montecarlo.averaged_sde), seeded by
+    :func:`sde_seed`; doubled (sampled time and burn-in) while it is off its closed form beyond
+    SAMPLING_FACTOR x its floor, at most 3 times and while the budget allows a run of twice
+    the cost. Returns (result, extensions): a function of the scene and this model alone."""
+    t0 = time.perf_counter()
+    ext, time_ = 0, st["time"]
+    while True:
+        stages(f"Monte Carlo of the {model} averaged SDE"
+               + (f" (extended x{2 ** ext})" if ext else ""))
+        res = averaged_sde_solution(
+            scene, model, edges=edges, seed=sde_seed(scene.montecarlo.seed, model), phase=True,
+            paths=st["paths"], blocks=st["blocks"], dt="auto", time=time_, burn_in=burn_in,
+            sample_every=st["sample_every"])
+        spent = time.perf_counter() - t0
+        if (_sampling_ok(compare(closed.data["A"], res.data["A"])) or ext >= 3
+                or spent * 3 > budget - spent):
+            return res, ext
+        ext += 1
+        stages.total += 1
+        time_ = 2 * res.info["settings"]["time"]
+        burn_in = 2 * res.info["settings"]["burn_in"]
+
+
+def output_problems(result: CheckResult) -> list[str]:
+    """What is wrong with a cross-check's output, in words (empty: nothing): a non-finite or
+    negative density; a histogram whose mass (the atom of p(x2) at rest counted) is outside
+    [0.99, 1] (its mass is 1 minus the samples outside its edges; the report warns from 0.1%
+    outside, this bound is loose: its job is finite and normalised); a smooth density whose
+    trapezoid mass is off 1 by more than 1e-9; a non-finite metric. Used by
+    tests/test_hard_scenes.py and benchmarks/validate_hard_scenes.py."""
+    out = []
+    for name, sol in result.solutions.items():
+        for obs in ("A", "x1", "x2"):
+            d = sol.data[obs]
+            p = np.asarray(d["p"])
+            if not (np.all(np.isfinite(p)) and np.min(p) >= 0):
+                out.append(f"{name} {obs}: density not finite or negative")
+                continue
+            if "edges" in d:
+                mass = float(np.sum(p * np.diff(d["edges"]))) + float(d.get("atom_weight", 0))
+                if not 0.99 <= mass <= 1.0 + 1e-9:
+                    out.append(f"{name} {obs}: histogram mass {mass:.4f}")
+            elif abs(np.trapezoid(p, d["x"]) - 1) > 1e-9:
+                out.append(f"{name} {obs}: mass {np.trapezoid(p, d['x']):.12f}")
+    for m, entry in result.metrics["models"].items():
+        for kind in ("discretisation_error", "sampling_error", "averaging_error"):
+            for o, e in entry.get(kind, {}).items():
+                if not all(math.isfinite(v) for v in e.values()):
+                    out.append(f"{m} {kind} {o}: not finite")
+    return out
