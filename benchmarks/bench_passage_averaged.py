@@ -4,8 +4,8 @@
 
 For each model (paper, exact, corrected) and threshold, from the model's stationary start:
 the MFPT quadrature (fpk.mfpt, two grids, refined to rtol 1e-9) and the time-stepped R(t)
-(fpk.reliability, 400 cells, BDF), through the door (harness.run.passage_averaged) and apart.
-Timing: benchmarks/timing.py (a first call, then the minimum of ``REPEATS`` warm calls); the
+(fpk.reliability, 400 cells, BDF), through the door (harness.door.timedomain.passage_averaged) and
+apart. Timing: benchmarks/timing.py (a first call, then the minimum of ``REPEATS`` warm calls); the
 1-minute load average is recorded beside (the machine is shared).
 """
 

@@ -12,7 +12,7 @@ mean length T each.
     NUMBA_NUM_THREADS=2 python benchmarks/bench_splitting.py
         [--out benchmarks/results/splitting_work_precision.json]
 
-Direct Monte Carlo is the project's own first passage (harness.run.passage_montecarlo,
+Direct Monte Carlo is the project's own first passage (harness.door.timedomain.passage_montecarlo,
 montecarlo/passage.py), with a horizon far beyond the MFPT (no path censored).
 """
 

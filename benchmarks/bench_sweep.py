@@ -136,7 +136,7 @@ def point_against_bare(repeats: int = 3) -> dict:
     kernels and the imports from point to point), alternated ``repeats`` times so that a
     change of the machine's load hits both; medians. Two interior points of
     scenes/sweeps/r-mu.toml at floor 0.01; the point without the sampled averaged-SDE check
-    (the case of all but about 1 in 16 points, harness.sweep.SDE_CHECK_EVERY), and the same
+    (the case of all but about 1 in 16 points, harness.sweeps.points.SDE_CHECK_EVERY), and the same
     point with it (``sde_point``), so the mean cost per point of a sweep is
     plain + (sde - plain) / 16."""
     import statistics

@@ -204,7 +204,7 @@ def mc_reference(scene: Any, **montecarlo: Any) -> Reference:
 def model_densities(scene: Scene, model: Any) -> dict[str, dict[str, Any]]:
     """p(A), p(x1), p(x2) of an averaged model (a registered name, or an object with the
     averaged-model protocol): its closed form when it has one, else the FPK direct solve of its
-    m and sigma^2 mapped to phase space (``harness.run.closed_form``)."""
+    m and sigma^2 mapped to phase space (``harness.door.solvers.closed_form``)."""
     from vifpk.harness.door.solvers import closed_form
 
     return closed_form(scene, model=model).data

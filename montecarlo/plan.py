@@ -1,7 +1,7 @@
 """The Monte Carlo's sampling plan, before any simulation: numbers only, no numba.
 
-``simulate`` runs this plan and ``harness.validate`` checks and prices it, so both read the same
-arithmetic: the time step (``dt`` or the "auto" one, tuning.py), the sampling stride, the
+``simulate`` runs this plan and ``harness.request.validate`` checks and prices it, so both read the
+same arithmetic: the time step (``dt`` or the "auto" one, tuning.py), the sampling stride, the
 windows the certificate needs, the pilot runs' sizes, the nearest times that are sampled exactly
 and a lower bound of the path-steps a run takes.
 
@@ -93,7 +93,7 @@ def sampling_plan(time_: float, sample_every: float, h: float, target: float
     The n = time_ / (stride h) samples of each path are cut into the fewest windows from
     WINDOWS to 2 WINDOWS that divide n exactly (n windows of one sample below WINDOWS), so
     the sampled time is exactly ``time_`` whenever n is whole and has such a divisor (every
-    multiple of 16 to 32 samples; harness.validate refuses the others, naming the nearest).
+    multiple of 16 to 32 samples; harness.request.validate refuses the others, naming the nearest).
     Failing that, WINDOWS windows of n // WINDOWS samples, and what is left is not sampled.
     With a target floor the run starts with WINDOWS // 2 windows of n // WINDOWS samples."""
     stride = max(int(round(sample_every / h)), 1)

@@ -59,8 +59,8 @@ def base() -> Scene:
 
 @pytest.fixture(scope="session")
 def tiny_check():
-    """One cross-check (harness.check.cross_check) of the tiny scene, computed once a session:
-    the canned input of the tests of writing, interruption, rendering and sweeps."""
+    """One cross-check (harness.workflows.check.cross_check) of the tiny scene, computed once a
+    session: the canned input of the tests of writing, interruption, rendering and sweeps."""
     from vifpk.harness.cli.options import concrete_scene
     from vifpk.harness.workflows.check import cross_check
 
@@ -69,9 +69,9 @@ def tiny_check():
 
 @pytest.fixture
 def canned_check(tiny_check, monkeypatch):
-    """``harness.check.cross_check`` replaced by the tiny check, its scene swapped for the one
-    asked (so titles, folders and sweep coordinates follow the request); ``models`` keeps only
-    the models asked (their solutions, metrics and verdict lines; a model the canned check did
+    """``harness.workflows.check.cross_check`` replaced by the tiny check, its scene swapped for
+    the one asked (so titles, folders and sweep coordinates follow the request); ``models`` keeps
+    only the models asked (their solutions, metrics and verdict lines; a model the canned check did
     not compute fails the test) and ``tolerance`` the question asked (the tolerance verdicts
     and the recommendation made again from the canned numbers); ``sde=False`` drops the
     averaged SDEs' runs as cross_check does. Commands that check then write, interrupt and

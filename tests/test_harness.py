@@ -233,9 +233,9 @@ def test_advisory_warning_keeps_the_recommendation_and_the_estimate():
 
 @pytest.mark.slow
 def test_passage_splitting_door_gives_the_mfpt_layout():
-    """harness.run.passage_splitting: info["mfpt"] with value, stderr and a 95% interval that
-    holds the value; default levels from the exact model's quartile and median, below the
-    threshold."""
+    """harness.door.timedomain.passage_splitting: info["mfpt"] with value, stderr and a 95%
+    interval that holds the value; default levels from the exact model's quartile and median, below
+    the threshold."""
     from vifpk.harness.door.timedomain import passage_splitting
 
     from vifpk.core.scene import load_scene

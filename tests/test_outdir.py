@@ -96,7 +96,7 @@ def test_exchange_unavailable_falls_back_and_recovers(tmp_path: Path, monkeypatc
 _WRITER = textwrap.dedent("""
     import sys
     from pathlib import Path
-    from vifpk.harness import outdir
+    from vifpk.harness.outputs import outdir
     if sys.argv[3] == "no-exchange":
         outdir._exchange = lambda a, b: False
     run_id = sys.argv[2]

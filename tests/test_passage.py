@@ -68,13 +68,13 @@ def test_passage_warns_and_compares_restricted_means_when_censored(doubles, tiny
 
 
 def test_passage_price_sees_the_plan_before_any_monte_carlo(doubles, tiny, monkeypatch):
-    import vifpk.harness.door.solvers
+    import vifpk.harness.door.timedomain
     from vifpk.harness.workflows.passage import passage
 
     def no_mc(*a, **k):
         raise AssertionError("Monte Carlo before the price")
 
-    monkeypatch.setattr(vifpk.harness.door.solvers, "passage_montecarlo", no_mc)
+    monkeypatch.setattr(vifpk.harness.door.timedomain, "passage_montecarlo", no_mc)
     seen = {}
 
     class Refused(Exception):

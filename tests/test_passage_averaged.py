@@ -1,6 +1,6 @@
-"""The door's averaged time-domain routes (harness.run.passage_averaged, transient_averaged):
-a model object with a closed-form first passage and transient law, the shipped models' two
-routes against each other, bad input."""
+"""The door's averaged time-domain routes (harness.door.timedomain.passage_averaged,
+transient_averaged): a model object with a closed-form first passage and transient law, the shipped
+models' two routes against each other, bad input."""
 
 from __future__ import annotations
 

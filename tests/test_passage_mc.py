@@ -180,8 +180,8 @@ def test_crossing_time_second_order_against_solve_ivp(base):
 
 
 def test_door_turns_failures_into_one_line(base, monkeypatch):
-    """harness.run.passage_montecarlo: scene -> settings -> solver, with the scene's dt and
-    seed; the solver's failures (a blow-up, a stationary start it cannot place) become
+    """harness.door.timedomain.passage_montecarlo: scene -> settings -> solver, with the scene's dt
+    and seed; the solver's failures (a blow-up, a stationary start it cannot place) become
     SolverFailure with the solver's one line; bad input stays BadInput."""
     import vifpk.montecarlo
     from vifpk.harness.door.solvers import SolverFailure

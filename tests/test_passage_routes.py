@@ -1,7 +1,7 @@
 """Two routes to the same first passage (issue 30's truths): the averaged SDE's Monte Carlo
 (montecarlo.sde_time) against the FPK's reliability R(t) with an absorbing wall
 (fpk.reliability) for the same drift and diffusion, read through the Kaplan-Meier estimate
-and its simultaneous band (harness.survival), censored at a horizon. The band is taken at
+and its simultaneous band (harness.workflows.survival), censored at a horizon. The band is taken at
 level 0.9999, the suite's |z| < 4 convention for fixed seeds (a 95% band is left by 1 run in
 20: seed 21 at dt = 0.005 leaves it by 0.0005 at t = 4.9, its MFPT 2.3 standard errors
 low). The Rayleigh amplitude m = -cA/2 + s/2A, sigma^2 = s; the SDE's step bias at

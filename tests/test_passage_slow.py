@@ -2,8 +2,9 @@
 `vifpk passage` and `vifpk transient` on paper-base, `vifpk passage` on a user-defined system.
 
 Tolerances come from the runs' own error bars (the averaged SDE's Monte Carlo against its
-model's quadrature: 3 standard errors, harness.passage.SAMPLING_Z) or from check's sampling
-rule (2.5 x the noise floor, harness.check.SAMPLING_FACTOR), never from a stored number."""
+model's quadrature: 3 standard errors, harness.workflows.passage.SAMPLING_Z) or from check's
+sampling rule (2.5 x the noise floor, harness.workflows.verdict.SAMPLING_FACTOR), never from a
+stored number."""
 
 from __future__ import annotations
 

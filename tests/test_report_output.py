@@ -117,7 +117,7 @@ def test_metrics_byte_identical_across_runs_and_modes_follow_umask(run, tmp_path
 
 _KILLED = textwrap.dedent("""
     import pickle, sys
-    from vifpk.harness import provenance
+    from vifpk.harness.outputs import provenance
     from vifpk.harness.outputs.report import write_report
     res = pickle.loads(open(sys.argv[1], "rb").read())
     prov = provenance.collect(argv=["vifpk", "check"], run_id=sys.argv[3])

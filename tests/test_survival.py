@@ -1,4 +1,4 @@
-"""harness.survival against exact identities and known laws; coverage measured over seeds.
+"""harness.workflows.survival against exact identities and known laws; coverage measured over seeds.
 Binomial tolerances: over S seeds a rate p is measured within 3 sqrt(p (1-p) / S)."""
 
 from __future__ import annotations

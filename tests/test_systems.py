@@ -210,8 +210,8 @@ def test_paper_model_refuses_outside_its_family():
 
 # ----------------------------------------------------------------------------- Monte Carlo
 # An MC density is within its noise when L1 <= 2.5 x its L1 noise floor (the floor is the
-# expected L1 of the noise alone; 2.5 is harness.check.SAMPLING_FACTOR, where the same test
-# judges an averaged SDE against its closed form).
+# expected L1 of the noise alone; 2.5 is harness.workflows.verdict.SAMPLING_FACTOR, where the same
+# test judges an averaged SDE against its closed form).
 MC_FACTOR = 2.5
 
 
@@ -260,7 +260,7 @@ def test_montecarlo_energy_balance_general_damping_and_friction():
 def test_hard_springs_give_finite_normalised_densities(name):
     """Every solver of check (closed forms, FPKs, averaged SDEs, the original system's Monte
     Carlo) on the hard springs of scenes/hard/: finite, normalised densities and finite
-    metrics (harness.check.output_problems, the same bounds as the other hard scenes)."""
+    metrics (harness.workflows.check.output_problems, the same bounds as the other hard scenes)."""
     from vifpk.harness.workflows.check import cross_check, output_problems
 
     scene = load_scene(f"hard/{name}").with_values(

@@ -134,7 +134,7 @@ def test_example_runs(tmp_path):
 @pytest.mark.parametrize("dt", ["scene", "auto"])
 def test_reproduce_command_gives_the_same_reference(tmp_path, dt):
     """The command printed in a failure message rebuilds the reference bit for bit: run here
-    in-process (harness.cli.main), with the scene's dt and with ``dt = "auto"``. Issue 19
+    in-process (harness.cli.app.main), with the scene's dt and with ``dt = "auto"``. Issue 19
     bug 2: with "auto" the command used to crash formatting dt with ``:g`` (after the Monte
     Carlo had run); it must say ``--dt auto``."""
     import json

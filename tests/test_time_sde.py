@@ -119,7 +119,7 @@ class Rayleigh:
 
 
 def test_doors_passage_sde_and_transient_sde(base):
-    """harness.run.passage_sde / transient_sde: a model object, the SDE's own dt rule
+    """harness.door.timedomain.passage_sde / transient_sde: a model object, the SDE's own dt rule
     (tau / STEPS_PER_TAU; tau = 1 / c for the Rayleigh amplitude, the CIR's slowest rate),
     start amplitudes resampled to the paths, 'stationary' refused in one line."""
     from vifpk.harness.door.timedomain import passage_sde, transient_sde

@@ -1,5 +1,6 @@
-"""Test doubles of the time-domain doors (harness.run.passage_* / transient_*) with known
-answers: every first-passage time is exponential (mean T per model, T0 for the original
+"""Test doubles of the time-domain doors (harness/door/timedomain.py: passage_* /
+transient_*) with known answers: every first-passage time is exponential (mean T per model, T0 for
+the original
 system), so the relative MFPT error is T / T0 - 1 exactly; every snapshot law is a normal law
 whose mean relaxes as a(t) = a_inf + (A0 - a_inf) exp(-t / tau), so the fitted relaxation time
 is tau. The fast tier runs the workflows, the CLI and the reports on them in milliseconds."""
@@ -103,10 +104,11 @@ DOORS = ("mfpt_averaged", "passage_averaged", "passage_montecarlo", "passage_sde
 
 
 def install(monkeypatch) -> None:
-    """Every time-domain door of harness.run replaced by its double."""
-    import vifpk.harness.door.solvers
+    """Every time-domain door (harness/door/timedomain.py) replaced by its double; the
+    workflows call them as ``timedomain.<name>``, so the module attribute is what they see."""
+    import vifpk.harness.door.timedomain
 
     this = globals()
     for name in DOORS:
-        monkeypatch.setattr(vifpk.harness.door.solvers, name, this[name], raising=False)
+        monkeypatch.setattr(vifpk.harness.door.timedomain, name, this[name])
 

@@ -212,7 +212,7 @@ def main() -> None:
 def table(paths: list[Path]) -> None:
     """Markdown table of stored rows (later files override earlier ones for the same scene):
     L1(A) (mean shift) of exact, compounded, corrected, the floor, dt, and what check would
-    recommend from these numbers (harness.check.recommend with the scene's warnings)."""
+    recommend from these numbers (harness.workflows.verdict.recommend with the scene's warnings)."""
     from vifpk.harness.workflows.assumptions import assumption_warnings
     from vifpk.harness.workflows.verdict import recommend
 

@@ -349,7 +349,7 @@ def _finite(metrics: dict[str, Any]) -> None:
 
 
 def add_commands(sub: Any, model_name: Any, set_help: str, quiet_help: str) -> None:
-    """The passage and transient subcommands (called by harness.cli.build_parser)."""
+    """The passage and transient subcommands (called by harness.cli.app.build_parser)."""
     from vifpk.harness.cli.options import _dt_value, _whole_number
 
     def common(p: argparse.ArgumentParser) -> None:

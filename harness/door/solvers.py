@@ -26,7 +26,7 @@ class SolverFailure(RuntimeError):
 
 
 # (seconds allowed, path-steps per second on every core the run uses): the cost guard of the
-# command that runs the Monte Carlo (harness.validate.run_cost_limit); None: no limit
+# command that runs the Monte Carlo (harness.request.cost.run_cost_limit); None: no limit
 _COST_LIMIT: ContextVar[tuple[float, float] | None] = ContextVar("cost_limit", default=None)
 
 

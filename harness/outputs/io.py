@@ -5,7 +5,7 @@ temporary file is created with mode 0666 minus the umask (like any ``open``), no
 ``tempfile``'s 0600, so the file that lands has the mode every other output has. Every
 single-file output goes through :func:`atomic_path` (bytes and text through
 :func:`write_atomic`); whole folders (the check report) are written as a unit by
-:mod:`harness.outdir`.
+:mod:`harness.outputs.outdir`.
 
 Figures: :func:`pyplot` selects the non-interactive Agg backend (the one place that does) and
 :func:`png_bytes` renders a figure with its PNG text metadata (matplotlib's ``metadata=``).

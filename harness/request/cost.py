@@ -148,8 +148,8 @@ def refuse_costly(seconds: float | Callable[[float | None], float], what: str, y
 
 
 def run_cost_limit(scene: Scene, yes: bool) -> tuple[float, float] | None:
-    """(seconds, path-steps per second) for harness.run.cost_limit: the hour the guard allows
-    without ``--yes`` at this machine's speed on the run's cores, the one refuse_costly
+    """(seconds, path-steps per second) for harness.door.solvers.cost_limit: the hour the guard
+    allows without ``--yes`` at this machine's speed on the run's cores, the one refuse_costly
     applies up front. The speed is the cached calibration (or VIFPK_STEPS_PER_SECOND), never
     faster than MC_STEPS_PER_CORE; with none cached, MC_STEPS_PER_CORE (so that only a run
     certainly above the hour is stopped). None with ``--yes`` (no limit)."""
@@ -222,7 +222,7 @@ def machine_speed() -> float:
 
         write_json(path, {**key, "steps_per_second_per_core": speed,
                           "load_average": os.getloadavg()[0],
-                          "how": "harness.validate._calibrate: paper-base, 512 paths, one "
+                          "how": "harness.request.cost._calibrate: paper-base, 512 paths, one "
                                  "thread, 200 time units at dt 0.01"})
     except OSError:
         pass  # an unwritable cache: measure again next time

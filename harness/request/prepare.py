@@ -48,7 +48,7 @@ class Request:
     given: tuple[str, ...] = ()
     #: models asked for that do not apply to the scene, and why (reported, not run)
     skipped: Mapping[str, str] = field(default_factory=dict)
-    #: check: the tolerance question (harness.tolerance.Tolerance)
+    #: check: the tolerance question (harness.workflows.tolerance.Tolerance)
     tolerance: Any = None
 
 

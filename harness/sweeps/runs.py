@@ -126,7 +126,7 @@ def run_adaptive(sweep: Sweep, out: str | Path, *, executor: ExecutorSpec,
                  quiet: bool = False, report: bool = True,
                  provenance: Mapping[str, Any] | None = None) -> SweepRun:
     """An adaptive sweep (mode = "adaptive"): the initial lattice, then batches of
-    ``[adaptive] batch`` points chosen by harness.adaptive from every finished point, until
+    ``[adaptive] batch`` points chosen by harness.sweeps.adaptive from every finished point, until
     ``[adaptive] points`` or the resolution is reached; then sweep.nc (a ``point`` dimension)
     and the maps.
 

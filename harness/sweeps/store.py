@@ -50,7 +50,7 @@ def _job(sweep: Sweep, pt: Point) -> Job:
 
 
 def _tolerance(sweep: Sweep) -> Any:
-    """The sweep's tolerance question as a harness.tolerance.Tolerance."""
+    """The sweep's tolerance question as a harness.workflows.tolerance.Tolerance."""
     from vifpk.harness.workflows.tolerance import Tolerance
 
     metric, observable, confidence = sweep.tolerance_question

@@ -68,7 +68,8 @@ class CheckResult:
     metrics: dict[str, Any]
     warnings: list[WarningRecord]
     verdicts: list[str]
-    provenance: dict[str, Any] | None = None  # harness.provenance.collect(); set by the writer
+    #: harness.outputs.provenance.collect(); set by the writer
+    provenance: dict[str, Any] | None = None
     recommendation: str = ""  # one line: the model to trust here and why (recommend())
     models: tuple[str, ...] = CHECK_MODELS  # the averaged models checked, in report order
     tolerance_lines: tuple[str, ...] = ()  # per model: the tolerance verdict (tolerance.line)
@@ -137,7 +138,7 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
     do not apply to the scene are named in ``models_absent``); the Monte Carlo of model i's
     averaged SDE is seeded with the scene's seed + 1 + i. A model with no closed form (a
     plugin giving only drift and diffusion) has the FPK direct solve as its reference
-    density (harness.run.closed_form), so no FPK is measured against it (no
+    density (harness.door.solvers.closed_form), so no FPK is measured against it (no
     ``discretisation_error``; its entry holds ``reference`` instead).
 
     ``fpk=False`` skips the FPK of each model (no ``discretisation_error``): a sweep point

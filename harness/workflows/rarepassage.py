@@ -1,6 +1,7 @@
 """`vifpk passage --method splitting`: the MFPT of the original system at thresholds direct
-simulation cannot reach, by splitting (harness.run.passage_splitting, montecarlo/splitting.py),
-against each averaged model's MFPT (harness.run.mfpt_averaged: the Pontryagin quadrature).
+simulation cannot reach, by splitting (harness.door.timedomain.passage_splitting,
+montecarlo/splitting.py), against each averaged model's MFPT
+(harness.door.timedomain.mfpt_averaged: the Pontryagin quadrature).
 
 Splitting gives the MFPT with its interval, not the first-passage-time law, so this report has
 no Kaplan-Meier R(t), no sup |R - R_MC| and no FPT-density L1: metrics.json holds "mfpt" (per

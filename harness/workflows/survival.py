@@ -205,9 +205,9 @@ def fpt_density_l1(t_model: Any, R_model: Any, time: Any, censored: Any, *,
     the largest event time, max(10, min(100, 2 events^(1/3))) bins (Rice's rule).
 
     ``floor`` = sum_i sqrt(2/pi) sd_i, the L1 that sampling noise alone produces (as
-    harness.compare), sd_i = sqrt(q_i (1 - q_i) / n_i), n_i = Y(a_i) / R_KM(a_i) (= n without
-    censoring before the bin; an approximation under random censoring); ``err``: the spread of
-    the L1 under a parametric bootstrap q + sd N(0, 1) (``draws`` draws, ``seed``)."""
+    harness.workflows.compare), sd_i = sqrt(q_i (1 - q_i) / n_i), n_i = Y(a_i) / R_KM(a_i) (= n
+    without censoring before the bin; an approximation under random censoring); ``err``: the spread
+    of the L1 under a parametric bootstrap q + sd N(0, 1) (``draws`` draws, ``seed``)."""
     t_all, cen = _arrays(time, censored)
     km = kaplan_meier(t_all, cen)
     ev = t_all[~cen]

@@ -6,8 +6,8 @@ orbit, noise state from its stationary law: montecarlo.snapshots).
 Per snapshot and model: L1 and KS of p(A, t) with error bars and noise floors
 (harness/workflows/compare.py,
 as check does for the stationary law), the class of the L1 as check's
-(:func:`harness.check.observable_class`). Relaxation: each model's predicted relaxation time
-(1 / the slowest decay rate of its FPK, fpk.transient) against the one measured on the original
+(:func:`harness.workflows.verdict.observable_class`). Relaxation: each model's predicted relaxation
+time (1 / the slowest decay rate of its FPK, fpk.transient) against the one measured on the original
 system: the mean amplitude fitted by
 
     a(t) = a_inf + (A0 - a_inf) exp(-t / tau)            (a(0) = A0 exactly)

@@ -21,7 +21,7 @@ REFERENCE_CELLS = 800
 BURN_FACTOR = 6.0
 #: The averaged models a cross-check (and a sweep of cross-checks) runs when none is named,
 #: in this order: report columns follow it (the averaged SDEs' seeds follow each model's name,
-#: harness.check.sde_seed, never its place in the list).
+#: harness.workflows.check.sde_seed, never its place in the list).
 CHECK_MODELS = ("paper", "exact", "corrected")
 #: The observables every solver gives as densities (closed forms, FPK, Monte Carlo), compared
 #: by check and by the tolerance tests.

@@ -29,7 +29,7 @@ from importlib import import_module, metadata
 from pathlib import Path
 from typing import Any
 
-#: The solvers ``harness.run.run_solver`` knows, in the order the CLI offers them.
+#: The solvers ``harness.door.solvers.run_solver`` knows, in the order the CLI offers them.
 SOLVERS = ("averaging", "fpk", "montecarlo")
 #: Kinds of excitation xi(t): Ornstein-Uhlenbeck ("real") noise, Gaussian white noise.
 NOISE_KINDS = ("ou", "white")

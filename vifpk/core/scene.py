@@ -457,7 +457,7 @@ class Scene:
     sweep: Sweep | None = None
     source: str = ""
     #: "section.key" of every value the scene was given (its file, with_values, --set), as
-    #: opposed to a default: e.g. whether a time step was asked for (harness.request)
+    #: opposed to a default: e.g. whether a time step was asked for (harness.request.prepare)
     given: frozenset[str] = field(default=frozenset(), compare=False)
 
     # ---------------------------------------------------------------- sweeps
