@@ -1,4 +1,4 @@
-"""harness/surface.py: the error surface, P(inside) and the 5-95% band, on a synthetic map
+"""harness/sweeps/surface.py: the error surface, P(inside) and the 5-95% band, on a synthetic map
 whose true error surface, boundary and noise are known (issue 29, items 2 and 4).
 
 The synthetic map: unit square (u, v), tolerance T = 0.02, true error
@@ -24,17 +24,19 @@ import pytest
 
 pytest.importorskip("sklearn", reason="scikit-learn: the sweep and test extras")
 
-from vifpk.harness.surface import (  # noqa: E402
+from vifpk.harness.sweeps.surface import (  # noqa: E402
     BAND,
     FLOOR_FRACTION,
-    POINT_VARS,
     Axis,
     SurfaceError,
-    add_surfaces,
     axes_for,
-    dataset_surfaces,
     fit_surface,
     log_spaced,
+)
+from vifpk.harness.sweeps.surfacemaps import (  # noqa: E402
+    POINT_VARS,
+    add_surfaces,
+    dataset_surfaces,
     resolved_error,
     surface_figure,
 )
