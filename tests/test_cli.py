@@ -141,19 +141,47 @@ def test_budget_spent_before_the_first_window_exits_3_with_one_line(monkeypatch,
     assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
 
 
-def test_a_value_error_inside_a_run_is_one_line_exit_3(monkeypatch, capsys):
-    """app.main lets no ValueError out as a traceback (issue 19): one line, exit 3."""
+@pytest.mark.parametrize("exc, line", [
+    (ValueError("no sample was taken: time must be at least sample_every"),
+     "vifpk: no sample was taken: time must be at least sample_every"),
+    (FloatingPointError("overflow encountered in exp"),
+     "vifpk: numerical failure: overflow encountered in exp; the scene's magnitudes or the "
+     "step are most likely too extreme")])
+def test_a_solver_failure_is_mapped_at_the_door_one_line_exit_3(monkeypatch, capsys, exc, line):
+    """A solver that cannot go on (a ValueError or an ArithmeticError raised inside a solver
+    package) leaves the door as SolverFailure: one line, exit 3 (issue 27: mapped at the solver
+    boundary only)."""
+    import vifpk.averaging
+
+    def failing(*a, **k):
+        raise exc
+
+    monkeypatch.setattr(vifpk.averaging, "solve", failing)
+    code = main(["solve", BASE, "--solver", "averaging"])
+    err = capsys.readouterr().err
+    assert code == 3, err
+    assert err.strip() == line
+
+
+def test_a_value_error_outside_the_solvers_is_an_internal_error(monkeypatch, capsys):
+    """A ValueError raised by harness code (not a solver's) is a bug, not exit 3 (issue 27: the
+    old broad mapping hid bugs as 'the solver could not'): in process it propagates; under
+    --debug it is one line with the traceback before it, exit 1."""
     from vifpk.harness.cli import app
 
     def boom(args):
-        raise ValueError("no sample was taken: time must be at least sample_every")
+        raise ValueError("a bug in the harness")
 
     parser = app.build_parser
     monkeypatch.setattr(app, "build_parser", lambda: _with_func(parser(), boom))
-    code = main(["solve", BASE])
+    with pytest.raises(ValueError, match="a bug in the harness"):
+        main(["solve", BASE])
+    code = main(["--debug", "solve", BASE])
     err = capsys.readouterr().err
-    assert code == 3, err
-    assert err.strip() == "vifpk: no sample was taken: time must be at least sample_every"
+    assert code == 1, err
+    assert err.startswith("Traceback"), err
+    assert err.strip().splitlines()[-1].startswith(
+        "vifpk: internal error: ValueError: a bug in the harness"), err
 
 
 def _with_func(parser, func):

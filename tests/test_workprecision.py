@@ -20,11 +20,22 @@ from vifpk.harness.workflows.workprecision import (
 
 
 def test_timed_records_nan_on_failure():
+    """A solver's failure is a NaN point with its reason; anything else is a bug and
+    propagates (issue 27: no exception returned as a result, none swallowed)."""
+    from vifpk.harness.door.solvers import SolverFailure
+    from vifpk.harness.workflows.workprecision import Failed
+
     def boom():
-        raise RuntimeError("x")
+        raise SolverFailure("x")
 
     out, first, best = timed(boom, repeats=2)
-    assert isinstance(out, RuntimeError) and math.isnan(first) and math.isnan(best)
+    assert out == Failed("x") and math.isnan(first) and math.isnan(best)
+
+    def bug():
+        raise KeyError("y")
+
+    with pytest.raises(KeyError):
+        timed(bug, repeats=0)
     out, first, best = timed(lambda: 3, repeats=2)
     assert out == 3 and best <= first + 1e-3
 

@@ -1,14 +1,18 @@
 """The ``vifpk`` command: the parser of every subcommand and ``main``, which maps what a
 command raises to an exit code.
 
-Exit codes: 0 success; 2 bad input (one line naming the field, no traceback, no output
-file); 3 the solver could not produce a result (one line saying why); 130 interrupted.
+Exit codes: 0 success; 1 internal error (a bug: one line, the traceback under ``--debug``);
+2 bad input (one line naming the field, no traceback, no output file); 3 a solver could not
+produce a result (one line saying why: SolverFailure, mapped at the door only); 130
+interrupted.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
+import traceback
 from collections.abc import Sequence
 from typing import Any
 
@@ -23,6 +27,7 @@ from vifpk.harness.cli.commands import (
 )
 from vifpk.harness.cli.options import (
     EXIT_BAD_INPUT,
+    EXIT_INTERNAL,
     EXIT_SOLVER,
     QUIET_HELP,
     SET_HELP,
@@ -49,6 +54,9 @@ def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog="vifpk", description="How wrong is a stochastic-averaging approximation?")
     p.add_argument("--version", action="version", version=f"vifpk {vifpk_version()}",
                    help="print the version and exit")
+    p.add_argument("--debug", action="store_true",
+                   help="on a failure, print the traceback (a solver's failure with its cause; "
+                        "default: one line; also VIFPK_TRACEBACK=1)")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
     s = sub.add_parser("solve", help="solve one scene with one solver")
     s.add_argument("scene", help="scene TOML file (or the name of a shipped scene)")
@@ -167,7 +175,8 @@ def _first_warning(caught: list[Any]) -> str:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """The ``vifpk`` command. Exit codes: 0, 2 bad input, 3 numerical failure, 130 Ctrl-C.
+    """The ``vifpk`` command. Exit codes: 0, 1 internal error (a bug), 2 bad input, 3 a solver
+    could not produce a result (SolverFailure, mapped at the door), 130 Ctrl-C.
 
     numpy RuntimeWarnings are caught (never printed): a run that then fails names the first
     one in its one-line message; a run whose results are finite drops them."""
@@ -182,6 +191,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help(sys.stderr)
         return EXIT_BAD_INPUT
     args = parser.parse_args(argv)
+    debug = bool(getattr(args, "debug", False) or os.environ.get("VIFPK_TRACEBACK"))
     args.argv = ["vifpk", *(sys.argv[1:] if argv is None else argv)]
     try:
         validate.environment()
@@ -202,13 +212,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"vifpk: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except (SolverFailure, PluginError) as exc:  # PluginError: names the plugin and its file
-        print(f"vifpk: {exc}{_first_warning(caught)}", file=sys.stderr)
-        return EXIT_SOLVER
-    except ArithmeticError as exc:  # overflow, 0 division, numpy errors, FPK coefficients
-        print(f"vifpk: numerical failure: {exc}{_first_warning(caught)}; the scene's "
-              "magnitudes or the step are most likely too extreme", file=sys.stderr)
-        return EXIT_SOLVER
-    except ValueError as exc:  # past validation: a run that could not go on, never a traceback
+        if debug:
+            traceback.print_exception(exc)
         print(f"vifpk: {exc}{_first_warning(caught)}", file=sys.stderr)
         return EXIT_SOLVER
     except MemoryError:
@@ -228,19 +233,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"vifpk: cannot write{where} ({exc.strerror or exc}); the run's output is "
               "incomplete", file=sys.stderr)
         return EXIT_SOLVER
-    except Exception as exc:  # noqa: BLE001 - never a traceback: one line, where it happened
-        import os
-        import traceback
-
-        if os.environ.get("VIFPK_TRACEBACK") or not from_command_line:
+    except Exception as exc:  # noqa: BLE001 - a bug: one line, the traceback under --debug
+        if not from_command_line and not debug:
             raise  # in-process callers (the Python API, tests) get the exception itself
+        if debug:
+            traceback.print_exception(exc)
         tb = traceback.extract_tb(exc.__traceback__)[-1]
         where = "/".join(tb.filename.split("/")[-2:])
         text = str(exc).splitlines()[0][:300] if str(exc) else ""
         print(f"vifpk: internal error: {type(exc).__name__}: {text} ({where}:{tb.lineno})"
-              f"{_first_warning(caught)}; please report it (VIFPK_TRACEBACK=1 shows the "
+              f"{_first_warning(caught)}; please report it (vifpk --debug ... shows the "
               "traceback)", file=sys.stderr)
-        return EXIT_SOLVER
+        return EXIT_INTERNAL
 
 
 def _silence_stdout() -> None:

@@ -19,10 +19,9 @@ from vifpk.core import registry
 from vifpk.core.defaults import BURN_FACTOR
 from vifpk.core.scene import Scene
 
-EXIT_BAD_INPUT = 2
-
-
-EXIT_SOLVER = 3
+EXIT_INTERNAL = 1  # a bug: one line, the traceback under --debug
+EXIT_BAD_INPUT = 2  # bad input: one line naming it, before any work, nothing written
+EXIT_SOLVER = 3  # a solver could not produce a result (SolverFailure, mapped at the door)
 
 
 SET_HELP = ("override a scene value, e.g. noise.D=0.02 (repeatable; default: none, the scene "

@@ -1,14 +1,18 @@
-"""Run the solvers a scene asks for: the one door between the harness and the solvers.
+"""Run the solvers a scene asks for: the door between the harness and the solvers (its
+stationary half; door/timedomain.py is the other).
 
-This is the only harness module that imports ``averaging``, ``fpk`` or ``montecarlo``
+The door is the only harness package that imports ``averaging``, ``fpk`` or ``montecarlo``
 (enforced by tests/test_architecture.py); check, bifurcation, figures, workprecision, testing
 and the CLI reach every solver through the functions below. The solvers never import the
-harness or each other: data flows one way, scene -> solver -> record -> comparison.
+harness or each other: data flows one way, scene -> solver -> record -> comparison. Every
+door function is a :func:`boundary`: a solver's failure leaves it as :class:`SolverFailure`,
+the one place exceptions are mapped.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+import functools
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
 from typing import Any
@@ -16,13 +20,60 @@ from typing import Any
 import numpy as np
 
 from vifpk.core.defaults import FPK_CELLS, REFERENCE_CELLS
-from vifpk.core.registry import SOLVERS, one_of
-from vifpk.core.result import Result
+from vifpk.core.guard import PluginError
+from vifpk.core.registry import SOLVERS, UnknownName, one_of
+from vifpk.core.result import BadInput, Result
 from vifpk.core.scene import no_noise
 
 
 class SolverFailure(RuntimeError):
     """A solver could not produce a trustworthy result; the message says why (one line)."""
+
+
+#: The solver packages: a RuntimeError raised in one of them is its own failure (FPKFailure,
+#: NoStationaryDensity, SimulationDiverged, BudgetExhausted, StartRejected, ...).
+SOLVER_PACKAGES = ("vifpk.averaging", "vifpk.fpk", "vifpk.montecarlo")
+
+
+def solver_failure(exc: BaseException) -> SolverFailure | None:
+    """The SolverFailure an exception raised inside a solver call stands for, or None when it
+    is not a solver's failure (issue 27: exceptions are mapped here, at the solver boundary,
+    and nowhere else; the command line maps SolverFailure to exit 3 and lets anything else
+    reach its internal-error branch).
+
+    Mapped: ArithmeticError (overflow, division by zero, numpy errors under ``np.errstate``,
+    the FPK's CoefficientError), a ValueError that is neither bad input nor an unknown name (a
+    run that could not go on, e.g. "no sample was taken"), and a RuntimeError raised by a
+    solver package. Not mapped: BadInput (exit 2), UnknownName (a caller's bug: unknown kinds
+    raise), PluginError (names the plugin), SolverFailure itself, and every other exception
+    (a bug: TypeError, KeyError, ...)."""
+    if isinstance(exc, (SolverFailure, BadInput, UnknownName, PluginError)):
+        return None
+    if isinstance(exc, ArithmeticError):
+        return SolverFailure(f"numerical failure: {exc}; the scene's magnitudes or the step are "
+                             "most likely too extreme")
+    if isinstance(exc, ValueError):
+        return SolverFailure(str(exc))
+    if isinstance(exc, RuntimeError) and type(exc).__module__.startswith(SOLVER_PACKAGES):
+        return SolverFailure(str(exc))
+    return None
+
+
+def boundary(fn: Callable[..., Any]) -> Callable[..., Any]:
+    """A door function: a solver's failure inside it leaves as SolverFailure (see
+    :func:`solver_failure`), chained to the original for ``--debug``."""
+
+    @functools.wraps(fn)
+    def door(*args: Any, **kwargs: Any) -> Any:
+        try:
+            return fn(*args, **kwargs)
+        except Exception as exc:
+            mapped = solver_failure(exc)
+            if mapped is None:
+                raise
+            raise mapped from exc
+
+    return door
 
 
 # (seconds allowed, path-steps per second on every core the run uses): the cost guard of the
@@ -42,26 +93,24 @@ def cost_limit(limit: tuple[float, float] | None) -> Iterator[None]:
         _COST_LIMIT.reset(token)
 
 
+@boundary
 def run_solver(scene: Any, solver: str, *, model: str = "paper", grid: int | None = None,
                **options: Any) -> Any:
     """Run one solver on a concrete scene and return its Result(data, info).
 
     ``--solver averaging`` of a model with no closed form (a plugin that gives only drift
     and diffusion) is :func:`closed_form`'s FPK direct solve, and its info says so."""
-    from vifpk import averaging, fpk
 
     one_of("solver", solver, SOLVERS)
-    try:
-        if solver == "averaging":
-            return closed_form(scene, model=model, **options)
-        if solver == "fpk":
-            return fpk_solution(scene, model=model, cells=grid or FPK_CELLS, **options)
-        return montecarlo_solution(scene, **options)
-    except (averaging.NoStationaryDensity, fpk.FPKFailure, fpk.CoefficientError) as exc:
-        raise SolverFailure(str(exc)) from None
+    if solver == "averaging":
+        return closed_form(scene, model=model, **options)
+    if solver == "fpk":
+        return fpk_solution(scene, model=model, cells=grid or FPK_CELLS, **options)
+    return montecarlo_solution(scene, **options)
 
 
 # ----------------------------------------------------------------------- averaged models
+@boundary
 def closed_form(scene: Any, *, model: Any, tail_mass: bool = True, **options: Any) -> Any:
     """The averaged model's stationary densities: its closed form (``averaging.solve``) when
     the model gives one (``log_stationary_parts`` and ``period``), else the FPK direct solve of
@@ -72,14 +121,11 @@ def closed_form(scene: Any, *, model: Any, tail_mass: bool = True, **options: An
     from vifpk import averaging
 
     m = averaged_model(scene, model, **options)
-    try:
-        if averaging.has_closed_form(m):
-            res = averaging.solve(scene, model=m, tail_mass=tail_mass)
-            res.info.update(model=model_label(model), closed_form=True)
-            return res
-        res = fpk_solution(scene, model=m, cells=REFERENCE_CELLS, method="direct")
-    except averaging.NoStationaryDensity as exc:
-        raise SolverFailure(str(exc)) from None
+    if averaging.has_closed_form(m):
+        res = averaging.solve(scene, model=m, tail_mass=tail_mass)
+        res.info.update(model=model_label(model), closed_form=True)
+        return res
+    res = fpk_solution(scene, model=m, cells=REFERENCE_CELLS, method="direct")
     res.info.update(model=model_label(model), closed_form=False,
                     method=f"FPK direct solve, {REFERENCE_CELLS} cells (the model gives no "
                            "closed form: no log_stationary_parts/period)")
@@ -91,6 +137,7 @@ def model_label(model: Any) -> str:
     return model if isinstance(model, str) else type(model).__name__
 
 
+@boundary
 def averaged_model(scene: Any, model: Any, **options: Any) -> Any:
     """The averaged model named ``model`` (any registered name, vifpk.core.registry) or a
     model object itself: something with drift(A), diffusion(A) and maybe period(A)."""
@@ -105,6 +152,7 @@ def averaged_model(scene: Any, model: Any, **options: Any) -> Any:
     return model
 
 
+@boundary
 def model_period(scene: Any, m: Any) -> tuple[Any, str]:
     """(T(A), where it comes from): the model's ``period`` if it gives one, else the period of
     the scene's exact orbit (the averaged-model protocol's default, docs/testing.md)."""
@@ -118,6 +166,7 @@ def model_period(scene: Any, m: Any) -> tuple[Any, str]:
     return T, "exact orbit (the model gives no period)"
 
 
+@boundary
 def amplitude_density(scene: Any, model: Any, **options: Any) -> Any:
     """p(A) alone (``averaging.stationary.AmplitudeDensity``: fields A, p, log_h) of the model
     named ``model`` (or a model object), on the scene's [averaging] grid settings; a model with
@@ -142,6 +191,7 @@ def amplitude_density(scene: Any, model: Any, **options: Any) -> Any:
                             scans=0)
 
 
+@boundary
 def orbit_period(A: Any, restoring: tuple[float, ...]) -> Any:
     """T(A) of the exact orbit of amplitude A of the spring g = k1 x + k3 x^3 + ...
     (``restoring`` = (k1, k3, ...): System.restoring_law; ``averaging.geometry.period_k``)."""
@@ -150,6 +200,7 @@ def orbit_period(A: Any, restoring: tuple[float, ...]) -> Any:
     return period_k(A, tuple(restoring))
 
 
+@boundary
 def restoring_force(A: Any, restoring: tuple[float, ...]) -> Any:
     """g(A) = k1 A + k3 A^3 + ... (``averaging.geometry.restoring_k``)."""
     from vifpk.averaging.geometry import restoring_k
@@ -157,6 +208,7 @@ def restoring_force(A: Any, restoring: tuple[float, ...]) -> Any:
     return restoring_k(A, tuple(restoring))
 
 
+@boundary
 def potential_energy(scene: Any, A: Any) -> Any:
     """U(A) of the scene's restoring law (``averaging.geometry.potential_k``): the energy of
     the conservative orbit of amplitude A, which a threshold Ac stands for."""
@@ -165,6 +217,7 @@ def potential_energy(scene: Any, A: Any) -> Any:
     return potential_k(A, tuple(scene.system.restoring_law))
 
 
+@boundary
 def energy_rates(scene: Any, A: float) -> dict[str, float]:
     """The exact orbit's energy rates by effect at amplitude A (``averaging.exact``)."""
     from vifpk.averaging.exact import energy_rates as rates
@@ -172,6 +225,7 @@ def energy_rates(scene: Any, A: float) -> dict[str, float]:
     return rates(scene, A)
 
 
+@boundary
 def validity(scene: Any) -> dict[str, Any]:
     """How far the scene is from the averaging limits over the bulk of p(E)
     (``averaging.validity``: band alpha1 / Omega, wall delta / E, noise sigma_E^2 T / E^2)."""
@@ -181,16 +235,15 @@ def validity(scene: Any) -> dict[str, Any]:
 
 
 # ----------------------------------------------------------------------------- FPK
+@boundary
 def fpk_stationary(drift: Any, diffusion: Any, **options: Any) -> Any:
     """``fpk.stationary`` on any drift m(A) and diffusion sigma^2(A) (cells, method, ...)."""
     from vifpk import fpk
 
-    try:
-        return fpk.stationary(drift, diffusion, **options)
-    except fpk.FPKFailure as exc:
-        raise SolverFailure(str(exc)) from None
+    return fpk.stationary(drift, diffusion, **options)
 
 
+@boundary
 def fpk_solution(scene: Any, *, model: Any, cells: int, method: str = "stepping",
                   **options: Any) -> Result:
     """FPK on the averaged model's m and sigma^2, mapped to phase space like the closed form
@@ -222,6 +275,7 @@ def fpk_solution(scene: Any, *, model: Any, cells: int, method: str = "stepping"
     return Result(data=data, info=info)
 
 
+@boundary
 def phase_solution(scene: Any, res: Any, period: Any) -> tuple[dict[str, Any], dict]:
     """An FPK result's p(A) mapped to p(E), p(x1, x2), p(x1), p(x2) as for the closed form,
     with p(y, y') = p_A / (g T); ``period`` gives T(A). Returns (data, raw masses)."""
@@ -241,6 +295,7 @@ def phase_solution(scene: Any, res: Any, period: Any) -> tuple[dict[str, Any], d
     return data, ph.raw_mass
 
 
+@boundary
 def montecarlo_solution(scene: Any, *, progress: bool = True, **edges: Any) -> Result:
     """The Monte Carlo of the original system with the scene's settings and observables.
 
@@ -259,10 +314,7 @@ def montecarlo_solution(scene: Any, *, progress: bool = True, **edges: Any) -> R
                                    observables=scene.observables.names(), progress=progress,
                                    edges=edges,
                                    max_path_steps=limit[0] * limit[1] if limit else math.inf)
-    try:
-        res = montecarlo.simulate(scene.system, scene.noise, settings)
-    except (montecarlo.SimulationDiverged, montecarlo.BudgetExhausted) as exc:
-        raise SolverFailure(str(exc)) from None
+    res = montecarlo.simulate(scene.system, scene.noise, settings)
     info = dict(res.info)
     mom = info.get("moments", {}).get("A", {}).get("mean")
     if mom is not None:
@@ -270,6 +322,7 @@ def montecarlo_solution(scene: Any, *, progress: bool = True, **edges: Any) -> R
     return Result(data=res.data, info=info)
 
 
+@boundary
 def averaged_sde_solution(scene: Any, model: Any, *, edges: dict[str, Any], seed: int,
                           phase: bool = False, **settings: Any) -> Any:
     """Monte Carlo of the averaged amplitude SDE of ``model`` (a name or a model object).
@@ -299,6 +352,7 @@ def averaged_sde_solution(scene: Any, model: Any, *, edges: dict[str, Any], seed
                         phase=extra, observe=observe)
 
 
+@boundary
 def montecarlo_plan(scene: Any) -> Any:
     """What the Monte Carlo would do with the scene's settings, before running it
     (``montecarlo.plan``: the time step, the sampling interval, the sampled time, the nearest

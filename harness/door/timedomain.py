@@ -17,6 +17,7 @@ from vifpk.harness.door.solvers import (
     SolverFailure,
     amplitude_density,
     averaged_model,
+    boundary,
     fpk_stationary,
     model_label,
     model_period,
@@ -29,6 +30,7 @@ from vifpk.core.scene import no_noise
 
 
 # ------------------------------------------------------- time domain (issue 30): Monte Carlo
+@boundary
 def time_step(scene: Any, dt: Any = None) -> float:
     """The step of the original system's time-domain runs (first passage, splitting,
     snapshots), the one rule every caller uses (the CLI's plan and price, the doors): ``dt``
@@ -57,6 +59,7 @@ def _passage_settings(scene: Any, *, paths: int, horizon: float, **given: Any) -
     return montecarlo.PassageSettings(paths=paths, horizon=horizon, **kw)
 
 
+@boundary
 def passage_montecarlo(scene: Any, *, threshold: float, start: float | str, horizon: float,
                        paths: int, dt: float | None = None, blocks: int | None = None,
                        seed: int | None = None, threads: int | None = None,
@@ -75,11 +78,8 @@ def passage_montecarlo(scene: Any, *, threshold: float, start: float | str, hori
     st = _passage_settings(scene, paths=paths, horizon=horizon, dt=dt, blocks=blocks,
                            seed=seed, threads=threads, burn_in=burn_in, burn_start=burn_start,
                            progress=progress)
-    try:
-        return montecarlo.first_passage(scene.system, scene.noise, st, threshold=threshold,
-                                        start=start)
-    except (montecarlo.SimulationDiverged, montecarlo.StartRejected) as exc:
-        raise SolverFailure(str(exc)) from None
+    return montecarlo.first_passage(scene.system, scene.noise, st, threshold=threshold,
+                                    start=start)
 
 
 def _start_amplitudes(start: Any, paths: int, seed: int) -> Any:
@@ -114,6 +114,7 @@ def _sde_run(scene: Any, model: Any, top: float, dt: float | None, blocks: int |
     return m, float(dt), blocks or mc.blocks, mc.seed if seed is None else seed, extra
 
 
+@boundary
 def passage_sde(scene: Any, model: Any, *, threshold: float, start: Any, horizon: float,
                 paths: int, dt: float | None = None, blocks: int | None = None,
                 seed: int | None = None, progress: bool = True) -> Result:
@@ -122,7 +123,6 @@ def passage_sde(scene: Any, model: Any, *, threshold: float, start: Any, horizon
     start amplitudes (e.g. the original system's data["start"]["A"] for 'stationary')."""
     from vifpk.montecarlo.sde_time import sde_first_passage
 
-    from vifpk import montecarlo
 
     m, dt, blocks, seed, extra = _sde_run(scene, model, 4.0 * threshold, dt, blocks, seed)
     try:
@@ -130,8 +130,6 @@ def passage_sde(scene: Any, model: Any, *, threshold: float, start: Any, horizon
                                 start=_start_amplitudes(start, paths, seed), paths=paths,
                                 blocks=blocks, dt=dt, horizon=horizon, seed=seed,
                                 progress=progress)
-    except montecarlo.SimulationDiverged as exc:
-        raise SolverFailure(str(exc)) from None
     except ValueError as exc:  # coefficients not finite on the table
         if isinstance(exc, BadInput):
             raise
@@ -140,6 +138,7 @@ def passage_sde(scene: Any, model: Any, *, threshold: float, start: Any, horizon
     return res
 
 
+@boundary
 def transient_montecarlo(scene: Any, *, start: float, times: Any, edges: dict[str, Any],
                          paths: int, dt: float | None = None, blocks: int | None = None,
                          seed: int | None = None, threads: int | None = None,
@@ -148,17 +147,14 @@ def transient_montecarlo(scene: Any, *, start: float, times: Any, edges: dict[st
     (``montecarlo.transient.snapshots``); edges: edges_A, edges_x, edges_v."""
     from vifpk.montecarlo.transient import snapshots
 
-    from vifpk import montecarlo
 
     t_end = float(np.max(times)) if np.size(times) else 1.0
     st = _passage_settings(scene, paths=paths, horizon=max(t_end, 1e-300), dt=dt,
                            blocks=blocks, seed=seed, threads=threads, progress=progress)
-    try:
-        return snapshots(scene.system, scene.noise, st, start=start, times=times, edges=edges)
-    except montecarlo.SimulationDiverged as exc:
-        raise SolverFailure(str(exc)) from None
+    return snapshots(scene.system, scene.noise, st, start=start, times=times, edges=edges)
 
 
+@boundary
 def transient_sde(scene: Any, model: Any, *, start: Any, times: Any, edges_A: Any,
                   paths: int, dt: float | None = None, blocks: int | None = None,
                   seed: int | None = None, progress: bool = True) -> Result:
@@ -166,7 +162,6 @@ def transient_sde(scene: Any, model: Any, *, start: Any, times: Any, edges_A: An
     amplitude or start amplitudes) (``montecarlo.sde_time.sde_snapshots``)."""
     from vifpk.montecarlo.sde_time import sde_snapshots
 
-    from vifpk import montecarlo
 
     top = 4.0 * float(np.max(edges_A))
     m, dt, blocks, seed, extra = _sde_run(scene, model, top, dt, blocks, seed)
@@ -174,8 +169,6 @@ def transient_sde(scene: Any, model: Any, *, start: Any, times: Any, edges_A: An
         res = sde_snapshots(m.drift, m.diffusion, start=_start_amplitudes(start, paths, seed),
                             times=times, edges_A=edges_A, paths=paths, blocks=blocks, dt=dt,
                             seed=seed, progress=progress)
-    except montecarlo.SimulationDiverged as exc:
-        raise SolverFailure(str(exc)) from None
     except ValueError as exc:
         if isinstance(exc, BadInput):
             raise
@@ -190,6 +183,7 @@ def transient_sde(scene: Any, model: Any, *, start: Any, times: Any, edges_A: An
 SPLITTING_QUANTILES = (0.25, 0.5)
 
 
+@boundary
 def splitting_levels(scene: Any, *, start: float, threshold: float) -> dict[str, Any]:
     """{"low", "entry", "source"}: the default levels of passage_splitting (see
     SPLITTING_QUANTILES), lowered to stay below the threshold when it is that low."""
@@ -206,6 +200,7 @@ def splitting_levels(scene: Any, *, start: float, threshold: float) -> dict[str,
     return {"low": low, "entry": entry, "source": source}
 
 
+@boundary
 def passage_splitting(scene: Any, *, threshold: float, start: float | str,
                       low: float | None = None,
                       entry: float | None = None, groups: int = 20, particles: int = 200,
@@ -252,12 +247,9 @@ def passage_splitting(scene: Any, *, threshold: float, start: float | str,
                           dt=float(st.dt), seed=int(st.seed), cycles=cycles, paths=paths,
                           rel_ci=rel_ci, budget=budget, max_groups=max_groups,
                           threads=int(st.threads))
-    try:
-        res = split(scene.system, scene.noise, s, threshold=float(threshold),
-                    start="stationary" if stationary else float(start), low=chosen["low"],
-                    entry=chosen["entry"], burn_in=burn.get("burn_in", 0.0))
-    except RuntimeError as exc:
-        raise SolverFailure(str(exc)) from None
+    res = split(scene.system, scene.noise, s, threshold=float(threshold),
+                start="stationary" if stationary else float(start), low=chosen["low"],
+                entry=chosen["entry"], burn_in=burn.get("burn_in", 0.0))
     info = dict(res.info)
     info["levels_source"] = chosen["source"]
     if burn:
@@ -272,6 +264,7 @@ def _averaged_coefficients(scene: Any, model: Any) -> Any:
     return averaged_model(scene, model)
 
 
+@boundary
 def passage_averaged(scene: Any, model: Any, *, threshold: float, start: float | str,
                      cells: int = FPK_CELLS, times: Any = None, t_end: float | None = None,
                      intervals: int = 16) -> Result:
@@ -292,8 +285,6 @@ def passage_averaged(scene: Any, model: Any, *, threshold: float, start: float |
                      intervals=intervals)
         r = fpk.reliability(m.drift, m.diffusion, threshold=threshold, start=start,
                             cells=cells, times=times, t_end=t_end)
-    except (fpk.FPKFailure, fpk.CoefficientError) as exc:
-        raise SolverFailure(str(exc)) from None
     except ValueError as exc:
         raise BadInput(str(exc)) from None
     info = dict(r.info)
@@ -308,6 +299,7 @@ def passage_averaged(scene: Any, model: Any, *, threshold: float, start: float |
     return Result(data=data, info=info)
 
 
+@boundary
 def transient_averaged(scene: Any, model: Any, *, start: float, times: Any,
                        cells: int = FPK_CELLS, phase: bool = True) -> Result:
     """The law of an averaged model's amplitude at ``times`` from a start at amplitude A0
@@ -334,19 +326,16 @@ def transient_averaged(scene: Any, model: Any, *, start: float, times: Any,
         raise BadInput(f"start must be a positive amplitude, got {start!r}")
     if t.size == 0 or not np.all(np.isfinite(t)) or np.any(t <= 0):
         raise BadInput("times must be positive and finite")
-    try:
-        _, hi, _ = fpk.choose_domain(m.drift, m.diffusion)
-        hi = max(hi, start + 10.0 * hi / cells)
-        width = hi / cells
-        a0 = float(start)
+    _, hi, _ = fpk.choose_domain(m.drift, m.diffusion)
+    hi = max(hi, start + 10.0 * hi / cells)
+    width = hi / cells
+    a0 = float(start)
 
-        def p0(A: Any) -> Any:
-            return np.exp(-0.5 * ((np.asarray(A) - a0) / width) ** 2)
+    def p0(A: Any) -> Any:
+        return np.exp(-0.5 * ((np.asarray(A) - a0) / width) ** 2)
 
-        res = fpk.transient(m.drift, m.diffusion, p0=p0, times=list(t), cells=cells, lo=0.0,
-                            hi=hi)
-    except (fpk.FPKFailure, fpk.CoefficientError) as exc:
-        raise SolverFailure(str(exc)) from None
+    res = fpk.transient(m.drift, m.diffusion, p0=p0, times=list(t), cells=cells, lo=0.0,
+                        hi=hi)
     d0 = 0.5 * float(np.asarray(m.diffusion(np.array([a0])))[0])
     info = dict(res.info, model=model_label(model), start=a0, start_width=width,
                 start_width_time=width**2 / (2.0 * d0),
@@ -367,13 +356,11 @@ def transient_averaged(scene: Any, model: Any, *, start: float, times: Any,
     return Result(data=data, info=info)
 
 
+@boundary
 def mfpt_averaged(scene: Any, model: Any, *, threshold: float, start: float | str) -> dict:
     """An averaged model's MFPT alone (fpk.mfpt, the Pontryagin quadrature; no R(t)): what
     `vifpk passage --method splitting` compares the original system's against."""
     from vifpk import fpk
 
     m = _averaged_coefficients(scene, model)
-    try:
-        return fpk.mfpt(m.drift, m.diffusion, threshold=threshold, start=start)
-    except (fpk.FPKFailure, fpk.CoefficientError) as exc:
-        raise SolverFailure(str(exc)) from None
+    return fpk.mfpt(m.drift, m.diffusion, threshold=threshold, start=start)

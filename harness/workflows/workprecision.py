@@ -19,17 +19,32 @@ import math
 import sys
 import time
 from collections.abc import Callable
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
+from vifpk.harness.door.solvers import SolverFailure
 from vifpk.harness.workflows.compare import compare
+
+from vifpk.core.guard import PluginError
 
 TARGETS = (1e-2, 1e-3, 1e-4)
 
 
+@dataclass(frozen=True)
+class Failed:
+    """A run of the ladder whose solver failed (SolverFailure or a plugin's PluginError): a
+    NaN point of the table, with the reason."""
+
+    reason: str
+
+    def __str__(self) -> str:
+        return self.reason
+
+
 def timed(fn: Callable[[], Any], *, repeats: int) -> tuple[Any, float, float]:
-    """(result, seconds of the warm-up call, min seconds of the repeats); NaN on failure."""
+    """(result, seconds of the warm-up call, min seconds of the repeats); (Failed, NaN, NaN)
+    when the solver failed. Any other exception is a bug and propagates."""
     try:
         t0 = time.perf_counter()
         out = fn()
@@ -40,8 +55,8 @@ def timed(fn: Callable[[], Any], *, repeats: int) -> tuple[Any, float, float]:
             out = fn()
             best = min(best, time.perf_counter() - t0)
         return out, first, best
-    except Exception as exc:  # noqa: BLE001 - a failed run is a NaN point, not a crash
-        return exc, math.nan, math.nan
+    except (SolverFailure, PluginError) as exc:  # a failed run is a NaN point, not a crash
+        return Failed(str(exc)), math.nan, math.nan
 
 
 def _with(scene: Any, **sections: dict[str, Any]) -> Any:
@@ -117,7 +132,7 @@ def run_workprecision(scene: Any, *, quick: bool = False, repeats: int = 3,
 
     def record(name: str, setting: dict[str, Any], out: Any, first: float, best: float,
                ref: Any, key: str = "A") -> None:
-        if isinstance(out, Exception) or not math.isfinite(best):
+        if isinstance(out, Failed) or not math.isfinite(best):
             point = {"setting": setting, "seconds": math.nan, "error": math.nan,
                      "failure": str(out)}
         else:
@@ -209,7 +224,7 @@ def _bias_variance(mc_run: Callable[..., Any], ref: Any, dt0: float, quick: bool
     rows = []
     for dt in dts:
         out, first, best = timed(lambda dt=dt: mc_run(paths, time_, dt, seed + 7), repeats=0)
-        if isinstance(out, Exception):
+        if isinstance(out, Failed):
             rows.append({"dt": dt, "seconds": math.nan, "L1": math.nan})
             continue
         m = compare(ref.data["A"], out.data["A"])
