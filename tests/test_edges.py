@@ -387,7 +387,8 @@ def _canned(monkeypatch):
                 "flags": {"warn_narrow_band": False, "warn_strong_damping": False,
                           "warn_strong_noise": False}, "warnings": [], "L1_paper_exact_A": 0.1}
 
-    monkeypatch.setitem(vifpk.harness.sweeps.points.WORKFLOW_FUNCTIONS, "averaging", canned)
+    functions = vifpk.harness.sweeps.points.sweep_functions()  # the registered ones, loaded
+    monkeypatch.setitem(functions, "averaging", canned)
 
 
 def test_second_sweep_into_a_held_folder_is_refused(tmp_path, monkeypatch, capsys):

@@ -348,40 +348,45 @@ def _finite(metrics: dict[str, Any]) -> None:
                             + (" ..." if len(bad) > 3 else "") + "; no report written")
 
 
-def add_commands(sub: Any, model_name: Any, set_help: str, quiet_help: str) -> None:
-    """The passage and transient subcommands (called by harness.cli.app.build_parser)."""
-    from vifpk.harness.cli.options import _dt_value, _whole_number
+def _common(p: argparse.ArgumentParser) -> None:
+    """The options passage and transient share."""
+    from vifpk.harness.cli.options import (
+        QUIET_HELP,
+        SET_HELP,
+        _dt_value,
+        _model_name,
+        _whole_number,
+    )
 
-    def common(p: argparse.ArgumentParser) -> None:
-        p.add_argument("scene", help="scene TOML file (or the name of a shipped scene)")
-        p.add_argument("--model", action="append", type=model_name, metavar="NAME",
-                       help="an averaged model, any registered one (repeat for several; "
-                            f"default: {', '.join(CHECK_MODELS)}, without paper outside its "
-                            "family)")
-        p.add_argument("--out", metavar="DIR",
-                       help="report directory (default: out/<scene>-<command>-<value>)")
-        p.add_argument("--json", action="store_true",
-                       help="print metrics.json's results on stdout instead of the verdicts "
-                            "(default: off; the report is written either way)")
-        p.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
-                       help=set_help)
-        p.add_argument("--quiet", action="store_true", help=quiet_help)
-        p.add_argument("--paths", type=_whole_number, metavar="N",
-                       help="Monte Carlo: paths of each run, a whole multiple of "
-                            "montecarlo.blocks (default: the scene's montecarlo.paths)")
-        p.add_argument("--dt", type=_dt_value, metavar="H",
-                       help="Monte Carlo: time step (default: the scene's montecarlo.dt)")
-        p.add_argument("--seed", type=_whole_number, metavar="S",
-                       help="Monte Carlo: root seed; each model's averaged SDE gets a seed "
-                            "of S and the model's name alone, as in check (default: the "
-                            "scene's montecarlo.seed)")
-        p.add_argument("--yes", action="store_true",
-                       help="run even when the estimated cost exceeds an hour (default: off)")
+    p.add_argument("scene", help="scene TOML file (or the name of a shipped scene)")
+    p.add_argument("--model", action="append", type=_model_name, metavar="NAME",
+                   help="an averaged model, any registered one (repeat for several; "
+                        f"default: {', '.join(CHECK_MODELS)}, without paper outside its "
+                        "family)")
+    p.add_argument("--out", metavar="DIR",
+                   help="report directory (default: out/<scene>-<command>-<value>)")
+    p.add_argument("--json", action="store_true",
+                   help="print metrics.json's results on stdout instead of the verdicts "
+                        "(default: off; the report is written either way)")
+    p.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
+                   help=SET_HELP)
+    p.add_argument("--quiet", action="store_true", help=QUIET_HELP)
+    p.add_argument("--paths", type=_whole_number, metavar="N",
+                   help="Monte Carlo: paths of each run, a whole multiple of "
+                        "montecarlo.blocks (default: the scene's montecarlo.paths)")
+    p.add_argument("--dt", type=_dt_value, metavar="H",
+                   help="Monte Carlo: time step (default: the scene's montecarlo.dt)")
+    p.add_argument("--seed", type=_whole_number, metavar="S",
+                   help="Monte Carlo: root seed; each model's averaged SDE gets a seed "
+                        "of S and the model's name alone, as in check (default: the "
+                        "scene's montecarlo.seed)")
+    p.add_argument("--yes", action="store_true",
+                   help="run even when the estimated cost exceeds an hour (default: off)")
 
-    p = sub.add_parser("passage", help="first passage out of A < Ac: reliability R(t), FPT "
-                                       "density and MFPT of each averaged model against the "
-                                       "original system")
-    common(p)
+
+def passage_arguments(p: argparse.ArgumentParser) -> None:
+    """``vifpk passage``'s options."""
+    _common(p)
     p.add_argument("--threshold", type=_number, required=True, metavar="Ac",
                    help="the amplitude threshold Ac (energy U(Ac)); required")
     p.add_argument("--start", type=_start, default="stationary", metavar="A0|stationary",
@@ -395,14 +400,13 @@ def add_commands(sub: Any, model_name: Any, set_help: str, quiet_help: str) -> N
     p.add_argument("--horizon", type=_number, metavar="T",
                    help="Monte Carlo censoring horizon (default: "
                         "8 x the largest averaged-model MFPT)")
-    p.set_defaults(func=cmd_passage)
-    t = sub.add_parser("transient", help="the law of the amplitude at given times from a "
-                                         "start A0: each averaged model against the original "
-                                         "system, and the relaxation times")
-    common(t)
+
+
+def transient_arguments(t: argparse.ArgumentParser) -> None:
+    """``vifpk transient``'s options."""
+    _common(t)
     t.add_argument("--start", type=_number, required=True, metavar="A0",
                    help="start amplitude (energy U(A0), phase uniform in time along that "
                         "orbit, noise from its stationary law); required")
     t.add_argument("--times", type=_times, required=True, metavar="t1,t2,...",
                    help="snapshot times > 0, increasing; required")
-    t.set_defaults(func=cmd_transient)

@@ -22,6 +22,7 @@ from typing import Any
 from vifpk.harness.sweeps.errors import SweepError
 from vifpk.harness.workflows.assumptions import ASSUMPTION_KINDS
 
+from vifpk.core import registry
 from vifpk.core.defaults import BIFURCATION_MODELS, CHECK_MODELS, TOLERANCE, TOLERANCE_CONFIDENCE
 from vifpk.core.result import BadInput
 from vifpk.core.scene import Scene, SceneError
@@ -225,7 +226,7 @@ def run_point(job: Job) -> dict[str, Any]:
     rec: dict[str, Any] = {"key": job.key, "params": dict(job.params), "seed": job.seed,
                            "fingerprint": job.fingerprint, "workflow": job.workflow}
     try:
-        result = WORKFLOW_FUNCTIONS[job.workflow](job)
+        result = sweep_functions()[job.workflow](job)
     except Exception as exc:  # noqa: BLE001 - recorded with its message; the sweep goes on
         from vifpk.harness.door.solvers import SolverFailure
 
@@ -371,6 +372,14 @@ def _transient_point(job: Job) -> dict[str, Any]:
 _CHECKED: set[Any] = set()  # Monte Carlo settings already validated in this process
 
 
-WORKFLOW_FUNCTIONS: dict[str, Callable[[Job], dict[str, Any]]] = {
-    "check": _check_point, "averaging": _averaging_point, "bifurcation": _bifurcation_point,
-    "passage": _passage_point, "transient": _transient_point}
+#: workflow name -> the function run at one point: every registered workflow with a
+#: ``sweep_point`` (vifpk.core.registry.workflows), filled on first use by sweep_functions()
+WORKFLOW_FUNCTIONS: dict[str, Callable[[Job], dict[str, Any]]] = {}
+
+
+def sweep_functions() -> dict[str, Callable[[Job], dict[str, Any]]]:
+    """The sweepable workflows (module comment above), in registration order."""
+    if not WORKFLOW_FUNCTIONS:
+        WORKFLOW_FUNCTIONS.update({w.name: w.sweep_point for w in registry.workflows()
+                                   if w.sweep_point is not None})
+    return WORKFLOW_FUNCTIONS

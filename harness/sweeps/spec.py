@@ -60,13 +60,11 @@ from vifpk.harness.sweeps.points import (
     Sweep,
     canonical,
     make_point,
+    sweep_functions,
 )
 
 from vifpk.core.defaults import CHECK_MODELS, TOLERANCE
 from vifpk.core.scene import INDEXED, MAX_TERMS, SECTIONS, Scene, SceneError, load_scene
-
-WORKFLOWS = ("check", "averaging", "bifurcation", "passage", "transient")
-
 
 MODES = ("product", "zip", "adaptive")
 
@@ -234,9 +232,9 @@ def load_sweep(path: str | Path) -> Sweep:
     except SceneError as exc:
         raise SweepError(f"{src}: scene: {exc}") from None
     workflow = raw.get("workflow", "check")
-    if workflow not in WORKFLOWS:
+    if workflow not in sweep_functions():
         raise SweepError(f"{src}: workflow = {workflow!r}: unknown workflow; allowed: "
-                         + ", ".join(WORKFLOWS))
+                         + ", ".join(sweep_functions()))
     mode = raw.get("mode", "product")
     if mode not in MODES:
         raise SweepError(f"{src}: mode = {mode!r}: allowed: " + ", ".join(MODES))

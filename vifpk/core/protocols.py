@@ -18,6 +18,8 @@ vifpk tests a model's *name* to decide where it applies.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any, Protocol, runtime_checkable
 
 #: Bumped when a required member is added or a signature changes (docs/plugins.md lists what
@@ -39,3 +41,29 @@ class Applicability(Protocol):
     """A factory, or the class behind it, that says where its model applies."""
 
     def applies(self, scene: Any) -> str | None: ...
+
+
+@runtime_checkable
+class Workflow(Protocol):
+    """A workflow (issue 27): a question with a name, registered in the ``vifpk.workflows``
+    entry-point group (vifpk.core.registry.workflows). Each front end derives its door from the
+    registry: the command line adds ``vifpk NAME`` with ``add_arguments`` and runs ``command``
+    (both None: no subcommand), a sweep file's ``workflow = NAME`` runs ``sweep_point(job)``
+    at every point (None: not sweepable)."""
+
+    name: str
+    summary: str
+    add_arguments: Callable[[Any], None] | None
+    command: Callable[[Any], int] | None
+    sweep_point: Callable[[Any], dict[str, Any]] | None
+
+
+@dataclass(frozen=True)
+class WorkflowSpec:
+    """The plain record that satisfies :class:`Workflow` (docstring there)."""
+
+    name: str
+    summary: str
+    add_arguments: Callable[[Any], None] | None = None
+    command: Callable[[Any], int] | None = None
+    sweep_point: Callable[[Any], dict[str, Any]] | None = None

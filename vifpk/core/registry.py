@@ -37,6 +37,7 @@ NOISE_KINDS = ("ou", "white")
 IMPACT_LAWS = ("exact", "transformed", "compounded")
 
 MODEL_GROUP = "vifpk.models"
+WORKFLOW_GROUP = "vifpk.workflows"
 DISTRIBUTION = "vifpk"
 
 
@@ -85,19 +86,18 @@ def _source_pyproject() -> Path | None:
     return p if raw.get("project", {}).get("name") == DISTRIBUTION else None
 
 
-@cache
-def _entries() -> tuple[tuple[ModelEntry, ...], tuple[str, ...]]:
-    """(entries, conflicts): vifpk's own models first (in pyproject order from a source
-    checkout, by name from metadata), then other distributions' by name. A name registered
-    twice keeps its first entry; the clash is reported in ``conflicts``."""
+def _group(group: str) -> tuple[tuple[ModelEntry, ...], tuple[str, ...]]:
+    """(entries, conflicts) of one entry-point group: vifpk's own first (in pyproject order
+    from a source checkout, by name from metadata), then other distributions' by name. A name
+    registered twice keeps its first entry; the clash is reported in ``conflicts``."""
     own: list[ModelEntry] = []
     others: list[ModelEntry] = []
     src = _source_pyproject()
     if src is not None:
         raw = tomllib.loads(src.read_text(encoding="utf-8"))
-        table = raw["project"].get("entry-points", {}).get(MODEL_GROUP, {})
+        table = raw["project"].get("entry-points", {}).get(group, {})
         own = [ModelEntry(k, v, DISTRIBUTION) for k, v in table.items()]
-    for ep in metadata.entry_points(group=MODEL_GROUP):
+    for ep in metadata.entry_points(group=group):
         dist = ep.dist.metadata["Name"] if ep.dist is not None else "?"
         if dist == DISTRIBUTION:
             if src is None:
@@ -115,6 +115,42 @@ def _entries() -> tuple[tuple[ModelEntry, ...], tuple[str, ...]]:
         else:
             found[e.name] = e
     return tuple(found.values()), tuple(conflicts)
+
+
+@cache
+def _entries() -> tuple[tuple[ModelEntry, ...], tuple[str, ...]]:
+    """The averaged models' (entries, conflicts) (``_group``)."""
+    return _group(MODEL_GROUP)
+
+
+@cache
+def workflows() -> tuple[Any, ...]:
+    """Every registered workflow (``vifpk.workflows``; vifpk.core.protocols.Workflow), loaded:
+    vifpk's own first, in pyproject order, then other distributions' by name. An entry that
+    does not load or is not a Workflow raises PluginError naming it."""
+    from .guard import PluginError
+    from .protocols import Workflow
+
+    out = []
+    for e in _group(WORKFLOW_GROUP)[0]:
+        module, _, attr = e.value.partition(":")
+        try:
+            obj = getattr(import_module(module), attr)
+        except Exception as exc:  # noqa: BLE001 - one line naming the plugin
+            raise PluginError(f"workflow {e.name!r} ({e.value}, from {e.distribution}) did not "
+                              f"load: {type(exc).__name__}: {exc}") from exc
+        if not isinstance(obj, Workflow) or obj.name != e.name:
+            raise PluginError(f"workflow {e.name!r} ({e.value}, from {e.distribution}) is not "
+                              "a vifpk.core.protocols.Workflow of that name")
+        out.append(obj)
+    return tuple(out)
+
+
+def workflow(name: str) -> Any:
+    """The registered workflow ``name``; UnknownName listing the registered ones otherwise."""
+    found = {w.name: w for w in workflows()}
+    one_of("workflow", name, tuple(found))
+    return found[name]
 
 
 def models() -> tuple[ModelEntry, ...]:
