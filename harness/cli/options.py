@@ -169,6 +169,22 @@ def _add_tolerance_options(p: argparse.ArgumentParser) -> None:
                         f"(default {TOLERANCE_CONFIDENCE:g})")
 
 
+def add_scene(p: argparse.ArgumentParser) -> None:
+    """The positional scene every scene command takes."""
+    p.add_argument("scene", help="scene TOML file (or the name of a shipped scene)")
+
+
+def add_set(p: argparse.ArgumentParser) -> None:
+    """``--set SECTION.KEY=VALUE`` (repeatable)."""
+    p.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
+                   help=SET_HELP)
+
+
+def add_quiet(p: argparse.ArgumentParser) -> None:
+    """``--quiet``: no progress on the terminal."""
+    p.add_argument("--quiet", action="store_true", help=QUIET_HELP)
+
+
 def _add_mc_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--paths", type=_whole_number, metavar="N",
                    help="Monte Carlo: number of paths, a whole multiple of montecarlo.blocks "

@@ -351,14 +351,15 @@ def _finite(metrics: dict[str, Any]) -> None:
 def _common(p: argparse.ArgumentParser) -> None:
     """The options passage and transient share."""
     from vifpk.harness.cli.options import (
-        QUIET_HELP,
-        SET_HELP,
         _dt_value,
         _model_name,
         _whole_number,
+        add_quiet,
+        add_scene,
+        add_set,
     )
 
-    p.add_argument("scene", help="scene TOML file (or the name of a shipped scene)")
+    add_scene(p)
     p.add_argument("--model", action="append", type=_model_name, metavar="NAME",
                    help="an averaged model, any registered one (repeat for several; "
                         f"default: {', '.join(CHECK_MODELS)}, without paper outside its "
@@ -368,9 +369,8 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", action="store_true",
                    help="print metrics.json's results on stdout instead of the verdicts "
                         "(default: off; the report is written either way)")
-    p.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
-                   help=SET_HELP)
-    p.add_argument("--quiet", action="store_true", help=QUIET_HELP)
+    add_set(p)
+    add_quiet(p)
     p.add_argument("--paths", type=_whole_number, metavar="N",
                    help="Monte Carlo: paths of each run, a whole multiple of "
                         "montecarlo.blocks (default: the scene's montecarlo.paths)")

@@ -10,12 +10,13 @@ import argparse
 
 from vifpk.harness.cli import commands, timedomain
 from vifpk.harness.cli.options import (
-    QUIET_HELP,
-    SET_HELP,
     _add_mc_options,
     _add_tolerance_options,
     _model_name,
     _whole_number,
+    add_quiet,
+    add_scene,
+    add_set,
 )
 from vifpk.harness.sweeps import points
 
@@ -26,7 +27,7 @@ from vifpk.core.registry import SOLVERS
 
 def solve_arguments(p: argparse.ArgumentParser) -> None:
     """``vifpk solve``'s options."""
-    p.add_argument("scene", help="scene TOML file (or the name of a shipped scene)")
+    add_scene(p)
     p.add_argument("--solver", choices=SOLVERS, default="averaging",
                    help="averaging: closed form of an averaged model; fpk: its Fokker-Planck "
                         "equation; montecarlo: the original system (default: %(default)s)")
@@ -45,20 +46,18 @@ def solve_arguments(p: argparse.ArgumentParser) -> None:
                    help="Monte Carlo: exit 0 with a warning when the equilibration "
                         "certificate's R-hat or drift fails (default: exit 3, the output "
                         "still written)")
-    p.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
-                   help=SET_HELP)
+    add_set(p)
 
 
 def check_arguments(p: argparse.ArgumentParser) -> None:
     """``vifpk check``'s options."""
-    p.add_argument("scene", help="scene TOML file (or the name of a shipped scene)")
+    add_scene(p)
     p.add_argument("--out", metavar="DIR", help="report directory (default: out/<scene name>)")
-    p.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
-                   help=SET_HELP)
+    add_set(p)
     p.add_argument("--model", action="append", type=_model_name, metavar="NAME",
                    help="an averaged model to check, any registered one (repeat for several; "
                         f"default: {', '.join(CHECK_MODELS)})")
-    p.add_argument("--quiet", action="store_true", help=QUIET_HELP)
+    add_quiet(p)
     _add_tolerance_options(p)
     _add_mc_options(p)
 
@@ -67,7 +66,7 @@ def bifurcation_arguments(p: argparse.ArgumentParser) -> None:
     """``vifpk bifurcation``'s options."""
     from vifpk.harness.workflows.bifurcation import VARIABLES
 
-    p.add_argument("scene", help="scene TOML file (or the name of a shipped scene)")
+    add_scene(p)
     p.add_argument("--vary", choices=tuple(VARIABLES), required=True,
                    help="the parameter to vary (required; the other one stays at the scene's "
                         "value, and the output names it)")
@@ -79,9 +78,8 @@ def bifurcation_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", metavar="OUT", help="write the result as JSON (default: none)")
     p.add_argument("--no-mc", action="store_true",
                    help="skip the Monte Carlo check (default: run it on both sides)")
-    p.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
-                   help=SET_HELP)
-    p.add_argument("--quiet", action="store_true", help=QUIET_HELP)
+    add_set(p)
+    add_quiet(p)
     _add_mc_options(p)
 
 
@@ -99,13 +97,13 @@ def figures_arguments(p: argparse.ArgumentParser) -> None:
                         "of this scene (any system; a list-valued parameter gives a row per "
                         "value): SCENE-pdfs.png, SCENE-joint.png "
                         "(default: none, the paper's Figures 2-6)")
-    p.add_argument("--quiet", action="store_true", help=QUIET_HELP)
+    add_quiet(p)
     _add_mc_options(p)
 
 
 def workprecision_arguments(p: argparse.ArgumentParser) -> None:
     """``vifpk workprecision``'s options."""
-    p.add_argument("scene", help="scene TOML file (or the name of a shipped scene)")
+    add_scene(p)
     p.add_argument("--out", metavar="DIR",
                    help="directory for workprecision.png/.md/.json "
                         "(default: out/<scene>-workprecision)")
@@ -113,9 +111,8 @@ def workprecision_arguments(p: argparse.ArgumentParser) -> None:
                    help="short ladders, a smoke test (default: the full ladders)")
     p.add_argument("--repeats", type=_whole_number, default=3,
                    help="timed repeats after the warm-up, 1-100 (default: %(default)s)")
-    p.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
-                   help=SET_HELP)
-    p.add_argument("--quiet", action="store_true", help=QUIET_HELP)
+    add_set(p)
+    add_quiet(p)
     _add_mc_options(p)
 
 
