@@ -337,6 +337,14 @@ def _setup_cases():
             'stop = 1.0, num = 10}\n"system.mu" = {start = 0.0, stop = 0.01, num = 10}\n'
             '[set]\n"montecarlo.time" = 40000.0\n'
         ))), "--out", str(t / "o")], "this sweep (100 points): estimated at least"),
+        # issue 28: an adaptive budget of 100000 points was refused as "this sweep (81 points)"
+        # though it was priced for the whole budget; the message now says what was priced
+        ("sweep-adaptive-100000", lambda t: ["sweep", str(_sweep_file(t, (
+            'scene = "paper-base"\nworkflow = "check"\nmode = "adaptive"\n[vary]\n'
+            '"system.r" = {start = 0.95, stop = 0.99}\n"system.mu" = {start = 0.0, stop = 0.004}'
+            '\n[adaptive]\npoints = 100000\nmodel = "exact"\n'
+        ))), "--out", str(t / "o")],
+         "this sweep (100000 points: 81 initial, the rest adaptive): estimated at least"),
     ]
 
 

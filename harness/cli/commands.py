@@ -327,7 +327,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         validate.output_folder(out, "--out (default)")
     store.check_sweep_folder(out)
     cost.refuse_costly(lambda sp: store.sweep_seconds(sweep, speed=sp),
-                           f"this sweep ({len(sweep.points)} points)", args.yes)
+                           f"this sweep ({store.sweep_size(sweep)})", args.yes)
     try:
         res = runs.run_sweep(sweep, out, executor=spec, quiet=args.quiet)
     except errors.WorkerLost as exc:

@@ -143,6 +143,16 @@ def sweep_seconds(sweep: Sweep, *, speed: float | None = None) -> float:
     return total
 
 
+def sweep_size(sweep: Sweep) -> str:
+    """The points a sweep is priced for, in words: '81 points', or for an adaptive sweep
+    '100000 points: 81 initial, the rest adaptive' (sweep_seconds prices the whole budget)."""
+    n = len(sweep.points)
+    if sweep.mode == "adaptive":
+        total = max(int(sweep.adaptive["points"]), n)
+        return f"{total} points: {n} initial, the rest adaptive"
+    return f"{n} points"
+
+
 def _clear_temporaries(out: Path) -> None:
     """Remove the temporary files of killed atomic writes (call with the folder held)."""
     for folder in (out, out / "points"):
