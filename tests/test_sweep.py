@@ -315,11 +315,17 @@ def test_a_check_sweep_carries_the_tolerance_verdict(canned_check, tmp_path):
     text = CHECK.read_text().replace('seed = 11', 'seed = 11\ntolerance = 0.05')
     f = _write(tmp_path, text)
     sw = load_sweep(f)
-    assert sw.tolerance == 0.05
-    run_sweep(sw, tmp_path / "out", executor="serial", quiet=True, report=False)
+    assert sw.tolerance == 0.05 and sw.surface
+    pytest.importorskip("sklearn")
+    run_sweep(sw, tmp_path / "out", executor="serial", quiet=True, report=True)
     with xr.open_dataset(tmp_path / "out" / "sweep.nc", engine="netcdf4") as ds:
         ds.load()
     assert ds.attrs["tolerance"] == 0.05
+    # the file asks a tolerance: the error surface is fitted and drawn (issue 29 item 2)
+    p_in = ds["surface_p_inside"].values
+    assert np.all((p_in[np.isfinite(p_in)] >= 0) & (p_in[np.isfinite(p_in)] <= 1))
+    assert "surface_p_within_tolerance" in ds and "surface" in ds.attrs
+    assert "error surface at tolerance 0.05" in (tmp_path / "out" / "report.html").read_text()
     for k in ("error_estimate", "error_estimate_err", "p_within_tolerance", "tolerance_class"):
         assert k in ds, k
     assert set(ds["tolerance_class"].values.ravel()) <= {"inside", "outside", "undecided"}

@@ -263,6 +263,18 @@ def figures(ds: Any) -> list[tuple[str, str]]:
             out.append(("Averaging error L1 of p(A) with its error bar; dotted: 2 x noise "
                         "floor.", _curve_figure(ds, "averaging_error_A",
                                                 "averaging_error_A_err", "L1 of p(A)")))
+    if wf == "check" and "surface_p_inside" in ds:
+        from vifpk.harness.sweeps.surfacemaps import surface_figure
+
+        img = surface_figure(ds)
+        if img is not None:
+            out.append((f"The averaging error surface at tolerance {ds.attrs['tolerance']:g} "
+                        "(docs/maps.md, 'The error surface and its band'): colour exp(mu), the "
+                        "Gaussian-process estimate of L1 of p(A) with the noise removed; white "
+                        "line the boundary P(inside) = 1/2; hatched the band where P(inside) is "
+                        "between 5% and 95%; white circles inside, black dots outside, grey "
+                        "triangles undecided, marker area growing with the point's noise "
+                        "floor.", img))
     if wf == "averaging" and "mean_A" in ds:
         if two:
             out.append(("Mean amplitude of each averaged model (closed forms).",

@@ -71,6 +71,8 @@ class Sweep:
     tolerance: float = TOLERANCE
     #: check: the rest of the tolerance question (metric, observable, confidence)
     tolerance_question: tuple[str, str, float] = ("L1", "A", TOLERANCE_CONFIDENCE)
+    #: check sweeps whose file gives a tolerance: fit the error surface (sweeps/surface.py)
+    surface: bool = False
 
     @property
     def names(self) -> tuple[str, ...]:

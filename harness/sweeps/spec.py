@@ -389,7 +389,8 @@ def load_sweep(path: str | Path) -> Sweep:
                  vary=tuple(vary), fixed=fixed, bifurcation=bif, base=base,
                  points=tuple(points), adaptive=adaptive, models=models,
                  tolerance=tol.value,
-                 tolerance_question=(tol.metric, tol.observable, tol.confidence))
+                 tolerance_question=(tol.metric, tol.observable, tol.confidence),
+                 surface="tolerance" in raw)
 
 
 def _range(where: str, spec: Any) -> tuple[float, float]:

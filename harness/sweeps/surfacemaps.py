@@ -252,3 +252,20 @@ def surface_figure(ds: Any, *, axis: Any = None) -> str | None:
     bar = fig.colorbar(mesh, ax=axs[0].tolist(), label=f"error surface (tolerance {tol:g})")
     bar.ax.axhline(tol, color="white", lw=2)
     return base64.b64encode(png_bytes(fig, dpi=110, bbox_inches="tight")).decode()
+
+
+def with_surfaces(ds: Any) -> Any:
+    """``ds`` with every model's error surface (dataset_surfaces, add_surfaces) and the notes
+    of the models without one in the attribute ``surface_notes`` (one line each, ``; ``)."""
+    try:
+        import sklearn  # noqa: F401
+    except ImportError:
+        ds.attrs["surface_notes"] = ("no error surface: scikit-learn is not installed (pip "
+                                     "install 'vifpk[sweep]')")
+        return ds
+    surfaces, notes = dataset_surfaces(ds)
+    if surfaces:
+        ds = add_surfaces(ds, surfaces)
+    if notes:
+        ds.attrs["surface_notes"] = "; ".join(notes)
+    return ds
