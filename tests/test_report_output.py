@@ -178,3 +178,16 @@ def test_solve_json_carries_the_provenance(tmp_path: Path):
     assert set(p) == KEYS and p["overrides"] == ["noise.D=0.02"]
     assert p["command"].startswith("vifpk solve ") and "noise.D=0.02" in p["command"]
     assert p["scene"]["sha256"] == hashlib.sha256(Path(TINY).read_bytes()).hexdigest()
+
+
+def test_the_one_line_answer_comes_first(run):
+    """Issue 28 (day-one path): report.html and report.md put the recommendation above the
+    verdict table and its paragraphs, not below them."""
+    import html
+
+    rec = run["res"].recommendation
+    assert rec
+    for name, shown in (("report.html", html.escape(rec)), ("report.md", rec)):
+        text = (run["dir"] / name).read_text()
+        assert 0 <= text.index(shown) < text.index("Verdict: is each averaged model usable "
+                                                   "here?"), name

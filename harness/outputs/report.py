@@ -307,8 +307,10 @@ def render_markdown(res: CheckResult, figures: dict[str, str]) -> str:
     out = [f"# Error report: {res.scene.name}", ""]
     if res.provenance:
         out += [f"*{provenance.summary(res.provenance)}*", ""]
-    out += [res.scene.description, "",
-            "## Verdict: is each averaged model usable here?", "",
+    out += [res.scene.description, ""]
+    if res.recommendation:  # the one-line answer first (issue 28, day-one path)
+        out += [f"**{res.recommendation}**", ""]
+    out += ["## Verdict: is each averaged model usable here?", "",
             "| " + " | ".join(VERDICT_HEAD) + " |", "|" + "---|" * len(VERDICT_HEAD)]
     out += ["| " + " | ".join(r) + " |" for r in verdict_rows(res)]
     out += ["", "L1 = ∫|p - q| runs from 0 (identical) to 2 (disjoint). Classes: "
@@ -317,8 +319,6 @@ def render_markdown(res: CheckResult, figures: dict[str, str]) -> str:
     if res.tolerance_lines:  # the tolerance verdict (harness/workflows/tolerance.py)
         out += ["", "Tolerance verdict (the error with the Monte Carlo noise removed):", ""]
         out += [f"- {v}" for v in res.tolerance_lines]
-    if res.recommendation:
-        out += ["", f"**{res.recommendation}**"]
     if res.warnings:
         out += ["", "## Warnings: averaging assumptions that fail here", ""]
         out += [f"- {w.text}" for w in res.warnings]
@@ -369,6 +369,9 @@ def render_html(res: CheckResult, pngs: dict[str, bytes]) -> str:
         *([f'<p class="run">{e(provenance.summary(res.provenance))}</p>']
           if res.provenance else []),
         f"<p>{e(res.scene.description)}</p>",
+        # the one-line answer first (issue 28, day-one path), then the verdicts behind it
+        *([f'<p class="recommendation"><b>{e(res.recommendation)}</b></p>']
+          if res.recommendation else []),
         "<h2>Verdict: is each averaged model usable here?</h2>",
     ]
     vh = "".join(f"<th>{e(c)}</th>" for c in VERDICT_HEAD)
@@ -388,8 +391,6 @@ def render_html(res: CheckResult, pngs: dict[str, bytes]) -> str:
         parts.append("<p>Tolerance verdict (the error with the Monte Carlo noise removed):</p>"
                      "<ul>" + "".join(f"<li>{e(v)}</li>" for v in res.tolerance_lines)
                      + "</ul>")
-    if res.recommendation:
-        parts.append(f'<p class="recommendation"><b>{e(res.recommendation)}</b></p>')
     if res.warnings:
         parts.append("<h2>Warnings: averaging assumptions that fail here</h2><ul>")
         parts += [f'<li class="warn">{e(w.text)}</li>' for w in res.warnings]
