@@ -683,6 +683,19 @@ def test_headline_verdict_is_the_worst_observable():
     assert verdict_class(_entry(A=0.05, x1=0.4, x2=0.02), [])[0] == "large"
 
 
+def test_the_cause_never_reports_an_fpk_error_nobody_measured():
+    """Issue 28 (day-one path): a plugin's check showed "FPK numerics 0.0e+00" where no FPK was
+    compared (no closed form: the FPK solve is the reference). Unmeasured: "not computed";
+    measured: its number."""
+    from vifpk.harness.workflows.verdict import verdict_class
+
+    e = _entry(A=0.4, x1=0.4, x2=0.4)  # no discretisation_error: nothing measured
+    cause = verdict_class(e, [])[1]
+    assert "FPK numerics not computed" in cause and "0.0e+00" not in cause
+    e["discretisation_error"] = {o: {"L1": 1e-4} for o in ("A", "x1", "x2")}
+    assert "FPK numerics 1.0e-04" in verdict_class(e, [])[1]
+
+
 def test_each_class_has_its_own_colour():
     from vifpk.harness.outputs.report import CLASS_COLOURS, _class_css
     from vifpk.harness.workflows.verdict import RANK

@@ -104,8 +104,12 @@ def verdict_class(entry: dict[str, Any], warnings: list[WarningRecord], *,
     o = worst_observable(entry)
     e = entry["averaging_error"][o]
     l1, floor = e["L1"], e["L1_floor"]
-    # a sweep point runs no FPK (cross_check(fpk=False)): no discretisation part then
-    disc = entry.get("discretisation_error", {}).get(o, {"L1": 0.0})["L1"]
+    # no discretisation part where no FPK was measured: a sweep point (cross_check(fpk=False))
+    # or a model without a closed form, whose reference IS its FPK solve; the cause then says
+    # "not computed", never a 0 nobody measured (issue 28: "FPK numerics 0.0e+00")
+    disc_rec = entry.get("discretisation_error", {}).get(o)
+    disc = disc_rec["L1"] if disc_rec else 0.0
+    fpk_part = f"FPK numerics {disc:.1e}" if disc_rec else "FPK numerics not computed"
     # without the averaged SDE's Monte Carlo (a sweep point, cross_check(sde=False)) the noise
     # is the floor of the simulation of the original system alone
     samp = entry.get("sampling_error", {}).get(o, {"L1": 0.0, "L1_floor": 0.0})
@@ -115,8 +119,7 @@ def verdict_class(entry: dict[str, Any], warnings: list[WarningRecord], *,
     if cls == "indistinguishable":
         return cls, "Monte Carlo noise (the distance is at its floor)"
     if l1 >= DOMINANCE * max(disc, noise):
-        cause = (f"the averaged model itself (FPK numerics {disc:.1e}, Monte Carlo noise "
-                 f"{noise:.1e})")
+        cause = f"the averaged model itself ({fpk_part}, Monte Carlo noise {noise:.1e})"
     elif disc >= DOMINANCE * noise:
         cause = f"the FPK discretisation ({disc:.1e})"
     elif noise >= DOMINANCE * disc:
