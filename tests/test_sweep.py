@@ -359,3 +359,19 @@ def test_a_check_sweep_takes_the_whole_tolerance_question(canned_check, tmp_path
         with pytest.raises(SweepError, match=needle):
             load_sweep(_write(tmp_path, text.replace("seed = 11", f"seed = 11\n{bad}"),
                               "bad.toml"))
+
+
+def test_a_model_without_values_is_labelled_not_left_blank(canned_check_sweep, monkeypatch):
+    """Issue 28 (day-one path): where a model has no value at any point (the paper model
+    outside its family) its panel says so instead of staying blank."""
+    import xarray as xr
+    from vifpk.harness.sweeps import maps
+
+    with xr.open_dataset(canned_check_sweep / "sweep.nc", engine="netcdf4") as ds:
+        ds.load()
+    first = str(ds["model"].values[0])
+    ds["averaging_error_A"].loc[{"model": first}] = np.nan
+    labelled = []
+    monkeypatch.setattr(maps, "_no_values", lambda ax: labelled.append(ax.get_title()))
+    figs = maps.figures(ds)
+    assert figs and len(labelled) == 1, labelled

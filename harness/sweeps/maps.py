@@ -77,6 +77,14 @@ def _verdict_boundary(ax: Any, inside: np.ndarray, known: np.ndarray, xe: np.nda
                                          capstyle="projecting"))
 
 
+def _no_values(ax: Any) -> None:
+    """A panel whose model has no value at any point says so, rather than staying blank
+    (issue 28: the paper model's panel where it does not apply)."""
+    ax.text(0.5, 0.5, "no value at any point:\nthe model does not apply to these scenes\n"
+            "(or failed: see the table of points)", transform=ax.transAxes, ha="center",
+            va="center", fontsize=9, bbox={"facecolor": "white", "alpha": 0.8})
+
+
 def _map_figure(ds: Any, var: str, title: str, *, contour: bool) -> str:
     """Colour maps of ``var`` (dims: two parameters and model), models side by side."""
     from vifpk.harness.outputs.io import pyplot
@@ -119,6 +127,8 @@ def _map_figure(ds: Any, var: str, title: str, *, contour: bool) -> str:
                                        fill=False, hatch="///", edgecolor="0.85", lw=0))
         for j, i in zip(*np.nonzero(failed), strict=True):
             ax.plot(x[i], y[j], "x", color="red", ms=9, mew=2)
+        if not np.isfinite(z).any():
+            _no_values(ax)
         ax.set_xlabel(xl)
         ax.set_ylabel(yl)
         ax.set_title(f"{m} model" if m is not None else title)
@@ -167,9 +177,14 @@ def _scattered_map_figure(ds: Any, var: str, title: str) -> str:
                 ax.clabel(cs, fmt={WITHIN_NOISE: f"{WITHIN_NOISE:g} x floor"}, fontsize=8)
         inside = np.zeros_like(failed)
         inside[ok] = vals[ok, j] < WITHIN_NOISE * floor[ok, j]
-        ax.plot(x[inside], y[inside], "o", mfc="none", mec="white", ms=4, ls="none")
-        ax.plot(x[ok & ~inside], y[ok & ~inside], ".", color="black", ms=3, ls="none")
-        ax.plot(x[failed], y[failed], "x", color="red", ms=8, mew=2, ls="none")
+        # clip_on=False: a point on the range's edge is drawn whole (issue 28: half-clipped)
+        ax.plot(x[inside], y[inside], "o", mfc="none", mec="white", ms=4, ls="none",
+                clip_on=False)
+        ax.plot(x[ok & ~inside], y[ok & ~inside], ".", color="black", ms=3, ls="none",
+                clip_on=False)
+        ax.plot(x[failed], y[failed], "x", color="red", ms=8, mew=2, ls="none", clip_on=False)
+        if not ok.any():
+            _no_values(ax)
         ax.set_xlabel(xl)
         ax.set_ylabel(yl)
         ax.set_title(f"{m} model ({int(ok.sum())} points)")

@@ -240,7 +240,7 @@ def surface_figure(ds: Any, *, axis: Any = None) -> str | None:
                                      "edgecolors": "black", "linewidths": 0.5})):
             sel = cls == c
             if sel.any():
-                ax.scatter(px[sel], py[sel], s=size[sel], **kw)
+                ax.scatter(px[sel], py[sel], s=size[sel], clip_on=False, **kw)
             if ax is axs[0][0]:  # the legend's keys, every class whether present or not
                 ax.scatter([], [], s=12, label=c, **kw)
         fit = meta["models"][str(m)]
