@@ -375,3 +375,15 @@ def test_a_model_without_values_is_labelled_not_left_blank(canned_check_sweep, m
     monkeypatch.setattr(maps, "_no_values", lambda ax: labelled.append(ax.get_title()))
     figs = maps.figures(ds)
     assert figs and len(labelled) == 1, labelled
+
+
+def test_the_sweep_report_table_gives_each_models_error_and_verdict(canned_check, tmp_path):
+    """Issue 28 (day-one path): the sweep report's table had the status only; a check sweep's
+    gives per point and model L1(A) ± its error bar [floor] and the verdict."""
+    import html
+
+    run_sweep(load_sweep(CHECK), tmp_path, executor="serial", quiet=True, report=True)
+    text = html.unescape((tmp_path / "report.html").read_text())
+    assert "exact: L1(A) ± err [floor], verdict" in text
+    table = text[text.index("<h2>Points</h2>"):text.index("<h2>Sweep file</h2>")]
+    assert table.count(" ± ") >= 4 and "[" in table

@@ -326,13 +326,36 @@ def render(sweep: Any, ds: Any) -> str:
     for cap, img in figures(ds):
         parts.append(f"<figure><img src='data:image/png;base64,{img}' style='max-width:100%'>"
                      f"<figcaption>{e(cap)}</figcaption></figure>")
-    parts.append("<h2>Points</h2><table><tr>" + "".join(
-        f"<th>{e(k)}</th>" for k in (*sweep.names, "status", "message")) + "</tr>")
+    # a check sweep's table gives each model's L1 of p(A) with its error bar and floor and
+    # its verdict (and tolerance class), not the status alone (issue 28, day-one path)
+    per_model = ([str(m) for m in ds["model"].values]
+                 if "averaging_error_A" in ds and "model" in ds.dims else [])
+    heads = [*sweep.names, *(f"{m}: L1(A) ± err [floor], verdict" for m in per_model),
+             "status", "message"]
+    parts.append("<h2>Points</h2><table><tr>" + "".join(f"<th>{e(k)}</th>" for k in heads)
+                 + "</tr>")
+    key_dims = ds["key"].dims
+
+    def at(var: str, m: str, flat: Any) -> Any:
+        return ds[var].sel(model=m).transpose(*key_dims).values[flat][0]
+
     for pt in sweep.points:
         flat = ds["key"].values == pt.key
         st = str(ds["status"].values[flat][0])
         msg = str(ds["message"].values[flat][0])
-        cells = [f"{v:g}" for _, v in pt.params] + [st, msg]
+        cells = [f"{v:g}" for _, v in pt.params]
+        for m in per_model:
+            l1 = float(at("averaging_error_A", m, flat))
+            if not np.isfinite(l1):
+                cells.append("")
+                continue
+            text = (f"{l1:.3g} ± {float(at('averaging_error_A_err', m, flat)):.1g} "
+                    f"[{float(at('L1_floor_A', m, flat)):.2g}]")
+            for var in ("verdict_class", "tolerance_class"):
+                if var in ds and str(at(var, m, flat)):
+                    text += f", {at(var, m, flat)}"
+            cells.append(text)
+        cells += [st, msg]
         parts.append("<tr>" + "".join(f"<td>{e(c)}</td>" for c in cells) + "</tr>")
     parts.append("</table><h2>Sweep file</h2><pre>" + e(sweep.text) + "</pre>")
     prov = ds.attrs.get("provenance")
