@@ -286,7 +286,7 @@ def test_paper_model_absent_outside_its_family(capsys):
     assert figure_models(q) == ("exact", "corrected")
     base = load_scene("paper-base")
     assert models_of(base)[0] == ("paper", "exact", "corrected")
-    assert figure_models(base) == ("paper", "exact")
+    assert figure_models(base) == ("paper", "exact", "corrected")  # issue 28: corrected too
 
 
 def test_sweep_over_a_coefficient_loads():
@@ -312,6 +312,12 @@ def test_figures_of_your_own_scene_options(capsys, tmp_path):
                                       "L1_floor": [{"A": 0.02}]}})
     assert "L1(A) exact | L1(A) corrected" in text and "paper" not in text
     assert "| q | r = 0.98 |" in text
+    l1["paper"] = {o: 0.3 for o in ("A", "x1", "x2")}
+    text = render_table({"figure2": {"varied": "system.r", "values": [0.98],
+                                     "models": ["paper", "exact", "corrected"], "L1": [l1],
+                                     "L1_floor": [{"A": 0.02}]}})
+    assert "| L1(A) paper | L1(A) exact | L1(A) corrected |" in text
+    assert "| 2 | r = 0.98 | 0.300 | 0.010 | 0.010 |" in text
 
 
 @pytest.mark.slow

@@ -1,4 +1,4 @@
-"""The paper's Figures 2-6, redrawn from the figure scenes: two averaged models against the
+"""The paper's Figures 2-6, redrawn from the figure scenes: the averaged models against the
 Monte Carlo of the original system.
 
 Figures 2-4: p(A), p(x1), p(x2) for each value of the varied parameter (lines: models;
@@ -30,11 +30,19 @@ AXIS = {"A": "amplitude A (dimensionless)", "x1": "displacement x1 (dimensionles
         "x2": "velocity x2 (dimensionless)"}
 
 
-def figure_models(scene: Scene) -> tuple[str, str]:
-    """The two averaged models drawn: the paper's and the exact one; outside the paper's
-    family (a --set of system.restoring[2], ...) the exact and the corrected one."""
-    models, _ = models_of(scene)
-    return ("paper", "exact") if "paper" in models else ("exact", "corrected")
+#: the averaged models the figures draw, where each applies (models_of): the paper's, the
+#: exact-orbit one and the corrected one, the model `check` most often recommends (issue 28:
+#: the figures compared paper and exact only)
+FIGURE_MODELS = ("paper", "exact", "corrected")
+#: their line styles in the PDF figures, in that order
+LINE_STYLES = (":", "--", "-")
+
+
+def figure_models(scene: Scene) -> tuple[str, ...]:
+    """The averaged models drawn: those of FIGURE_MODELS that apply to the scene (outside the
+    paper's family, e.g. a --set of system.restoring[2], the exact and the corrected one)."""
+    models, _ = models_of(scene, FIGURE_MODELS)
+    return tuple(m for m in FIGURE_MODELS if m in models)
 
 
 def _run_variant(scene: Scene, joint: bool) -> dict[str, Any]:
@@ -57,7 +65,7 @@ def _plot_pdfs(fig_no: int, scene: Scene, runs: list[dict[str, Any]], path: Path
     for k, (val, run) in enumerate(zip(sw.values, runs, strict=True)):
         col = COLORS[k % len(COLORS)]
         for ax, o in zip(axes, ("A", "x1", "x2"), strict=True):
-            for m, ls in zip(run["closed"], ("--", "-"), strict=True):
+            for m, ls in zip(run["closed"], LINE_STYLES[-len(run["closed"]):], strict=True):
                 d = run["closed"][m].data[o]
                 ax.plot(d["x"], d["p"], ls, color=col, lw=1.3,
                         label=f"{sw.key} = {val:g}, {m}" if o == "A" else None)
@@ -70,9 +78,11 @@ def _plot_pdfs(fig_no: int, scene: Scene, runs: list[dict[str, Any]], path: Path
         ax.set_ylabel(f"density p({o}) (dimensionless)")
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=len(runs), fontsize=7, frameon=False)
-    m0, m1 = runs[0]["closed"]
-    fig.suptitle(f"{_title(fig_no, scene)}: dashed = {m0} model, solid = {m1} model, "
-                 "markers = Monte Carlo of the original system (±2 s.e.)", fontsize=9)
+    names = {":": "dotted", "--": "dashed", "-": "solid"}
+    styles = ", ".join(f"{names[ls]} = {m} model" for m, ls in zip(
+        runs[0]["closed"], LINE_STYLES[-len(runs[0]["closed"]):], strict=True))
+    fig.suptitle(f"{_title(fig_no, scene)}: {styles}, markers = Monte Carlo of the original "
+                 "system (±2 s.e.)", fontsize=9)
     fig.tight_layout(rect=(0, 0.16, 1, 1))
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -85,7 +95,8 @@ def _plot_joint(fig_no: int, scene: Scene, runs: list[dict[str, Any]], path: Pat
 
     sw = scene.sweep
     n = len(runs)
-    fig, axes = plt.subplots(n, 4, figsize=(16, 3.4 * n), squeeze=False,
+    cols = len(runs[0]["closed"]) + 2  # each model, the Monte Carlo, the section x1 = 0
+    fig, axes = plt.subplots(n, cols, figsize=(4 * cols, 3.4 * n), squeeze=False,
                              layout="constrained")
     for i, (val, run) in enumerate(zip(sw.values, runs, strict=True)):
         panels = [(f"{m} model", r.data["joint"]) for m, r in run["closed"].items()]
@@ -104,10 +115,11 @@ def _plot_joint(fig_no: int, scene: Scene, runs: list[dict[str, Any]], path: Pat
             ax.set_xlabel(AXIS["x1"], fontsize=8)
             ax.set_ylabel(AXIS["x2"], fontsize=8)
         # one colour scale per row (the three panels share vmin, vmax)
-        fig.colorbar(mesh, ax=axes[i, :3], label="p(x1, x2)", shrink=0.9, pad=0.01)
-        ax = axes[i, 3]
-        for (title, d), ls, col in zip(panels[:2], ("--", "-"), ("tab:red", "tab:blue"),
-                                       strict=True):
+        fig.colorbar(mesh, ax=axes[i, :cols - 1], label="p(x1, x2)", shrink=0.9, pad=0.01)
+        ax = axes[i, cols - 1]
+        k = len(panels) - 1
+        for (title, d), ls, col in zip(panels[:k], LINE_STYLES[-k:],
+                                       ("tab:red", "tab:blue", "tab:green")[-k:], strict=True):
             ax.plot(d["x2"], np.asarray(d["p"])[0], ls, color=col, label=title)
         mc = run["mc"].data["joint"]
         ax.errorbar(mc["x2"], np.asarray(mc["p"])[0], yerr=2 * np.asarray(mc["err"])[0], fmt="o",
@@ -115,7 +127,7 @@ def _plot_joint(fig_no: int, scene: Scene, runs: list[dict[str, Any]], path: Pat
         ax.set_title(f"section x1 = 0, {sw.key} = {val:g}", fontsize=8)
         ax.set_xlabel(AXIS["x2"], fontsize=8)
         ax.set_ylabel("p(0, x2)", fontsize=8)
-    handles, labels = axes[0, 3].get_legend_handles_labels()
+    handles, labels = axes[0, cols - 1].get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside lower center", ncol=3, fontsize=8, frameon=False)
     fig.suptitle(f"{_title(fig_no, scene)}: joint PDF p(x1, x2) and its section at x1 = 0",
                  fontsize=10)
@@ -139,7 +151,7 @@ def draw_scene_figures(out_dir: str | Path, scene: Scene, *, quiet: bool = False
                        prov: dict[str, Any] | None = None) -> dict[str, Any]:
     """The figures of Figures 2-6 for any scene (issue 21: your own oscillator): the PDFs of
     A, x1, x2 (NAME-pdfs.png) and the joint PDF p(x1, x2) with its section at x1 = 0
-    (NAME-joint.png), two averaged models (figure_models) against the Monte Carlo, a row per
+    (NAME-joint.png), the averaged models (figure_models) against the Monte Carlo, a row per
     value of the scene's varied parameter; figures.json/.md hold the L1 distances."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -208,20 +220,20 @@ def draw_figures(out_dir: str | Path, *, numbers: tuple[int, ...] = tuple(FIGURE
 
 
 def render_table(table: dict[str, Any]) -> str:
-    """One markdown table; a new header wherever the two models drawn change (outside the
+    """One markdown table; a new header wherever the models drawn change (outside the
     paper's family they are exact and corrected)."""
     lines: list[str] = []
     head = None
     for name, t in table.items():
-        m0, m1 = t.get("models", ("paper", "exact"))
-        if (m0, m1) != head:
+        ms = tuple(t.get("models", ("paper", "exact")))
+        if ms != head:
+            cols = [f"L1({o}) {m}" for o in ("A", "x1", "x2") for m in ms]
             lines += ([""] if lines else []) + [
-                f"| figure | value | L1(A) {m0} | L1(A) {m1} | L1(x1) {m0} | L1(x1) {m1} | "
-                f"L1(x2) {m0} | L1(x2) {m1} | MC floor (A) |", "|" + "---|" * 9]
-            head = (m0, m1)
+                "| figure | value | " + " | ".join(cols) + " | MC floor (A) |",
+                "|" + "---|" * (len(cols) + 3)]
+            head = ms
         for v, l1, fl in zip(t["values"], t["L1"], t["L1_floor"], strict=True):
+            vals = " | ".join(f"{l1[m][o]:.3f}" for o in ("A", "x1", "x2") for m in ms)
             lines.append(f"| {name[6:].lstrip('-')} | {t['varied'].split('.')[1]} = {v:g} | "
-                         f"{l1[m0]['A']:.3f} | {l1[m1]['A']:.3f} | "
-                         f"{l1[m0]['x1']:.3f} | {l1[m1]['x1']:.3f} | "
-                         f"{l1[m0]['x2']:.3f} | {l1[m1]['x2']:.3f} | {fl['A']:.3f} |")
+                         f"{vals} | {fl['A']:.3f} |")
     return "\n".join(lines) + "\n"
