@@ -147,6 +147,20 @@ def as_sweep(scene: Scene) -> Scene:
     return replace(scene, sweep=Sweep(section="system", key="r", values=(scene.system.r,)))
 
 
+def _table_entry(scene: Scene, runs: list[dict[str, Any]]) -> dict[str, Any]:
+    """One figure's row of figures.json: per value of the varied parameter, each model's L1
+    of p(A), p(x1), p(x2) against the Monte Carlo, the Monte Carlo's floors and stuck
+    fraction."""
+    return {
+        "varied": scene.sweep.path, "values": list(scene.sweep.values),
+        "models": list(runs[0]["closed"]),
+        "L1": [{m: {o: r["metrics"][m][o]["L1"] for o in ("A", "x1", "x2")}
+                for m in r["closed"]} for r in runs],
+        "L1_floor": [{o: r["metrics"]["exact"][o]["L1_floor"] for o in ("A", "x1", "x2")}
+                     for r in runs],
+        "stuck_fraction": [r["mc"].info["events"]["stuck_fraction"]["value"] for r in runs]}
+
+
 def draw_scene_figures(out_dir: str | Path, scene: Scene, *, quiet: bool = False,
                        prov: dict[str, Any] | None = None) -> dict[str, Any]:
     """The figures of Figures 2-6 for any scene (issue 21: your own oscillator): the PDFs of
@@ -165,14 +179,7 @@ def draw_scene_figures(out_dir: str | Path, scene: Scene, *, quiet: bool = False
         _plot_joint(0, sw, runs, tmp)
     with atomic_path(out / f"{scene.name}-pdfs.png") as tmp:
         _plot_pdfs(0, sw, runs, tmp)
-    table = {f"figure-{scene.name}": {
-        "varied": sw.sweep.path, "values": list(sw.sweep.values),
-        "models": list(runs[0]["closed"]),
-        "L1": [{m: {o: r["metrics"][m][o]["L1"] for o in ("A", "x1", "x2")}
-                for m in r["closed"]} for r in runs],
-        "L1_floor": [{o: r["metrics"]["exact"][o]["L1_floor"] for o in ("A", "x1", "x2")}
-                     for r in runs],
-        "stuck_fraction": [r["mc"].info["events"]["stuck_fraction"]["value"] for r in runs]}}
+    table = {f"figure-{scene.name}": _table_entry(sw, runs)}
     if prov is None:
         from vifpk.harness.outputs.provenance import collect
 
@@ -201,15 +208,7 @@ def draw_figures(out_dir: str | Path, *, numbers: tuple[int, ...] = tuple(FIGURE
             runs.append(_run_variant(v, no in JOINT))
         with atomic_path(out / f"paper-fig{no}.png") as tmp:
             (_plot_joint if no in JOINT else _plot_pdfs)(no, scene, runs, tmp)
-        table[f"figure{no}"] = {
-            "varied": scene.sweep.path, "values": list(scene.sweep.values),
-            "models": list(runs[0]["closed"]),
-            "L1": [{m: {o: r["metrics"][m][o]["L1"] for o in ("A", "x1", "x2")}
-                    for m in r["closed"]} for r in runs],
-            "L1_floor": [{o: r["metrics"]["exact"][o]["L1_floor"] for o in ("A", "x1", "x2")}
-                         for r in runs],
-            "stuck_fraction": [r["mc"].info["events"]["stuck_fraction"]["value"] for r in runs],
-        }
+        table[f"figure{no}"] = _table_entry(scene, runs)
     if prov is None:
         from vifpk.harness.outputs.provenance import collect
 
