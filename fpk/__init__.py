@@ -5,11 +5,20 @@ Generic in the drift m(A) and diffusion sigma^2(A); imports no other vifpk packa
 absorbing wall) return ``Result(data, info)``; ``mfpt(...)`` the Pontryagin quadrature.
 """
 
+from vifpk.core.protocols import SolverSpec
+
 from .passage import QUAD_ORDER, mfpt, reliability
 from .scheme import ORDER, CoefficientError, Discretisation, discretise
 from .solve import Result, choose_domain, stationary, transient
 from .stepper import STEPPERS, FPKFailure
 
-__all__ = ["ORDER", "STEPPERS", "CoefficientError", "Discretisation", "FPKFailure", "Result",
-           "QUAD_ORDER", "choose_domain", "discretise", "mfpt", "reliability", "stationary",
-           "transient"]
+#: vifpk's own FPK solver, registered in pyproject.toml's ``vifpk.solvers`` group: what
+#: ``vifpk solve --solver fpk`` runs and what ``vifpk check`` measures against each model's
+#: closed form (metrics.json: ``discretisation_error``).
+SOLVER = SolverSpec("fpk", "Scharfetter-Gummel finite volumes in flux form, time-stepped to "
+                    "steady state with py-pde", stationary=stationary,
+                    metric="discretisation_error")
+
+__all__ = ["ORDER", "SOLVER", "STEPPERS", "CoefficientError", "Discretisation", "FPKFailure",
+           "Result", "QUAD_ORDER", "choose_domain", "discretise", "mfpt", "reliability",
+           "stationary", "transient"]

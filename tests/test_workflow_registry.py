@@ -23,8 +23,16 @@ def _point(job):
     return {"hello": True}
 
 
+def hello(scene, *, loud=False):
+    return f"hello {scene}" + ("!" if loud else "")
+
+
+def assert_hello(scene, *, says):
+    assert hello(scene) == says
+
+
 HELLO = WorkflowSpec("hello", "say hello to a scene", add_arguments=_args, command=_run,
-                     sweep_point=_point)
+                     sweep_point=_point, api=hello, assertion=assert_hello)
 NOT_A_WORKFLOW = object()
 
 
@@ -47,6 +55,10 @@ def with_entry(monkeypatch):
 
     yield install
     registry.workflows.cache_clear()
+    import vifpk
+
+    for cached in ("hello", "assert_hello"):  # vifpk caches what it resolved
+        vars(vifpk).pop(cached, None)
 
 
 def test_builtin_workflows_are_workflows_and_drive_the_cli_and_sweeps():
@@ -69,6 +81,29 @@ def test_a_registered_workflow_appears_in_the_cli_and_in_sweeps(with_entry, caps
     assert main(["hello", "paper-base"]) == 0
     assert capsys.readouterr().out.strip() == "hello paper-base"
     assert sweep_functions()["hello"] is _point
+
+
+def test_the_python_and_testing_apis_are_the_registry_s(with_entry):
+    """vifpk.<name>, vifpk.run(name, ...), vifpk.<assertion> and harness.testing.assertion(name)
+    come from the registered workflows: the built-ins' and a new one's alike, no vifpk edit."""
+    import vifpk
+    from vifpk.harness import testing
+
+    for w in registry.workflows():
+        if w.api is not None:
+            assert getattr(vifpk, w.name) is w.api and w.name in vifpk.__all__
+        if w.assertion is not None:
+            assert testing.assertion(w.name) is w.assertion
+            assert getattr(vifpk, w.assertion.__name__) is w.assertion
+    assert {"solve", "check", "sweep", "passage", "transient"} <= set(vifpk.__all__)
+    with_entry("tests.test_workflow_registry:HELLO")
+    assert vifpk.hello("paper-base", loud=True) == "hello paper-base!"
+    assert vifpk.run("hello", "paper-base") == "hello paper-base"
+    vifpk.assert_hello("x", says="hello x")
+    assert testing.assertion("hello") is assert_hello
+    assert {"hello", "assert_hello"} <= set(vifpk.__all__)
+    with pytest.raises(vifpk.core.result.BadInput, match="allowed: solve, check"):
+        vifpk.run("models")
 
 
 def test_a_broken_workflow_entry_is_one_line_naming_it(with_entry, capsys):

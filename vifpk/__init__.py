@@ -3,6 +3,12 @@
 The public Python API (docs/api.md). Names are imported on first use (PEP 562 module
 ``__getattr__``), so ``import vifpk`` and ``import vifpk.core`` stay light: neither imports a
 solver nor the harness until a name that needs one is asked for.
+
+The workflows' functions are not listed here: they come from the workflow registry
+(``vifpk.workflows`` entry points, vifpk.core.registry.workflows), as the command line's
+subcommands do. A registered workflow with an ``api`` is ``vifpk.<its name>`` (``vifpk.solve``,
+``vifpk.check``, ...) and ``vifpk.run(name, ...)``; one with an ``assertion`` (its tolerance
+test) is ``vifpk.<the assertion's name>`` (``vifpk.assert_averaging_error``, ...).
 """
 
 from __future__ import annotations
@@ -18,12 +24,8 @@ _API: dict[str, tuple[str, str]] = {
     "load_scene": ("vifpk.core.scene", "load_scene"),
     "scene_from_dict": ("vifpk.core.scene", "scene_from_dict"),
     "scene": ("vifpk.api", "scene"),
-    # workflows
-    "solve": ("vifpk.api", "solve"),
-    "check": ("vifpk.api", "check"),
-    "sweep": ("vifpk.api", "sweep"),
-    "passage": ("vifpk.api", "passage"),
-    "transient": ("vifpk.api", "transient"),
+    # any registered workflow by name (the workflows' own functions: _registered)
+    "run": ("vifpk.api", "run"),
     # results
     "Result": ("vifpk.core.result", "Result"),
     "Status": ("vifpk.core.result", "Status"),
@@ -31,25 +33,39 @@ _API: dict[str, tuple[str, str]] = {
     "model_names": ("vifpk.core.registry", "model_names"),
     "models": ("vifpk.core.registry", "models"),
     "build_model": ("vifpk.core.registry", "build_model"),
-    # tolerance tests (numpy.testing style)
+    # tolerance tests (numpy.testing style); the workflows' own come from the registry
     "assert_density_close": ("vifpk.harness.testing", "assert_density_close"),
-    "assert_averaging_error": ("vifpk.harness.testing", "assert_averaging_error"),
-    "assert_mfpt_close": ("vifpk.harness.testing", "assert_mfpt_close"),
-    "assert_relaxation_close": ("vifpk.harness.testing", "assert_relaxation_close"),
 }
 
-__all__ = sorted(_API)
+
+def _registered() -> dict[str, Any]:
+    """The registered workflows' functions by public name: each workflow's ``api`` under its
+    name, its ``assertion`` under the assertion's own name (vifpk.core.protocols.Workflow)."""
+    from vifpk.core.registry import workflows
+
+    out: dict[str, Any] = {}
+    for w in workflows():
+        api, assertion = getattr(w, "api", None), getattr(w, "assertion", None)
+        if api is not None:
+            out[w.name] = api
+        if assertion is not None:
+            out[assertion.__name__] = assertion
+    return out
 
 
 def __getattr__(name: str) -> Any:
-    try:
+    if name == "__all__":  # every public name, the registry's included (loads the registry)
+        return sorted({*_API, *_registered()})
+    if name in _API:
         module, attr = _API[name]
-    except KeyError:
-        raise AttributeError(f"module 'vifpk' has no attribute {name!r}") from None
-    value = getattr(import_module(module), attr)
+        value = getattr(import_module(module), attr)
+    elif not name.startswith("_") and name in (found := _registered()):
+        value = found[name]
+    else:
+        raise AttributeError(f"module 'vifpk' has no attribute {name!r}")
     globals()[name] = value  # cache: the next access is a plain attribute
     return value
 
 
 def __dir__() -> list[str]:
-    return sorted({*globals(), *__all__})
+    return sorted({*globals(), *__getattr__("__all__")})

@@ -13,6 +13,22 @@ from typing import Any
 from vifpk.core.scene import Scene, load_scene
 
 
+def run(workflow: str, /, *args: Any, **kwargs: Any) -> Any:
+    """The registered workflow ``workflow``'s Python function (its ``api``,
+    vifpk.core.protocols.Workflow) called with the arguments: ``vifpk.run("check", scene,
+    models=("exact",))`` is ``vifpk.check(scene, models=("exact",))``, and a plugin's workflow
+    is run the same way. An unknown name, or a workflow without a Python function, is refused
+    in one line (BadInput) naming those that have one."""
+    from vifpk.core.registry import workflows
+    from vifpk.harness.request.errors import InputError
+
+    have = {w.name: w.api for w in workflows() if getattr(w, "api", None) is not None}
+    if not isinstance(workflow, str) or workflow not in have:
+        raise InputError(f"workflow {workflow!r}: no such workflow with a Python function; "
+                         f"allowed: {', '.join(have)}")
+    return have[workflow](*args, **kwargs)
+
+
 def scene(source: Scene | str | Path, **values: Any) -> Scene:
     """A scene from a Scene, a file or a shipped scene's name, with ``values`` set by their
     dotted names (``scene("paper-base", **{"noise.D": 0.02})``); validated like a file."""

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 
+from vifpk.harness import testing
 from vifpk.harness.cli import commands, timedomain
 from vifpk.harness.cli.options import (
     _add_mc_options,
@@ -20,17 +21,19 @@ from vifpk.harness.cli.options import (
 )
 from vifpk.harness.sweeps import points
 
+import vifpk.api as api
 from vifpk.core.defaults import BIFURCATION_MODELS, CHECK_MODELS, FPK_CELLS
 from vifpk.core.protocols import WorkflowSpec
-from vifpk.core.registry import SOLVERS
+from vifpk.core.registry import CLOSED_FORM, solver_names
 
 
 def solve_arguments(p: argparse.ArgumentParser) -> None:
     """``vifpk solve``'s options."""
     add_scene(p)
-    p.add_argument("--solver", choices=SOLVERS, default="averaging",
-                   help="averaging: closed form of an averaged model; fpk: its Fokker-Planck "
-                        "equation; montecarlo: the original system (default: %(default)s)")
+    p.add_argument("--solver", choices=solver_names(), default=CLOSED_FORM,
+                   help="averaging: closed form of an averaged model; fpk (or a registered "
+                        "plugin's, docs/plugins.md): its Fokker-Planck equation; montecarlo: "
+                        "the original system (default: %(default)s)")
     p.add_argument("--model", type=_model_name, metavar="NAME",
                    help="averaged model for --solver averaging|fpk: any registered one, "
                         "built-in or a plugin's (`vifpk models` lists them, docs/plugins.md; "
@@ -135,14 +138,14 @@ def models_arguments(p: argparse.ArgumentParser) -> None:
 
 SOLVE = WorkflowSpec(
     "solve", "solve one scene with one solver",
-    add_arguments=solve_arguments, command=commands.cmd_solve)
+    add_arguments=solve_arguments, command=commands.cmd_solve, api=api.solve)
 CHECK = WorkflowSpec(
     "check", "cross-check the averaged models (default: "
     f"{', '.join(CHECK_MODELS)}; outside the paper's family "
     "without paper) against the Monte Carlo of the original "
     "system and write an error report",
     add_arguments=check_arguments, command=commands.cmd_check,
-    sweep_point=points._check_point)
+    sweep_point=points._check_point, api=api.check, assertion=testing.assert_averaging_error)
 BIFURCATION = WorkflowSpec(
     "bifurcation", "find the critical mu or r of the P-bifurcation of "
     "each averaged model and check it by Monte Carlo",
@@ -159,7 +162,7 @@ WORKPRECISION = WorkflowSpec(
 SWEEP = WorkflowSpec(
     "sweep", "run a workflow over a parameter grid (serial, process "
     "pool or dask) and write sweep.nc and maps",
-    add_arguments=sweep_arguments, command=commands.cmd_sweep)
+    add_arguments=sweep_arguments, command=commands.cmd_sweep, api=api.sweep)
 MODELS = WorkflowSpec(
     "models", "list the registered averaged models (built-in and "
     "plugins, docs/plugins.md)",
@@ -168,12 +171,13 @@ PASSAGE = WorkflowSpec(
     "passage", "first passage out of A < Ac: reliability R(t), FPT density and MFPT of each "
     "averaged model against the original system",
     add_arguments=timedomain.passage_arguments, command=timedomain.cmd_passage,
-    sweep_point=points._passage_point)
+    sweep_point=points._passage_point, api=api.passage, assertion=testing.assert_mfpt_close)
 TRANSIENT = WorkflowSpec(
     "transient", "the law of the amplitude at given times from a start A0: each averaged model "
     "against the original system, and the relaxation times",
     add_arguments=timedomain.transient_arguments, command=timedomain.cmd_transient,
-    sweep_point=points._transient_point)
+    sweep_point=points._transient_point, api=api.transient,
+    assertion=testing.assert_relaxation_close)
 AVERAGING = WorkflowSpec(
     "averaging", "the averaged models' closed forms only (sweeps; no subcommand: `vifpk solve "
     "--solver averaging` solves one scene)", sweep_point=points._averaging_point)

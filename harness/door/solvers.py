@@ -19,10 +19,11 @@ from typing import Any
 
 import numpy as np
 
+from vifpk.core import registry
 from vifpk.core.defaults import FPK_CELLS, REFERENCE_CELLS
 from vifpk.core.guard import PluginError
-from vifpk.core.registry import SOLVERS, UnknownName, one_of
-from vifpk.core.result import BadInput, Result
+from vifpk.core.registry import CLOSED_FORM, UnknownName, one_of
+from vifpk.core.result import BadInput, Result, Status
 from vifpk.core.scene import no_noise
 
 
@@ -101,12 +102,13 @@ def run_solver(scene: Any, solver: str, *, model: str = "paper", grid: int | Non
     ``--solver averaging`` of a model with no closed form (a plugin that gives only drift
     and diffusion) is :func:`closed_form`'s FPK direct solve, and its info says so."""
 
-    one_of("solver", solver, SOLVERS)
-    if solver == "averaging":
+    one_of("solver", solver, registry.solver_names())
+    if solver == CLOSED_FORM:
         return closed_form(scene, model=model, **options)
-    if solver == "fpk":
-        return fpk_solution(scene, model=model, cells=grid or FPK_CELLS, **options)
-    return montecarlo_solution(scene, **options)
+    if solver == registry.ORIGINAL:
+        return montecarlo_solution(scene, **options)
+    return model_solution(scene, model=model, solver=solver, cells=grid or FPK_CELLS,
+                          **options)
 
 
 # ----------------------------------------------------------------------- averaged models
@@ -245,15 +247,98 @@ def fpk_stationary(drift: Any, diffusion: Any, **options: Any) -> Any:
 
 @boundary
 def fpk_solution(scene: Any, *, model: Any, cells: int, method: str = "stepping",
-                  **options: Any) -> Result:
-    """FPK on the averaged model's m and sigma^2, mapped to phase space like the closed form
-    (with the model's period, or the exact orbit's: ``info["period"]`` says which)."""
-    from vifpk import averaging, fpk
+                 **options: Any) -> Result:
+    """vifpk's FPK on the averaged model's m and sigma^2 (``fpk.stationary``, ``method``
+    "stepping" or "direct"), mapped to phase space like the closed form (:func:`_phase_result`)."""
+    from vifpk import fpk
+
+    _require_noise(scene)
+    m = averaged_model(scene, model, **options)
+    return _phase_result(scene, m, model, fpk.stationary(m.drift, m.diffusion, cells=cells,
+                                                         method=method))
+
+
+@boundary
+def model_solution(scene: Any, *, model: Any, solver: str, cells: int, **options: Any
+                   ) -> Result:
+    """The registered FPK solver ``solver`` (vifpk.core.registry.solver; vifpk's own ``fpk``
+    or a plugin's) on the averaged model's m and sigma^2 with ``cells`` cells, mapped to
+    phase space like the closed form (:func:`_phase_result`). A plugin's failure, or a density
+    that is not finite, non-negative and of mass 1, is a PluginError naming it."""
+    _require_noise(scene)
+    spec, entry = registry.solver(solver)
+    m = averaged_model(scene, model, **options)
+    if entry.builtin:
+        out = spec.stationary(m.drift, m.diffusion, cells=cells)
+    else:
+        out = _plugin_stationary(spec, entry, m, cells)
+    return _phase_result(scene, m, model, _as_result(out, entry))
+
+
+def _require_noise(scene: Any) -> None:
+    from vifpk import averaging
 
     if no_noise(scene.system):
         raise averaging.NoStationaryDensity(no_noise(scene.system))
-    m = averaged_model(scene, model, **options)
-    res = fpk.stationary(m.drift, m.diffusion, cells=cells, method=method)
+
+
+def _plugin_stationary(spec: Any, entry: Any, m: Any, cells: int) -> Any:
+    """A plugin solver's ``stationary``; what it raises is a PluginError naming it."""
+    from vifpk.core.guard import describe, source_of
+
+    try:
+        return spec.stationary(m.drift, m.diffusion, cells=cells)
+    except (KeyboardInterrupt, GeneratorExit, PluginError):
+        raise
+    except BaseException as exc:  # noqa: BLE001 - the plugin's own failure, named
+        src = source_of(entry.value.partition(":")[0].strip())
+        raise PluginError(f"solver plugin {entry.name!r} (from {entry.distribution}): "
+                          f"stationary(drift, diffusion) {describe(exc, src)}") from exc
+
+
+#: how far a solver's density may be from mass 1 on its own grid (trapezoid rule) before the
+#: door refuses it: a normalisation bug, not a discretisation error (those are what the check
+#: measures, and they are below 1e-2 at any usable resolution)
+MASS_TOLERANCE = 1e-2
+
+
+def _as_result(out: Any, entry: Any) -> Result:
+    """A solver's output as a Result with data ``A`` and ``A_cells`` (``{"x", "p"}``): a
+    Result passes as it is; a pair (A, p) is checked (increasing finite A > 0; p finite,
+    >= 0, of mass 1 within MASS_TOLERANCE) and renormalised to mass 1 exactly."""
+    if isinstance(out, Result):
+        return out
+    where = f"solver plugin {entry.name!r} (from {entry.distribution})"
+    try:
+        A, p = (np.asarray(a, dtype=float) for a in out)
+    except (TypeError, ValueError):
+        raise PluginError(f"{where}: stationary() returned {type(out).__name__}; it must "
+                          "return a pair (A, p) of arrays or a Result") from None
+    if A.ndim != 1 or A.shape != p.shape or A.size < 4:
+        raise PluginError(f"{where}: stationary() returned A and p of shapes {A.shape} and "
+                          f"{p.shape}; they must be one-dimensional, of one length >= 4")
+    if not (np.all(np.isfinite(A)) and np.all(np.diff(A) > 0) and A[0] >= 0):
+        raise PluginError(f"{where}: stationary() returned cell centres A that are not "
+                          "finite, non-negative and increasing")
+    if not (np.all(np.isfinite(p)) and np.all(p >= 0)):
+        raise PluginError(f"{where}: stationary() returned a density p that is not finite "
+                          "and non-negative")
+    mass = float(np.trapezoid(p, A))
+    if not abs(mass - 1.0) <= MASS_TOLERANCE:
+        raise PluginError(f"{where}: stationary() returned a density of mass {mass:.6g} on "
+                          f"its grid; it must be 1 within {MASS_TOLERANCE}")
+    rec = {"x": A, "p": p / mass}
+    info = {"solver": entry.name, "method": "plugin", "grid": {"cells": int(A.size),
+            "A_min": float(A[0]), "A_max": float(A[-1])},
+            "diagnostics": {"mass_before_normalisation": mass},
+            "status": Status.DENSITY.record()}
+    return Result(data={"A": rec, "A_cells": rec}, info=info)
+
+
+def _phase_result(scene: Any, m: Any, model: Any, res: Any) -> Result:
+    """A stationary p(A) of model ``m`` (a solver's Result) mapped to phase space like the
+    closed form, with the model's period or the exact orbit's (``info["period"]`` says which);
+    an observing model's (``observes``) p(A) is first mapped to the observed energy."""
     if getattr(m, "observes", False):  # the observed energy, as the closed form
         from vifpk.averaging.corrected import observed_density
 
@@ -271,7 +356,8 @@ def fpk_solution(scene: Any, *, model: Any, cells: int, method: str = "stepping"
     mean = float(np.trapezoid(xa * pa, xa))
     info["summary"] = {"mean": mean, "mode": float(xa[int(np.argmax(pa))]),
                        "std": float(np.sqrt(max(np.trapezoid((xa - mean) ** 2 * pa, xa), 0)))}
-    info["diagnostics"] = dict(info["diagnostics"], phase_mass_before_normalisation=raw_mass)
+    info["diagnostics"] = dict(info.get("diagnostics", {}),
+                               phase_mass_before_normalisation=raw_mass)
     return Result(data=data, info=info)
 
 

@@ -201,6 +201,15 @@ _TABLE_SPEC = [{"text": True}, {"text": True}, {"floor": 4}, {"err_of": 2}, {}, 
                {"floor": 8}, {}, {"floor": 10}, {}, {"signed": True}, {"signed": True}]
 
 
+def _decomposition(entry: dict[str, Any]) -> list[tuple[str, dict[str, Any]]]:
+    """(row label, {observable: metrics}) of a model's metrics entry: the kinds of KINDS it
+    has (no closed form: no FPK measured), then each plugin FPK solver's numerics
+    (``solver_errors``, harness/workflows/check.py)."""
+    out = [(KIND_TEXT[k].split(" (")[0], entry[k]) for k in KINDS if k in entry]
+    out += [(f"numerics of {name}", rec) for name, rec in entry.get("solver_errors", {}).items()]
+    return out
+
+
 def _tables(res: CheckResult) -> list[tuple[str, list[str], list[list[str]]]]:
     """Per model, the error decomposition: every metric with its noise floor; a value below
     its floor reads "< floor"; the FPK comparison is deterministic (no floor: "–")."""
@@ -208,17 +217,15 @@ def _tables(res: CheckResult) -> list[tuple[str, list[str], list[list[str]]]]:
     models = tuple(res.metrics["models"])
     for m in models:
         raw = []
-        for kind in KINDS:
-            if kind not in res.metrics["models"][m]:  # no closed form: no FPK measured
-                continue
+        for label, records in _decomposition(res.metrics["models"][m]):
             for o in OBSERVABLES:
-                e = res.metrics["models"][m][kind][o]
+                e = records[o]
                 has = e.get("L1_floor", 0.0) > 0
 
                 def fl(key: str, e=e, has=has) -> float | None:
                     return e[key] if has else None
 
-                raw.append([KIND_TEXT[kind].split(" (")[0], o, e["L1"], fl("L1_err"),
+                raw.append([label, o, e["L1"], fl("L1_err"),
                             fl("L1_floor"), e["hellinger"], fl("hellinger_floor"), e["ks"],
                             fl("ks_floor"), e.get("w1", math.nan), fl("w1_floor"),
                             e["mean_diff"], e["std_diff"]])

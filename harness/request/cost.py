@@ -19,6 +19,7 @@ from vifpk.harness.request.errors import InputError
 
 from vifpk.core import registry
 from vifpk.core.defaults import CHECK_MODELS, FPK_CELLS
+from vifpk.core.registry import CLOSED_FORM, ORIGINAL
 from vifpk.core.scene import Scene
 
 HOUR = 3600.0
@@ -299,10 +300,11 @@ def averaging_seconds(scene: Scene, model: str) -> float:
 def solve_seconds(scene: Scene, solver: str, model: str, grid: int | None, *,
                   speed: float | None = None) -> float:
     """Lower bound of ``vifpk solve``."""
-    if solver == "montecarlo":
+    if solver == ORIGINAL:
         return montecarlo_seconds(scene, speed=speed)
     base = averaging_seconds(scene, model)
-    return base + (fpk_seconds(grid or FPK_CELLS) if solver == "fpk" else 0.0)
+    # an FPK solver (vifpk's or a plugin's) priced as vifpk's on that grid
+    return base + (fpk_seconds(grid or FPK_CELLS) if solver != CLOSED_FORM else 0.0)
 
 
 def check_seconds(scene: Scene, models: tuple[str, ...] = CHECK_MODELS, *,

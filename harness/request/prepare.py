@@ -220,11 +220,11 @@ def prepare_solve(source: Scene | str | Path, *, solver: str = "averaging",
     if unknown:
         raise validate.InputError(f"{unknown[0]}: not an option of solve; allowed: solver, "
                                   f"model, grid, joint, {', '.join(MC_OPTIONS)}")
-    if solver not in registry.SOLVERS:
+    if solver not in registry.solver_names():
         raise validate.InputError(f"--solver {solver!r}: not a solver; allowed: "
-                                  f"{', '.join(registry.SOLVERS)}")
+                                  f"{', '.join(registry.solver_names())}")
     given = [k for k in MC_OPTIONS if mc.get(k) is not None]
-    if solver == "montecarlo":
+    if solver == registry.ORIGINAL:
         validate.refuse_options([k for k, v in (("grid", grid), ("model", model))
                                  if v is not None],
                                 "to --solver montecarlo (it simulates the original system)")
@@ -233,7 +233,7 @@ def prepare_solve(source: Scene | str | Path, *, solver: str = "averaging",
                                          else []),
                                 f"to --solver {solver} (Monte Carlo options apply to "
                                 "--solver montecarlo)")
-        if solver == "averaging" and grid is not None:
+        if solver == registry.CLOSED_FORM and grid is not None:
             validate.refuse_options(["grid"], "to --solver averaging (its grid is "
                                     "averaging.points; --grid sets the FPK's cells)")
     if grid is not None:
@@ -241,14 +241,15 @@ def prepare_solve(source: Scene | str | Path, *, solver: str = "averaging",
         if grid < 4:
             raise validate.InputError(f"--grid {grid}: out of range; allowed: a whole number "
                                       ">= 4 (cells of the FPK)")
-    scene = with_mc_options(concrete(source, overrides, values), mc, mc=solver == "montecarlo")
-    if solver != "montecarlo":
+    scene = with_mc_options(concrete(source, overrides, values), mc,
+                            mc=solver == registry.ORIGINAL)
+    if solver != registry.ORIGINAL:
         if model is None:  # the first of the check models that applies (paper, then exact)
             model = registry.applicable(scene, CHECK_MODELS)[0][0]
         else:
             model = model_names([model])[0]
             applicable_models(scene, (model,), chosen=True)
-    if solver == "montecarlo" and joint and not scene.observables.joint:
+    if solver == registry.ORIGINAL and joint and not scene.observables.joint:
         scene = scene.with_values({"observables.joint": True})
     return Request(workflow="solve", scene=scene, solver=solver, model=model, grid=grid,
                    joint=joint, given=tuple(given))

@@ -3,6 +3,7 @@
 For each averaged model M (``paper``, ``exact``, ``corrected``) on the observables A, x1, x2:
 
     discretisation_error  FPK(M) against the closed form of M         (numerics of the FPK)
+    solver_errors[S]      a registered FPK solver S's p(M) against it  (a plugin's numerics)
     sampling_error        MC of M's averaged SDE against M's closed form (MC noise + bias)
     averaging_error       MC of the ORIGINAL system against M's closed form (the answer)
 
@@ -29,7 +30,7 @@ import numpy as np
 from vifpk.harness.door.solvers import (
     averaged_sde_solution,
     closed_form,
-    fpk_solution,
+    model_solution,
     montecarlo_solution,
     validity,
 )
@@ -164,12 +165,15 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
     for m in models:
         closed[m] = closed_form(scene, model=m, tail_mass=tail_mass)
         sol[f"closed:{m}"] = closed[m]
-    # the FPK of a model measured against its closed form (none: nothing to measure against)
+    # every registered FPK solver (vifpk's fpk, plugins') on each model, measured against the
+    # model's closed form (none: nothing to measure against)
     with_fpk = [m for m in models if fpk and closed[m].info.get("closed_form", True)]
-    stages.total -= len(models) - len(with_fpk) if fpk else 0
-    for m in with_fpk:
-        stages(f"FPK of the {m} model")
-        sol[f"fpk:{m}"] = fpk_solution(scene, model=m, cells=FPK_CELLS)
+    solvers = registry.model_solver_names() if fpk else ()
+    stages.total += len(with_fpk) * len(solvers) - (len(models) if fpk else 0)
+    for name in solvers:
+        for m in with_fpk:
+            stages(f"{name.upper()} of the {m} model")
+            sol[f"{name}:{m}"] = model_solution(scene, model=m, solver=name, cells=FPK_CELLS)
     # the original system's simulation: its ranges, burn-in and extensions are its own
     t_mc = time.perf_counter()
     budget = scene.montecarlo.budget or math.inf
@@ -206,8 +210,15 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
     for m in models:
         cf = closed[m].data
         entry: dict[str, Any] = {}
-        for kind, key in (("discretisation_error", f"fpk:{m}"), ("sampling_error", f"mc:{m}"),
-                          ("averaging_error", "mc:original")):
+        for name in solvers:  # the FPK solvers' numerics, under the key each declares
+            if f"{name}:{m}" in sol:
+                errors = {o: compare(cf[o], sol[f"{name}:{m}"].data[o]) for o in OBSERVABLES}
+                key = getattr(registry.solver(name)[0], "metric", None)
+                if key:
+                    entry[key] = errors
+                else:
+                    entry.setdefault("solver_errors", {})[name] = errors
+        for kind, key in (("sampling_error", f"mc:{m}"), ("averaging_error", "mc:original")):
             if key in sol:
                 entry[kind] = {o: compare(cf[o], sol[key].data[o]) for o in OBSERVABLES}
         entry["sampling_ok"] = (_sampling_ok(entry["sampling_error"]["A"])

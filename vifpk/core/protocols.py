@@ -44,12 +44,49 @@ class Applicability(Protocol):
 
 
 @runtime_checkable
+class Solver(Protocol):
+    """A solver of an averaged model's stationary amplitude FPK (issue 27), registered in the
+    ``vifpk.solvers`` entry-point group (vifpk.core.registry.solvers): ``vifpk solve --solver
+    NAME --model M`` runs it, and ``vifpk check`` measures it against every model's closed form
+    beside the built-in ``fpk`` (metrics.json: the model's ``solver_errors[NAME]``, or the key
+    ``metric`` names).
+
+    ``stationary(drift, diffusion, *, cells)`` gets m(A) and sigma^2(A) of
+    dA = m dt + sigma dW (arrays in, arrays out, A > 0) and returns the stationary density
+    of A: a pair (A, p) of increasing cell centres and densities (the door checks that p is
+    finite, non-negative and of mass 1 on A), or a vifpk.core.result.Result whose data hold
+    ``"A"`` and ``"A_cells"`` records ``{"x", "p"}`` (the built-in FPK's)."""
+
+    name: str
+    summary: str
+
+    def stationary(self, drift: Any, diffusion: Any, *, cells: int) -> Any: ...
+
+
+@dataclass(frozen=True)
+class SolverSpec:
+    """The plain record that satisfies :class:`Solver` (docstring there). ``metric``: the key
+    of the model's metrics.json entry its comparison with the closed form is stored under
+    (None: ``solver_errors[name]``)."""
+
+    name: str
+    summary: str
+    stationary: Callable[..., Any]
+    metric: str | None = None
+
+
+@runtime_checkable
 class Workflow(Protocol):
     """A workflow (issue 27): a question with a name, registered in the ``vifpk.workflows``
     entry-point group (vifpk.core.registry.workflows). Each front end derives its door from the
     registry: the command line adds ``vifpk NAME`` with ``add_arguments`` and runs ``command``
     (both None: no subcommand), a sweep file's ``workflow = NAME`` runs ``sweep_point(job)``
-    at every point (None: not sweepable)."""
+    at every point (None: not sweepable).
+
+    Optional members (read with ``getattr``; added in protocol version 1 without a bump):
+    ``api``, the Python function of the workflow (``vifpk.NAME(...)`` and ``vifpk.run(NAME,
+    ...)``), and ``assertion``, its tolerance test (``vifpk.<assertion.__name__>`` and
+    ``vifpk.harness.testing.assertion(NAME)``)."""
 
     name: str
     summary: str
@@ -67,3 +104,5 @@ class WorkflowSpec:
     add_arguments: Callable[[Any], None] | None = None
     command: Callable[[Any], int] | None = None
     sweep_point: Callable[[Any], dict[str, Any]] | None = None
+    api: Callable[..., Any] | None = None
+    assertion: Callable[..., Any] | None = None

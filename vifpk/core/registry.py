@@ -1,4 +1,4 @@
-"""Registries: the names of solvers, noise kinds, impact laws and averaged models.
+"""Registries: the names of solvers, noise kinds, impact laws, averaged models and workflows.
 
 Each list is written here once; every package reads it from here (a solver checks its input
 against it, the scene schema validates against it, the command line offers it).
@@ -29,8 +29,10 @@ from importlib import import_module, metadata
 from pathlib import Path
 from typing import Any
 
-#: The solvers ``harness.door.solvers.run_solver`` knows, in the order the CLI offers them.
-SOLVERS = ("averaging", "fpk", "montecarlo")
+#: The two solvers every cross-check has: an averaged model's closed form and the simulation
+#: of the original system. The solvers of a model's FPK sit between them in ``solver_names()``:
+#: registered in the ``vifpk.solvers`` entry-point group (vifpk's own: ``fpk``).
+CLOSED_FORM, ORIGINAL = "averaging", "montecarlo"
 #: Kinds of excitation xi(t): Ornstein-Uhlenbeck ("real") noise, Gaussian white noise.
 NOISE_KINDS = ("ou", "white")
 #: Impact laws of the exact averaged model (averaging/exact.py, ``energy_terms``).
@@ -38,6 +40,7 @@ IMPACT_LAWS = ("exact", "transformed", "compounded")
 
 MODEL_GROUP = "vifpk.models"
 WORKFLOW_GROUP = "vifpk.workflows"
+SOLVER_GROUP = "vifpk.solvers"
 DISTRIBUTION = "vifpk"
 
 
@@ -151,6 +154,49 @@ def workflow(name: str) -> Any:
     found = {w.name: w for w in workflows()}
     one_of("workflow", name, tuple(found))
     return found[name]
+
+
+@cache
+def _solver_entries() -> tuple[ModelEntry, ...]:
+    return _group(SOLVER_GROUP)[0]
+
+
+def model_solver_names() -> tuple[str, ...]:
+    """The registered solvers of an averaged model's FPK (``vifpk.solvers``; vifpk's own
+    first), read without importing one."""
+    return tuple(e.name for e in _solver_entries())
+
+
+def solver_names() -> tuple[str, ...]:
+    """Every solver ``vifpk solve --solver`` offers, in order: the closed form, the registered
+    FPK solvers (model_solver_names), the Monte Carlo of the original system."""
+    return (CLOSED_FORM, *model_solver_names(), ORIGINAL)
+
+
+@cache
+def solver(name: str) -> tuple[Any, ModelEntry]:
+    """(the registered FPK solver ``name``, loaded: a vifpk.core.protocols.Solver; its entry).
+    UnknownName listing the registered ones; an entry that does not load or is not a Solver of
+    its name raises PluginError naming it (and its file)."""
+    from .guard import PluginError, describe, source_of
+    from .protocols import Solver
+
+    found = {e.name: e for e in _solver_entries()}
+    one_of("FPK solver", name, tuple(found))
+    e = found[name]
+    label = f"solver plugin {e.name!r} ({e.value}, from {e.distribution})"
+    try:
+        obj = e.load()
+    except (KeyboardInterrupt, GeneratorExit):
+        raise
+    except BaseException as exc:  # noqa: BLE001 - the plugin's own failure, named
+        if e.builtin:
+            raise
+        src = source_of(e.value.partition(":")[0].strip())
+        raise PluginError(f"{label}: importing it {describe(exc, src)}") from exc
+    if not isinstance(obj, Solver) or obj.name != e.name:
+        raise PluginError(f"{label} is not a vifpk.core.protocols.Solver of that name")
+    return obj, e
 
 
 def models() -> tuple[ModelEntry, ...]:
@@ -285,3 +331,6 @@ def applicable(scene: Any, names: tuple[str, ...]) -> tuple[tuple[str, ...], dic
 def refresh() -> None:
     """Forget the registry read so far (after installing a plugin in a running process)."""
     _entries.cache_clear()
+    _solver_entries.cache_clear()
+    solver.cache_clear()
+    workflows.cache_clear()
