@@ -315,3 +315,23 @@ def test_harness_imports_are_absolute_and_resolve(path: Path):
             if node.module in packages:  # from vifpk.harness.sweeps import spec: a module
                 for a in node.names:
                     assert f"{node.module}.{a.name}" in mods, f"{node.module}.{a.name}"
+
+
+def test_door_results_do_not_depend_on_the_blas_thread_count(base):
+    """The exact model's closed form at the point where a dask sweep and a serial one differed
+    (1e-15, tests/test_adaptive.py): the same bits whatever BLAS thread count the caller's
+    process has (dask workers run with 1, a serial run with the machine's cores): the door
+    pins BLAS to one thread (harness/door/solvers.py: one_blas_thread)."""
+    import numpy as np
+    from threadpoolctl import threadpool_limits
+    from vifpk.harness.door.solvers import closed_form
+
+    sc = base.with_values({"system.r": 0.99, "system.mu": 0.0, "averaging.harmonics": 8,
+                           "averaging.theta_nodes": 16, "averaging.points": 101,
+                           "averaging.phase_points": 41})
+    out = []
+    for threads in (1, 2):
+        with threadpool_limits(limits=threads, user_api="blas"):
+            out.append(closed_form(sc, model="exact", tail_mass=False))
+    for o in ("A", "x1", "x2"):
+        assert np.array_equal(out[0].data[o]["p"], out[1].data[o]["p"]), o

@@ -86,8 +86,9 @@ def test_a_registered_workflow_appears_in_the_cli_and_in_sweeps(with_entry, caps
 def test_the_python_and_testing_apis_are_the_registry_s(with_entry):
     """vifpk.<name>, vifpk.run(name, ...), vifpk.<assertion> and harness.testing.assertion(name)
     come from the registered workflows: the built-ins' and a new one's alike, no vifpk edit."""
-    import vifpk
     from vifpk.harness import testing
+
+    import vifpk
 
     for w in registry.workflows():
         if w.api is not None:

@@ -60,14 +60,42 @@ def solver_failure(exc: BaseException) -> SolverFailure | None:
     return None
 
 
+_IN_DOOR: ContextVar[bool] = ContextVar("in_door", default=False)
+
+
+@contextmanager
+def one_blas_thread() -> Iterator[None]:
+    """BLAS on one thread for the call (threadpoolctl), set once at the outermost door call.
+
+    Why: OpenBLAS cuts a matrix product differently with its thread count, so the closed forms
+    (orbit harmonics, phase-space quadratures: ``@`` on (points x nodes) arrays) moved by ~1e-15
+    between a serial sweep (2 BLAS threads) and a dask worker (1: dask's nanny sets
+    OPENBLAS_NUM_THREADS=1); tests/test_adaptive.py's bit-for-bit comparison of executors
+    failed on it. With one thread everywhere the results are the same on every executor; the
+    products are small (milliseconds), so nothing is lost."""
+    if _IN_DOOR.get():
+        yield
+        return
+    from threadpoolctl import threadpool_limits
+
+    token = _IN_DOOR.set(True)
+    try:
+        with threadpool_limits(limits=1, user_api="blas"):
+            yield
+    finally:
+        _IN_DOOR.reset(token)
+
+
 def boundary(fn: Callable[..., Any]) -> Callable[..., Any]:
     """A door function: a solver's failure inside it leaves as SolverFailure (see
-    :func:`solver_failure`), chained to the original for ``--debug``."""
+    :func:`solver_failure`), chained to the original for ``--debug``; it runs with BLAS on
+    one thread (:func:`one_blas_thread`), so its numbers do not depend on the executor."""
 
     @functools.wraps(fn)
     def door(*args: Any, **kwargs: Any) -> Any:
         try:
-            return fn(*args, **kwargs)
+            with one_blas_thread():
+                return fn(*args, **kwargs)
         except Exception as exc:
             mapped = solver_failure(exc)
             if mapped is None:
