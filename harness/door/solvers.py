@@ -76,14 +76,23 @@ def one_blas_thread() -> Iterator[None]:
     if _IN_DOOR.get():
         yield
         return
-    from threadpoolctl import threadpool_limits
-
     token = _IN_DOOR.set(True)
     try:
-        with threadpool_limits(limits=1, user_api="blas"):
+        with _blas().limit(limits=1, user_api="blas"):
             yield
     finally:
         _IN_DOOR.reset(token)
+
+
+@functools.cache
+def _blas() -> Any:
+    """One threadpoolctl controller a process (finding the libraries costs ~5 ms, a limit
+    through it ~20 us), made after scipy.linalg is loaded, so that both BLAS libraries the
+    solvers use, numpy's and scipy's, are in it."""
+    import scipy.linalg  # noqa: F401 - loads scipy's BLAS before the controller looks
+    from threadpoolctl import ThreadpoolController
+
+    return ThreadpoolController()
 
 
 def boundary(fn: Callable[..., Any]) -> Callable[..., Any]:
