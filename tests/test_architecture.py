@@ -321,7 +321,7 @@ def test_door_results_do_not_depend_on_the_blas_thread_count(base):
     """The exact model's closed form at the point where a dask sweep and a serial one differed
     (1e-15, tests/test_adaptive.py): the same bits whatever BLAS thread count the caller's
     process has (dask workers run with 1, a serial run with the machine's cores): the door
-    pins BLAS to one thread (harness/door/solvers.py: one_blas_thread)."""
+    pins BLAS to one thread (harness/door/boundary.py: one_blas_thread)."""
     import numpy as np
     from threadpoolctl import threadpool_limits
     from vifpk.harness.door.solvers import closed_form

@@ -11,108 +11,24 @@ the one place exceptions are mapped.
 
 from __future__ import annotations
 
-import functools
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
 from typing import Any
 
 import numpy as np
+from vifpk.harness.door.boundary import (  # noqa: F401 - SolverFailure: callers import it here
+    SolverFailure,
+    boundary,
+    solver_failure,
+)
 
 from vifpk.core import registry
 from vifpk.core.defaults import FPK_CELLS, REFERENCE_CELLS
 from vifpk.core.guard import PluginError
-from vifpk.core.registry import CLOSED_FORM, UnknownName, one_of
-from vifpk.core.result import BadInput, Result, Status
+from vifpk.core.registry import CLOSED_FORM, one_of
+from vifpk.core.result import Result, Status
 from vifpk.core.scene import no_noise
-
-
-class SolverFailure(RuntimeError):
-    """A solver could not produce a trustworthy result; the message says why (one line)."""
-
-
-#: The solver packages: a RuntimeError raised in one of them is its own failure (FPKFailure,
-#: NoStationaryDensity, SimulationDiverged, BudgetExhausted, StartRejected, ...).
-SOLVER_PACKAGES = ("vifpk.averaging", "vifpk.fpk", "vifpk.montecarlo")
-
-
-def solver_failure(exc: BaseException) -> SolverFailure | None:
-    """The SolverFailure an exception raised inside a solver call stands for, or None when it
-    is not a solver's failure (issue 27: exceptions are mapped here, at the solver boundary,
-    and nowhere else; the command line maps SolverFailure to exit 3 and lets anything else
-    reach its internal-error branch).
-
-    Mapped: ArithmeticError (overflow, division by zero, numpy errors under ``np.errstate``,
-    the FPK's CoefficientError), a ValueError that is neither bad input nor an unknown name (a
-    run that could not go on, e.g. "no sample was taken"), and a RuntimeError raised by a
-    solver package. Not mapped: BadInput (exit 2), UnknownName (a caller's bug: unknown kinds
-    raise), PluginError (names the plugin), SolverFailure itself, and every other exception
-    (a bug: TypeError, KeyError, ...)."""
-    if isinstance(exc, (SolverFailure, BadInput, UnknownName, PluginError)):
-        return None
-    if isinstance(exc, ArithmeticError):
-        return SolverFailure(f"numerical failure: {exc}; the scene's magnitudes or the step are "
-                             "most likely too extreme")
-    if isinstance(exc, ValueError):
-        return SolverFailure(str(exc))
-    if isinstance(exc, RuntimeError) and type(exc).__module__.startswith(SOLVER_PACKAGES):
-        return SolverFailure(str(exc))
-    return None
-
-
-_IN_DOOR: ContextVar[bool] = ContextVar("in_door", default=False)
-
-
-@contextmanager
-def one_blas_thread() -> Iterator[None]:
-    """BLAS on one thread for the call (threadpoolctl), set once at the outermost door call.
-
-    Why: OpenBLAS cuts a matrix product differently with its thread count, so the closed forms
-    (orbit harmonics, phase-space quadratures: ``@`` on (points x nodes) arrays) moved by ~1e-15
-    between a serial sweep (2 BLAS threads) and a dask worker (1: dask's nanny sets
-    OPENBLAS_NUM_THREADS=1); tests/test_adaptive.py's bit-for-bit comparison of executors
-    failed on it. With one thread everywhere the results are the same on every executor; the
-    products are small (milliseconds), so nothing is lost."""
-    if _IN_DOOR.get():
-        yield
-        return
-    token = _IN_DOOR.set(True)
-    try:
-        with _blas().limit(limits=1, user_api="blas"):
-            yield
-    finally:
-        _IN_DOOR.reset(token)
-
-
-@functools.cache
-def _blas() -> Any:
-    """One threadpoolctl controller a process (finding the libraries costs ~5 ms, a limit
-    through it ~20 us), made after scipy.linalg is loaded, so that both BLAS libraries the
-    solvers use, numpy's and scipy's, are in it."""
-    import scipy.linalg  # noqa: F401 - loads scipy's BLAS before the controller looks
-    from threadpoolctl import ThreadpoolController
-
-    return ThreadpoolController()
-
-
-def boundary(fn: Callable[..., Any]) -> Callable[..., Any]:
-    """A door function: a solver's failure inside it leaves as SolverFailure (see
-    :func:`solver_failure`), chained to the original for ``--debug``; it runs with BLAS on
-    one thread (:func:`one_blas_thread`), so its numbers do not depend on the executor."""
-
-    @functools.wraps(fn)
-    def door(*args: Any, **kwargs: Any) -> Any:
-        try:
-            with one_blas_thread():
-                return fn(*args, **kwargs)
-        except Exception as exc:
-            mapped = solver_failure(exc)
-            if mapped is None:
-                raise
-            raise mapped from exc
-
-    return door
-
 
 # (seconds allowed, path-steps per second on every core the run uses): the cost guard of the
 # command that runs the Monte Carlo (harness.request.cost.run_cost_limit); None: no limit
