@@ -223,6 +223,9 @@ def subprocess_results(tmp_path_factory):
         return dict(zip(SUBPROCESS, pool.map(one, cases), strict=True))
 
 
+# one worker runs the catalogue's subprocesses (a module fixture is made once per xdist worker:
+# on two workers the 17 interpreters ran twice, ~25 s each, a fifth of the fast tier)
+@pytest.mark.xdist_group("cli-catalogue")
 @pytest.mark.parametrize("case_id", SUBPROCESS)
 def test_bad_input_exit_2_one_line_nothing_written(subprocess_results, case_id):
     res, needle, before, after = subprocess_results[case_id]
