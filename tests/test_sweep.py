@@ -387,3 +387,26 @@ def test_the_sweep_report_table_gives_each_models_error_and_verdict(canned_check
     assert "exact: L1(A) ± err [floor], verdict" in text
     table = text[text.index("<h2>Points</h2>"):text.index("<h2>Sweep file</h2>")]
     assert table.count(" ± ") >= 4 and "[" in table
+
+
+def test_a_sweep_over_the_hour_by_its_measured_rate_stops_with_its_records(
+        tmp_path, monkeypatch, capsys):
+    """Issue 28: `points = 2000` was estimated under the hour and ran 10 minutes for 279 points.
+    The estimate (a lower bound) is now checked against the run's own rate: here the hour is
+    made 1e-3 s (and the estimate 0, so the sweep starts): after 3 points (max(3, workers))
+    the projection is over it, so the command stops, exit 2, one line naming the measured
+    rate and --yes; the 3 records are kept, no sweep.nc, and --yes computes only the rest."""
+    from vifpk.harness.cli.app import main
+    from vifpk.harness.request import cost
+    from vifpk.harness.sweeps import store
+
+    monkeypatch.setattr(store, "sweep_seconds", lambda *a, **k: 0.0)
+    monkeypatch.setattr(cost, "HOUR", 1e-3)
+    out = tmp_path / "out"
+    assert main(["sweep", str(AVERAGING), "--out", str(out), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "a point" in err[0] and "--yes" in err[0], err
+    kept = sorted(p.stem for p in (out / "points").glob("[!.]*.json"))
+    assert len(kept) == 3 and not (out / "sweep.nc").exists()
+    assert main(["sweep", str(AVERAGING), "--out", str(out), "--quiet", "--yes"]) == 0
+    assert "3 computed, 3 done before" in capsys.readouterr().out

@@ -329,7 +329,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     cost.refuse_costly(lambda sp: store.sweep_seconds(sweep, speed=sp),
                            f"this sweep ({store.sweep_size(sweep)})", args.yes)
     try:
-        res = runs.run_sweep(sweep, out, executor=spec, quiet=args.quiet)
+        # the estimate is a lower bound: the run checks it against its measured rate
+        res = runs.run_sweep(sweep, out, executor=spec, quiet=args.quiet,
+                             time_limit=None if args.yes else cost.HOUR)
     except errors.WorkerLost as exc:
         print(f"vifpk: {exc}; the finished points are kept in {out}/points: run the same "
               "command again to compute the rest", file=sys.stderr)

@@ -12,3 +12,9 @@ class SweepError(SceneError):
 class WorkerLost(RuntimeError):
     """The executor lost points (not a numerical failure): the finished records are kept and
     the same command resumes the sweep."""
+
+
+class OverTime(SceneError):
+    """A sweep whose measured rate puts it over the time allowed without ``--yes`` (exit 2,
+    like the estimate's refusal): the finished records are kept, and the same command with
+    ``--yes`` computes the rest."""

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from vifpk.harness.sweeps.dataset import write_results
+from vifpk.harness.sweeps.errors import OverTime
 from vifpk.harness.sweeps.executors import (
     ExecutorSpec,
     Runner,
@@ -36,8 +37,14 @@ from vifpk.harness.sweeps.store import (
 
 def run_sweep(sweep: Sweep, out: str | Path, *, executor: str | ExecutorSpec = "serial",
               quiet: bool = False, report: bool = True,
-              provenance: Mapping[str, Any] | None = None) -> SweepRun:
+              provenance: Mapping[str, Any] | None = None,
+              time_limit: float | None = None) -> SweepRun:
     """Compute every unfinished point on the executor, then write sweep.nc (and the maps).
+
+    ``time_limit`` (seconds; the command line's hour without ``--yes``, None: no limit): the
+    estimate made before the run is a lower bound, so the run checks it against its own
+    measured rate (:func:`check_rate`) and stops with OverTime, the records kept, when the
+    projected wall time is over the limit.
 
     The folder is held for the whole run with the lock of every vifpk output folder
     (harness/outputs/outdir.py): a second run into it is refused; a folder holding another kind of
@@ -56,13 +63,34 @@ def run_sweep(sweep: Sweep, out: str | Path, *, executor: str | ExecutorSpec = "
         _clear_temporaries(target)
         if sweep.mode == "adaptive":
             return run_adaptive(sweep, out, executor=spec, quiet=quiet, report=report,
-                                provenance=provenance)
+                                provenance=provenance, time_limit=time_limit)
         return _run_held(sweep, Path(out), spec, quiet=quiet, report=report,
-                         provenance=provenance, signals=signals)
+                         provenance=provenance, signals=signals, time_limit=time_limit)
+
+
+def check_rate(elapsed: float, computed: int, remaining: int, *, workers: int,
+               limit: float | None, out: Path) -> None:
+    """Stop a sweep whose measured rate puts it over ``limit`` seconds (OverTime, one line).
+
+    The projection is elapsed + elapsed / computed x remaining: the wall time a point has taken
+    in this run, parallelism included, for every point still to compute. It is made once at
+    least max(3, workers) points have finished (before, a pool's first completions say little
+    about its rate) and at every point after, so a rate that worsens is caught too."""
+    if limit is None or computed < max(3, workers) or remaining <= 0:
+        return
+    projected = elapsed + elapsed / computed * remaining
+    if projected > limit:
+        raise OverTime(f"this sweep: {computed} points took {_duration(elapsed)}, "
+                       f"{_duration(elapsed / computed)} a point, so the {remaining} left "
+                       f"would bring it to {_duration(projected)}, over the "
+                       f"{_duration(limit)} allowed without --yes (the estimate before the "
+                       f"run is a lower bound); the finished points are kept in {out}/points: "
+                       "run the same command with --yes to compute the rest")
 
 
 def _run_held(sweep: Sweep, out: Path, spec: ExecutorSpec, *, quiet: bool, report: bool,
-              provenance: Mapping[str, Any] | None, signals: Any) -> SweepRun:
+              provenance: Mapping[str, Any] | None, signals: Any,
+              time_limit: float | None = None) -> SweepRun:
     from vifpk.harness.outputs.io import write_json
 
     done = finished(sweep, out)
@@ -94,7 +122,9 @@ def _run_held(sweep: Sweep, out: Path, spec: ExecutorSpec, *, quiet: bool, repor
                 _log(quiet, f"[{len(done) + n}/{total}] {by_key[rec['key']].label()}: {what} "
                             f"({rec['seconds']:.1f} s); failures {len(failed)}; "
                             f"ETA {_duration(eta)}")
-    except KeyboardInterrupt:  # Ctrl-C or SIGTERM: the message says what was kept
+                check_rate(elapsed, n, len(todo) - n, workers=spec.workers, limit=time_limit,
+                           out=out)
+    except (KeyboardInterrupt, OverTime):  # Ctrl-C, SIGTERM: the message says what was kept
         if runner is not None:
             runner.stop()  # no worker outlives the sweep
         raise
@@ -124,7 +154,8 @@ def adaptive_value(rec: dict[str, Any], model: str) -> float:
 
 def run_adaptive(sweep: Sweep, out: str | Path, *, executor: ExecutorSpec,
                  quiet: bool = False, report: bool = True,
-                 provenance: Mapping[str, Any] | None = None) -> SweepRun:
+                 provenance: Mapping[str, Any] | None = None,
+                 time_limit: float | None = None) -> SweepRun:
     """An adaptive sweep (mode = "adaptive"): the initial lattice, then batches of
     ``[adaptive] batch`` points chosen by harness.sweeps.adaptive from every finished point, until
     ``[adaptive] points`` or the resolution is reached; then sweep.nc (a ``point`` dimension)
@@ -211,6 +242,8 @@ def run_adaptive(sweep: Sweep, out: str | Path, *, executor: ExecutorSpec,
                     _log(quiet, f"[{n}/{budget}] batch {batch_no}: {by_key[rec['key']].label()}"
                                 f": {what}{verdict} ({rec['seconds']:.1f} s); failures "
                                 f"{len(failed)}; ETA {_duration(eta)}")
+                    check_rate(spent, len(computed), max(budget - n, 0),
+                               workers=executor.workers, limit=time_limit, out=out)
             for pt, u in zip(pts, batch_units, strict=True):
                 order.append(pt)
                 units.append(tuple(u))
@@ -224,7 +257,7 @@ def run_adaptive(sweep: Sweep, out: str | Path, *, executor: ExecutorSpec,
                 _log(quiet, f"every triangle is finer than the resolution "
                             f"({ad['resolution']} x {ad['resolution']}): stopped at "
                             f"{len(order)} points")
-    except KeyboardInterrupt:  # Ctrl-C or SIGTERM: stop the workers; the message says why
+    except (KeyboardInterrupt, OverTime):  # stop the workers; the message says why
         runner.stop()
         raise
     finally:
