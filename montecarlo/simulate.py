@@ -154,12 +154,23 @@ def _kernel(arr: _Arrays, phys: dict[str, Any], h: float, n_steps: int, step0: i
             n_burn: int, stride: int, spw: int, windows: np.ndarray | None) -> None:
     hi = arr.hist
     ea, ex, ev = hi["edges_A"], hi["edges_x"], hi["edges_v"]
+    blocks, paths = arr.state.shape[:2]
+    # an output not asked for is an empty array, not None: one compiled kernel for every
+    # choice of observables (kernels.py's docstring)
+    none1, none2 = np.zeros((blocks, 0)), np.zeros((blocks, 0, 0))
+    per_path = np.zeros((blocks, paths, 0))
+
+    def given(a: Any, empty: np.ndarray) -> np.ndarray:
+        return empty if a is None else a
+
     K.run_paths(arr.rng, arr.state, n_steps, step0, n_burn, stride, h,
                 phys["c1"], phys["c2"], phys["w0sq"], phys["alpha"], phys["f"], phys["D"],
                 phys["mu"], phys["r"], phys["alpha1"], phys["khi"], phys["dhi"], phys["ev"],
-                ea[0], 1.0 / (ea[1] - ea[0]), hi["A"], ex[0], 1.0 / (ex[1] - ex[0]), hi["x"],
-                ev[0], 1.0 / (ev[1] - ev[0]), hi["v"], hi["joint"], arr.moments, arr.events,
-                arr.stuck, arr.energy, spw, windows)
+                ea[0], 1.0 / (ea[1] - ea[0]), given(hi["A"], none1), ex[0],
+                1.0 / (ex[1] - ex[0]), given(hi["x"], none1), ev[0], 1.0 / (ev[1] - ev[0]),
+                given(hi["v"], none1), given(hi["joint"], none2),
+                given(arr.moments, per_path), arr.events, arr.stuck, arr.energy, spw,
+                given(windows, per_path))
     arr.events[:, K.EV_STUCK] = arr.stuck.sum(axis=1)  # per path first: order-independent
 
 

@@ -225,7 +225,8 @@ def _kernel_run(base, per, cuts, seed=5):
         K.run_paths(rng, state, b - a, a, n_burn, stride, h, phys["c1"], phys["c2"],
                     phys["w0sq"], phys["alpha"], phys["f"], phys["D"], phys["mu"], phys["r"],
                     phys["alpha1"], phys["khi"], phys["dhi"], phys["ev"], 0.0, 5.0, hists[0],
-                    -2.0, 5.0, hists[1], -2.0, 5.0, hists[2], None, mom, events, stuck, en,
+                    -2.0, 5.0, hists[1], -2.0, 5.0, hists[2], np.zeros((blocks, 0, 0)), mom,
+                    events, stuck, en,
                     spw, win)
     return state, mom, en, win, stuck, events
 

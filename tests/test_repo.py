@@ -50,3 +50,24 @@ def test_ci_runs_every_test():
     assert collected(*ci_args) == everything
     assert any(t.startswith("tests/test_wheel.py::") for t in everything)
     assert "-n" in shlex.split(lines[0]) and "loadgroup" in lines[0]
+
+
+def test_xdist_groups_keep_their_tests_on_one_worker(tmp_path):
+    """`--dist loadgroup` (the fast tier's and CI's) keeps an xdist_group on one worker, so a
+    group's shared fixture (the wheel, the adaptive sweep, the CLI catalogue) is built once.
+    pytest 9.2 broke this silently (pytest-dev/pytest-xdist#1386): CI then built the adaptive
+    sweep twice (80 s each) and took 897 s; pyproject.toml pins pytest < 9.2 for it."""
+    import re
+    import subprocess
+    import sys
+
+    (tmp_path / "test_g.py").write_text(
+        "import pytest\n"
+        + "".join(f"@pytest.mark.xdist_group('g')\ndef test_g{i}(): pass\n" for i in range(6))
+        + "".join(f"def test_free{i}(): pass\n" for i in range(6)))
+    res = subprocess.run([sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "-n", "2",
+                          "--dist", "loadgroup", "-v", "test_g.py"], cwd=tmp_path,
+                         capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0, res.stdout[-2000:]
+    workers = set(re.findall(r"\[(gw\d)\].*PASSED test_g\.py::test_g\d", res.stdout))
+    assert len(workers) == 1, res.stdout[-2000:]
