@@ -1,0 +1,177 @@
+"""Issue 28, my own cases (2026-11-25): the new doors of issue 27 tried as a hostile user
+would: FPK solver plugins that misbehave, the registry-derived Python API with wrong names and
+types, and `--solver` with options that do not apply. Each case: exit 2 or 3 (or BadInput /
+PluginError from the API) in one line naming what is wrong; nothing written. docs/edges.md
+("Round 6") lists them."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from vifpk.core import registry
+from vifpk.core.protocols import SolverSpec
+
+GOOD_A = np.linspace(0.01, 3.0, 100)
+
+
+def _good(drift, diffusion, *, cells):
+    p = np.exp(-GOOD_A**2)
+    return GOOD_A, p / np.trapezoid(p, GOOD_A)
+
+
+def _raises(drift, diffusion, *, cells):
+    raise KeyError("oops")
+
+
+def _exits(drift, diffusion, *, cells):
+    raise SystemExit(0)
+
+
+SOLVERS = {
+    "decreasing": lambda d, s, *, cells: (GOOD_A[::-1], np.ones(100) / 3),
+    "nan": lambda d, s, *, cells: (GOOD_A, np.full(100, np.nan)),
+    "negative-p": lambda d, s, *, cells: (GOOD_A, -np.ones(100)),
+    "mass-two": lambda d, s, *, cells: (GOOD_A, 2 * _good(d, s, cells=cells)[1]),
+    "scalar": lambda d, s, *, cells: 1.0,
+    "shapes": lambda d, s, *, cells: (GOOD_A, np.ones(7)),
+    "two-d": lambda d, s, *, cells: (np.ones((4, 4)), np.ones((4, 4))),
+    "three-things": lambda d, s, *, cells: (GOOD_A, GOOD_A, GOOD_A),
+    "too-short": lambda d, s, *, cells: (np.array([0.1, 0.2]), np.array([5.0, 5.0])),
+    "negative-A": lambda d, s, *, cells: (GOOD_A - 1.0, _good(d, s, cells=cells)[1]),
+    "inf-A": lambda d, s, *, cells: (np.r_[GOOD_A[:-1], np.inf], _good(d, s, cells=cells)[1]),
+    "raises": _raises,
+    "exits": _exits,
+}
+SAYS = {
+    "decreasing": "not finite, non-negative and increasing",
+    "nan": "not finite and non-negative",
+    "negative-p": "not finite and non-negative",
+    "mass-two": "mass 2",
+    "scalar": "returned float",
+    "shapes": "shapes (100,) and (7,)",
+    "two-d": "one-dimensional",
+    "three-things": "returned tuple",
+    "too-short": "length >= 4",
+    "negative-A": "not finite, non-negative and increasing",
+    "inf-A": "not finite, non-negative and increasing",
+    "raises": "raised KeyError",
+    "exits": "called sys.exit(0)",
+}
+SPECS = {name: SolverSpec(name, "a broken solver", stationary=fn) for name, fn in SOLVERS.items()}
+GOOD = SolverSpec("good", "a Gaussian, whatever the model", stationary=_good)
+WRONG_NAME = SolverSpec("other", "registered under another name", stationary=_good)
+
+
+@pytest.fixture
+def solver_plugin(monkeypatch):
+    """Register ``SPECS[name]`` (or GOOD, WRONG_NAME) as the solver plugin ``name``."""
+    import sys
+
+    module = sys.modules[__name__]
+
+    def install(name: str, attr: str | None = None):
+        if attr is None:
+            monkeypatch.setattr(module, "THE_SPEC", SPECS[name], raising=False)
+            attr = "THE_SPEC"
+        real = registry._group
+
+        def group(g):
+            entries, conflicts = real(g)
+            if g == registry.SOLVER_GROUP:
+                entries = (*entries, registry.ModelEntry(name, f"{__name__}:{attr}", "edge6"))
+            return entries, conflicts
+
+        monkeypatch.setattr(registry, "_group", group)
+        registry.refresh()
+
+    yield install
+    registry.refresh()
+
+
+@pytest.mark.parametrize("name", sorted(SOLVERS))
+def test_a_misbehaving_solver_plugin_is_named_in_one_line(solver_plugin, capsys, tmp_path,
+                                                          name):
+    from vifpk.harness.cli.app import main
+
+    solver_plugin(name)
+    out = tmp_path / "o.json"
+    assert main(["solve", "paper-base", "--solver", name, "--model", "exact",
+                 "--json", str(out)]) == 3
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"'{name}'" in err[0] and SAYS[name] in err[0], err
+    assert not out.exists()
+
+
+def test_a_solver_registered_under_another_name_is_refused(solver_plugin, capsys):
+    from vifpk.harness.cli.app import main
+
+    solver_plugin("mine", "WRONG_NAME")
+    assert main(["solve", "paper-base", "--solver", "mine", "--model", "exact"]) == 3
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "is not a vifpk.core.protocols.Solver of that name" in err[0]
+
+
+def test_a_plugin_solver_s_density_is_renormalised_and_mapped(solver_plugin):
+    """A density of mass 1 within 1e-2 passes, renormalised exactly; the door maps it to
+    p(x1), p(x2) like the closed form (both of mass 1)."""
+    import vifpk
+
+    solver_plugin("good", "GOOD")
+    res = vifpk.solve("paper-base", "good", model="exact")
+    for o in ("A", "x1", "x2"):
+        d = res.data[o]
+        assert abs(np.trapezoid(d["p"], d["x"]) - 1) < 1e-6, o
+    assert res.info["solver"] == "good"
+
+
+@pytest.mark.parametrize(("args", "says"), [
+    (["--solver", "nope"], "invalid choice: 'nope'"),
+    (["--solver", "fpk", "--paths", "64"], "--paths: does not apply"),
+    (["--solver", "averaging", "--grid", "100"], "--grid"),
+    (["--solver", "montecarlo", "--model", "exact"], "--model"),
+])
+def test_solver_options_that_do_not_apply_exit_2(no_computation, capsys, args, says):
+    from vifpk.harness.cli.app import main
+
+    try:
+        code = main(["solve", "paper-base", *args])
+    except SystemExit as exc:  # argparse's own refusal (an unknown choice)
+        code = exc.code
+    assert code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert says in err[-1], err
+
+
+@pytest.mark.parametrize(("call", "says"), [
+    (lambda v: v.run(42), "workflow 42"),
+    (lambda v: v.run("nope", "paper-base"), "workflow 'nope'"),
+    (lambda v: v.run("models"), "allowed: solve, check"),
+    (lambda v: v.run("figures"), "allowed: solve, check"),
+    (lambda v: v.run(["check"]), "workflow ['check']"),
+    (lambda v: v.run("solve", "paper-base", "nope-solver"), "--solver 'nope-solver'"),
+    (lambda v: v.run("solve", "paper-base", "fpk", paths=64), "paths"),
+    (lambda v: v.run("check", "paper-base", models="exact"), "give a list of model names"),
+    (lambda v: v.solve("paper-base", "montecarlo", model="exact"), "model"),
+])
+def test_the_registry_derived_api_refuses_in_one_line(no_computation, call, says):
+    import vifpk
+    from vifpk.core.result import BadInput
+
+    with pytest.raises(BadInput) as err:
+        call(vifpk)
+    msg = str(err.value)
+    assert "\n" not in msg and says in msg, msg
+
+
+def test_the_api_names_what_it_does_not_have():
+    import vifpk
+
+    with pytest.raises(AttributeError, match="no attribute 'figures'"):
+        vifpk.figures  # noqa: B018 - a workflow without a Python function
+    with pytest.raises(AttributeError, match="no attribute '_private'"):
+        vifpk._private  # noqa: B018
+    with pytest.raises(registry.UnknownName, match="workflow with a tolerance test"):
+        from vifpk.harness.testing import assertion
+
+        assertion("solve")
