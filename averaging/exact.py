@@ -48,6 +48,7 @@ from vifpk.core.registry import IMPACT_LAWS, one_of
 
 from .geometry import (
     Array,
+    amplitudes,
     gauss_quarter,
     nu_k,
     potential_k,
@@ -360,10 +361,12 @@ class ExactModel:
             "sigma2": s2E / g**2,
         }
 
+    @amplitudes
     def drift(self, A: Array) -> Array:
         t = self.terms(A)
         return t["damping"] + t["impact"] + t["friction"] + t["noise"]
 
+    @amplitudes
     def diffusion(self, A: Array) -> Array:
         """sigma_A^2 = sigma_E^2 / g^2 (without the drift's derivative stencil)."""
         A = np.asarray(A, dtype=float)

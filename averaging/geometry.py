@@ -18,11 +18,30 @@ geometrically; on a quarter orbit (not periodic) Gauss-Legendre is used.
 from __future__ import annotations
 
 import functools
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 Array = NDArray[np.float64]
+
+
+def amplitudes(method: Any) -> Any:
+    """A model's ``drift(A)`` / ``diffusion(A)`` with its input checked: amplitudes A >= 0.
+    A negative or NaN amplitude is a caller's mistake, refused in one line (ValueError), not
+    evaluated: the formulas are even or odd in A and returned finite numbers at A = -1 (issue
+    28). A = 0 is kept (the A -> 0 limit, inf or nan, as the formula gives it)."""
+
+    @functools.wraps(method)
+    def checked(self: Any, A: ArrayLike) -> Array:
+        A = np.asarray(A, dtype=float)
+        bad = ~(A >= 0)
+        if np.any(bad):
+            raise ValueError(f"{type(self).__name__}.{method.__name__}(A): an amplitude must "
+                             f"be >= 0, got {float(A[bad].flat[0])!r}")
+        return method(self, A)
+
+    return checked
 
 
 def potential(x: ArrayLike, omega0: float, alpha: float) -> Array:

@@ -34,7 +34,7 @@ import numpy as np
 
 from vifpk.core.registry import one_of
 
-from .geometry import Array, w1_eta
+from .geometry import Array, amplitudes, w1_eta
 from .noise import Spectrum
 
 B6_COEFFICIENTS = {"printed": 3.0 / 64.0, "taylor": 1.0 / 64.0}
@@ -155,12 +155,14 @@ class PaperModel:
         }
         return out
 
+    @amplitudes
     def drift(self, A: Array) -> Array:
         """m(A): the sum of the five drift terms of :meth:`terms`."""
         t = self.terms(A)
         return (t["damping"] + t["impact"] + t["friction"] + t["noise_amplitude"]
                 + t["noise_phase"])
 
+    @amplitudes
     def diffusion(self, A: Array) -> Array:
         """sigma^2(A)."""
         return self.terms(A)["sigma2"]

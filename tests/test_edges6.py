@@ -175,3 +175,17 @@ def test_the_api_names_what_it_does_not_have():
         from vifpk.harness.testing import assertion
 
         assertion("solve")
+
+
+@pytest.mark.parametrize("model", ["paper", "exact", "corrected"])
+@pytest.mark.parametrize("bad", [-1.0, float("nan")])
+def test_a_model_refuses_an_amplitude_that_is_not_one(base, model, bad):
+    """Issue 28: `build_model(...).drift([0, -1, nan])` printed a numpy warning and returned a
+    finite number at A = -1. A negative or NaN amplitude is now refused in one line; a
+    positive one still gives the same number."""
+    m = registry.build_model(base, model)
+    want = m.drift(np.array([0.5]))
+    for method in (m.drift, m.diffusion):
+        with pytest.raises(ValueError, match=r"an amplitude must be >= 0, got (-1\.0|nan)"):
+            method(np.array([0.5, bad]))
+    assert np.array_equal(m.drift(np.array([0.5])), want)
