@@ -6,11 +6,13 @@ PluginError from the API) in one line naming what is wrong; nothing written. doc
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import pytest
 
 from vifpk.core import registry
-from vifpk.core.protocols import SolverSpec
+from vifpk.core.protocols import SolverSpec, WorkflowSpec
 
 GOOD_A = np.linspace(0.01, 3.0, 100)
 
@@ -189,3 +191,85 @@ def test_a_model_refuses_an_amplitude_that_is_not_one(base, model, bad):
         with pytest.raises(ValueError, match=r"an amplitude must be >= 0, got (-1\.0|nan)"):
             method(np.array([0.5, bad]))
     assert np.array_equal(m.drift(np.array([0.5])), want)
+
+
+# ------------------------------------------------ names that collide in the registries
+def _hello(*a, **k):
+    return "plugin"
+
+
+SHADOW_SCENE = WorkflowSpec("scene", "a workflow named like vifpk.scene", api=_hello)
+SHADOW_RUN = WorkflowSpec("run", "a workflow named like vifpk.run", api=_hello)
+PARTIAL_ASSERTION = WorkflowSpec("partial", "an assertion without a name", api=_hello,
+                                 assertion=functools.partial(_hello, 1))
+FAKE_FPK = SolverSpec("fpk", "another distribution's fpk", stationary=_good)
+FAKE_AVERAGING = SolverSpec("averaging", "a solver named like the closed form",
+                            stationary=_good)
+
+
+@pytest.fixture
+def extra_entry(monkeypatch):
+    """Add ``tests.test_edges6:<attr>`` to a registry group as another distribution's."""
+    import vifpk
+
+    def install(group: str, name: str, attr: str):
+        real = registry._group
+
+        def grp(g):
+            entries, conflicts = real(g)
+            if g == group:
+                entries = (*entries, registry.ModelEntry(name, f"{__name__}:{attr}", "edge6"))
+            return entries, conflicts
+
+        monkeypatch.setattr(registry, "_group", grp)
+        registry.refresh()
+
+    yield install
+    registry.refresh()
+    for cached in ("scene", "run", "partial"):
+        if cached not in ("scene", "run"):
+            vars(vifpk).pop(cached, None)
+
+
+@pytest.mark.parametrize(("name", "attr"), [("scene", "SHADOW_SCENE"), ("run", "SHADOW_RUN")])
+def test_a_workflow_named_like_an_api_function_does_not_replace_it(extra_entry, name, attr):
+    import vifpk
+    from vifpk import api
+
+    vars(vifpk).pop(name, None)
+    extra_entry(registry.WORKFLOW_GROUP, name, attr)
+    assert getattr(vifpk, name) is getattr(api, name)
+
+
+def test_an_assertion_without_a_name_is_not_exposed_and_breaks_nothing(extra_entry):
+    import vifpk
+
+    extra_entry(registry.WORKFLOW_GROUP, "partial", "PARTIAL_ASSERTION")
+    assert vifpk.partial() == "plugin"  # its api is there
+    assert "partial" in vifpk.__all__ and vifpk.check is not None
+
+
+def test_a_solver_plugin_named_like_a_builtin_is_shadowed(monkeypatch):
+    """A name keeps its first meaning (registry._group, read from installed metadata here):
+    another distribution's `fpk` is not vifpk's (a conflict is recorded), and a plugin named
+    `averaging` neither replaces the closed form nor appears twice."""
+    from types import SimpleNamespace
+
+    real = registry.metadata.entry_points
+    dist = SimpleNamespace(metadata={"Name": "edge6"})
+    fakes = [SimpleNamespace(name=n, value=f"{__name__}:{a}", dist=dist)
+             for n, a in (("fpk", "FAKE_FPK"), ("averaging", "FAKE_AVERAGING"))]
+
+    def entry_points(group=None, **kw):
+        found = list(real(group=group, **kw))
+        return found + fakes if group == registry.SOLVER_GROUP else found
+
+    monkeypatch.setattr(registry.metadata, "entry_points", entry_points)
+    registry.refresh()
+    try:
+        assert registry.solver_names() == ("averaging", "fpk", "montecarlo")
+        assert registry.solver("fpk")[1].builtin
+        assert any("'fpk' from edge6" in c for c in registry._group(registry.SOLVER_GROUP)[1])
+    finally:
+        monkeypatch.undo()
+        registry.refresh()

@@ -40,16 +40,19 @@ _API: dict[str, tuple[str, str]] = {
 
 def _registered() -> dict[str, Any]:
     """The registered workflows' functions by public name: each workflow's ``api`` under its
-    name, its ``assertion`` under the assertion's own name (vifpk.core.protocols.Workflow)."""
+    name, its ``assertion`` under the assertion's own name (vifpk.core.protocols.Workflow), in
+    registry order (vifpk's own first): a name already taken keeps its first meaning, and the
+    fixed names above (``scene``, ``run``, ...) come before any workflow's."""
     from vifpk.core.registry import workflows
 
     out: dict[str, Any] = {}
     for w in workflows():
         api, assertion = getattr(w, "api", None), getattr(w, "assertion", None)
         if api is not None:
-            out[w.name] = api
-        if assertion is not None:
-            out[assertion.__name__] = assertion
+            out.setdefault(w.name, api)
+        name = getattr(assertion, "__name__", None)  # a partial has none: not exposed
+        if isinstance(name, str) and name.isidentifier() and not name.startswith("_"):
+            out.setdefault(name, assertion)
     return out
 
 

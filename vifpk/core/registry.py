@@ -163,8 +163,9 @@ def _solver_entries() -> tuple[ModelEntry, ...]:
 
 def model_solver_names() -> tuple[str, ...]:
     """The registered solvers of an averaged model's FPK (``vifpk.solvers``; vifpk's own
-    first), read without importing one."""
-    return tuple(e.name for e in _solver_entries())
+    first), read without importing one. A plugin registered as ``averaging`` or
+    ``montecarlo`` is shadowed by those two (a name keeps its first meaning, as for models)."""
+    return tuple(e.name for e in _solver_entries() if e.name not in (CLOSED_FORM, ORIGINAL))
 
 
 def solver_names() -> tuple[str, ...]:
@@ -181,7 +182,7 @@ def solver(name: str) -> tuple[Any, ModelEntry]:
     from .guard import PluginError, describe, source_of
     from .protocols import Solver
 
-    found = {e.name: e for e in _solver_entries()}
+    found = {e.name: e for e in _solver_entries() if e.name in model_solver_names()}
     one_of("FPK solver", name, tuple(found))
     e = found[name]
     label = f"solver plugin {e.name!r} ({e.value}, from {e.distribution})"
