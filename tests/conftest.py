@@ -181,7 +181,8 @@ def no_computation(monkeypatch):
         parts = ("vifpk", *p.relative_to(ROOT).with_suffix("").parts)
         if parts[-1] not in ("__init__", "__main__", "pytest_plugin"):
             importlib.import_module(".".join(parts))
-    homes = {"door.solvers": ("run_solver", "montecarlo_solution", "fpk_solution"),
+    homes = {"door.solvers": ("run_solver", "montecarlo_solution", "fpk_solution",
+                              "model_solution"),
              "door.timedomain": ("passage_averaged", "passage_montecarlo", "passage_sde",
                                  "transient_averaged", "transient_montecarlo",
                                  "transient_sde"),

@@ -273,3 +273,114 @@ def test_a_solver_plugin_named_like_a_builtin_is_shadowed(monkeypatch):
     finally:
         monkeypatch.undo()
         registry.refresh()
+
+
+# ------------------------------------------------ the time-domain and sweep API, wrong types
+def _sweep_file(tmp_path):
+    from tests.conftest import ROOT
+
+    return ROOT / "tests" / "data" / "sweep-averaging.toml"
+
+
+API_CASES = [
+    ("passage-threshold-text", lambda v, t: v.passage("paper-base", threshold="high"),
+     "threshold"),
+    ("passage-threshold-negative", lambda v, t: v.passage("paper-base", threshold=-1.0),
+     "threshold"),
+    ("passage-threshold-below-start", lambda v, t: v.passage("paper-base", threshold=0.3,
+                                                             start=0.5), "start"),
+    ("passage-models-string", lambda v, t: v.passage("paper-base", threshold=0.8,
+                                                      models="exact"), "exact"),
+    ("passage-paths-text", lambda v, t: v.passage("paper-base", threshold=0.8,
+                                                   paths="many"), "paths"),
+    ("passage-unknown-option", lambda v, t: v.passage("paper-base", threshold=0.8, floor=0.01),
+     "floor: not an option of passage"),
+    ("transient-times-text", lambda v, t: v.transient("paper-base", start=1.0,
+                                                       times="10,20"), "times"),
+    ("transient-times-empty", lambda v, t: v.transient("paper-base", start=1.0, times=[]),
+     "times"),
+    ("transient-start-negative", lambda v, t: v.transient("paper-base", start=-1.0,
+                                                           times=[10]), "start"),
+    ("sweep-not-a-path", lambda v, t: v.sweep(42, t / "o"), "42"),
+    ("sweep-missing-file", lambda v, t: v.sweep(t / "nope.toml", t / "o"), "nope.toml"),
+    ("sweep-executor", lambda v, t: v.sweep(_sweep_file(t), t / "o", executor="threads:2"),
+     "threads:2"),
+    ("check-tolerance-negative", lambda v, t: v.check("paper-base", tolerance=-0.1),
+     "tolerance"),
+    ("check-tolerance-metric", lambda v, t: v.check("paper-base", tolerance_metric="L7"),
+     "L7"),
+    ("check-confidence", lambda v, t: v.check("paper-base", confidence=1.5), "confidence"),
+    ("solve-grid-fraction", lambda v, t: v.solve("paper-base", "fpk", grid=4.5), "grid"),
+    ("scene-unknown-field", lambda v, t: v.scene("paper-base", **{"system.nope": 1}), "nope"),
+    ("scene-noise-kind", lambda v, t: v.scene("paper-base", **{"noise.kind": "pink"}),
+     "pink"),
+]
+
+
+def _existing(t):
+    (t / "taken.txt").write_text("keep me")
+    return t / "taken.txt"
+
+
+API_CASES += [
+    ("run-solve-unknown-model", lambda v, t: v.run("solve", "paper-base", "fpk", model="nope"),
+     "'nope'"),
+    ("run-check-unknown-model", lambda v, t: v.run("check", "paper-base", models=("nope",)),
+     "'nope'"),
+    ("check-out-is-a-file", lambda v, t: v.check("paper-base", out=_existing(t)), "taken.txt"),
+    ("solve-grid-bool", lambda v, t: v.solve("paper-base", "fpk", grid=True), "grid"),
+    ("passage-horizon-text", lambda v, t: v.passage("paper-base", threshold=0.8,
+                                                     horizon="long"), "horizon"),
+    ("passage-threshold-nan", lambda v, t: v.passage("paper-base", threshold=float("nan")),
+     "threshold"),
+    ("passage-threshold-bool", lambda v, t: v.passage("paper-base", threshold=True),
+     "threshold"),
+    ("transient-times-inf", lambda v, t: v.transient("paper-base", start=1.0,
+                                                      times=[10, float("inf")]), "times"),
+    ("transient-start-text", lambda v, t: v.transient("paper-base", start="1.0", times=[10]),
+     "start"),
+    ("transient-times-decreasing", lambda v, t: v.transient("paper-base", start=1.0,
+                                                             times=[20, 10]), "increasing"),
+    ("check-tolerance-nan", lambda v, t: v.check("paper-base", tolerance=float("nan")),
+     "tolerance"),
+    ("solve-paths-fraction", lambda v, t: v.solve("paper-base", "montecarlo", paths=64.5),
+     "paths"),
+    ("solve-seed-negative", lambda v, t: v.solve("paper-base", "montecarlo", seed=-1), "seed"),
+    ("solve-dt-zero", lambda v, t: v.solve("paper-base", "montecarlo", dt=0), "dt"),
+]
+
+
+@pytest.mark.parametrize(("case", "call", "says"), API_CASES, ids=[c[0] for c in API_CASES])
+def test_the_api_refuses_wrong_values_before_any_work(no_computation, tmp_path, case, call,
+                                                      says):
+    import vifpk
+    from vifpk.core.result import BadInput
+
+    with pytest.raises(BadInput) as err:
+        call(vifpk, tmp_path)
+    msg = str(err.value)
+    assert "\n" not in msg and says in msg, msg
+    assert not (tmp_path / "o").exists()
+
+
+# ------------------------------------------------ the measured-rate stop, at its edges
+@pytest.mark.parametrize(("elapsed", "computed", "remaining", "workers", "limit", "stops"), [
+    (100.0, 2, 1000, 1, 10.0, False),  # fewer than 3 points: a rate says little yet
+    (100.0, 3, 1000, 4, 10.0, False),  # a pool of 4: wait for 4 points
+    (100.0, 4, 1000, 4, 10.0, True),
+    (100.0, 3, 0, 1, 10.0, False),     # nothing left
+    (30.0, 3, 7, 1, 100.0, False),     # projected 100 = the limit: not over it
+    (30.0, 3, 8, 1, 100.0, True),      # projected 110
+    (1e6, 3, 1000, 1, None, False),    # --yes (or the API): no limit
+])
+def test_check_rate_stops_exactly_when_the_projection_is_over(tmp_path, elapsed, computed,
+                                                              remaining, workers, limit,
+                                                              stops):
+    from vifpk.harness.sweeps.errors import OverTime
+    from vifpk.harness.sweeps.runs import check_rate
+
+    if stops:
+        with pytest.raises(OverTime, match="--yes"):
+            check_rate(elapsed, computed, remaining, workers=workers, limit=limit, out=tmp_path)
+    else:
+        check_rate(elapsed, computed, remaining, workers=workers, limit=limit, out=tmp_path)

@@ -115,10 +115,15 @@ def sweep(path: str | Path, out: str | Path, *, executor: str = "serial",
           quiet: bool = True) -> Any:
     """A sweep file run into the folder ``out`` (``vifpk sweep``): a ``SweepRun`` naming the
     points computed, skipped and failed and the files written (sweep.nc, maps)."""
+    from vifpk.harness.request.errors import InputError
     from vifpk.harness.sweeps.executors import parse_executor, require_output_libraries
     from vifpk.harness.sweeps.runs import run_sweep
     from vifpk.harness.sweeps.spec import load_sweep
 
+    for name, value in (("path", path), ("out", out)):
+        if not isinstance(value, str | Path):
+            raise InputError(f"{name} {value!r}: not a path; give a sweep file's path (or a "
+                             "shipped sweep's name) and an output folder")
     sw = load_sweep(path)
     require_output_libraries()
     return run_sweep(sw, out, executor=parse_executor(executor), quiet=quiet)
