@@ -66,29 +66,41 @@ WRONG_NAME = SolverSpec("other", "registered under another name", stationary=_go
 
 
 @pytest.fixture
-def solver_plugin(monkeypatch):
-    """Register ``SPECS[name]`` (or GOOD, WRONG_NAME) as the solver plugin ``name``."""
-    import sys
+def extra_entry(monkeypatch):
+    """Add ``tests.test_edges6:<attr>`` to a registry group as another distribution's."""
+    import vifpk
 
-    module = sys.modules[__name__]
-
-    def install(name: str, attr: str | None = None):
-        if attr is None:
-            monkeypatch.setattr(module, "THE_SPEC", SPECS[name], raising=False)
-            attr = "THE_SPEC"
+    def install(group: str, name: str, attr: str):
         real = registry._group
 
-        def group(g):
+        def grp(g):
             entries, conflicts = real(g)
-            if g == registry.SOLVER_GROUP:
+            if g == group:
                 entries = (*entries, registry.ModelEntry(name, f"{__name__}:{attr}", "edge6"))
             return entries, conflicts
 
-        monkeypatch.setattr(registry, "_group", group)
+        monkeypatch.setattr(registry, "_group", grp)
         registry.refresh()
 
     yield install
     registry.refresh()
+    for cached in ("scene", "run", "partial"):
+        if cached not in ("scene", "run"):
+            vars(vifpk).pop(cached, None)
+
+
+@pytest.fixture
+def solver_plugin(monkeypatch, extra_entry):
+    """Register ``SPECS[name]`` (or the spec ``attr`` of this module) as the solver ``name``."""
+    import sys
+
+    def install(name: str, attr: str | None = None):
+        if attr is None:
+            monkeypatch.setattr(sys.modules[__name__], "THE_SPEC", SPECS[name], raising=False)
+            attr = "THE_SPEC"
+        extra_entry(registry.SOLVER_GROUP, name, attr)
+
+    return install
 
 
 @pytest.mark.parametrize("name", sorted(SOLVERS))
@@ -205,30 +217,6 @@ PARTIAL_ASSERTION = WorkflowSpec("partial", "an assertion without a name", api=_
 FAKE_FPK = SolverSpec("fpk", "another distribution's fpk", stationary=_good)
 FAKE_AVERAGING = SolverSpec("averaging", "a solver named like the closed form",
                             stationary=_good)
-
-
-@pytest.fixture
-def extra_entry(monkeypatch):
-    """Add ``tests.test_edges6:<attr>`` to a registry group as another distribution's."""
-    import vifpk
-
-    def install(group: str, name: str, attr: str):
-        real = registry._group
-
-        def grp(g):
-            entries, conflicts = real(g)
-            if g == group:
-                entries = (*entries, registry.ModelEntry(name, f"{__name__}:{attr}", "edge6"))
-            return entries, conflicts
-
-        monkeypatch.setattr(registry, "_group", grp)
-        registry.refresh()
-
-    yield install
-    registry.refresh()
-    for cached in ("scene", "run", "partial"):
-        if cached not in ("scene", "run"):
-            vars(vifpk).pop(cached, None)
 
 
 @pytest.mark.parametrize(("name", "attr"), [("scene", "SHADOW_SCENE"), ("run", "SHADOW_RUN")])

@@ -179,22 +179,14 @@ def solver(name: str) -> tuple[Any, ModelEntry]:
     """(the registered FPK solver ``name``, loaded: a vifpk.core.protocols.Solver; its entry).
     UnknownName listing the registered ones; an entry that does not load or is not a Solver of
     its name raises PluginError naming it (and its file)."""
-    from .guard import PluginError, describe, source_of
+    from .guard import PluginError
     from .protocols import Solver
 
     found = {e.name: e for e in _solver_entries() if e.name in model_solver_names()}
     one_of("FPK solver", name, tuple(found))
     e = found[name]
     label = f"solver plugin {e.name!r} ({e.value}, from {e.distribution})"
-    try:
-        obj = e.load()
-    except (KeyboardInterrupt, GeneratorExit):
-        raise
-    except BaseException as exc:  # noqa: BLE001 - the plugin's own failure, named
-        if e.builtin:
-            raise
-        src = source_of(e.value.partition(":")[0].strip())
-        raise PluginError(f"{label}: importing it {describe(exc, src)}") from exc
+    obj = _import_entry(e, label)
     if not isinstance(obj, Solver) or obj.name != e.name:
         raise PluginError(f"{label} is not a vifpk.core.protocols.Solver of that name")
     return obj, e
@@ -233,21 +225,32 @@ def _plugin_label(entry: ModelEntry) -> str:
 def _load(entry: ModelEntry) -> Any:
     """The entry point's factory. Not importable: UnknownName naming the entry point. A
     plugin whose import raises anything else (or calls sys.exit): PluginError naming it."""
+    def missing(exc: BaseException) -> UnknownName:
+        return UnknownName(f"model {entry.name!r}: its entry point {entry.value!r} (from "
+                           f"{entry.distribution}) cannot be loaded: {exc}")
+
+    return _import_entry(entry, _plugin_label(entry), entry.name, missing=missing)
+
+
+def _import_entry(entry: ModelEntry, label: str, name: str | None = None, *,
+                  missing: Callable[[BaseException], Exception] | None = None) -> Any:
+    """The object an entry point names. ``missing``: what an ImportError or AttributeError
+    becomes (a model's entry point to a module not installed); else, for another
+    distribution's entry, whatever importing it raises (or a sys.exit) is a PluginError
+    "<label>: importing it raised ..." naming its file; vifpk's own raise as they are."""
     from .guard import PluginError, describe, source_of
 
     try:
         return entry.load()
-    except (ImportError, AttributeError) as exc:
-        raise UnknownName(f"model {entry.name!r}: its entry point {entry.value!r} (from "
-                          f"{entry.distribution}) cannot be loaded: {exc}") from None
     except (KeyboardInterrupt, GeneratorExit):
         raise
     except BaseException as exc:  # noqa: BLE001 - the plugin's own failure, named
+        if missing is not None and isinstance(exc, ImportError | AttributeError):
+            raise missing(exc) from None
         if entry.builtin:
             raise
         src = source_of(entry.value.partition(":")[0].strip())
-        raise PluginError(f"{_plugin_label(entry)}: importing it "
-                          f"{describe(exc, src)}", entry.name) from exc
+        raise PluginError(f"{label}: importing it {describe(exc, src)}", name) from exc
 
 
 def build_model(scene: Any, name: str, **options: Any) -> Any:
