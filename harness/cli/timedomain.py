@@ -121,7 +121,7 @@ def check_passage(args: argparse.Namespace) -> Any:
     return scene
 
 
-def _number(option: str, value: Any, allowed: str) -> float:
+def _real(option: str, value: Any, allowed: str) -> float:
     """``value`` as a float, or InputError naming the option (the Python API passes values as
     they come: a text or a list where a number belongs is refused, not a TypeError)."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
@@ -132,11 +132,11 @@ def _number(option: str, value: Any, allowed: str) -> float:
 def passage_values(scene: Any, *, threshold: float, start: float | str,
                    horizon: float | None = None) -> None:
     """The threshold, start and horizon of a passage run (InputError, one line)."""
-    ac = _number("--threshold", threshold, "a finite amplitude > 0")
+    ac = _real("--threshold", threshold, "a finite amplitude > 0")
     if start != "stationary" and not isinstance(start, str):
-        _number("--start", start, "an amplitude or 'stationary'")
+        _real("--start", start, "an amplitude or 'stationary'")
     if horizon is not None:
-        horizon = _number("--horizon", horizon, "a finite time > 0")
+        horizon = _real("--horizon", horizon, "a finite time > 0")
     if not math.isfinite(ac) or ac <= 0:
         raise validate.InputError(f"--threshold {ac:g}: out of range; allowed: a finite "
                                   "amplitude > 0")
@@ -170,13 +170,13 @@ def check_transient(args: argparse.Namespace) -> Any:
 
 def transient_values(scene: Any, *, start: float, times: Any) -> None:
     """The start and the snapshot times of a transient run (InputError, one line)."""
-    start = _number("--start", start, "an amplitude >= 0")
+    start = _real("--start", start, "an amplitude >= 0")
     _amplitude_ok(scene, "--start", start)
     if isinstance(times, str | bytes) or not hasattr(times, "__iter__"):
         raise validate.InputError(f"--times {times!r}: not a list of times; allowed: times > 0 "
                                   "in increasing order, e.g. [10, 20, 40]")
     allowed = "times > 0 in increasing order"
-    t = tuple(_number("--times", x, allowed) for x in times)
+    t = tuple(_real("--times", x, allowed) for x in times)
     if not t:
         raise validate.InputError("--times: empty; allowed: times > 0 in increasing order")
     if not all(math.isfinite(x) for x in t):
