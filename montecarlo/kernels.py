@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import prange
 
 from ._jit import jit
@@ -250,8 +251,10 @@ def run_paths(rng, state, n_steps, step0, n_burn, stride, h,
     kick = f * math.sqrt(2.0 * D * h)
     bins = (a_lo, a_inv, x_lo, x_inv, v_lo, v_inv)
     for b in prange(n_blocks):
-        _block(b, rng, state, n_steps, step0, n_burn, stride, h, c1, c2, w0sq, alpha, f, mu,
-               r, alpha1, khi, dhi, ev, ou_a, ou_s, kick, bins, hist_A, hist_x, hist_v,
+        # the index as int64: numba types prange's index uint64 in the parallel lowering and
+        # int64 in its sequential typing, which compiled _block twice per specialisation
+        _block(np.int64(b), rng, state, n_steps, step0, n_burn, stride, h, c1, c2, w0sq, alpha,
+               f, mu, r, alpha1, khi, dhi, ev, ou_a, ou_s, kick, bins, hist_A, hist_x, hist_v,
                hist_joint, moments, events, stuck_time, energy, spw, windows)
 
 

@@ -127,9 +127,11 @@ def run_passage(rng, state, init, phase, steps, tries, fpt, count, budget, n_max
         xi_sd = math.sqrt(D / alpha1)
     kick = f * math.sqrt(2.0 * D * h)
     for b in prange(state.shape[0]):
-        _passage_block(b, rng, state, init, phase, steps, tries, fpt, count[b], budget, n_max,
-                       n_burn, horizon, h, Ec, a_start, a_burn, max_tries, c1, c2, w0sq, alpha,
-                       f, mu, r, alpha1, khi, dhi, ev, ou_a, ou_s, kick, xi_sd, bridge)
+        # the index as int64 (one compiled _passage_block, not two: kernels.run_paths)
+        _passage_block(np.int64(b), rng, state, init, phase, steps, tries, fpt, count[b],
+                       budget, n_max, n_burn, horizon, h, Ec, a_start, a_burn, max_tries, c1,
+                       c2, w0sq, alpha, f, mu, r, alpha1, khi, dhi, ev, ou_a, ou_s, kick,
+                       xi_sd, bridge)
 
 
 @jit
