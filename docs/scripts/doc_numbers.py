@@ -128,7 +128,7 @@ def run_check() -> tuple[dict[str, Any], float, float, float]:
         ru = resource.getrusage(resource.RUSAGE_CHILDREN)
         c0 = ru.ru_utime + ru.ru_stime
         t0 = time.perf_counter()
-        subprocess.run([sys.executable, "-m", "harness", "check", SCENE, "--out", tmp,
+        subprocess.run([sys.executable, "-m", "vifpk", "check", SCENE, "--out", tmp,
                         "--quiet"], cwd=ROOT, check=True, stdout=subprocess.DEVNULL)
         seconds = time.perf_counter() - t0
         load = os.getloadavg()[0]
