@@ -28,11 +28,11 @@ the damping coefficient, k += x^4 (d4 + d6 x^2 + ...) (k = d0 + d2 x^2 = c2 x^2 
 ``ev`` = (e2, e4, ...) the velocity damping (e2 v^2 + ...) v, taken as its own sub-flow
 V(h/2) around B (velocity_decay; the composition stays symmetric, so Strang's order holds).
 
-Switched-off effects are ``None`` (mu, r, alpha1 for white noise, higher-order terms, the
-per-step energy balance): numba prunes those branches at compile time, so the paper's scenes
-run the same machine code as before the general terms existed. Unrequested per-sample
-outputs (histograms, moments, the certificate's windows) are empty arrays (last axis 0), tested
-once a sample: one machine code for every choice of observables. (As None they were compile-time
+Switched-off effects are ``None`` (mu, r, alpha1 for white noise, higher-order terms): numba
+prunes those branches at compile time, so the paper's scenes compile no code of the general
+terms. Unrequested outputs (histograms, moments, the certificate's windows, the energy
+balance) are empty arrays (last axis 0), tested once a sample (the energy balance: once a
+step): one machine code for every choice of observables. (As None they were compile-time
 switches too, and the test suite compiled 53 specialisations of ``run_paths`` for 10 physics
 combinations, ~10 s each from a cold cache: most of a fresh CI run's time.)
 """
@@ -315,6 +315,7 @@ def _block(b, rng, state, n_steps, step0, n_burn, stride, h, c1, c2, w0sq, alpha
     the chatter guard rests the mass."""
     a_lo, a_inv, x_lo, x_inv, v_lo, v_inv = bins
     half = 0.5 * h
+    with_energy = energy.shape[2] > 0  # the power balance asked for (an empty array: not)
     n_paths = state.shape[1]
     for p0 in range(0, n_paths, LANES):
         lanes = min(LANES, n_paths - p0)  # the lanes beyond are throwaway copies of the last
@@ -363,7 +364,7 @@ def _block(b, rng, state, n_steps, step0, n_burn, stride, h, c1, c2, w0sq, alpha
                 left = (stride - (n - n_burn + 1) % stride) % stride
             sample = left == 0  # i.e. (n - n_burn + 1) % stride == 0
             left = stride - 1 if sample else left - 1
-            if energy is None and not sample:
+            if not with_energy and not sample:
                 continue
             for j in range(lanes):
                 p = p0 + j
@@ -375,7 +376,7 @@ def _block(b, rng, state, n_steps, step0, n_burn, stride, h, c1, c2, w0sq, alpha
                     x, v, o = x2, v2, o2
                 else:
                     x, v, o = x3, v3, o3
-                if energy is not None:
+                if with_energy:
                     imp1, ch1, imp2, ch2, st, k, va, vb, vc, vk, vd, ve, xi_used, dv1, dv2 = o
                     if ev is not None:
                         energy[b, p, EN_DAMP] += dv1

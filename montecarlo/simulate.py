@@ -169,7 +169,8 @@ def _kernel(arr: _Arrays, phys: dict[str, Any], h: float, n_steps: int, step0: i
                 ea[0], 1.0 / (ea[1] - ea[0]), given(hi["A"], none1), ex[0],
                 1.0 / (ex[1] - ex[0]), given(hi["x"], none1), ev[0], 1.0 / (ev[1] - ev[0]),
                 given(hi["v"], none1), given(hi["joint"], none2),
-                given(arr.moments, per_path), arr.events, arr.stuck, arr.energy, spw,
+                given(arr.moments, per_path), arr.events, arr.stuck,
+                given(arr.energy, per_path), spw,
                 given(windows, per_path))
     arr.events[:, K.EV_STUCK] = arr.stuck.sum(axis=1)  # per path first: order-independent
 
