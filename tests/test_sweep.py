@@ -410,3 +410,33 @@ def test_a_sweep_over_the_hour_by_its_measured_rate_stops_with_its_records(
     assert len(kept) == 3 and not (out / "sweep.nc").exists()
     assert main(["sweep", str(AVERAGING), "--out", str(out), "--quiet", "--yes"]) == 0
     assert "3 computed, 3 done before" in capsys.readouterr().out
+
+
+def test_scattered_map_markers_are_drawn_whole_at_the_range_s_edge(canned_check_sweep,
+                                                                   monkeypatch):
+    """Issue 28: the adaptive map's points on the range's edge were half-clipped by the axes.
+    The canned 2 x 2 check sweep's points (all four on the corners of their range) laid out as
+    an adaptive sweep's (a ``point`` dimension): every marker of the scattered map is drawn
+    unclipped (its figure captured before it becomes a PNG)."""
+    import matplotlib.lines
+    import vifpk.harness.sweeps.maps as maps
+    import xarray as xr
+
+    with xr.open_dataset(canned_check_sweep / "sweep.nc", engine="netcdf4") as ds:
+        ds.load()
+    flat = ds.stack(point=("system.r", "system.mu")).reset_index("point")
+    flat.attrs["mode"] = "adaptive"
+    figs = []
+    real = maps._png
+
+    def capture(fig):
+        figs.append(fig)
+        return real(fig)
+
+    monkeypatch.setattr(maps, "_png", capture)
+    assert any(caption.startswith("Adaptive sweep") for caption, _ in maps.figures(flat))
+    markers = [a for f in figs for ax in f.axes for a in ax.get_children()
+               if isinstance(a, matplotlib.lines.Line2D)
+               and a.get_marker() not in (None, "None", "") and len(a.get_xdata())]
+    assert markers, "no marker drawn"
+    assert not [m for m in markers if m.get_clip_on()]
