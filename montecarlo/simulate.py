@@ -38,6 +38,7 @@ from vifpk.core.scene import energy_balance
 
 from . import kernels as K
 from .certificate import certificate
+from .checkpoint import Checkpoint, run_key
 from .plan import (
     MIN_AUTO_BURN_IN,
     RELAX_MAX_TIME,
@@ -99,6 +100,11 @@ class Settings:
     certificate: bool = True
     max_path_steps: float = math.inf
     edges: dict[str, Any] = field(default_factory=dict, compare=False)
+    #: a checkpoint.Checkpoint (or its bytes) to continue from: the same paths, the next
+    #: window on, toward this run's floor; no pilot, no burn-in (checkpoint.py)
+    resume: Any = field(default=None, compare=False, repr=False)
+    #: return where the run stopped as info["checkpoint"] (a checkpoint.Checkpoint)
+    keep_state: bool = False
 
 
 def block_seeds(seed: int, blocks: int, per_block: int = 1, key: int = 0) -> np.ndarray:
@@ -358,16 +364,24 @@ def _floor_A(arr: _Arrays) -> float:
 def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> Result:
     """Monte Carlo of the original system for (duck-typed) scene.system and scene.noise.
 
-    Raises ValueError on settings it cannot use, SimulationDiverged when the run blows up and
-    BudgetExhausted when a target floor's budget ends before the first sampling window.
+    Raises ValueError on settings it cannot use (a ``resume`` checkpoint of another run among
+    them), SimulationDiverged when the run blows up and BudgetExhausted when a target floor's
+    budget ends before the first sampling window.
+
+    ``settings.resume``: continue a run from its checkpoint (checkpoint.py): its step, burn-in
+    and histogram ranges are kept (``dt`` and ``edges`` are not read), and the result is that of
+    the whole run so far. ``settings.keep_state``: info["checkpoint"] holds where it stopped.
     """
     st = replace(settings, **overrides)
+    ck = st.resume
+    if isinstance(ck, bytes | bytearray):
+        ck = Checkpoint.from_bytes(bytes(ck))
     obs = tuple(o for o in st.observables if o in OBSERVABLES)
     target = float(st.floor) if st.floor else 0.0
     if target > 0 and "A" not in obs:
         obs = ("A", *obs)
     phys = _params(system, noise)
-    h = step_size(st.dt, target, phys, st.sample_every)
+    h = ck.h if ck is not None else step_size(st.dt, target, phys, st.sample_every)
     if not (math.isfinite(h) and h > 0 and st.paths >= st.blocks >= 2):
         raise ValueError("need dt > 0 and paths >= blocks >= 2")
     t_start = time.perf_counter()
@@ -376,10 +390,17 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
     stride, spw, n_win = sampling_plan(st.time, st.sample_every, h, target)
     per_block = st.paths // st.blocks
     blocks = st.blocks
+    run = run_key(phys, h, st.seed, blocks, per_block, obs, st.certificate)
+    if ck is not None and (ck.key != run or (st.dt != "auto" and float(st.dt) != ck.h)):
+        raise ValueError("resume: the checkpoint belongs to another run (its physics, dt, seed, "
+                         "paths, blocks or observables differ from these settings)")
 
     # compile (or load from the cache) apart from the run: a one-step call of the same types
     t0 = time.perf_counter()
     edges = {k: np.asarray(v, dtype=float) for k, v in st.edges.items()}
+    if ck is not None:
+        edges = {k: np.asarray(ck.hist[k], dtype=float) for k in ("edges_A", "edges_x",
+                                                                   "edges_v")}
     tiny = _arrays(block_seeds(st.seed, 1, 1), np.full((1, 1, 3), 0.1),
                    edges or {"edges_A": np.linspace(0, 1, 3), "edges_x": np.linspace(0, 1, 3),
                              "edges_v": np.linspace(-1, 1, 3)}, obs)
@@ -393,58 +414,77 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
     bar = _progress(st.progress)
     step = _Stepper(phys, h, threads, bar, _growth(system))
     try:
-        t1 = time.perf_counter()
-        a_hint = float(edges["edges_A"][-1]) if "edges_A" in edges else 1.0
-        a_hi = _pilot_scale(phys, h, st.seed, step, a_hint)
-        if not edges:
-            try:
-                vmax = math.sqrt(2 * _potential(a_hi, phys))
-            except OverflowError:
-                vmax = math.inf
-            if not math.isfinite(vmax):
-                raise _diverged(h, f"the pilot reached amplitude {a_hi:.3g}, whose energy "
-                                "overflows double precision", step.cause)
-            edges = {"edges_A": np.linspace(0.0, a_hi, st.bins + 1),
-                     "edges_x": np.linspace(0.0 if phys["r"] is not None else -a_hi, a_hi,
-                                            st.bins + 1),
-                     "edges_v": np.linspace(-vmax, vmax, st.bins + 1)}
-        relax = None
-        if st.burn_in == "auto":
-            _label(bar, "monte carlo: relaxation pilot")
-            relax = _relaxation(phys, h, st.seed, step, a_hi, st.sample_every)
-            burn_in = max(BURN_FACTOR * relax["tau"], MIN_AUTO_BURN_IN)
-        else:
-            burn_in = float(st.burn_in)
-        pilot_s = time.perf_counter() - t1
+        if ck is None:  # a new run: pilots, burn-in
+            t1 = time.perf_counter()
+            a_hint = float(edges["edges_A"][-1]) if "edges_A" in edges else 1.0
+            a_hi = _pilot_scale(phys, h, st.seed, step, a_hint)
+            if not edges:
+                try:
+                    vmax = math.sqrt(2 * _potential(a_hi, phys))
+                except OverflowError:
+                    vmax = math.inf
+                if not math.isfinite(vmax):
+                    raise _diverged(h, f"the pilot reached amplitude {a_hi:.3g}, whose energy "
+                                    "overflows double precision", step.cause)
+                edges = {"edges_A": np.linspace(0.0, a_hi, st.bins + 1),
+                         "edges_x": np.linspace(0.0 if phys["r"] is not None else -a_hi, a_hi,
+                                                st.bins + 1),
+                         "edges_v": np.linspace(-vmax, vmax, st.bins + 1)}
+            relax = None
+            if st.burn_in == "auto":
+                _label(bar, "monte carlo: relaxation pilot")
+                relax = _relaxation(phys, h, st.seed, step, a_hi, st.sample_every)
+                burn_in = max(BURN_FACTOR * relax["tau"], MIN_AUTO_BURN_IN)
+            else:
+                burn_in = float(st.burn_in)
+            pilot_s = time.perf_counter() - t1
 
-        need = float(blocks * per_block) * (burn_in / h + n_win * spw * stride)
-        if st.burn_in == "auto" and need > st.max_path_steps:
-            raise CostRefused(
-                f"the relaxation pilot measured a relaxation time of {relax['tau']:.3g}, so the "
-                f"burn-in is {burn_in:.3g} and the run {need:.3g} path-steps, more than the "
-                f"{st.max_path_steps:.3g} allowed", relaxation_time=float(relax["tau"]),
-                burn_in=float(burn_in), path_steps=need, limit=float(st.max_path_steps))
-        if not burn_in / h < 2.0**53:  # beyond any run (and numba's integers)
-            raise SimulationDiverged(
-                f"the relaxation pilot measured a relaxation time of {burn_in / BURN_FACTOR:.3g}"
-                f" (burn-in {burn_in:.3g} = {burn_in / h:.3g} steps of dt = {h:g}): the paths "
-                "barely forget their start (most likely the noise is too weak to mix them: "
-                "check noise.D and f); give montecarlo.burn_in explicitly to run anyway")
-        n_burn = int(round(burn_in / h))
-        win_steps = spw * stride
-        gen = np.random.default_rng(np.random.SeedSequence(st.seed, spawn_key=(1 << 24,)))
-        frac = START_LOW + (1 - START_LOW) * (np.arange(per_block) + 0.5) / per_block
-        amps = np.broadcast_to(a_hi * frac, (blocks, per_block)).copy()
-        arr = _arrays(block_seeds(st.seed, blocks, per_block), _starts(amps, phys, gen),
-                      edges, obs)
-        windows = np.zeros((blocks, per_block, n_win)) if st.certificate else None
+            need = float(blocks * per_block) * (burn_in / h + n_win * spw * stride)
+            if st.burn_in == "auto" and need > st.max_path_steps:
+                raise CostRefused(
+                    f"the relaxation pilot measured a relaxation time of {relax['tau']:.3g}, so "
+                    f"the burn-in is {burn_in:.3g} and the run {need:.3g} path-steps, more "
+                    f"than the {st.max_path_steps:.3g} allowed",
+                    relaxation_time=float(relax["tau"]), burn_in=float(burn_in),
+                    path_steps=need, limit=float(st.max_path_steps))
+            if not burn_in / h < 2.0**53:  # beyond any run (and numba's integers)
+                raise SimulationDiverged(
+                    "the relaxation pilot measured a relaxation time of "
+                    f"{burn_in / BURN_FACTOR:.3g} (burn-in {burn_in:.3g} = {burn_in / h:.3g} "
+                    f"steps of dt = {h:g}): the paths "
+                    "barely forget their start (most likely the noise is too weak to mix them: "
+                    "check noise.D and f); give montecarlo.burn_in explicitly to run anyway")
+            n_burn = int(round(burn_in / h))
+            win_steps = spw * stride
+            gen = np.random.default_rng(np.random.SeedSequence(st.seed, spawn_key=(1 << 24,)))
+            frac = START_LOW + (1 - START_LOW) * (np.arange(per_block) + 0.5) / per_block
+            amps = np.broadcast_to(a_hi * frac, (blocks, per_block)).copy()
+            arr = _arrays(block_seeds(st.seed, blocks, per_block), _starts(amps, phys, gen),
+                          edges, obs)
+            windows = np.zeros((blocks, per_block, n_win)) if st.certificate else None
 
-        t2 = time.perf_counter()
-        if bar is not None:
-            bar.reset(total=blocks * per_block * (n_burn + n_win * win_steps))
-            _label(bar, "monte carlo")
-        step.run(arr, n_burn, 0, n_burn, stride)
-        run_to = 0  # windows simulated
+            t2 = time.perf_counter()
+            if bar is not None:
+                bar.reset(total=blocks * per_block * (n_burn + n_win * win_steps))
+                _label(bar, "monte carlo")
+            step.run(arr, n_burn, 0, n_burn, stride)
+            run_to = 0  # windows simulated
+        else:  # continued from a checkpoint: its plan, its paths, the next window on
+            relax, pilot_s = ck.relax, 0.0
+            n_burn, stride, spw = ck.n_burn, ck.stride, ck.spw
+            burn_in, win_steps = n_burn * h, spw * stride
+            arr = _Arrays(rng=ck.arrays["rng"].copy(), state=ck.arrays["state"].copy(),
+                          hist={**edges, **{k: None if ck.hist[k] is None else
+                                            ck.hist[k].copy() for k in ("A", "x", "v",
+                                                                        "joint")}},
+                          moments=_copy(ck.arrays["moments"]), events=ck.arrays["events"].copy(),
+                          stuck=ck.arrays["stuck"].copy(), energy=_copy(ck.arrays["energy"]))
+            windows = _copy(ck.windows)
+            run_to = n_win = ck.run_to
+            t2 = time.perf_counter()
+            if bar is not None:
+                bar.reset(total=1)
+                _label(bar, "monte carlo: extending")
         stopped = "fixed time"
         floor = math.nan
         while True:
@@ -522,6 +562,7 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
     steps = float(blocks * per_block * (n_burn + run_to * win_steps))
     info: dict[str, Any] = {
         "solver": "montecarlo",
+        "steps_this_run": steps - (ck.steps if ck is not None else 0.0),
         "settings": {"paths": blocks * per_block, "dt": h, "time": sampled,
                      "burn_in": n_burn * h, "sample_every": stride * h, "blocks": blocks,
                      "bins": st.bins, "observables": list(obs),
@@ -577,8 +618,22 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
     ok = all(np.all(np.isfinite(d["p"])) for d in data.values())
     if not ok:
         raise _diverged(h, "non-finite histogram", step.cause)
+    if ck is not None:
+        info["resumed"] = {"windows": ck.run_to, "steps": ck.steps,
+                           "note": "continued from a checkpoint: the same paths and random "
+                                   "streams from its next window on (no pilot, no burn-in)"}
+    if st.keep_state:
+        info["checkpoint"] = Checkpoint(
+            key=run, arrays={k: getattr(arr, k) for k in ("rng", "state", "moments", "events",
+                                                           "stuck", "energy")},
+            hist=dict(arr.hist), windows=windows, run_to=run_to, n_burn=n_burn, stride=stride,
+            spw=spw, h=h, steps=steps, relax=relax)
     info["status"] = Status.SIMULATED.record()
     return Result(data=data, info=info)
+
+
+def _copy(a: np.ndarray | None) -> np.ndarray | None:
+    return None if a is None else a.copy()
 
 
 def _mean_se(per_block: np.ndarray) -> dict[str, float]:

@@ -35,6 +35,23 @@ from vifpk.core.scene import no_noise
 _COST_LIMIT: ContextVar[tuple[float, float] | None] = ContextVar("cost_limit", default=None)
 
 
+# a Monte Carlo run to continue and where it stopped (mc_checkpoint); None: plain runs
+_MC_STATE: ContextVar[dict[str, Any] | None] = ContextVar("mc_state", default=None)
+
+
+@contextmanager
+def mc_checkpoint(resume: bytes | None = None) -> Iterator[dict[str, Any]]:
+    """Within it, the Monte Carlo of the original system continues from ``resume`` (the
+    bytes of a montecarlo.checkpoint.Checkpoint; None: a new run) toward the scene's floor,
+    and the yielded dict's "state" holds where it stopped (bytes) once it has run."""
+    box: dict[str, Any] = {"resume": resume, "state": None}
+    token = _MC_STATE.set(box)
+    try:
+        yield box
+    finally:
+        _MC_STATE.reset(token)
+
+
 @contextmanager
 def cost_limit(limit: tuple[float, float] | None) -> Iterator[None]:
     """Within it, a Monte Carlo of the original system with an automatic burn-in is priced
@@ -353,8 +370,13 @@ def montecarlo_solution(scene: Any, *, progress: bool = True, **edges: Any) -> R
                                    observables=scene.observables.names(), progress=progress,
                                    edges=edges,
                                    max_path_steps=limit[0] * limit[1] if limit else math.inf)
+    box = _MC_STATE.get()
+    if box is not None:
+        settings = dataclasses.replace(settings, resume=box["resume"], keep_state=True)
     res = montecarlo.simulate(scene.system, scene.noise, settings)
     info = dict(res.info)
+    if box is not None:
+        box["state"] = info.pop("checkpoint").to_bytes()
     mom = info.get("moments", {}).get("A", {}).get("mean")
     if mom is not None:
         info["summary"] = {"mean": mom["value"], "mean_err": mom["err"]}

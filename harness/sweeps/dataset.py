@@ -10,7 +10,12 @@ from pathlib import Path
 from typing import Any
 
 from vifpk.harness.sweeps.points import SDE_CHECK_EVERY, WARNING_FLAGS, Point, Sweep
-from vifpk.harness.sweeps.store import _tolerance, load_record
+from vifpk.harness.sweeps.store import (
+    _tolerance,
+    load_record,
+    record_name,
+    stage_fingerprint,
+)
 from vifpk.harness.sweeps.timesweep import SCALARS as TIME_SCALARS
 
 
@@ -87,6 +92,11 @@ def dataset(sweep: Sweep, records: Mapping[str, dict[str, Any]], *,
             put("extensions", res["extensions"], pt, dtype=np.int16, fill=-1)
         if "converged" in res:
             put("converged", int(res["converged"]), pt, dtype=np.int8, fill=-1)
+        for k in ("mc_path_steps", "mc_sampled_steps"):
+            if k in res:
+                put(k, res[k], pt)
+        if "stage" in r:  # band sweeps: how often the point's Monte Carlo was extended
+            put("mc_stage", r["stage"], pt, dtype=np.int16, fill=-1)
         for k, v in res.get("flags", {}).items():
             put(k, int(v), pt, dtype=np.int8, fill=-1)
     if sweep.workflow == "bifurcation":
@@ -175,14 +185,17 @@ def write_netcdf(ds: Any, path: Path) -> Path:
 
 
 def write_results(sweep: Sweep, out: Path, *, executor: str = "", report: bool = True,
-                  provenance: Mapping[str, Any] | None = None) -> dict[str, Path]:
-    """DIR/sweep.nc (and DIR/report.html) from the records on disk."""
+                  provenance: Mapping[str, Any] | None = None,
+                  stages: Mapping[str, int] | None = None) -> dict[str, Path]:
+    """DIR/sweep.nc (and DIR/report.html) from the records on disk; ``stages``: the record
+    of each point's ``stages[key]``-th extension (band sweeps), else its first."""
     from vifpk.harness.outputs import provenance as prov
 
     records = {}
     for pt in sweep.points:
-        rec = load_record(out / "points" / f"{pt.key}.json")
-        if rec and rec.get("fingerprint") == pt.fingerprint:
+        stage = (stages or {}).get(pt.key, 0)
+        rec = load_record(out / "points" / record_name(pt.key, stage))
+        if rec and rec.get("fingerprint") == stage_fingerprint(pt.fingerprint, stage):
             records[pt.key] = rec
     if provenance is None:
         provenance = prov.collect(scene_path=sweep.path)

@@ -220,6 +220,11 @@ class Job:
     models: tuple[str, ...] | None = None  # None: the workflow's default models
     tolerance: float = TOLERANCE  # check: the tolerance verdict's value
     tolerance_question: tuple[str, str, float] = ("L1", "A", TOLERANCE_CONFIDENCE)
+    #: check: keep where the Monte Carlo stopped (the record's "state", checkpoint bytes) and,
+    #: with ``state``, continue that run toward the scene's floor (band sweeps, bandrun.py)
+    keep_state: bool = False
+    state: bytes | None = field(default=None, repr=False)
+    stage: int = 0  # band sweeps: 0 for a new point, k for its k-th extension
 
 
 def run_point(job: Job) -> dict[str, Any]:
@@ -227,6 +232,8 @@ def run_point(job: Job) -> dict[str, Any]:
     t0 = time.perf_counter()
     rec: dict[str, Any] = {"key": job.key, "params": dict(job.params), "seed": job.seed,
                            "fingerprint": job.fingerprint, "workflow": job.workflow}
+    if job.keep_state:
+        rec["stage"] = job.stage
     try:
         result = sweep_functions()[job.workflow](job)
     except Exception as exc:  # noqa: BLE001 - recorded with its message; the sweep goes on
@@ -256,21 +263,26 @@ def _flags(warnings: list[Any]) -> dict[str, bool]:
 
 def _check_point(job: Job) -> dict[str, Any]:
     """The cross-check without the FPK: the averaging error of p(A) of each model."""
+    from contextlib import nullcontext
+
     import numpy as np
+    from vifpk.harness.door.solvers import mc_checkpoint
     from vifpk.harness.workflows.check import cross_check
     from vifpk.harness.workflows.tolerance import Tolerance
 
     from vifpk.core.guard import PluginError
 
     names, failed = list(_models(job, CHECK_MODELS)), {}
+    box: dict[str, Any] | None = None
     while True:  # a plugin that fails is dropped, named, and the check run without it
         try:
-            res = cross_check(job.scene, quiet=True, fpk=False, sde=job.sde, tail_mass=False,
-                              models=tuple(names),
-                              tolerance=Tolerance(value=job.tolerance,
-                                                  metric=job.tolerance_question[0],
-                                                  observable=job.tolerance_question[1],
-                                                  confidence=job.tolerance_question[2]))
+            with mc_checkpoint(job.state) if job.keep_state else nullcontext(None) as box:
+                res = cross_check(job.scene, quiet=True, fpk=False, sde=job.sde, tail_mass=False,
+                                  models=tuple(names),
+                                  tolerance=Tolerance(value=job.tolerance,
+                                                      metric=job.tolerance_question[0],
+                                                      observable=job.tolerance_question[1],
+                                                      confidence=job.tolerance_question[2]))
             break
         except PluginError as exc:
             if exc.model not in names or len(names) == 1:
@@ -308,7 +320,18 @@ def _check_point(job: Job) -> dict[str, Any]:
             "extensions": conv.get("extensions", 0),
             "flags": {**_flags(res.warnings), "warn_not_converged": not converged},
             "recommended_model": res.metrics["recommended_model"],
-            "warnings": [w.text for w in res.warnings], "verdicts": res.verdicts}
+            "warnings": [w.text for w in res.warnings], "verdicts": res.verdicts,
+            **_mc_cost(mc.info), **({"state": box["state"]} if box else {})}
+
+
+def _mc_cost(info: Mapping[str, Any]) -> dict[str, float]:
+    """The Monte Carlo's path-steps: all of its run so far (burn-in and sampled windows, pilots
+    not counted), those of this call (less than all for a continued run), and the sampled
+    windows' (what doubling the sample would cost)."""
+    st = info["settings"]
+    return {"mc_path_steps": float(info["steps"]),
+            "mc_path_steps_run": float(info.get("steps_this_run", info["steps"])),
+            "mc_sampled_steps": float(round(st["time"] / st["dt"]) * st["paths"])}
 
 
 def _averaging_point(job: Job) -> dict[str, Any]:

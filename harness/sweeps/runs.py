@@ -61,6 +61,11 @@ def run_sweep(sweep: Sweep, out: str | Path, *, executor: str | ExecutorSpec = "
     run_id = str((provenance or {}).get("run_id") or new_run_id())
     with outdir.hold(target, run_id=run_id, allowed=set(SWEEP_FILES), kind="sweep"):
         _clear_temporaries(target)
+        if sweep.mode == "adaptive" and sweep.adaptive.get("method") == "band":
+            from vifpk.harness.sweeps.bandrun import run_band
+
+            return run_band(sweep, out, executor=spec, quiet=quiet, report=report,
+                            provenance=provenance, time_limit=time_limit)
         if sweep.mode == "adaptive":
             return run_adaptive(sweep, out, executor=spec, quiet=quiet, report=report,
                                 provenance=provenance, time_limit=time_limit)

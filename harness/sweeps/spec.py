@@ -73,7 +73,10 @@ TOP_KEYS = ("scene", "workflow", "mode", "seed", "name", "description", "vary", 
             "bifurcation", "adaptive", "models", "tolerance", "passage", "transient")
 
 
-ADAPTIVE_KEYS = ("points", "model", "batch", "resolution")
+ADAPTIVE_KEYS = ("points", "model", "batch", "resolution", "method")
+#: "verdict": refine where the verdict within the noise changes (adaptive.py); "band": shrink the
+#: tolerance band by new points and longer runs (band.py), the default when a tolerance is given
+ADAPTIVE_METHODS = ("verdict", "band")
 
 
 #: points of an adaptive batch unless [adaptive] batch says otherwise: a property of the sweep
@@ -293,7 +296,8 @@ def load_sweep(path: str | Path) -> Sweep:
             raise SweepError(f"{src}: [vary] {key!r}: only numeric parameters can vary")
         vary.append((key, _range(f"{src}: [vary] {key!r}", spec) if mode == "adaptive"
                      else _values(f"{src}: [vary] {key!r}", spec)))
-    adaptive = _adaptive_table(src, raw, mode, workflow, len(vary), models or CHECK_MODELS)
+    adaptive = _adaptive_table(src, raw, mode, workflow, len(vary), models or CHECK_MODELS,
+                               tolerance_given="tolerance" in raw)
     if mode == "zip" and len({len(v) for _, v in vary}) > 1:
         lens = ", ".join(f"{k}: {len(v)}" for k, v in vary)
         raise SweepError(f"{src}: mode = 'zip' needs lists of one length ({lens})")
@@ -407,7 +411,8 @@ def _range(where: str, spec: Any) -> tuple[float, float]:
 
 
 def _adaptive_table(src: str, raw: Mapping[str, Any], mode: str, workflow: str, dims: int,
-                    models: tuple[str, ...] = CHECK_MODELS) -> dict[str, Any]:
+                    models: tuple[str, ...] = CHECK_MODELS, *, tolerance_given: bool = False
+                    ) -> dict[str, Any]:
     """The validated [adaptive] table (empty unless mode = "adaptive")."""
     table = raw.get("adaptive")
     if mode != "adaptive":
@@ -437,9 +442,16 @@ def _adaptive_table(src: str, raw: Mapping[str, Any], mode: str, workflow: str, 
     model = table.get("model")
     if model not in models:  # one of the models the sweep's checks run
         raise SweepError(f"{src}: [adaptive] model = {model!r}: allowed: " + ", ".join(models))
+    method = table.get("method", "band" if tolerance_given else "verdict")
+    if method not in ADAPTIVE_METHODS:
+        raise SweepError(f"{src}: [adaptive] method = {method!r}: allowed: "
+                         + ", ".join(ADAPTIVE_METHODS))
+    if method == "band" and not tolerance_given:
+        raise SweepError(f"{src}: [adaptive] method = 'band' shrinks the band of a tolerance: "
+                         "give tolerance = VALUE (e.g. 0.02)")
     return {"points": whole("points", 3), "model": model,
             "batch": whole("batch", 1, ADAPTIVE_BATCH),
-            "resolution": whole("resolution", 3, ADAPTIVE_RESOLUTION)}
+            "resolution": whole("resolution", 3, ADAPTIVE_RESOLUTION), "method": method}
 
 
 def adaptive_params(vary: Sequence[tuple[str, tuple[float, float]]], unit: Sequence[float]

@@ -27,6 +27,22 @@ def load_record(path: Path) -> dict[str, Any] | None:
         return None
 
 
+def record_name(key: str, stage: int = 0) -> str:
+    """A point's record file in DIR/points: ``KEY.json``, and ``KEY.ext<k>.json`` for the
+    k-th extension of its Monte Carlo (band sweeps)."""
+    return f"{key}.json" if stage == 0 else f"{key}.ext{stage}.json"
+
+
+def state_name(key: str, stage: int = 0) -> str:
+    """Where a band sweep keeps a point's Monte Carlo checkpoint after ``stage``."""
+    return f"{key}.state{stage}.npz"
+
+
+def stage_fingerprint(fingerprint: str, stage: int) -> str:
+    """The fingerprint of a point's k-th extension: the point's, and k."""
+    return fingerprint if stage == 0 else f"{fingerprint}+ext{stage}"
+
+
 def finished(sweep: Sweep, out: Path) -> dict[str, dict[str, Any]]:
     """Records of this sweep's points already on disk (matching fingerprints), by key.
 

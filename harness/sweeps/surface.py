@@ -282,13 +282,15 @@ def fit_surface(points: Any, error_estimate: Any, error_estimate_err: Any, *,
                 tolerance: float, axes: Sequence[Axis],
                 p_within_tolerance: Any = None, resolution: int | None = None,
                 band: tuple[float, float] = BAND, restarts: int = RESTARTS,
-                random_state: int = RANDOM_STATE) -> Surface:
+                random_state: int = RANDOM_STATE, start: Any = None) -> Surface:
     """Fit the error surface to ``points`` (n x dims parameter values) with their error
     estimates and standard errors (tolerance.tolerance_verdict), evaluate it on a fine grid
     (``resolution`` per axis, default RESOLUTION) and return the :class:`Surface`.
 
     ``p_within_tolerance``: the points' own verdicts, stored as given; without them the normal
-    approximation Phi((T - L_i) / s_i) is stored. Bad input: :class:`SurfaceError` (one line).
+    approximation Phi((T - L_i) / s_i) is stored. ``start``: a fitted surface's kernel
+    (``surface._model.kernel``) to start the hyperparameters from, without restarts (a band
+    sweep refits after every batch of a few points). Bad input: :class:`SurfaceError` (one line).
     """
     if not (isinstance(tolerance, int | float) and math.isfinite(tolerance) and tolerance > 0):
         raise SurfaceError(f"surface: tolerance must be a number > 0, not {tolerance!r}")
@@ -317,7 +319,7 @@ def fit_surface(points: Any, error_estimate: Any, error_estimate_err: Any, *,
     with _one_blas_thread():
         model, mean, hyper, kernel, lml, y, tau, floored_k = _fit_iterated(
             u, L[keep], s[keep], math.log(FLOOR_FRACTION * tolerance), restarts=restarts,
-            random_state=random_state)
+            random_state=random_state, start=start)
 
     n = resolution or RESOLUTION[dims]
     if n < 2:
@@ -361,16 +363,17 @@ def fit_surface(points: Any, error_estimate: Any, error_estimate_err: Any, *,
 
 
 def _fit_iterated(u: np.ndarray, L: np.ndarray, s: np.ndarray, log_floor: float, *,
-                  restarts: int, random_state: int) -> tuple[Any, ...]:
+                  restarts: int, random_state: int, start: Any = None) -> tuple[Any, ...]:
     """The Gauss-Newton fixed point (module docstring): pseudo-observations at g0, GP
     posterior mean at the points -> g0, to convergence; hyperparameters fitted on the first
     pseudo-observations and again on the converged ones, then iterated again."""
     g0 = np.log(np.maximum(L, np.maximum(s, math.exp(log_floor))))  # first guess
-    kernel = None
-    for rnd in range(2):
+    kernel = start
+    for rnd in range(1 if start is not None else 2):
         y, tau, floored = pseudo_observations(g0, L, s, log_floor)
         kernel, nugget, lml, at_bound = _hyperparameters(  # the second from the first's
-            u, y, tau, kernel, restarts=restarts if rnd == 0 else 0, random_state=random_state)
+            u, y, tau, kernel, restarts=restarts if rnd == 0 and start is None else 0,
+            random_state=random_state)
         for _ in range(ITERATIONS):
             y, tau, floored = pseudo_observations(g0, L, s, log_floor)
             model, mean = _posterior(u, y, tau, kernel, nugget)

@@ -1,0 +1,93 @@
+"""harness/sweeps/bandrun.py: band sweeps (issue 29, item 3) -- the sweep file's contract (fast)
+and (slow) a small real band sweep whose extension continues a point's Monte Carlo from its
+checkpoint, keeps one state file a point, and resumes without computing anything again."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from vifpk.harness.sweeps.errors import SweepError
+from vifpk.harness.sweeps.spec import load_sweep
+
+from tests.conftest import ROOT
+
+DATA = ROOT / "tests" / "data"
+BAND_SWEEP = DATA / "sweep-band.toml"
+
+
+def _write(tmp_path, extra: str, tolerance: bool = True):
+    text = BAND_SWEEP.read_text().replace('scene = "tiny.toml"', f'scene = "{DATA / "tiny.toml"}"')
+    if not tolerance:
+        text = text.replace("tolerance = 0.03\n", "")
+    text = text.replace("[adaptive]\n", "[adaptive]\n" + extra)
+    p = tmp_path / "s.toml"
+    p.write_text(text)
+    return p
+
+
+def test_band_is_the_default_with_a_tolerance(tmp_path):
+    assert load_sweep(BAND_SWEEP).adaptive["method"] == "band"
+    assert load_sweep(DATA / "sweep-adaptive.toml").adaptive["method"] == "verdict"
+    assert load_sweep(_write(tmp_path, 'method = "verdict"\n')).adaptive["method"] == "verdict"
+
+
+@pytest.mark.parametrize("extra, tolerance, words", [
+    ('method = "band"\n', False, "give tolerance = VALUE"),
+    ('method = "straddle"\n', True, "allowed: verdict, band"),
+])
+def test_bad_method_one_line(tmp_path, extra, tolerance, words):
+    with pytest.raises(SweepError, match=words) as exc:
+        load_sweep(_write(tmp_path, extra, tolerance))
+    assert "\n" not in str(exc.value)
+
+
+@pytest.mark.slow
+def test_band_sweep_extends_from_the_checkpoint_and_resumes(tmp_path, monkeypatch):
+    """Batch 1 is forced to extend the lattice's first point (the choice is band.py's, tested
+    in tests/test_band.py): its extension record continues the same Monte Carlo (path-steps
+    add up, the floor falls below the target), one state file is kept a point, sweep.nc holds
+    the extension's numbers with mc_stage 1, and a second run computes nothing and writes the
+    same sweep.nc."""
+    import xarray as xr
+    from vifpk.harness.sweeps import band
+    from vifpk.harness.sweeps.runs import run_sweep
+
+    real = band.choose
+    calls = []
+
+    def forced(sf, cands, size, **kw):
+        calls.append(len(cands))
+        ext = [c for c in cands if c.key is not None]
+        if len(calls) == 1:
+            return [band.Choice(unit=ext[0].unit, key=ext[0].key, gain=0.0, cost=ext[0].cost)]
+        return real(sf, cands, size, **kw)
+
+    monkeypatch.setattr(band, "choose", forced)
+    sweep = load_sweep(BAND_SWEEP)
+    out = tmp_path / "out"
+    first = run_sweep(sweep, out, quiet=True, report=False)
+    pts = out / "points"
+    ext = sorted(pts.glob("*.ext1.json"))
+    assert len(ext) == 1
+    key = ext[0].name.split(".")[0]
+    r0 = json.loads((pts / f"{key}.json").read_text())["result"]
+    r1 = json.loads(ext[0].read_text())["result"]
+    assert r1["mc_path_steps"] == r0["mc_path_steps"] + r1["mc_path_steps_run"]
+    target = r0["models"]["exact"]["L1_floor_A"] * np.sqrt(band.EXTEND_VARIANCE)
+    assert r1["models"]["exact"]["L1_floor_A"] <= target
+    assert not (pts / f"{key}.state0.npz").exists() and (pts / f"{key}.state1.npz").exists()
+    assert len(list(pts.glob("*.npz"))) == len(list(pts.glob("*.json"))) - 1
+    ds = xr.open_dataset(out / "sweep.nc")
+    i = list(ds.key.values).index(key)
+    assert int(ds.mc_stage[i]) == 1
+    assert float(ds.L1_floor_A.sel(model="exact")[i]) == r1["models"]["exact"]["L1_floor_A"]
+    before = ds.load()
+    ds.close()
+    calls.clear()  # the replay makes the same (forced) first choice
+    again = run_sweep(sweep, out, quiet=True, report=False)
+    assert again.computed == () and again.total == first.total
+    with xr.open_dataset(out / "sweep.nc") as ds2:
+        for v in ("error_estimate", "L1_floor_A", "mc_path_steps", "surface_p_inside"):
+            np.testing.assert_array_equal(ds2[v].values, before[v].values)
