@@ -131,7 +131,8 @@ def test_the_issue_contract_loads(tmp_path):
         '"system.r" = {start = 0.95, stop = 0.99}\n"system.mu" = {start = 0.0, stop = 0.004}\n'
         '[adaptive]\npoints = 120\nmodel = "exact"\n')
     sweep = load_sweep(tmp_path / "s.toml")
-    assert sweep.adaptive == {"points": 120, "model": "exact", "batch": 8, "resolution": 40}
+    assert sweep.adaptive == {"points": 120, "model": "exact", "batch": 8, "resolution": 40,
+                              "method": "verdict"}
     assert len(sweep.points) == 25 and sweep.points[0].sde
     assert dict(sweep.points[-1].params) == {"system.r": 0.99, "system.mu": 0.004}
 

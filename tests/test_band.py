@@ -25,8 +25,8 @@ pytest.importorskip("sklearn", reason="scikit-learn: the sweep and test extras")
 from sklearn.gaussian_process import GaussianProcessRegressor  # noqa: E402
 from vifpk.harness.sweeps.band import (  # noqa: E402
     EXTEND_VARIANCE,
-    Z,
     Candidate,
+    Z,
     _cov,
     choose,
     eval_grid,

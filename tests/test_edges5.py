@@ -338,7 +338,7 @@ def test_a_failing_plugin_in_a_sweep_keeps_the_other_models_numbers(tmp_path, mo
     monkeypatch.setattr(check, "cross_check", fake_cross_check)
     with pytest.raises(RuntimeError, match="stop here"):
         sweeps_points._check_point(SimpleNamespace(scene=job.scene, models=("exact", "mine"),
-                                           sde=False, tolerance=0.02,
+                                           sde=False, tolerance=0.02, keep_state=False,
                                            tolerance_question=("L1", "A", 0.95)))
     assert seen == [("exact", "mine"), ("exact",)]
 

@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from vifpk.harness.sweeps.errors import OverTime
+from vifpk.harness.sweeps.errors import OverTime, _duration, check_rate
 from vifpk.harness.sweeps.executors import ExecutorSpec, Runner, require_output_libraries
 from vifpk.harness.sweeps.points import Point, Sweep, make_point
 from vifpk.harness.sweeps.spec import adaptive_params
@@ -52,7 +52,6 @@ def run_band(sweep: Sweep, out: str | Path, *, executor: ExecutorSpec, quiet: bo
     from vifpk.harness.outputs.io import write_json
     from vifpk.harness.sweeps.adaptive import initial_design
     from vifpk.harness.sweeps.dataset import write_results
-    from vifpk.harness.sweeps.runs import _duration, check_rate
 
     require_output_libraries()
     out = Path(out)

@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from vifpk.harness.sweeps.dataset import write_results
-from vifpk.harness.sweeps.errors import OverTime
+from vifpk.harness.sweeps.errors import OverTime, _duration, check_rate  # noqa: F401
 from vifpk.harness.sweeps.executors import (
     ExecutorSpec,
     Runner,
@@ -71,26 +71,6 @@ def run_sweep(sweep: Sweep, out: str | Path, *, executor: str | ExecutorSpec = "
                                 provenance=provenance, time_limit=time_limit)
         return _run_held(sweep, Path(out), spec, quiet=quiet, report=report,
                          provenance=provenance, signals=signals, time_limit=time_limit)
-
-
-def check_rate(elapsed: float, computed: int, remaining: int, *, workers: int,
-               limit: float | None, out: Path) -> None:
-    """Stop a sweep whose measured rate puts it over ``limit`` seconds (OverTime, one line).
-
-    The projection is elapsed + elapsed / computed x remaining: the wall time a point has taken
-    in this run, parallelism included, for every point still to compute. It is made once at
-    least max(3, workers) points have finished (before, a pool's first completions say little
-    about its rate) and at every point after, so a rate that worsens is caught too."""
-    if limit is None or computed < max(3, workers) or remaining <= 0:
-        return
-    projected = elapsed + elapsed / computed * remaining
-    if projected > limit:
-        raise OverTime(f"this sweep: {computed} points took {_duration(elapsed)}, "
-                       f"{_duration(elapsed / computed)} a point, so the {remaining} left "
-                       f"would bring it to {_duration(projected)}, over the "
-                       f"{_duration(limit)} allowed without --yes (the estimate before the "
-                       f"run is a lower bound); the finished points are kept in {out}/points: "
-                       "run the same command with --yes to compute the rest")
 
 
 def _run_held(sweep: Sweep, out: Path, spec: ExecutorSpec, *, quiet: bool, report: bool,
@@ -273,11 +253,3 @@ def run_adaptive(sweep: Sweep, out: str | Path, *, executor: ExecutorSpec,
                           provenance=provenance)
     return SweepRun(total=len(order), computed=tuple(computed), skipped=skipped,
                     failed=tuple(failed), seconds=time.perf_counter() - t0, files=files)
-
-
-def _duration(s: float) -> str:
-    if s < 90:
-        return f"{s:.0f} s"
-    if s < 5400:
-        return f"{s / 60:.1f} min"
-    return f"{s / 3600:.1f} h"
