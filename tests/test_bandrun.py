@@ -48,8 +48,8 @@ def test_band_sweep_extends_from_the_checkpoint_and_resumes(tmp_path, monkeypatc
     """Batch 1 is forced to extend the lattice's first point (the choice is band.py's, tested
     in tests/test_band.py): its extension record continues the same Monte Carlo (path-steps
     add up, the floor falls below the target), one state file is kept a point, sweep.nc holds
-    the extension's numbers with mc_stage 1, and a second run computes nothing and writes the
-    same sweep.nc."""
+    the extension's numbers with mc_stage 1, a second run computes nothing and writes the
+    same sweep.nc, and the same sweep on processes:2 gives the same points and numbers."""
     import xarray as xr
     from vifpk.harness.sweeps import band
     from vifpk.harness.sweeps.runs import run_sweep
@@ -91,3 +91,9 @@ def test_band_sweep_extends_from_the_checkpoint_and_resumes(tmp_path, monkeypatc
     with xr.open_dataset(out / "sweep.nc") as ds2:
         for v in ("error_estimate", "L1_floor_A", "mc_path_steps", "surface_p_inside"):
             np.testing.assert_array_equal(ds2[v].values, before[v].values)
+    calls.clear()
+    run_sweep(sweep, tmp_path / "pool", executor="processes:2", quiet=True, report=False)
+    with xr.open_dataset(tmp_path / "pool" / "sweep.nc") as ds3:
+        assert list(ds3.key.values) == list(before.key.values)
+        for v in ("error_estimate", "error_estimate_err", "L1_floor_A", "mc_stage"):
+            np.testing.assert_array_equal(ds3[v].values, before[v].values)
