@@ -66,12 +66,45 @@ def estimates(ds: xr.Dataset, tol: float) -> tuple[np.ndarray, np.ndarray]:
     return est, se
 
 
-def surface_class(ds: xr.Dataset, tol: float) -> tuple[np.ndarray, float, int]:
-    """(inside on the grid, band area, points) from the sweep's own points."""
+def surface_class(ds: xr.Dataset, tol: float) -> tuple[np.ndarray, float, int, object]:
+    """(inside on the grid, band area, points, the surface) from the sweep's own points."""
     x = _points(ds)
     est, se = estimates(ds, tol)
     sf = fit_surface(x, est, se, tolerance=tol, axes=AXES)
-    return sf.p_inside > 0.5, sf.band_area, int(np.isfinite(est).sum())
+    return sf.p_inside > 0.5, sf.band_area, int(np.isfinite(est).sum()), sf
+
+
+def figure(path: str, ref_sf: object, fits: dict[str, tuple[object, np.ndarray, object]],
+           tol: float) -> None:
+    """The reference's P(inside) with its boundary (white), each method's boundary over it,
+    and the points of each method (one panel a method)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    n = len(fits)
+    fig, axs = plt.subplots(1, n, figsize=(4.6 * n + 1, 4.2), squeeze=False,
+                            constrained_layout=True)
+    r, mu = ref_sf.grid
+    for ax, (name, (sf, pts, verdict)) in zip(axs[0], fits.items(), strict=True):
+        im = ax.pcolormesh(1 - r, mu, ref_sf.p_inside.T, cmap="RdBu", vmin=0, vmax=1,
+                           shading="auto")
+        ax.contour(1 - r, mu, ref_sf.p_inside.T, levels=[0.5], colors="white", linewidths=2.5)
+        ax.contour(1 - r, mu, sf.p_inside.T, levels=[0.5], colors="black", linewidths=1.5)
+        ax.contourf(1 - r, mu, sf.band.T.astype(float), levels=[0.5, 1.5], colors="none",
+                    hatches=["////"])
+        if verdict is not None:
+            ax.contour(1 - r, mu, verdict.T.astype(float), levels=[0.5], colors="orange",
+                       linewidths=1.2, linestyles="--")
+        ax.plot(1 - pts[:, 0], pts[:, 1], ".", color="k", ms=2.5)
+        ax.set_title(name, fontsize=9)
+        ax.set_xlabel("impact loss 1 - r")
+        ax.set_ylabel("mu")
+    fig.colorbar(im, ax=axs[0, -1], label=f"reference P(exact L1(A) <= {tol:g})")
+    fig.suptitle("white: the reference's boundary; black: the method's, hatched its 5-95% "
+                 "band; orange dashed: the old verdict L1 < 2 floor", fontsize=9)
+    fig.savefig(path, dpi=110)
 
 
 def verdict_class(ds: xr.Dataset, grid: np.ndarray) -> np.ndarray:
@@ -94,10 +127,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--method", action="append", default=[],
                     help="NAME=SWEEP.nc=CPU_SECONDS")
     ap.add_argument("--out", default=str(Path(__file__).parent / "results" / "maps.json"))
+    ap.add_argument("--figure", default=None, help="also draw the maps over the reference")
     args = ap.parse_args(argv)
     tol = args.tolerance
     ref = xr.open_dataset(args.reference).load()
-    ref_in, ref_band, ref_n = surface_class(ref, tol)
+    ref_in, ref_band, ref_n, ref_sf = surface_class(ref, tol)
+    fits = {}
     n = ref_in.shape[0]
     g = np.linspace(0.0, 1.0, n)
     gu, gv = np.meshgrid(g, g, indexing="ij")
@@ -110,7 +145,8 @@ def main(argv: list[str] | None = None) -> int:
     for spec in args.method:
         name, path, cpu = spec.split("=")
         ds = xr.open_dataset(path).load()
-        inside, band, pts = surface_class(ds, tol)
+        inside, band, pts, sf = surface_class(ds, tol)
+        verdict = None
         row = {"file": path, "points": pts, "cpu_seconds": float(cpu),
                "misclassified_area": float(np.mean(inside != ref_in)),
                "band_area": band, "inside_area": float(inside.mean()),
@@ -123,11 +159,14 @@ def main(argv: list[str] | None = None) -> int:
             row["extensions"] = int(np.clip(ds["mc_stage"].values, 0, None).sum())
         adaptive = json.loads(ds.attrs.get("adaptive", "{}"))
         if ds.attrs.get("mode") == "adaptive" and adaptive.get("method", "verdict") == "verdict":
-            v = verdict_class(ds, grid).reshape(ref_in.shape)
-            row["verdict_misclassified_area"] = float(np.mean(v != ref_in))
+            verdict = verdict_class(ds, grid).reshape(ref_in.shape)
+            row["verdict_misclassified_area"] = float(np.mean(verdict != ref_in))
+        fits[name] = (sf, _points(ds), verdict)
         out["methods"][name] = row
         print(name, json.dumps(row), file=sys.stderr)
     Path(args.out).write_text(json.dumps(out, indent=1) + "\n")
+    if args.figure:
+        figure(args.figure, ref_sf, fits, tol)
     print(json.dumps(out, indent=1))
     return 0
 
