@@ -214,8 +214,11 @@ class _State:
         return math.inf if self.unit_cost is None else n_points * self.unit_cost
 
     def left(self, n_points: int) -> float:
-        b = self.budget(n_points)
-        return 0.0 if not math.isfinite(b) else max(b - self.spent, 0.0) / self.unit_cost
+        """Points' worth of Monte Carlo still to spend (before the lattice is done: a point
+        each for the rest of the budget)."""
+        if self.unit_cost is None:
+            return float(n_points - sum(1 for k in self.order if self.stage.get(k, -1) >= 0))
+        return max(self.budget(n_points) - self.spent, 0.0) / self.unit_cost
 
     def used(self, n_points: int) -> str:
         if self.unit_cost is None:
