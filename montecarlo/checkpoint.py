@@ -21,7 +21,7 @@ from __future__ import annotations
 import hashlib
 import io
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -60,6 +60,7 @@ class Checkpoint:
     h: float
     steps: float  # path-steps simulated so far (pilots not counted)
     relax: dict[str, Any] | None  # the relaxation pilot's result ("auto" burn-in)
+    notes: dict[str, Any] = field(default_factory=dict)  # JSON: the step's rule and check
 
     def to_bytes(self) -> bytes:
         """The checkpoint as an .npz archive (no pickle)."""
@@ -74,7 +75,7 @@ class Checkpoint:
             arrays["windows"] = self.windows
         meta = {"key": self.key, "run_to": self.run_to, "n_burn": self.n_burn,
                 "stride": self.stride, "spw": self.spw, "h": self.h, "steps": self.steps,
-                "relax": self.relax}
+                "relax": self.relax, "notes": self.notes}
         arrays["meta"] = np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)
         buf = io.BytesIO()
         np.savez(buf, **arrays)
@@ -92,4 +93,5 @@ class Checkpoint:
         return cls(key=meta["key"], arrays=arrays, hist=hist, windows=windows,
                    run_to=int(meta["run_to"]), n_burn=int(meta["n_burn"]),
                    stride=int(meta["stride"]), spw=int(meta["spw"]), h=float(meta["h"]),
-                   steps=float(meta["steps"]), relax=meta["relax"])
+                   steps=float(meta["steps"]), relax=meta["relax"],
+                   notes=meta.get("notes", {}))

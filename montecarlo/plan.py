@@ -76,13 +76,14 @@ def physics(system: Any, noise: Any) -> dict[str, Any]:
     }
 
 
-def step_size(dt: float | str, target: float, phys: dict[str, Any], sample_every: float
-              ) -> float:
+def step_size(dt: float | str, target: float, phys: dict[str, Any], sample_every: float,
+              amplitude: float | None = None) -> float:
     """The time step: ``dt``, or for "auto" the largest whole fraction sample_every / k of
-    sample_every not above tuning.auto_dt (so that samples fall on steps exactly)."""
+    sample_every not above tuning.auto_dt (so that samples fall on steps exactly);
+    ``amplitude`` the scale pilot's (tuning.auto_dt; without it: the provisional step)."""
     if dt != "auto":
         return float(dt)
-    h = auto_dt(target, phys)
+    h = auto_dt(target, phys, amplitude)
     return sample_every / math.ceil(sample_every / h * (1 - 1e-12))
 
 

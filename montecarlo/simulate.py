@@ -54,7 +54,16 @@ from .plan import (
     step_size,
 )
 from .plan import physics as _params
-from .tuning import fit_relaxation
+from .tuning import (
+    BIAS_FRACTION,
+    CHECK_FACTOR,
+    CHECK_FLOOR_RATIO,
+    DEFAULT_FLOOR,
+    OMEGA_REF,
+    fit_relaxation,
+    scene_omega,
+    step_check,
+)
 
 OBSERVABLES = ("A", "x1", "x2", "joint", "moments", "events", "energy")
 CHUNK_SECONDS = 0.4  # wall time of one kernel call: Ctrl-C is seen between calls
@@ -82,7 +91,8 @@ class Settings:
     floor (0: no limit); max_path_steps: the path-steps the burn-in and the (first) sampled
     windows may take once an "auto" burn-in is measured (inf: no limit), else
     vifpk.core.result.CostRefused is raised before the burn-in starts (the caller's cost
-    guard prices the run with the measured burn-in)."""
+    guard prices the run with the measured burn-in); dt_check: with dt "auto", check the
+    step's bias at run time (_step_check, tuning.step_check)."""
 
     paths: int
     dt: float | str
@@ -98,6 +108,7 @@ class Settings:
     observables: tuple[str, ...] = ("A", "x1", "x2", "joint", "moments", "events")
     progress: bool = True
     certificate: bool = True
+    dt_check: bool = True
     max_path_steps: float = math.inf
     edges: dict[str, Any] = field(default_factory=dict, compare=False)
     #: a checkpoint.Checkpoint (or its bytes) to continue from: the same paths, the next
@@ -287,10 +298,10 @@ _DUMMY = {"edges_A": np.array([0.0, 1.0]), "edges_x": np.array([0.0, 1.0]),
 
 
 def _pilot_scale(phys: dict[str, Any], h: float, seed: int, step: _Stepper,
-                 a_hint: float) -> float:
+                 a_hint: float, path_max: list[float] | None = None) -> float:
     """The largest amplitude seen by the scale pilot (plan.py: 32 paths from small starts over
     200 + 1000 time units), times 1.25 (the histogram ranges and the top of the over-dispersed
-    starts)."""
+    starts). ``path_max``, if given, receives each pilot path's largest amplitude."""
     gen = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(1 << 20,)))
     amps = np.full((SCALE_BLOCKS, SCALE_PER_BLOCK), 0.1 * a_hint)
     arr = _arrays(block_seeds(seed, SCALE_BLOCKS, SCALE_PER_BLOCK, key=1 << 21),
@@ -298,6 +309,8 @@ def _pilot_scale(phys: dict[str, Any], h: float, seed: int, step: _Stepper,
     n_burn = int(round(SCALE_BURN_IN / h))
     stride = max(int(round(SCALE_SAMPLE_EVERY / h)), 1)
     step.run(arr, n_burn + SCALE_SAMPLES * stride, 0, n_burn, stride)
+    if path_max is not None:
+        path_max.extend(float(a) for a in arr.moments[..., K.MO_MAXA].ravel())
     amax = 1.25 * float(np.max(arr.moments[..., K.MO_MAXA]))
     if not math.isfinite(amax):
         raise _diverged(h, "non-finite amplitude in the pilot run", step.cause)
@@ -414,10 +427,22 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
     bar = _progress(st.progress)
     step = _Stepper(phys, h, threads, bar, _growth(system))
     try:
+        dt_rule = None
         if ck is None:  # a new run: pilots, burn-in
             t1 = time.perf_counter()
             a_hint = float(edges["edges_A"][-1]) if "edges_A" in edges else 1.0
-            a_hi = _pilot_scale(phys, h, st.seed, step, a_hint)
+            path_max: list[float] = []
+            a_hi = _pilot_scale(phys, h, st.seed, step, a_hint, path_max)
+            if st.dt == "auto":  # the step from the orbits the pilot's paths reach (auto_dt)
+                a_typ = float(np.median(path_max)) if np.isfinite(path_max).all() else math.nan
+                h_pilot, h = h, step_size(st.dt, target, phys, st.sample_every, a_typ)
+                step.h = h
+                stride, spw, n_win = sampling_plan(st.time, st.sample_every, h, target)
+                dt_rule = {"pilot_dt": h_pilot, "amplitude": a_typ, "omega_ref": OMEGA_REF,
+                           "omega": scene_omega(phys, a_typ) if a_typ > 0 else None,
+                           "rule": "dt = dt_ref(F) OMEGA_REF / Omega, Omega the fastest free "
+                                   "orbit on amplitudes up to the median of the scale pilot's "
+                                   "path maxima (montecarlo/tuning.py)"}
             if not edges:
                 try:
                     vmax = math.sqrt(2 * _potential(a_hi, phys))
@@ -585,6 +610,8 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
     }
     if relax is not None:
         info["relaxation"] = relax
+    if dt_rule is not None:
+        info["dt_rule"] = dt_rule
     conv: dict[str, Any] = {}
     if windows is not None and run_to >= 1 and arr.moments is not None:
         m = _per_block(arr.moments, _MAX_COLUMNS)
@@ -615,6 +642,22 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
     if "x2" in data:
         info["atoms"] = {"x2": {"at": 0.0, "weight": data["x2"]["atom_weight"],
                                 "err": data["x2"]["atom_err"]}}
+    info["warnings"] = []
+    if ck is not None and ck.notes.get("dt_check"):  # the step and its check: the first stage's
+        chk = {**ck.notes["dt_check"], "note": "checked when the run began (at its floor), "
+               "not again for its continuation"}
+        info["dt_check"] = chk
+        if chk.get("verdict") == "failed":
+            info["warnings"].append(chk["message"])
+    elif st.dt == "auto" and st.dt_check and "A" in data:
+        t3 = time.perf_counter()
+        chk = _step_check(system, noise, st, data["A"], edges, h, n_burn * h, sampled, floor,
+                          target, deadline, (dt_rule or {}).get("omega"))
+        info["seconds"]["dt_check"] = time.perf_counter() - t3
+        info["seconds"]["total"] = time.perf_counter() - t_start
+        info["dt_check"] = chk
+        if chk["verdict"] == "failed":
+            info["warnings"].append(chk["message"])
     ok = all(np.all(np.isfinite(d["p"])) for d in data.values())
     if not ok:
         raise _diverged(h, "non-finite histogram", step.cause)
@@ -622,9 +665,13 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
         info["resumed"] = {"windows": ck.run_to, "steps": ck.steps,
                            "note": "continued from a checkpoint: the same paths and random "
                                    "streams from its next window on (no pilot, no burn-in)"}
-    if st.keep_state:
+    if ck is not None and ck.notes.get("dt_rule"):
+        info["dt_rule"] = ck.notes["dt_rule"]
+    if st.keep_state:  # the key of the step it ran at (dt "auto" settles after the pilot)
+        notes = {k: info[k] for k in ("dt_rule", "dt_check") if k in info}
         info["checkpoint"] = Checkpoint(
-            key=run, arrays={k: getattr(arr, k) for k in ("rng", "state", "moments", "events",
+            key=run_key(phys, h, st.seed, blocks, per_block, obs, st.certificate), notes=notes,
+            arrays={k: getattr(arr, k) for k in ("rng", "state", "moments", "events",
                                                            "stuck", "energy")},
             hist=dict(arr.hist), windows=windows, run_to=run_to, n_burn=n_burn, stride=stride,
             spw=spw, h=h, steps=steps, relax=relax)
@@ -634,6 +681,53 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
 
 def _copy(a: np.ndarray | None) -> np.ndarray | None:
     return None if a is None else a.copy()
+
+
+def _step_check(system: Any, noise: Any, st: Settings, dens: dict[str, Any],
+                edges: dict[str, np.ndarray], h: float, burn_in: float, sampled: float,
+                floor: float, target: float, deadline: float, omega: float | None
+                ) -> dict[str, Any]:
+    """The run-time check of dt = "auto" (tuning.step_check): an independent run at
+    CHECK_FACTOR x dt (its own seed, derived from the run's; the run's edges and burn-in, so
+    no pilot measures anything again; the run's observables, so no kernel is compiled anew)
+    to a floor CHECK_FLOOR_RATIO x the run's, within what is left of the budget; then the
+    bias of p(A) at dt is judged against BIAS_FRACTION x the target floor. The verdict and a
+    sentence (``message``); a failed check's sentence goes to the run's ``warnings``."""
+    allowance = BIAS_FRACTION * (target if target > 0 else DEFAULT_FLOOR)
+    k = CHECK_FACTOR
+    head = f"dt = {h:.4g} (auto)"
+    # the splitting's linear stability limit is dt omega < 2 (docs/montecarlo.md); the check
+    # stays at half of it for the fastest orbit the rule saw
+    if omega is not None and k * h * omega >= 1.0:
+        return {"verdict": "not run", "dt": h, "message": f"{head}: the step check was not "
+                f"run: {k} x dt is too close to the stability limit dt Omega = 2"}
+    left = deadline - time.perf_counter()
+    if left <= 0:
+        return {"verdict": "not run", "dt": h, "message": f"{head}: the step check was not "
+                "run: the budget was spent"}
+    seed = int(np.random.SeedSequence(st.seed, spawn_key=(1 << 25,)).generate_state(1)[0])
+    # a floor CHECK_FLOOR_RATIO x the run's takes 1 / CHECK_FLOOR_RATIO^2 of its sampled time:
+    # the floor mode starts with half of ``time`` and extends from there
+    time_c = max(2 * sampled / CHECK_FLOOR_RATIO**2, 16 * st.sample_every)
+    chk_st = replace(st, dt=k * h, burn_in=burn_in, floor=CHECK_FLOOR_RATIO * floor,
+                     time=time_c, seed=seed, edges=edges, dt_check=False, resume=None,
+                     keep_state=False, max_path_steps=math.inf,
+                     budget=left if math.isfinite(left) else 0.0)
+    try:
+        coarse = simulate(system, noise, chk_st).data["A"]
+    except (SimulationDiverged, BudgetExhausted) as exc:
+        return {"verdict": "not run", "dt": h, "message": f"{head}: the step check at "
+                f"{k} x dt could not run ({str(exc).split(':')[0]})"}
+    out = step_check(dens, coarse, dt=h, factor=k, allowance=allowance)
+    lo, hi = out["bias_interval"]
+    words = {"passed": "within", "failed": "ABOVE", "undecided": "not resolved against"}
+    out["message"] = (f"{head}: the step check ({k} x dt, an independent run) puts the bias of "
+                      f"p(A) at {out['bias']:.2g} (interval {lo:.2g}-{hi:.2g}) in L1, "
+                      f"{words[out['verdict']]} the allowance {allowance:.2g} (half the "
+                      "target floor)")
+    if out["verdict"] == "failed":
+        out["message"] += f": the densities carry a step bias; run again with --dt {h / 2:.3g}"
+    return out
 
 
 def _mean_se(per_block: np.ndarray) -> dict[str, float]:

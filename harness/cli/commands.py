@@ -65,6 +65,8 @@ def cmd_solve(args: argparse.Namespace) -> int:
         print(f"vifpk: the simulation is NOT equilibrated: {stuck}; {kept} with its "
               "certificate; --allow-unequilibrated accepts it (exit 0)", file=sys.stderr)
         return EXIT_SOLVER
+    for warning in result.info.get("warnings", ()):  # e.g. a failed check of dt "auto"
+        print(f"vifpk: warning: {warning}", file=sys.stderr)
     if conv.get("equilibrated") is False:  # said on the terminal, not only inside the JSON
         print(f"vifpk: warning: the simulation is NOT equilibrated ({conv.get('reason', '')}); "
               "its densities are not yet the stationary ones: raise --time or --paths, or give "

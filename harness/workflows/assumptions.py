@@ -22,12 +22,13 @@ from vifpk.core.result import WarningRecord
 #: The kinds of warning check writes (WarningRecord.kind): code acts on the kind (the
 #: sweep's flags, advisory or not), people read the text.
 #: Of them, the averaging assumptions that fail (assumption_warnings; the sweep's map flags);
-#: "outside_range" is a diagnostic of the run, not of the model.
+#: "outside_range" and "dt_bias" (a failed run-time check of the automatic step,
+#: montecarlo/tuning.py step_check) are diagnostics of the run, not of the model.
 ASSUMPTION_KINDS = ("strong_damping", "narrow_band", "sticking", "strong_noise",
                     "correlated_noise")
 
 
-WARNING_KINDS = (*ASSUMPTION_KINDS, "outside_range")
+WARNING_KINDS = (*ASSUMPTION_KINDS, "outside_range", "dt_bias")
 
 
 #: advisory kinds: the averaging assumptions hold, but the measured O(eps) remainder of the

@@ -244,6 +244,8 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
             "samples outside the range where the averaged models hold their mass "
             "(not converged, or a different state altogether); its densities there "
             "are not shown and count toward L1 as one cell beyond the range"))
+    if mc.info.get("dt_check", {}).get("verdict") == "failed":
+        warnings.append(WarningRecord("dt_bias", mc.info["dt_check"]["message"]))
     verdicts = [verdict(m, metrics["models"][m], warnings, convergence=conv) for m in models]
     verdicts += [f"{m} model: not checked, {why}" for m, why in absent.items()]
     for m in models:
@@ -264,7 +266,8 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
     metrics["warnings"] = [w.text for w in warnings]
     metrics["warning_kinds"] = [w.kind for w in warnings]
     metrics["monte_carlo"] = {k: mc.info[k] for k in ("settings", "effects", "events", "L1_floor",
-                                                     "seed", "atoms", "relaxation")
+                                                     "seed", "atoms", "relaxation", "dt_rule",
+                                                     "dt_check")
                               if k in mc.info}
     metrics["monte_carlo"]["convergence"] = conv
     # everything that depends on the machine's speed lives under "timings" only, so that the

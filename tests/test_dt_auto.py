@@ -1,0 +1,171 @@
+"""dt = "auto" (issue 29): the step rule reads the scene's time scale, and a run-time check
+judges the bias it leaves (montecarlo/tuning.py; docs/montecarlo.md, "The step rule on other
+scenes"). The fast tests hold the formulas and the check's statistics on histograms whose
+truth is known; the slow ones run the Monte Carlo."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict
+
+import numpy as np
+import pytest
+from scipy.special import ellipk
+from vifpk.montecarlo import tuning
+from vifpk.montecarlo.plan import physics, step_size
+
+from vifpk import montecarlo as mc
+from vifpk.core.scene import MonteCarloSettings, load_scene, scene_from_dict
+
+
+def _phys(w0sq=1.0, alpha=0.6, khi=None, c1=0.025, c2=0.05, mu=0.001, D=0.01, alpha1=2.0):
+    return {"w0sq": w0sq, "alpha": alpha, "khi": None if khi is None else np.array(khi),
+            "c1": c1, "c2": c2, "mu": mu, "D": D, "alpha1": alpha1, "r": 0.96, "f": 1.0,
+            "dhi": None, "ev": None}
+
+
+@pytest.mark.parametrize("w0sq, alpha, A", [(1.0, 0.6, 0.4), (1.0, 10.0, 1.5), (4.0, 2.0, 0.9)])
+def test_orbit_frequency_is_the_duffing_period(w0sq, alpha, A):
+    """x'' + w0^2 x + alpha x^3 = 0 from amplitude A: T = 4 K(m) / sqrt(w0^2 + alpha A^2),
+    m = alpha A^2 / (2 (w0^2 + alpha A^2)) (the Jacobi cn solution)."""
+    s = w0sq + alpha * A * A
+    T = 4 * ellipk(alpha * A * A / (2 * s)) / math.sqrt(s)
+    assert tuning.orbit_omega(_phys(w0sq, alpha), A) == pytest.approx(2 * math.pi / T, rel=1e-10)
+    assert tuning.orbit_omega(_phys(w0sq, alpha), 0.0) == pytest.approx(math.sqrt(w0sq))
+
+
+def test_the_fastest_orbit_of_softening_and_hardening_springs():
+    soft = _phys(1.0, -0.3, khi=[0.0226])  # scenes/hard/soft-bound.toml: g/x dips below 1
+    assert tuning.scene_omega(soft, 1.5) == pytest.approx(1.0)
+    hard = _phys(1.0, 10.0)
+    assert tuning.scene_omega(hard, 1.5) == pytest.approx(tuning.orbit_omega(hard, 1.5))
+    assert tuning.scene_omega(_phys(0.0, 1.0), 1.0) > 0  # a pure cubic has a frequency too
+
+
+@pytest.mark.parametrize("floor", [0.002, 0.005, 0.01, 0.05])
+def test_the_step_scales_with_the_scene_time(floor):
+    """A scene with every frequency times s (k -> s^2 k, c -> s c, alpha1 -> s alpha1, ...) is
+    the same system on a clock s times faster: its automatic step is the base one / s."""
+    base = _phys()
+    for s in (0.5, 2.0, 3.0):
+        fast = _phys(s * s, s * s * 0.6, c1=s * 0.025, c2=s * 0.05, mu=s * s * 0.001,
+                     D=s**3 * 0.01, alpha1=s * 2.0)
+        for a_max in (0.5, 1.0, 2.0):
+            assert tuning.auto_dt(floor, fast, a_max) == pytest.approx(
+                tuning.auto_dt(floor, base, a_max) / s, rel=1e-12)
+
+
+def test_the_base_scene_keeps_its_step():
+    """The fit was made on the base scene, so there the rule gives the step it gave before
+    (dt = 0.5 / 23 at floor 0.005, 0.5 / 13 at 0.01 and without a floor) for the largest
+    amplitudes its scale pilot sees from any seed (OMEGA_REF; docs/montecarlo.md)."""
+    phys = physics(*(lambda s: (s.system, s.noise))(load_scene("paper-base")))
+    default_seed = 0.8330  # the pilot's amplitude at the default seed
+    assert step_size("auto", 0.005, phys, 0.5, default_seed) == pytest.approx(0.5 / 23)
+    for a in (*tuning.BASE_AMPLITUDES, default_seed):
+        assert step_size("auto", 0.005, phys, 0.5, a) == pytest.approx(0.5 / 23)
+        assert step_size("auto", 0.01, phys, 0.5, a) == pytest.approx(0.5 / 13)
+        assert step_size("auto", 0.0, phys, 0.5, a) == pytest.approx(0.5 / 13)
+    # before the pilot: the provisional step is the base family's, as before issue 29
+    assert step_size("auto", 0.005, phys, 0.5) == pytest.approx(0.5 / 23)
+
+
+def test_a_stiffer_spring_gets_a_shorter_step():
+    base, stiff = _phys(), _phys(1.0, 10.0)
+    assert tuning.auto_dt(0.005, stiff, 1.2) < 0.5 * tuning.auto_dt(0.005, base, 1.2)
+
+
+# --- the run-time check, on histograms whose truth is known ----------------------------------
+
+def _hist(truth, se, rng, blocks=32):
+    """A Monte Carlo-like histogram of ``truth``: block densities with per-bin noise such that
+    the block mean has standard error ``se``."""
+    p_blocks = truth + rng.standard_normal((blocks, truth.size)) * se * math.sqrt(blocks)
+    p = p_blocks.mean(axis=0)
+    err = p_blocks.std(axis=0, ddof=1) / math.sqrt(blocks)
+    return {"p": p, "err": err, "p_blocks": p_blocks}
+
+
+def _setup(bias, floor=0.005, factor=tuning.CHECK_FACTOR, order=tuning.BIAS_P, seed=0):
+    """Two runs of a Gaussian p(A): the run at dt with L1 bias ``bias``, the check at
+    factor x dt with bias factor^order x that (a shift of the law), floors floor and 2 floor."""
+    rng = np.random.default_rng(seed)
+    edges = np.linspace(0.0, 1.0, 101)
+    x, w = 0.5 * (edges[1:] + edges[:-1]), np.diff(edges)
+
+    def law(shift):
+        return np.exp(-0.5 * ((x - 0.4 - shift) / 0.1) ** 2) / (0.1 * math.sqrt(2 * math.pi))
+
+    unit = np.sum(np.abs(law(1e-3) - law(0.0)) * w) / 1e-3  # L1 per unit shift
+    p0 = law(0.0)
+    se = floor / (math.sqrt(2 / math.pi) * np.sum(np.sqrt(p0 / p0.sum()) * w)) * \
+        np.sqrt(p0 / p0.sum())
+    run = _hist(law(bias / unit), se, rng) | {"edges": edges}
+    coarse = _hist(law(factor**order * bias / unit), 2 * se, rng)
+    return run, coarse
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_the_check_passes_a_small_bias_and_fails_a_large_one(seed):
+    """Floors 0.005 (the run) and 0.01 (the check), allowance 0.0025: a bias of 0.2 x the
+    allowance is not failed (passed in 16 of 20 seeds, else undecided), one of 2x and 4x
+    is failed, its interval holding the truth."""
+    allowance, k = 0.0025, tuning.CHECK_FACTOR
+    ok = tuning.step_check(*_setup(0.0005, seed=seed), dt=0.02, factor=k, allowance=allowance)
+    assert ok["verdict"] in ("passed", "undecided") and ok["bias"] < allowance
+    for bias in (0.005, 0.01):
+        bad = tuning.step_check(*_setup(bias, seed=seed), dt=0.02, factor=k,
+                                allowance=allowance)
+        assert bad["verdict"] == "failed"
+        lo, hi = bad["bias_interval"]
+        assert lo <= bias * 1.05 and bias * 0.95 <= hi  # (the estimate's own bias: a few %)
+
+
+def test_the_check_estimates_the_bias_at_the_rule_order():
+    """With the check's noise small, b_hat = L / (k^p - 1) recovers the bias at dt."""
+    est = [tuning.step_check(*_setup(0.004, floor=0.0005, seed=s), dt=0.02,
+                             factor=tuning.CHECK_FACTOR, allowance=0.0025)["bias"]
+           for s in range(5)]
+    assert np.mean(est) == pytest.approx(0.004, rel=0.05)
+
+
+def _scene(**system):
+    raw = {"system": {"c1": 0.025, "c2": 0.05, "omega0": 1.0, "alpha": 0.6, "mu": 0.001,
+                      "r": 0.96, "f": 1.0, **system},
+           "noise": {"kind": "ou", "D": 0.01, "alpha1": 2.0}}
+    return scene_from_dict(raw)
+
+
+def _settings(**kw):
+    return mc.Settings(**{**asdict(MonteCarloSettings()), "progress": False, "threads": 1,
+                          "observables": ("A", "moments"), **kw})
+
+
+@pytest.mark.slow
+def test_the_check_runs_with_dt_auto_and_passes_at_the_base_scene():
+    sc = load_scene("paper-base")
+    res = mc.simulate(sc.system, sc.noise, _settings(dt="auto", floor=0.01))
+    chk, rule = res.info["dt_check"], res.info["dt_rule"]
+    assert res.info["settings"]["dt"] == pytest.approx(0.5 / 13)
+    assert rule["omega"] == pytest.approx(tuning.OMEGA_REF, rel=0.03)
+    assert chk["verdict"] in ("passed", "undecided") and res.info["warnings"] == []
+    assert chk["check_dt"] == pytest.approx(tuning.CHECK_FACTOR * 0.5 / 13)
+    # cheap against the run: about 1 / (4 x 4) of its sampled path-steps, plus its burn-in
+    assert res.info["seconds"]["dt_check"] < 0.5 * res.info["seconds"]["run"]
+    pinned = mc.simulate(sc.system, sc.noise, _settings(dt=0.5 / 13, floor=0.01))
+    assert "dt_check" not in pinned.info  # a step given is the caller's: not checked
+
+
+@pytest.mark.slow
+def test_the_check_fails_and_says_so_when_the_rule_is_too_optimistic(monkeypatch):
+    """A rule far too optimistic (base-family step 0.1 whatever the floor) on a scene with
+    strongly inelastic impacts, where the bias at dt = 0.1 is 0.007 in L1 against the
+    allowance 0.0025 of floor 0.005 (benchmarks/results/dt_bias.json, r-0.5): the check must
+    fail and the run must carry the warning."""
+    monkeypatch.setattr(tuning, "DT_RANGE", (0.1, 0.1))
+    sc = _scene(r=0.5)
+    res = mc.simulate(sc.system, sc.noise, _settings(dt="auto", floor=0.005))
+    assert res.info["settings"]["dt"] == pytest.approx(0.1)
+    chk = res.info["dt_check"]
+    assert chk["verdict"] == "failed", chk
+    assert res.info["warnings"] == [chk["message"]] and "ABOVE" in chk["message"]
