@@ -719,14 +719,15 @@ def _step_check(system: Any, noise: Any, st: Settings, dens: dict[str, Any],
         return {"verdict": "not run", "dt": h, "message": f"{head}: the step check at "
                 f"{k} x dt could not run ({str(exc).split(':')[0]})"}
     out = step_check(dens, coarse, dt=h, factor=k, allowance=allowance)
-    lo, hi = out["bias_interval"]
-    words = {"passed": "within", "failed": "ABOVE", "undecided": "not resolved against"}
+    lo, hi = out["bias_range"]
+    said = {"passed": "within", "failed": "ABOVE", "undecided": "not decided against"}
     out["message"] = (f"{head}: the step check ({k} x dt, an independent run) puts the bias of "
-                      f"p(A) at {out['bias']:.2g} (interval {lo:.2g}-{hi:.2g}) in L1, "
-                      f"{words[out['verdict']]} the allowance {allowance:.2g} (half the "
-                      "target floor)")
+                      f"p(A) at {lo:.2g}-{hi:.2g} in L1 (as it grows like dt^2 or dt), "
+                      f"{said[out['verdict']]} the allowance {allowance:.2g} (half the target "
+                      "floor)")
     if out["verdict"] == "failed":
-        out["message"] += f": the densities carry a step bias; run again with --dt {h / 2:.3g}"
+        out["message"] += (": the step rule does not hold here and p(A) carries a step bias; "
+                           f"run again with --dt {h / 4:.3g} or smaller")
     return out
 
 
