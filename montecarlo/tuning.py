@@ -18,20 +18,24 @@ A step is only large or small against the scene's own time scale: the scene with
 frequency multiplied by s (t -> t / s: k1 -> s^2 k1, k3 -> s^2 k3, c1, c2 -> s c1, s c2, mu ->
 s^2 mu, alpha1 -> s alpha1, f^2 D -> s^3 f^2 D) has the same p(A), and the same scheme run at
 h / s follows its paths step for step, so its bias at h / s is the base one's at h. The fit
-is therefore read in the dimensionless step omega0 dt (omega0 = sqrt(k1) = 1 where it was
-made, so its numbers do not change): bias = C (omega0 dt)^p, and ``auto_dt(F)`` is the
-largest dt whose predicted bias is ``BIAS_FRACTION`` = 1/2 of the target floor F (combined
-error sqrt(1 + 1/4) F = 1.12 F), with omega0 dt clipped to ``THETA_RANGE`` = [0.0025, 0.04]
-(the upper end keeps 157 steps to the small-amplitude period; the OU update is exact for any
-dt, so the noise's correlation time sets no limit). Without a linear spring (k1 = 0) the scene
-gives no frequency before it runs, and the step is the base family's in time units.
+is therefore read in a dimensionless step Omega dt, Omega a frequency of the scene:
+bias = C (Omega dt / OMEGA_REF)^p, OMEGA_REF the base scene's Omega (where C, p were fitted,
+so its step does not change), and ``auto_dt(F)`` is the largest dt whose predicted bias is
+``BIAS_FRACTION`` = 1/2 of the target floor F (combined error sqrt(1 + 1/4) F = 1.12 F):
+dt = dt_ref(F) OMEGA_REF / Omega, dt_ref(F) the base family's step clipped to DT_RANGE =
+[0.0025, 0.04] (the OU update is exact for any dt, so the noise's correlation time sets no
+limit). Omega (``scene_omega``) is the fastest free conservative orbit (orbit_omega: 2 pi /
+T(A)) on amplitudes up to the median over the scale pilot's paths of each path's largest
+amplitude: the orbits the paths reach, sqrt(k1) for a softening spring, the orbit at that
+amplitude for a hardening one (and defined without a linear term). Before the pilot has run
+the step is provisional (auto_dt without an amplitude).
 
-omega0 is the frequency the scene gives before anything is simulated; it is not the whole
-story. Measured (benchmarks/bench_dt_bias.py, benchmarks/results/dt_bias.json; docs/montecarlo.md,
-"The step rule on other scenes"): at the same omega0 the bias also depends on how strongly
-p(A) answers a small change in the energy balance, which no closed form gives for the
-original system. So the rule is checked at run time (``step_check`` below, on by default with
-dt "auto": an independent run at CHECK_FACTOR x dt) and the run says when the check fails.
+Omega is not the whole story. Measured (benchmarks/bench_dt_bias.py,
+benchmarks/results/dt_bias.json; docs/montecarlo.md, "The step rule on other scenes"): at the
+same Omega the bias differs by up to 10x between scenes, with how strongly p(A) answers a small
+change in the energy balance, which no quantity of the scene gives before a run. So the rule
+is checked at run time (``step_check`` below, on by default with dt "auto": an independent run
+at CHECK_FACTOR x dt) and the run says when the check fails.
 
 Re-measured 2026-11-23 (the work-precision ladder, docs/performance.md): the bias is below the
 noise floor (about 0.01) at every dt <= 0.08, and a fit through the two larger steps gives
