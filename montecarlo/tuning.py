@@ -50,6 +50,7 @@ measures it on every call.
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -82,11 +83,17 @@ def orbit_omega(phys: dict[str, Any], A: float, nodes: int = 64) -> float:
     def U(x: Any) -> Any:
         return sum(c * x ** (2 * i + 2) / (2 * i + 2) for i, c in enumerate(k))
 
-    t, wq = np.polynomial.legendre.leggauss(nodes)
-    th = 0.25 * math.pi * (t + 1.0)
+    th, wq = _nodes(nodes)
     du = np.maximum(U(A) - U(A * np.sin(th)), 1e-300)
     T = math.pi * float(np.sum(wq * A * np.cos(th) / np.sqrt(2.0 * du)))
     return 2.0 * math.pi / T
+
+
+@lru_cache(maxsize=4)
+def _nodes(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Gauss-Legendre nodes mapped to theta in (0, pi / 2), and their weights."""
+    t, w = np.polynomial.legendre.leggauss(n)
+    return 0.25 * math.pi * (t + 1.0), w
 
 
 def scene_omega(phys: dict[str, Any], amplitude: float) -> float:

@@ -174,3 +174,34 @@ def test_the_check_fails_and_says_so_when_the_rule_is_too_optimistic(monkeypatch
     chk = res.info["dt_check"]
     assert chk["verdict"] == "failed", chk
     assert res.info["warnings"] == [chk["message"]] and "ABOVE" in chk["message"]
+
+
+UNLIKE = {  # benchmarks/bench_dt_bias.py's scenes unlike the base one
+    "stiff": ({"alpha": 2.0, "c1": 0.04}, {"D": 0.015}),
+    "white": ({}, {"kind": "white"}),
+    "mu-0.05": ({"mu": 0.05}, {}),
+    "r-0.5": ({"r": 0.5}, {}),
+    "omega0-2": ({"omega0": 2.0}, {"D": 0.04}),
+}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", sorted(UNLIKE))
+def test_the_rule_on_scenes_unlike_the_base_one(name):
+    """Floor 0.01, default seed: the step follows the scene's Omega (the omega0 = 2 scene,
+    whose bias at the old step was above the allowance, gets about half of the base step;
+    docs/montecarlo.md, "The step rule on other scenes"), and the check does not cry wolf
+    where the dt ladder measured the bias at that step within the allowance."""
+    system, noise = UNLIKE[name]
+    raw = {"system": {"c1": 0.025, "c2": 0.05, "omega0": 1.0, "alpha": 0.6, "mu": 0.001,
+                      "r": 0.96, "f": 1.0, **system},
+           "noise": {"kind": "ou", "D": 0.01, "alpha1": 2.0, **noise}}
+    sc = scene_from_dict(raw)
+    res = mc.simulate(sc.system, sc.noise, _settings(dt="auto", floor=0.01))
+    rule, chk = res.info["dt_rule"], res.info["dt_check"]
+    assert res.info["settings"]["dt"] <= tuning.DT_RANGE[1] * tuning.OMEGA_REF / rule["omega"]
+    if name == "omega0-2":
+        assert rule["omega"] == pytest.approx(2.0, rel=0.02)
+        assert res.info["settings"]["dt"] < 0.6 * 0.5 / 13
+    assert chk["verdict"] != "failed", chk
+    assert res.info["warnings"] == []
