@@ -11,7 +11,8 @@ conservative orbit's angular frequency at the RMS amplitude (impact oscillator: 
 x > 0 plus the flight back, so pi / half-period), the impact rate and the stuck fraction.
 
     NUMBA_NUM_THREADS=1 python benchmarks/bench_dt_bias.py [SCENE ...]
-    # -> benchmarks/results/dt_bias.json (scenes already there are kept unless re-run)
+    # -> benchmarks/results/dt_bias.json (scenes already there are kept unless re-run), and
+    #    the densities of every run in results/dt_bias_SCENE.npz (not kept in git)
 """
 
 from __future__ import annotations
