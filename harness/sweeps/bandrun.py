@@ -29,14 +29,13 @@ from typing import Any
 import numpy as np
 from vifpk.harness.sweeps.errors import OverTime, _duration, check_rate
 from vifpk.harness.sweeps.executors import ExecutorSpec, Runner, require_output_libraries
-from vifpk.harness.sweeps.points import Point, Sweep, make_point
-from vifpk.harness.sweeps.spec import adaptive_params
+from vifpk.harness.sweeps.points import Point, Sweep
 from vifpk.harness.sweeps.store import (
     SweepRun,
     _job,
     _kept_message,
     _log,
-    _tolerance,
+    adaptive_point,
     load_record,
     record_name,
     stage_fingerprint,
@@ -156,14 +155,7 @@ class _State:
                 ) -> tuple[dict[str, Any] | None, Any]:
         sweep = self.sweep
         if key is None:  # a new point
-            if not self.order:
-                pt = sweep.points[0]
-            else:
-                pt = make_point(sweep.base, sweep.fixed, seed=sweep.seed,
-                                workflow=sweep.workflow, bifurcation=sweep.bifurcation,
-                                params=adaptive_params(sweep.vary, unit), where=sweep.name,
-                                models=sweep.models, tolerance=_tolerance(sweep))
-            pt = replace(pt, batch=batch)
+            pt = replace(adaptive_point(sweep, unit, first=not self.order), batch=batch)
             self.points[pt.key] = pt
             self.order.append(pt.key)
             self.units[pt.key] = unit

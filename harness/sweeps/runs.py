@@ -19,8 +19,7 @@ from vifpk.harness.sweeps.executors import (
     parse_executor,
     require_output_libraries,
 )
-from vifpk.harness.sweeps.points import Point, Sweep, make_point
-from vifpk.harness.sweeps.spec import adaptive_params
+from vifpk.harness.sweeps.points import Point, Sweep
 from vifpk.harness.sweeps.store import (
     SWEEP_FILES,
     SweepRun,
@@ -28,7 +27,7 @@ from vifpk.harness.sweeps.store import (
     _job,
     _kept_message,
     _log,
-    _tolerance,
+    adaptive_point,
     check_sweep_folder,
     finished,
     load_record,
@@ -187,13 +186,7 @@ def run_adaptive(sweep: Sweep, out: str | Path, *, executor: ExecutorSpec,
         while batch_units:
             pts = []
             for u in batch_units:
-                if not order and not pts:  # the sweep's first point: as load_sweep built it
-                    pt = sweep.points[0]
-                else:
-                    pt = make_point(sweep.base, sweep.fixed, seed=sweep.seed,
-                                    workflow=sweep.workflow, bifurcation=sweep.bifurcation,
-                                    params=adaptive_params(sweep.vary, u), where=sweep.name,
-                                    models=sweep.models, tolerance=_tolerance(sweep))
+                pt = adaptive_point(sweep, u, first=not order and not pts)
                 pts.append(replace(pt, batch=batch_no))
             recs: dict[str, dict[str, Any]] = {}
             todo = []

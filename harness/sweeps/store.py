@@ -65,6 +65,19 @@ def _job(sweep: Sweep, pt: Point) -> Job:
                tolerance_question=sweep.tolerance_question)
 
 
+def adaptive_point(sweep: Sweep, unit: Any, *, first: bool) -> Point:
+    """The point of an adaptive sweep at unit coordinates ``unit`` (spec.adaptive_params); the
+    sweep's first point as load_sweep built it (it runs the averaged SDEs' check)."""
+    from vifpk.harness.sweeps.points import make_point
+    from vifpk.harness.sweeps.spec import adaptive_params
+
+    if first:
+        return sweep.points[0]
+    return make_point(sweep.base, sweep.fixed, seed=sweep.seed, workflow=sweep.workflow,
+                      bifurcation=sweep.bifurcation, params=adaptive_params(sweep.vary, unit),
+                      where=sweep.name, models=sweep.models, tolerance=_tolerance(sweep))
+
+
 def _tolerance(sweep: Sweep) -> Any:
     """The sweep's tolerance question as a harness.workflows.tolerance.Tolerance."""
     from vifpk.harness.workflows.tolerance import Tolerance
