@@ -1,10 +1,13 @@
-"""Redraw the shipped adaptive map (docs/data/maps-r-mu-adaptive.nc, 400 points, issue 22) as a
-tolerance map (issue 29 item 2): each point's tolerance verdict at T = 0.02 from its stored L1,
-error bar and noise floor (harness/workflows/tolerance.py), then every model's error surface,
-boundary and 5-95% band (harness/sweeps/surfacemaps.py). No new Monte Carlo.
+"""Redraw a shipped verdict map as a tolerance map (issue 29 item 2): each point's tolerance
+verdict at T from its stored L1, error bar and noise floor (harness/workflows/tolerance.py),
+then every model's error surface, boundary and 5-95% band (harness/sweeps/surfacemaps.py). No
+new Monte Carlo.
 
-    python docs/scripts/surface_map.py    # writes docs/img/maps-r-mu-adaptive-surface.png
-                                          # and prints the boundary and band per model
+    python docs/scripts/surface_map.py    # docs/data/maps-r-mu-adaptive.nc at T = 0.02 ->
+                                          # docs/img/maps-r-mu-adaptive-surface.png
+    python docs/scripts/surface_map.py NAME T   # docs/data/maps-NAME.nc at T ->
+                                                # docs/img/maps-NAME-surface.png
+Prints the inside and band areas per model.
 """
 
 from __future__ import annotations
@@ -20,11 +23,12 @@ from vifpk.harness.sweeps.surfacemaps import surface_figure, with_surfaces
 from vifpk.harness.workflows.tolerance import Tolerance, tolerance_verdict
 
 ROOT = Path(__file__).resolve().parents[2]
-TOL = 0.02
 
-
-def main() -> int:
-    ds = xr.open_dataset(ROOT / "docs" / "data" / "maps-r-mu-adaptive.nc").load()
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    name = argv[0] if argv else "r-mu-adaptive"
+    TOL = float(argv[1]) if len(argv) > 1 else 0.02  # noqa: N806 - the module's default's name
+    ds = xr.open_dataset(ROOT / "docs" / "data" / f"maps-{name}.nc").load()
     tol = Tolerance(value=TOL)
     names = ("error_estimate", "error_estimate_err", "p_within_tolerance")
     out = {k: np.full(ds["averaging_error_A"].shape, np.nan) for k in names}
@@ -51,7 +55,7 @@ def main() -> int:
               f"{np.mean(band[ok] == 1):.3f}", meta.get("models", {}).get(str(m), ""))
     print(ds.attrs.get("surface_notes", ""))
     png = surface_figure(ds)
-    dest = ROOT / "docs" / "img" / "maps-r-mu-adaptive-surface.png"
+    dest = ROOT / "docs" / "img" / f"maps-{name}-surface.png"
     dest.write_bytes(base64.b64decode(png))
     print(dest)
     return 0
