@@ -97,3 +97,18 @@ def test_band_sweep_extends_from_the_checkpoint_and_resumes(tmp_path, monkeypatc
         assert list(ds3.key.values) == list(before.key.values)
         for v in ("error_estimate", "error_estimate_err", "L1_floor_A", "mc_stage"):
             np.testing.assert_array_equal(ds3[v].values, before[v].values)
+
+
+def test_a_failed_extension_keeps_the_points_last_good_stage():
+    """An extension whose Monte Carlo fails (a numerical failure is a record, replayed alike on
+    a resume) leaves the point's numbers and stage as they were, and the point is not offered
+    for extension again (else a replay would choose it for ever)."""
+    from vifpk.harness.sweeps.bandrun import _State
+
+    st = _State(None, "exact")
+    good = {"key": "k", "stage": 1, "status": "ok", "result": {"mc_path_steps_run": 5.0}}
+    st.take(good)
+    st.take({"key": "k", "stage": 2, "status": "failed", "failure": "numerical",
+             "message": "blew up", "result": None})
+    assert st.stage["k"] == 1 and st.recs["k"] is good
+    assert "k" in st.failed_extension and st.spent == 5.0

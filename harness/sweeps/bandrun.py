@@ -149,6 +149,7 @@ class _State:
         self.new_err: float | None = None  # median error bar of the initial lattice
         self.surface: Any = None
         self.kernel: Any = None
+        self.failed_extension: set[str] = set()
 
     # -- one action -> a reusable record or a job
     def prepare(self, unit: tuple[float, ...], key: str | None, batch: int, out: Path
@@ -184,11 +185,16 @@ class _State:
         return None, job
 
     def take(self, rec: dict[str, Any]) -> None:
+        """A finished record. A failed extension leaves the point at its last good stage (its
+        numbers and state file stay) and it is not extended again."""
         key, stage = rec["key"], int(rec.get("stage", 0))
-        self.stage[key] = stage
-        self.recs[key] = rec
         res = rec.get("result") or {}
         self.spent += float(res.get("mc_path_steps_run", 0.0))
+        if stage > 0 and rec.get("status") != "ok":
+            self.failed_extension.add(key)
+            return
+        self.stage[key] = stage
+        self.recs[key] = rec
 
     # -- the budget
     def lattice_done(self) -> None:
@@ -261,7 +267,8 @@ class _State:
         tau = {k: t for k, t in zip(keys, self.surface.log_noise_sd, strict=True)}
         for k in keys:
             res = self.recs[k]["result"]
-            if self.stage[k] < MAX_STAGE and math.isfinite(tau[k]):
+            if (self.stage[k] < MAX_STAGE and math.isfinite(tau[k])
+                    and k not in self.failed_extension):
                 cands.append(Candidate(unit=self.units[k], key=k, noise_sd=float(tau[k]),
                                        cost=float(res["mc_sampled_steps"])))
         left = self.budget(n_points) - self.spent
