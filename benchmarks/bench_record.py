@@ -18,8 +18,9 @@ import sys
 
 
 def one() -> None:
-    from vifpk.core.scene import load_scene
     from vifpk.montecarlo.simulate import Settings, simulate
+
+    from vifpk.core.scene import load_scene
 
     sc = load_scene("scenes/paper-base.toml")
     for time_ in (20.0, 2000.0):

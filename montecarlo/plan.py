@@ -22,10 +22,12 @@ from typing import Any
 import numpy as np
 
 from vifpk.core.registry import NOISE_KINDS, one_of
+from vifpk.core.walls import Wall
 from vifpk.physics import noise as noise_kinds
 
-from .pieces import BASE_FIELDS, SOLVER, make_record
 from .tuning import auto_dt
+
+SOLVER = "montecarlo"  # the solver's name in vifpk.physics' registries
 
 WINDOWS = 16  # at least 16 sampled windows (the certificate's draws along each path)
 SCALE_BLOCKS, SCALE_PER_BLOCK = 8, 4
@@ -75,9 +77,36 @@ def physics(system: Any, noise: Any) -> dict[str, Any]:
         "ev": np.array(e) if e else None,
         "f": float(system.f), "D": float(noise.D),
         "mu": float(system.mu) if system.mu > 0 else None,
-        "r": float(system.r) if getattr(system, "barrier", True) else None,
+        **dict(zip(("lower", "upper"), walls(system), strict=True)),
         "noise": noise,
     }
+
+
+def walls(system: Any) -> tuple[Wall | None, Wall | None]:
+    """(lower, upper) walls of (duck-typed) scene.system: its ``walls`` (vifpk.core.walls.Wall,
+    lower first), or for a system without them the old spelling: a lower wall at 0 with
+    Newton's law and restitution ``r`` when ``barrier`` (default true)."""
+    ws = getattr(system, "walls", None)
+    if ws is None:
+        ws = (Wall(side="lower", at=0.0, r=float(system.r)),) \
+            if getattr(system, "barrier", True) else ()
+    out: dict[str, Wall | None] = {"lower": None, "upper": None}
+    for w in ws:
+        out[w.side] = w
+    return out["lower"], out["upper"]
+
+
+def bounds(phys: dict[str, Any]) -> tuple[float, float]:
+    """[a, b]: where the walls keep x (-inf, inf without)."""
+    lo, up = phys["lower"], phys["upper"]
+    return (float(lo.at) if lo is not None else -math.inf,
+            float(up.at) if up is not None else math.inf)
+
+
+def fold(phys: dict[str, Any]) -> bool:
+    """Orbit starts fold y -> |y| (exact when one wall keeps x >= 0: the elastic impacting
+    orbit is the fold of the free one); otherwise they reject points outside the walls."""
+    return phys["lower"] is not None and phys["lower"].at == 0.0 and phys["upper"] is None
 
 
 def noise_piece(phys: dict[str, Any], name: str) -> Any:
@@ -85,16 +114,6 @@ def noise_piece(phys: dict[str, Any], name: str) -> Any:
     them (start_sd: noise only)."""
     fn = noise_kinds.piece(phys["noise"].kind, SOLVER, name)
     return fn(phys["noise"]) if name == "start_sd" else fn(phys["noise"], phys["f"])
-
-
-def record(phys: dict[str, Any], h: float) -> Any:
-    """The kernels' one physics record for step h (pieces.BASE_FIELDS, then the noise kind's
-    coefficients from its module): a flat named tuple whose class is the noise kind's."""
-    base = {k: phys[k] for k in ("c1", "c2", "w0sq", "alpha", "f", "mu", "r", "khi", "dhi",
-                                 "ev")}
-    base["bridge"] = noise_piece(phys, "bridge") or None  # 0 (no noise): E is C^1
-    base["xi_sd"] = noise_piece(phys, "start_sd") or 0.0
-    return make_record(phys["noise"], tuple(base[k] for k in BASE_FIELDS), h)
 
 
 def step_size(dt: float | str, target: float, phys: dict[str, Any], sample_every: float,

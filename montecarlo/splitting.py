@@ -53,7 +53,8 @@ from vifpk.core.result import BadInput, Result, Status
 from . import splitting_kernels as SK
 from .averaged_sde import sde_tables
 from .geometry import potential
-from .plan import physics, record
+from .pieces import record
+from .plan import bounds, fold, physics
 
 KEY_START, KEY_CLONE, KEY_PICK, KEY_DIRECT = 0, 1, 2, 3  # spawn_key roots of the streams
 
@@ -474,7 +475,7 @@ class _Original:
         ph = self.phys
         out = np.zeros((n, 5))
         SK.orbit_starts(float(A), out, _words(seed, (KEY_START + 100, key), n), ph["w0sq"],
-                        ph["alpha"], ph["khi"], ph["r"] is not None, self.rec.xi_sd)
+                        ph["alpha"], ph["khi"], (fold(ph), *bounds(ph)), self.rec.xi_sd)
         return out
 
     def advance(self, q_lo: float, q_hi: float, M: int, t_max: float) -> Callable[..., None]:

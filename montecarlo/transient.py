@@ -30,7 +30,7 @@ from vifpk.core.result import BadInput, Result, Status
 
 from .geometry import amplitudes
 from .passage import PassageSettings, _starts_loop, check_settings, layout
-from .plan import noise_piece, physics
+from .plan import bounds, fold, noise_piece, physics
 from .simulate import _DUMMY, _arrays, _growth, _progress, _Stepper, block_seeds, effects
 
 EDGE_KEYS = {"A": "edges_A", "x1": "edges_x", "x2": "edges_v"}
@@ -81,7 +81,7 @@ def snapshots(system: Any, noise: Any, settings: PassageSettings, *, start: floa
     xi_sd = noise_piece(phys, "start_sd") or 0.0
     flat_rng = rng.reshape(-1, 4)  # a view: the starts advance each path's own stream
     _starts_loop(flat_rng, state.reshape(-1, 3), float(start), phys["w0sq"], phys["alpha"],
-                 phys["khi"], phys["r"] is not None, xi_sd)
+                 phys["khi"], (fold(phys), *bounds(phys)), xi_sd)
     arr = _arrays(rng, state, _DUMMY, ())
     never = np.iinfo(np.int64).max // 2  # a burn-in never reached: nothing is sampled
     bar = _progress(st.progress, total=float(st.blocks * per * max(marks[-1], 1)),
