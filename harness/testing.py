@@ -39,10 +39,10 @@ from pathlib import Path
 from typing import Any, Protocol
 
 import numpy as np
-from vifpk.harness.outputs.io import atomic_path, jsonable, write_atomic
 from vifpk.harness.workflows.compare import compare, is_histogram
 
 from vifpk.core.defaults import DENSITY_OBSERVABLES
+from vifpk.core.io import atomic_path, jsonable, write_atomic
 from vifpk.core.registry import one_of
 from vifpk.core.scene import Scene, load_scene
 

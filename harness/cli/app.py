@@ -31,7 +31,7 @@ from vifpk.core.result import BadInput
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from vifpk.harness.outputs.provenance import vifpk_version
+    from vifpk.core.provenance import vifpk_version
 
     p = _Parser(prog="vifpk", description="How wrong is a stochastic-averaging approximation?")
     p.add_argument("--version", action="version", version=f"vifpk {vifpk_version()}",

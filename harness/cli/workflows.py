@@ -145,12 +145,12 @@ CHECK = WorkflowSpec(
     "without paper) against the Monte Carlo of the original "
     "system and write an error report",
     add_arguments=check_arguments, command=commands.cmd_check,
-    sweep_point=points._check_point, api=api.check, assertion=testing.assert_averaging_error)
+    sweep_point=points.check_point, api=api.check, assertion=testing.assert_averaging_error)
 BIFURCATION = WorkflowSpec(
     "bifurcation", "find the critical mu or r of the P-bifurcation of "
     "each averaged model and check it by Monte Carlo",
     add_arguments=bifurcation_arguments, command=commands.cmd_bifurcation,
-    sweep_point=points._bifurcation_point)
+    sweep_point=points.bifurcation_point)
 FIGURES = WorkflowSpec(
     "figures", "redraw the paper's Figures 2-6: two averaged models "
     "(the paper's and the exact one) against the Monte "
@@ -171,13 +171,13 @@ PASSAGE = WorkflowSpec(
     "passage", "first passage out of A < Ac: reliability R(t), FPT density and MFPT of each "
     "averaged model against the original system",
     add_arguments=timedomain.passage_arguments, command=timedomain.cmd_passage,
-    sweep_point=points._passage_point, api=api.passage, assertion=testing.assert_mfpt_close)
+    sweep_point=points.passage_point, api=api.passage, assertion=testing.assert_mfpt_close)
 TRANSIENT = WorkflowSpec(
     "transient", "the law of the amplitude at given times from a start A0: each averaged model "
     "against the original system, and the relaxation times",
     add_arguments=timedomain.transient_arguments, command=timedomain.cmd_transient,
-    sweep_point=points._transient_point, api=api.transient,
+    sweep_point=points.transient_point, api=api.transient,
     assertion=testing.assert_relaxation_close)
 AVERAGING = WorkflowSpec(
     "averaging", "the averaged models' closed forms only (sweeps; no subcommand: `vifpk solve "
-    "--solver averaging` solves one scene)", sweep_point=points._averaging_point)
+    "--solver averaging` solves one scene)", sweep_point=points.averaging_point)

@@ -431,7 +431,7 @@ def solution_record(scene: Any, solver: str, model: str | None, result: Any, *,
         {"scene": {...}, "solver": ..., "model": ..., "pdf": {"A": {"x", "p"[, "edges", "err"]},
          "x1": {...}, "x2": {...}[, "E", "joint"]}, "info": {..., "provenance": {...}}}
 
-    ``provenance``: the run's block (harness/outputs/provenance.py), stored as ``info.provenance``.
+    ``provenance``: the run's block (vifpk/core/provenance.py), stored as ``info.provenance``.
     """
     # the blocks' own densities (p_blocks: the error bars' input) stay out of the contract
     pdf = {k: {f: a for f, a in v.items() if f != "p_blocks"} for k, v in result.data.items()

@@ -219,7 +219,7 @@ def machine_speed() -> float:
     path = _cache_file()
     speed = _calibrate()
     try:
-        from vifpk.harness.outputs.io import write_json
+        from vifpk.core.io import write_json
 
         write_json(path, {**key, "steps_per_second_per_core": speed,
                           "load_average": os.getloadavg()[0],

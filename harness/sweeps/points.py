@@ -116,7 +116,7 @@ def fingerprint(workflow: str, scene: Scene, bifurcation: Mapping[str, Any], *,
     if models is not None:
         what["models"] = list(models)
     if tolerance is not None and workflow == "check":
-        from vifpk.harness.workflows.tolerance import Tolerance
+        from vifpk.harness.request.tolerance import Tolerance
 
         if tolerance != Tolerance():
             what["tolerance"] = tolerance.record()
@@ -180,9 +180,9 @@ def _validate_point(scene: Scene, workflow: str, bifurcation: Mapping[str, Any],
         validate.scene_magnitudes(scene)
         validate.stationary_density(scene)
         if workflow in ("passage", "transient"):
-            from vifpk.harness.sweeps.timesweep import check_point
+            from vifpk.harness.sweeps import timesweep
 
-            check_point(workflow, bifurcation)
+            timesweep.check_point(workflow, bifurcation)
         if workflow in ("check", "passage", "transient") or (workflow == "bifurcation"
                                                              and bifurcation.get("mc")):
             # with a fixed step the checks depend on [montecarlo] and omega0 only: once each
@@ -261,14 +261,14 @@ def _flags(warnings: list[Any]) -> dict[str, bool]:
     return {k: v in kinds for k, v in WARNING_FLAGS.items()}
 
 
-def _check_point(job: Job) -> dict[str, Any]:
+def check_point(job: Job) -> dict[str, Any]:
     """The cross-check without the FPK: the averaging error of p(A) of each model."""
     from contextlib import nullcontext
 
     import numpy as np
     from vifpk.harness.door.solvers import mc_checkpoint
+    from vifpk.harness.request.tolerance import Tolerance
     from vifpk.harness.workflows.check import cross_check
-    from vifpk.harness.workflows.tolerance import Tolerance
 
     from vifpk.core.guard import PluginError
 
@@ -334,7 +334,7 @@ def _mc_cost(info: Mapping[str, Any]) -> dict[str, float]:
             "mc_sampled_steps": float(round(st["time"] / st["dt"]) * st["paths"])}
 
 
-def _averaging_point(job: Job) -> dict[str, Any]:
+def averaging_point(job: Job) -> dict[str, Any]:
     """Closed forms of each model (computed once), the L1 between them, the assumption
     warnings that need no simulation (strong damping, narrow band, strong noise)."""
     from vifpk.harness.door.solvers import run_solver
@@ -368,7 +368,7 @@ def _averaging_point(job: Job) -> dict[str, Any]:
     return out
 
 
-def _bifurcation_point(job: Job) -> dict[str, Any]:
+def bifurcation_point(job: Job) -> dict[str, Any]:
     """Critical mu or r of each model at this point, with the Monte Carlo checks."""
     from vifpk.harness.workflows.bifurcation import bifurcation
 
@@ -382,16 +382,16 @@ def _bifurcation_point(job: Job) -> dict[str, Any]:
             "range": res["range"], "mc_check": checks}
 
 
-def _passage_point(job: Job) -> dict[str, Any]:
-    from vifpk.harness.sweeps.timesweep import passage_point
+def passage_point(job: Job) -> dict[str, Any]:
+    from vifpk.harness.sweeps import timesweep
 
-    return passage_point(job)
+    return timesweep.passage_point(job)
 
 
-def _transient_point(job: Job) -> dict[str, Any]:
-    from vifpk.harness.sweeps.timesweep import transient_point
+def transient_point(job: Job) -> dict[str, Any]:
+    from vifpk.harness.sweeps import timesweep
 
-    return transient_point(job)
+    return timesweep.transient_point(job)
 
 
 _CHECKED: set[Any] = set()  # Monte Carlo settings already validated in this process

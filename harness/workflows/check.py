@@ -34,10 +34,11 @@ from vifpk.harness.door.solvers import (
     montecarlo_solution,
     validity,
 )
+from vifpk.harness.request.tolerance import Tolerance
 from vifpk.harness.workflows.assumptions import assumption_warnings
 from vifpk.harness.workflows.compare import compare
-from vifpk.harness.workflows.tolerance import Tolerance, model_verdicts
 from vifpk.harness.workflows.tolerance import line as tolerance_line
+from vifpk.harness.workflows.tolerance import model_verdicts
 from vifpk.harness.workflows.verdict import (
     _evidence,
     _sampling_ok,
@@ -69,7 +70,7 @@ class CheckResult:
     metrics: dict[str, Any]
     warnings: list[WarningRecord]
     verdicts: list[str]
-    #: harness.outputs.provenance.collect(); set by the writer
+    #: vifpk.core.provenance.collect(); set by the writer
     provenance: dict[str, Any] | None = None
     recommendation: str = ""  # one line: the model to trust here and why (recommend())
     models: tuple[str, ...] = CHECK_MODELS  # the averaged models checked, in report order

@@ -296,7 +296,7 @@ def seconds_to_reach(solvers: dict[str, list[dict[str, Any]]]) -> dict[str, dict
 
 
 def plot(data: dict[str, Any], path: Any) -> None:
-    from vifpk.harness.outputs.io import pyplot
+    from vifpk.core.io import pyplot
 
     plt = pyplot()
 
