@@ -60,12 +60,13 @@ def assertion(workflow: str) -> Any:
     vifpk.core.protocols.Workflow): ``assertion("check")`` is :func:`assert_averaging_error`,
     ``"passage"`` :func:`assert_mfpt_close`, ``"transient"`` :func:`assert_relaxation_close`,
     and a plugin workflow's comes the same way. UnknownName naming those that have one."""
+    from vifpk.core.protocols import resolved
     from vifpk.core.registry import workflows
 
     have = {w.name: w.assertion for w in workflows()
             if getattr(w, "assertion", None) is not None}
     one_of("workflow with a tolerance test", workflow, tuple(have))
-    return have[workflow]
+    return resolved(have[workflow])
 
 
 def configure(*, cache: str | Path | None = None, refresh: bool | None = None) -> None:

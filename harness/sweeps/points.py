@@ -24,6 +24,7 @@ from vifpk.harness.workflows.assumptions import ASSUMPTION_KINDS
 
 from vifpk.core import registry
 from vifpk.core.defaults import BIFURCATION_MODELS, CHECK_MODELS, TOLERANCE, TOLERANCE_CONFIDENCE
+from vifpk.core.protocols import resolved
 from vifpk.core.result import BadInput
 from vifpk.core.scene import Scene, SceneError
 
@@ -405,6 +406,6 @@ WORKFLOW_FUNCTIONS: dict[str, Callable[[Job], dict[str, Any]]] = {}
 def sweep_functions() -> dict[str, Callable[[Job], dict[str, Any]]]:
     """The sweepable workflows (module comment above), in registration order."""
     if not WORKFLOW_FUNCTIONS:
-        WORKFLOW_FUNCTIONS.update({w.name: w.sweep_point for w in registry.workflows()
+        WORKFLOW_FUNCTIONS.update({w.name: resolved(w.sweep_point) for w in registry.workflows()
                                    if w.sweep_point is not None})
     return WORKFLOW_FUNCTIONS

@@ -50,6 +50,7 @@ from vifpk.harness.workflows.verdict import (
 
 from vifpk.core import registry
 from vifpk.core.defaults import CHECK_MODELS, DENSITY_OBSERVABLES, FPK_CELLS
+from vifpk.core.protocols import Ref, WorkflowSpec
 from vifpk.core.result import WarningRecord
 
 OBSERVABLES = DENSITY_OBSERVABLES
@@ -342,3 +343,19 @@ def output_problems(result: CheckResult) -> list[str]:
                 if not all(math.isfinite(v) for v in e.values()):
                     out.append(f"{m} {kind} {o}: not finite")
     return out
+
+
+# ------------------------------------------------------------------ the workflow's record
+#: ``vifpk check`` (vifpk.core.protocols.Workflow), registered in pyproject.toml's
+#: ``vifpk.workflows``. Its command line (harness/cli), sweep point (harness/sweeps), Python
+#: function (vifpk.api) and tolerance test (harness/testing.py) are named by Ref, imported
+#: when used: the registry does not depend on the layers above this one.
+SPEC = WorkflowSpec(
+    "check", "cross-check the averaged models (default: "
+    f"{', '.join(CHECK_MODELS)}; outside the paper's family "
+    "without paper) against the Monte Carlo of the original "
+    "system and write an error report",
+    add_arguments=Ref("vifpk.harness.cli.arguments:check_arguments"),
+    command=Ref("vifpk.harness.cli.commands:cmd_check"),
+    sweep_point=Ref("vifpk.harness.sweeps.points:check_point"), api=Ref("vifpk.api:check"),
+    assertion=Ref("vifpk.harness.testing:assert_averaging_error"))

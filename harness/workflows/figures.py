@@ -21,6 +21,7 @@ from vifpk.harness.workflows.check import models_of
 from vifpk.harness.workflows.compare import compare
 
 from vifpk.core.io import atomic_path, write_atomic, write_json
+from vifpk.core.protocols import Ref, WorkflowSpec
 from vifpk.core.scene import Scene, Sweep, load_scene
 
 FIGURES = {2: "paper-fig2", 3: "paper-fig3", 4: "paper-fig4", 5: "paper-fig5", 6: "paper-fig6"}
@@ -236,3 +237,15 @@ def render_table(table: dict[str, Any]) -> str:
             lines.append(f"| {name[6:].lstrip('-')} | {t['varied'].split('.')[1]} = {v:g} | "
                          f"{vals} | {fl['A']:.3f} |")
     return "\n".join(lines) + "\n"
+
+
+# ------------------------------------------------------------------ the workflow's record
+#: ``vifpk figures`` (vifpk.core.protocols.Workflow), registered in pyproject.toml's
+#: ``vifpk.workflows``. Its command line (harness/cli) is named by Ref, imported when
+#: used: the registry does not depend on the layers above this one.
+SPEC = WorkflowSpec(
+    "figures", "redraw the paper's Figures 2-6: two averaged models "
+    "(the paper's and the exact one) against the Monte "
+    "Carlo of the original system",
+    add_arguments=Ref("vifpk.harness.cli.arguments:figures_arguments"),
+    command=Ref("vifpk.harness.cli.commands:cmd_figures"))
