@@ -79,7 +79,7 @@ def canned_check(tiny_check, monkeypatch):
     import vifpk.harness.workflows.check
 
     def canned(scene, *, quiet=False, fpk=True, sde=True, tail_mass=True, models=None,
-               tolerance=None):
+               tolerance=None, run=None):  # run: no Monte Carlo runs, its state stays None
         res = replace(tiny_check, scene=scene, metrics=copy.deepcopy(tiny_check.metrics))
         if models is not None:
             keep = tuple(dict.fromkeys(models))

@@ -221,3 +221,14 @@ def test_pending_private_uses_still_exist():
     found = {x for u in _all_private_uses().values() for x in u}
     stale = [x for x in PENDING_PRIVATE if x not in found]
     assert not stale, f"fixed, delete from PENDING_PRIVATE: {stale}"
+
+
+# ------------------------------------------------------------ no hidden context
+def test_no_context_variable_in_the_harness():
+    """What a run needs (cost limit, checkpoint) is passed through the workflows' signatures
+    (harness.door.solvers.MonteCarloRun), not carried by a ContextVar a thread pool would lose
+    (issue 38: door/solvers.py had two, door/boundary.py one)."""
+    found = [str(p.relative_to(ROOT)) for p in sorted((ROOT / "harness").rglob("*.py"))
+             if "ContextVar" in p.read_text(encoding="utf-8") or
+             "contextvars" in p.read_text(encoding="utf-8")]
+    assert not found, found

@@ -45,8 +45,8 @@ def cmd_solve(args: argparse.Namespace) -> int:
         cost.refuse_oversized(scene)
     if args.solver == "montecarlo":
         # priced again once the relaxation pilot has measured an automatic burn-in
-        with cost.guarded_run(scene, args.yes):
-            result = run_solver(scene, "montecarlo")
+        with cost.guarded_run(scene, args.yes) as run:
+            result = run_solver(scene, "montecarlo", run=run)
     else:
         result = run_solver(scene, args.solver, model=model, grid=args.grid)
     _finite_or_fail(result, scene)
@@ -128,8 +128,9 @@ def cmd_check(args: argparse.Namespace) -> int:
     prov = _provenance(args)
     # hold the folder from the start: a second run into it is refused before any work
     with outdir.hold(out, run_id=prov["run_id"], allowed=REPORT_FILES, kind="check report"):
-        with cost.guarded_run(scene, args.yes):
-            result = cross_check(scene, quiet=args.quiet, models=models, tolerance=tol)
+        with cost.guarded_run(scene, args.yes) as run:
+            result = cross_check(scene, quiet=args.quiet, models=models, tolerance=tol,
+                                 run=run)
         files = write_report(result, out, prov=prov)
     for v in result.verdicts:
         print(v)

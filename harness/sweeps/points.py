@@ -264,26 +264,24 @@ def _flags(warnings: list[Any]) -> dict[str, bool]:
 
 def check_point(job: Job) -> dict[str, Any]:
     """The cross-check without the FPK: the averaging error of p(A) of each model."""
-    from contextlib import nullcontext
-
     import numpy as np
-    from vifpk.harness.door.solvers import mc_checkpoint
+    from vifpk.harness.door.solvers import MonteCarloRun
     from vifpk.harness.request.tolerance import Tolerance
     from vifpk.harness.workflows.check import cross_check
 
     from vifpk.core.guard import PluginError
 
     names, failed = list(_models(job, CHECK_MODELS)), {}
-    box: dict[str, Any] | None = None
+    run = MonteCarloRun(keep_state=job.keep_state, resume=job.state if job.keep_state else None)
     while True:  # a plugin that fails is dropped, named, and the check run without it
         try:
-            with mc_checkpoint(job.state) if job.keep_state else nullcontext(None) as box:
-                res = cross_check(job.scene, quiet=True, fpk=False, sde=job.sde, tail_mass=False,
-                                  models=tuple(names),
-                                  tolerance=Tolerance(value=job.tolerance,
-                                                      metric=job.tolerance_question[0],
-                                                      observable=job.tolerance_question[1],
-                                                      confidence=job.tolerance_question[2]))
+            res = cross_check(job.scene, quiet=True, fpk=False, sde=job.sde, tail_mass=False,
+                              models=tuple(names),
+                              tolerance=Tolerance(value=job.tolerance,
+                                                  metric=job.tolerance_question[0],
+                                                  observable=job.tolerance_question[1],
+                                                  confidence=job.tolerance_question[2]),
+                              run=run)
             break
         except PluginError as exc:
             if exc.model not in names or len(names) == 1:
@@ -322,7 +320,7 @@ def check_point(job: Job) -> dict[str, Any]:
             "flags": {**_flags(res.warnings), "warn_not_converged": not converged},
             "recommended_model": res.metrics["recommended_model"],
             "warnings": [w.text for w in res.warnings], "verdicts": res.verdicts,
-            **_mc_cost(mc.info), **({"state": box["state"]} if box else {})}
+            **_mc_cost(mc.info), **({"state": run.state} if run.keep_state else {})}
 
 
 def _mc_cost(info: Mapping[str, Any]) -> dict[str, float]:

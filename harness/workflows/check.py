@@ -28,6 +28,7 @@ from typing import Any
 
 import numpy as np
 from vifpk.harness.door.solvers import (
+    MonteCarloRun,
     averaged_sde_solution,
     closed_form,
     model_solution,
@@ -134,8 +135,12 @@ def sde_seed(root: int, model: str) -> int:
 
 def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool = True,
                 tail_mass: bool = True, models: tuple[str, ...] = CHECK_MODELS,
-                tolerance: Tolerance | None = None) -> CheckResult:
+                tolerance: Tolerance | None = None,
+                run: MonteCarloRun | None = None) -> CheckResult:
     """Run every solver on a concrete scene and compute the error decomposition.
+
+    ``run``: the cost limit and checkpoint of the original system's Monte Carlo
+    (harness.door.solvers.MonteCarloRun, handed to every run of it here; None: neither).
 
     ``models``: registered averaged models (vifpk.core.registry), in report order (those that
     do not apply to the scene are named in ``models_absent``); the Monte Carlo of model i's
@@ -186,7 +191,7 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
                                                        if extensions else ""))
         mc = montecarlo_solution(replace(run_scene, observables=replace(
             run_scene.observables, A=True, x1=True, x2=True, events=True, moments=True)),
-            progress=not quiet)
+            progress=not quiet, run=run)
         st = mc.info["settings"]
         bad = _evidence(mc.info.get("convergence", {}), {})
         spent = time.perf_counter() - t_mc
