@@ -62,6 +62,7 @@ from .pieces import (
     wall_drift,
     wall_side,
 )
+from .rng import normal
 
 # columns of the per-block event array (whole numbers: counts; EV_TIME the sampled path-steps,
 # times h is the sampled path-time; EV_STUCK filled by the caller from the per-path stuck_time)
@@ -196,6 +197,43 @@ def wall_press(at, g_at, sign, mu, pn):
     return sign * (pn + g_at)
 
 
+#: declared weak order of the scheme with parametric noise, no wall and no friction (measured
+#: in tests/test_parametric_mc.py on a linear oscillator's stationary second moments): the
+#: step is a symmetric (Strang) composition of exactly solved sub-flows, A(h/2) P(h/2) B..
+#: P'(h/2) A(h/2), P' the parts of P in the reverse order.
+WEAK_ORDER_PARAMETRIC = 2
+
+
+@jit
+def parametric(v, g, k, pk, pc, s0, s1, s2, s3):
+    """The parametric sub-flow P(h/2) (x frozen): the Stratonovich SDE dv = -g(x) sqrt(2 D_k)
+    o dW_k - k(x) v sqrt(2 D_c) o dW_c over h/2, its two parts solved exactly in turn: the
+    damping noise's flow, linear in v, v e^{-k sqrt(2 D_c h/2) N'} (pc = sqrt(D_c h)), then
+    the spring noise's, additive while x is frozen, v - g sqrt(2 D_k h/2) N (pk = sqrt(D_k
+    h)). Returns (v, the change of v^2/2: the work of the parametric noises, generator)."""
+    w = v
+    if pc is not None:
+        z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
+        w = w * math.exp(-k * pc * z)
+    if pk is not None:
+        z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
+        w = w - g * pk * z
+    return w, 0.5 * (w * w - v * v), s0, s1, s2, s3
+
+
+@jit
+def parametric_back(v, g, k, pk, pc, s0, s1, s2, s3):
+    """P(h/2) with its two parts in the reverse order (the step stays symmetric)."""
+    w = v
+    if pk is not None:
+        z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
+        w = w - g * pk * z
+    if pc is not None:
+        z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
+        w = w * math.exp(-k * pc * z)
+    return w, 0.5 * (w * w - v * v), s0, s1, s2, s3
+
+
 @jit
 def decay(v, tau, ev):
     """(v after the velocity-damping sub-flow, the kinetic energy it removed); (v, 0) without."""
@@ -221,9 +259,11 @@ def _step(x, v, xi, s0, s1, s2, s3, h, half, P):
     k = damping_k(x, P.c1, P.c2, P.dhi)
     g = spring_g(x, P.w0sq, P.alpha, P.khi)
     v, dv1 = decay(v, half, P.ev)
+    v, wp1, s0, s1, s2, s3 = parametric(v, g, k, P.pk, P.pc, s0, s1, s2, s3)
     vb = v
     v, stuck, vc, vk, vd, s0, s1, s2, s3 = noise_velocity(P, v, xi, g, k, P.mu, at_wall,
                                                           h, half, s0, s1, s2, s3)
+    v, wp2, s0, s1, s2, s3 = parametric_back(v, g, k, P.pk, P.pc, s0, s1, s2, s3)
     v, dv2 = decay(v, half, P.ev)
     ve = v
     x, v, imp2, ch2, loss2 = wall_drift(P, x, v, half, p_lo, p_up, h)
@@ -231,7 +271,7 @@ def _step(x, v, xi, s0, s1, s2, s3, h, half, P):
     xi, s0, s1, s2, s3 = noise_advance(P, xi, s0, s1, s2, s3)
     return (x, v, xi, s0, s1, s2, s3,
             (imp1, ch1, imp2, ch2, stuck, k, va, vb, vc, vk, vd, ve, xi_used, dv1, dv2, loss1,
-             loss2))
+             loss2, wp1 + wp2))
 
 
 @jit(parallel=True)
@@ -367,13 +407,14 @@ def _block(b, rng, state, n_steps, step0, n_burn, stride, h, P, bins, out, spw):
                     x, v, o = x3, v3, o3
                 if with_energy:
                     (imp1, ch1, imp2, ch2, st, k, va, vb, vc, vk, vd, ve, xi_used, dv1, dv2,
-                     loss1, loss2) = o
+                     loss1, loss2, wpar) = o
                     # (a switched-off effect adds +0.0: the sums are unchanged, bit for bit)
                     energy[b, p, EN_DAMP] += dv1
                     energy[b, p, EN_DAMP] += dv2
                     e_in, e_damp, e_fric = noise_energy(P, h, half, k, P.mu, vb, vc, vk,
                                                         vd, ve, xi_used)
                     energy[b, p, EN_INPUT] += e_in
+                    energy[b, p, EN_INPUT] += wpar  # the parametric noises' work (0: off)
                     energy[b, p, EN_DAMP] += e_damp
                     energy[b, p, EN_FRICTION] += e_fric
                     energy[b, p, EN_IMPACT] += loss1  # each wall's loss by its own law

@@ -61,7 +61,15 @@ from ._jit import jit
 from .geometry import amplitudes, energy, orbit_start, potential
 from .kernels import _step
 from .pieces import record
-from .plan import MIN_AUTO_BURN_IN, SCALE_SAMPLE_EVERY, bounds, fold, noise_piece, physics
+from .plan import (
+    MIN_AUTO_BURN_IN,
+    SCALE_SAMPLE_EVERY,
+    bounds,
+    fold,
+    noise_piece,
+    physics,
+    refuse_parametric,
+)
 from .rng import uniform
 from .simulate import (
     CHUNK_SECONDS,
@@ -301,7 +309,7 @@ def _starts_loop(rng, out, A, w0sq, alpha, khi, walls, xi_sd):
 
 
 def first_passage(system: Any, noise: Any, settings: PassageSettings, *, threshold: float,
-                  start: float | str) -> Result:
+                  start: float | str, parametric: Any = None) -> Result:
     """First passage of the energy through U(threshold) (see the module docstring).
 
     data["fpt"] = {"time": float64[paths] (the horizon where censored), "censored":
@@ -310,6 +318,7 @@ def first_passage(system: Any, noise: Any, settings: PassageSettings, *, thresho
     Raises BadInput (one line) on settings or a start it cannot use, SimulationDiverged on a
     non-finite state, StartRejected when "stationary" cannot place a path below Ac."""
     st = settings
+    refuse_parametric(parametric, "Monte Carlo first passage")
     check_settings(st)
     _check_threshold(threshold, start)
     phys = physics(system, noise)

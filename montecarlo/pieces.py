@@ -10,6 +10,7 @@ kind without Monte Carlo pieces (physics.noise.NoPiece, one line naming kind and
 
 from __future__ import annotations
 
+import math
 from collections import namedtuple
 from typing import Any
 
@@ -34,6 +35,9 @@ BASE_FIELDS = ("c1", "c2", "w0sq", "alpha", "f", "mu", "khi", "dhi", "ev",
                # (None: unused), g at the wall (its spring force, for the chatter guard)
                "lo", "lo_r", "lo_vy", "lo_g", "up", "up_r", "up_vy", "up_g",
                "x_lo", "x_hi",  # the walls' positions, -inf / inf without (orbit starts)
+               # parametric Stratonovich white noises over a half step: sqrt(2 D (h/2)) on
+               # the spring (pk) and on the damping (pc); None: off
+               "pk", "pc",
                "fold")  # orbit starts: fold y -> |y| (one wall at 0: exact), else reject
 
 _CLASSES: dict[tuple[str, str | None, str | None], type] = {}
@@ -86,6 +90,8 @@ def record(phys: dict[str, Any], h: float) -> Any:
                      if w is not None else 0.0})
     base["x_lo"], base["x_hi"] = bounds(phys)
     base["fold"] = fold(phys)
+    for key, name in (("pk", "D_k"), ("pc", "D_c")):
+        base[key] = math.sqrt(phys[name] * h) if phys.get(name) is not None else None
     laws = tuple(w.law if w is not None else None for w in (phys["lower"], phys["upper"]))
     return make_record(phys["noise"], base, laws, h)
 

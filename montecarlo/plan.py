@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from vifpk.core.registry import NOISE_KINDS, one_of
+from vifpk.core.result import BadInput
 from vifpk.core.walls import Wall
 from vifpk.physics import noise as noise_kinds
 
@@ -63,10 +64,11 @@ def _laws(system: Any) -> tuple[tuple[float, ...], tuple[float, ...], tuple[floa
     return trim(k, 2), trim(d, 2), trim(e, 0)
 
 
-def physics(system: Any, noise: Any) -> dict[str, Any]:
-    """The physics of (duck-typed) scene.system and scene.noise, on the Python side; a
-    switched-off effect is None. ``record(phys, h)`` makes the kernels' record of it. An unknown
-    noise kind, or one without Monte Carlo pieces (vifpk.physics.noise), raises in one line."""
+def physics(system: Any, noise: Any, parametric: Any = None) -> dict[str, Any]:
+    """The physics of (duck-typed) scene.system, scene.noise and scene.parametric (None: off),
+    on the Python side; a switched-off effect is None (a parametric intensity 0 too).
+    ``pieces.record(phys, h)`` makes the kernels' record of it. An unknown noise kind, or one
+    without Monte Carlo pieces (vifpk.physics.noise), raises in one line."""
     one_of("noise kind", noise.kind, NOISE_KINDS)
     noise_kinds.piece(noise.kind, SOLVER, "record")  # NoPiece: one line naming kind and solver
     k, d, e = _laws(system)
@@ -79,7 +81,18 @@ def physics(system: Any, noise: Any) -> dict[str, Any]:
         "mu": float(system.mu) if system.mu > 0 else None,
         **dict(zip(("lower", "upper"), walls(system), strict=True)),
         "noise": noise,
+        # Stratonovich parametric white noises: D_k on the spring, D_c on the damping
+        "D_k": float(parametric.stiffness) or None if parametric is not None else None,
+        "D_c": float(parametric.damping) or None if parametric is not None else None,
     }
+
+
+def refuse_parametric(parametric: Any, solver: str) -> None:
+    """One line (BadInput) when ``solver`` is given a parametric noise it does not handle."""
+    if parametric is not None and (parametric.stiffness > 0 or parametric.damping > 0):
+        raise BadInput(f"parametric noise (parametric.stiffness, parametric.damping): the "
+                       f"{solver} does not handle it (its crossing correction assumes an "
+                       "additive noise); allowed there: 0")
 
 
 def walls(system: Any) -> tuple[Wall | None, Wall | None]:
@@ -179,7 +192,7 @@ def plan(system: Any, noise: Any, mc: Any) -> Plan:
     half of ``time``, so ``path_steps`` counts half of it; a burn-in "auto" counts at its
     minimum, MIN_AUTO_BURN_IN."""
     target = float(mc.floor) if mc.floor else 0.0
-    h = step_size(mc.dt, target, physics(system, noise), mc.sample_every)
+    h = step_size(mc.dt, target, physics(system, noise), mc.sample_every)  # (no parametric)
     stride, spw, n_win = sampling_plan(mc.time, mc.sample_every, h, target)
     interval = stride * h
 

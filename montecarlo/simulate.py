@@ -378,8 +378,10 @@ def _floor_A(arr: _Arrays) -> float:
                     np.diff(e))["L1_floor"]
 
 
-def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> Result:
-    """Monte Carlo of the original system for (duck-typed) scene.system and scene.noise.
+def simulate(system: Any, noise: Any, settings: Settings, *, parametric: Any = None,
+             **overrides: Any) -> Result:
+    """Monte Carlo of the original system for (duck-typed) scene.system, scene.noise and
+    scene.parametric (``parametric``: None, or its stiffness and damping intensities).
 
     Raises ValueError on settings it cannot use (a ``resume`` checkpoint of another run among
     them), SimulationDiverged when the run blows up and BudgetExhausted when a target floor's
@@ -397,7 +399,7 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
     target = float(st.floor) if st.floor else 0.0
     if target > 0 and "A" not in obs:
         obs = ("A", *obs)
-    phys = _params(system, noise)
+    phys = _params(system, noise, parametric)
     h = ck.h if ck is not None else step_size(st.dt, target, phys, st.sample_every)
     if not (math.isfinite(h) and h > 0 and st.paths >= st.blocks >= 2):
         raise ValueError("need dt > 0 and paths >= blocks >= 2")

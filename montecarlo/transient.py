@@ -50,7 +50,7 @@ def _edges(edges: dict[str, Any]) -> dict[str, np.ndarray]:
 
 
 def snapshots(system: Any, noise: Any, settings: PassageSettings, *, start: float,
-              times: Sequence[float], edges: dict[str, Any]) -> Result:
+              times: Sequence[float], edges: dict[str, Any], parametric: Any = None) -> Result:
     """data["snapshots"] = {"t": float[n], "A" | "x1" | "x2": {"edges", "x" (centres),
     "p": float[n, bins], "err": float[n, bins]}} (x2 also "atom_weight", "atom_err":
     float[n]); settings.horizon is not used (the last time is the end)."""
@@ -63,7 +63,7 @@ def snapshots(system: Any, noise: Any, settings: PassageSettings, *, start: floa
             and np.all(t_req >= 0) and np.all(np.diff(t_req) > 0)):
         raise BadInput("times must be finite, >= 0 and increasing")
     ed = _edges(edges)
-    phys = physics(system, noise)
+    phys = physics(system, noise, parametric)
     h = float(st.dt)
     marks = np.round(t_req / h).astype(np.int64)
     if np.any(np.abs(marks * h - t_req) > 1e-9 * t_req) \
