@@ -753,7 +753,8 @@ def _events(events: np.ndarray, sim_time: np.ndarray, samples: np.ndarray, h: fl
         "chatter_cutoff": {
             "rule": "after an impact the mass rests on the wall when its rebound speed r|v| is "
                     "below P dt, P = mu - f xi > 0 the net force pressing it back (the next "
-                    "flight would be shorter than one step)",
+                    "flight would be shorter than one step; at a wall at x = a != 0 the "
+                    "spring's force -g(a) counts too, and r is the law's e(|v|))",
             "dt": h,
             "note": "in chattering motion the impact rate depends on this cut-off"},
         "outside_fraction": {k: float(events[:, c].sum() / samples.sum()) for k, c in
