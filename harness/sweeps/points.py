@@ -182,7 +182,7 @@ def _validate_point(scene: Scene, workflow: str, bifurcation: Mapping[str, Any],
         if workflow in ("passage", "transient"):
             from vifpk.harness.sweeps.timesweep import check_point
 
-            check_point(workflow, bifurcation)
+            check_point(workflow, bifurcation, scene)  # the request's own checks
         if workflow in ("check", "passage", "transient") or (workflow == "bifurcation"
                                                              and bifurcation.get("mc")):
             # with a fixed step the checks depend on [montecarlo] and omega0 only: once each

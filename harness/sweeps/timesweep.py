@@ -80,10 +80,11 @@ def options(src: str, raw: Mapping[str, Any], workflow: str, vary: Mapping[str, 
         if "start" not in opts and "transient.start" not in vary:
             raise SweepError(f"{src}: [transient] start: missing (an amplitude)")
         t = opts.get("times")
-        if (not isinstance(t, list) or not t or not all(_finite(x) and x > 0 for x in t)
+        if (not isinstance(t, list) or len(t) < 3 or not all(_finite(x) and x > 0 for x in t)
                 or any(b <= a for a, b in zip(t, t[1:], strict=False))):
-            raise SweepError(f"{src}: [transient] times = {t!r}: a list of times > 0 in "
-                             "increasing order")
+            raise SweepError(f"{src}: [transient] times = {t!r}: a list of at least 3 "
+                             "times > 0 in increasing order (the relaxation fit has two "
+                             "parameters)")
         opts["times"] = [float(x) for x in t]
     sde = opts.setdefault("sde", False)
     if not isinstance(sde, bool):
@@ -105,18 +106,42 @@ def point_options(opts: Mapping[str, Any], params: tuple[tuple[str, float], ...]
     return out
 
 
-def check_point(workflow: str, opts: Mapping[str, Any]) -> None:
-    """The point's options as the command checks them (InputError, one line)."""
+def check_point(workflow: str, opts: Mapping[str, Any], scene: Any = None) -> None:
+    """The point's options as the command checks them: the same request, the same one line
+    (harness/request/timedomain.py; InputError). Without a scene only what needs none."""
+    if scene is not None:
+        from vifpk.harness.door.solvers import SolverFailure
+
+        try:
+            request(workflow, opts, scene, None)
+        except SolverFailure:  # a numerical dead end (no noise): the point's run says so
+            pass
+        return
     from vifpk.harness.request.validate import InputError
 
     if workflow == "passage":
         ac, st = opts["threshold"], opts["start"]
         if not (_finite(ac) and ac > 0):
-            raise InputError(f"passage.threshold = {ac!r}: allowed: an amplitude > 0")
+            raise InputError(f"--threshold {ac!r}: out of range; allowed: a finite "
+                             "amplitude > 0")
         if st != "stationary" and not 0 <= st < ac:
-            raise InputError(f"passage.start = {st:g}: allowed: 0 <= A0 < threshold = {ac:g}")
+            raise InputError(f"--start {st:g}: allowed: 0 <= A0 < Ac = {ac:g}, or "
+                             "'stationary'")
     elif not (_finite(opts["start"]) and opts["start"] > 0):
-        raise InputError(f"transient.start = {opts['start']!r}: allowed: an amplitude > 0")
+        raise InputError(f"--start {opts['start']!r}: out of range; allowed: a finite "
+                         "amplitude > 0")
+
+
+def request(workflow: str, opts: Mapping[str, Any], scene: Any, models: Any) -> Any:
+    """The point's PassageRequest or TransientRequest (harness/request/timedomain.py)."""
+    from vifpk.harness.request.timedomain import passage_request, transient_request
+
+    if workflow == "passage":
+        return passage_request(scene, threshold=opts["threshold"], start=opts["start"],
+                               models=models, horizon=opts.get("horizon"), sde=opts["sde"],
+                               method="direct")
+    return transient_request(scene, start=opts["start"], times=opts["times"], models=models,
+                             sde=opts["sde"])
 
 
 def _price(p: dict[str, Any], runs: int) -> None:
@@ -132,15 +157,13 @@ def _price(p: dict[str, Any], runs: int) -> None:
 
 
 def passage_point(job: Any) -> dict[str, Any]:
-    from vifpk.harness.workflows.passage import passage
-
-    from vifpk.core.defaults import CHECK_MODELS
+    from vifpk.harness.request.timedomain import with_quadratures
+    from vifpk.harness.workflows.passage import run
 
     o = point_options(job.bifurcation, job.params)
-    models = job.models if job.models is not None else CHECK_MODELS
-    res = passage(job.scene, threshold=o["threshold"], start=o["start"], models=models,
-                  horizon=o.get("horizon"), sde=o["sde"], quiet=True,
-                  price=lambda p: _price(p, 1 + (len(models) if o["sde"] else 0)))
+    req = with_quadratures(request("passage", o, job.scene, job.models))
+    res = run(req, quiet=True,
+              price=lambda p: _price(p, 1 + (len(req.models) if o["sde"] else 0)))
     mc = res.metrics["mfpt"]["original_system"]
     out: dict[str, Any] = {"models": {}}
     for m in res.models:
@@ -158,14 +181,10 @@ def passage_point(job: Any) -> dict[str, Any]:
 
 
 def transient_point(job: Any) -> dict[str, Any]:
-    from vifpk.harness.workflows.transient import transient
-
-    from vifpk.core.defaults import CHECK_MODELS
+    from vifpk.harness.workflows.transient import run
 
     o = point_options(job.bifurcation, job.params)
-    res = transient(job.scene, start=o["start"], times=tuple(o["times"]),
-                    models=job.models if job.models is not None else CHECK_MODELS,
-                    sde=o["sde"], quiet=True)
+    res = run(request("transient", o, job.scene, job.models), quiet=True)
     meas = res.metrics["relaxation"]["original_system"]
     out: dict[str, Any] = {"models": {}}
     for m in res.models:

@@ -13,6 +13,7 @@ method and why it was chosen; report.md a table of the same.
 from __future__ import annotations
 
 import time
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -28,12 +29,16 @@ REL_CI, BUDGET = 0.10, 900.0
 
 def passage_splitting_report(scene: Any, *, threshold: float, start: float | str,
                              models: tuple[str, ...], out: str | Path, prov: dict[str, Any],
-                             reason: str) -> dict[str, Any]:
-    """Run and write DIR/metrics.json and DIR/report.md; returns the metrics."""
+                             reason: str, quadratures: Mapping[str, Any] | None = None
+                             ) -> dict[str, Any]:
+    """Run and write DIR/metrics.json and DIR/report.md; returns the metrics.
+    ``quadratures``: the models' MFPT records already computed (request.timedomain
+    .with_quadratures), reused."""
     t0 = time.perf_counter()
     mfpt: dict[str, Any] = {}
     for m in registry.applicable(scene, models)[0]:  # the models that apply to the scene
-        q = timedomain.mfpt_averaged(scene, m, threshold=threshold, start=start)
+        q = (quadratures or {}).get(m) or timedomain.mfpt_averaged(
+            scene, m, threshold=threshold, start=start)
         mfpt[m] = {"value": float(q["value"]), "error_estimate": q.get("error_estimate")}
     sp = timedomain.passage_splitting(scene, threshold=threshold, start=start, rel_ci=REL_CI,
                                budget=BUDGET)
@@ -45,7 +50,7 @@ def passage_splitting_report(scene: Any, *, threshold: float, start: float | str
                       "mfpt_error": survival.relative_mfpt_error(
                           mfpt[m]["value"], orig,
                           model_err=float(mfpt[m]["error_estimate"] or 0.0))}
-                  for m in models}
+                  for m in mfpt}  # the models that apply
     keep = ("low", "entry", "levels_source", "target", "groups", "direct_cycles",
             "direct_successes", "seconds", "burn_in", "burn_in_rule", "settings")
     metrics = {"workflow": "passage", "method": "splitting", "method_reason": reason,
@@ -58,7 +63,7 @@ def passage_splitting_report(scene: Any, *, threshold: float, start: float | str
     folder.mkdir(parents=True, exist_ok=True)
     write_json(folder / "metrics.json", metrics)
     rows = [f"| {m} | {mfpt[m]['value']:.4g} | {models_out[m]['mfpt_error']['value']:+.3f} "
-            f"+- {models_out[m]['mfpt_error']['err']:.3f} |" for m in models]
+            f"+- {models_out[m]['mfpt_error']['err']:.3f} |" for m in mfpt]
     text = "\n".join([
         f"# First passage to Ac = {threshold:g} (method: splitting)", "",
         f"Method: splitting ({reason}). Original system: MFPT {o['value']:.4g} +- "
