@@ -145,6 +145,8 @@ def test_passage_command_writes_a_report_with_the_contract_keys(doubles, tmp_pat
     assert run_id in (out / "report.md").read_text()
     assert run_id in (out / "report.html").read_text()
     assert str(np.load(out / "passage.npz")["run_id"]) == run_id
+    assert (out / "reliability.csv").read_text().startswith("curve,t,R,se,lower,upper\n")
+    assert (out / "fpt_density.csv").read_text().startswith("curve,t_lo,t_hi,density,err\n")
     # a second run replaces its own kind of folder; a check report folder is refused
     code, cap = _cli(["passage", str(TINY), "--threshold", "2", "--start", "0.5", "--model",
                       "exact", "--out", str(out), "--quiet", "--paths", "256", "--json"], capsys)

@@ -391,3 +391,63 @@ def test_at_prints_r_of_every_model_and_the_original_system(doubles, no_report, 
         assert abs(o["value"] - math.exp(-r["T"] / td.T_ORIGINAL)) < 4 * o["se"]
         assert o["band"][0] <= o["ci"][0] <= o["value"] <= o["ci"][1] <= o["band"][1]
         assert f"R({r['T']:g}): original system {o['value']:.4f}" in cap.out
+
+
+def test_passage_csv_files_hold_r_and_the_fpt_density(doubles, tiny):
+    """reliability.csv and fpt_density.csv (written beside passage.npz: test_passage.py's
+    report test), with the columns docs/passage.md names: the original system's rows are the
+    Kaplan-Meier steps (R = exp(-t/T0) within 4 Greenwood errors at every row with 100 or more
+    paths at risk), each model's R_M(t) is its curve (exp(-t/T_M) exactly); each density
+    integrates to the mass that passed (1 - R at the last bin edge)."""
+    import csv
+    import io
+
+    from vifpk.harness.outputs.timereport import passage_csv
+    from vifpk.harness.workflows.passage import passage
+
+    res = passage(tiny.with_values({"montecarlo.paths": 256}), threshold=2.0, start=0.5,
+                  models=("exact",))
+    files = passage_csv(res)
+    rel = list(csv.DictReader(io.StringIO(files["reliability.csv"])))
+    dens = list(csv.DictReader(io.StringIO(files["fpt_density.csv"])))
+    assert list(rel[0]) == ["curve", "t", "R", "se", "lower", "upper"]
+    assert list(dens[0]) == ["curve", "t_lo", "t_hi", "density", "err"]
+    assert {r["curve"] for r in rel} == {"original_system", "exact", "sde:exact"}
+    km = [r for r in rel if r["curve"] == "original_system"]
+    assert float(km[0]["t"]) == 0.0 and float(km[0]["R"]) == 1.0
+    for r in km:
+        t, R, se = float(r["t"]), float(r["R"]), float(r["se"])
+        assert float(r["lower"]) <= R <= float(r["upper"])
+        if R * 256 >= 100:
+            assert abs(R - math.exp(-t / td.T_ORIGINAL)) <= 4 * se + 1e-12
+    for r in (r for r in rel if r["curve"] == "exact"):
+        assert float(r["R"]) == pytest.approx(math.exp(-float(r["t"]) / td.T_MODEL["exact"]),
+                                              abs=1e-12)
+        assert r["se"] == r["lower"] == r["upper"] == ""
+    for curve in ("original_system", "exact"):
+        rows = [r for r in dens if r["curve"] == curve]
+        mass = sum(float(r["density"]) * (float(r["t_hi"]) - float(r["t_lo"])) for r in rows)
+        last = float(rows[-1]["t_hi"])
+        if curve == "exact":  # linear interpolation on the double's grid, h = 0.006 T_M:
+            # error <= h^2 / 8 |R''| = 4.5e-6
+            assert abs(mass - (1 - math.exp(-last / td.T_MODEL["exact"]))) < 5e-6
+        else:
+            below = [float(r["R"]) for r in km if float(r["t"]) <= last][-1]
+            assert mass == pytest.approx(1 - below, abs=1e-12)
+
+
+@pytest.mark.slow
+def test_p49_real_run_every_path_censored_is_not_an_estimate():
+    """P49 with the real solvers (slow tier, ~5 s CPU): `--threshold 0.6 --start 0.3
+    --horizon 5 --model exact --paths 64` on paper-base censors every path (the exact model's
+    MFPT is ~250, 50x the horizon): NOT AN ESTIMATE and no recommendation, not "SMALL -- -0.0%
+    +/- 0.0%"."""
+    import vifpk
+
+    res = vifpk.passage("paper-base", threshold=0.6, start=0.3, horizon=5.0, models=["exact"],
+                        paths=64, sde=False)
+    o = res.metrics["mfpt"]["original_system"]
+    assert o["censored"] == o["paths"] == 64
+    assert res.metrics["models"]["exact"]["verdict_class"] == "not an estimate"
+    assert res.verdicts[0].startswith("exact model: NOT AN ESTIMATE -- no path")
+    assert res.metrics["recommended_model"] == "none"

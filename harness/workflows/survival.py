@@ -208,6 +208,23 @@ def fpt_density_l1(t_model: Any, R_model: Any, time: Any, censored: Any, *,
     harness.workflows.compare), sd_i = sqrt(q_i (1 - q_i) / n_i), n_i = Y(a_i) / R_KM(a_i) (= n
     without censoring before the bin; an approximation under random censoring); ``err``: the spread
     of the L1 under a parametric bootstrap q + sd N(0, 1) (``draws`` draws, ``seed``)."""
+    edges, q, sd = fpt_bins(time, censored, edges)
+    tm, Rm = np.asarray(t_model, dtype=float), np.asarray(R_model, dtype=float)
+    qm = -np.diff(np.interp(edges, tm, Rm))
+    value = float(np.sum(np.abs(qm - q)))
+    rng = np.random.default_rng(seed)
+    boot = np.abs(qm[None, :] - q[None, :] - sd[None, :] * rng.standard_normal((draws, q.size)))
+    return {"value": value, "floor": float(math.sqrt(2 / math.pi) * np.sum(sd)),
+            "err": float(boot.sum(axis=1).std(ddof=1)), "edges": edges, "q_model": qm,
+            "q": q, "sd": sd}
+
+
+def fpt_bins(time: Any, censored: Any, edges: Any = None
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(edges, q, sd): the Monte Carlo's FPT mass per bin, q_i = R_KM(a_i) - R_KM(b_i), and its
+    standard error sd_i = sqrt(q_i (1 - q_i) / n_i), n_i = Y(a_i) / R_KM(a_i)
+    (:func:`fpt_density_l1` explains both and the default edges). ValueError when no path
+    passed and no edges are given."""
     t_all, cen = _arrays(time, censored)
     km = kaplan_meier(t_all, cen)
     ev = t_all[~cen]
@@ -219,20 +236,13 @@ def fpt_density_l1(t_model: Any, R_model: Any, time: Any, censored: Any, *,
     edges = np.asarray(edges, dtype=float)
     Rk = _km_value(km, edges)
     q = Rk[:-1] - Rk[1:]
-    tm, Rm = np.asarray(t_model, dtype=float), np.asarray(R_model, dtype=float)
-    qm = -np.diff(np.interp(edges, tm, Rm))
     y = t_all.size - np.searchsorted(np.sort(t_all), edges[:-1], side="left")
     k_before = np.searchsorted(km["t"], edges[:-1], side="left") - 1  # R(a-)
     r_before = np.where(k_before >= 0, km["R"][np.maximum(k_before, 0)], 1.0)
     with np.errstate(divide="ignore", invalid="ignore"):
         n_eff = np.where(r_before > 0, y / np.maximum(r_before, 1e-300), 0.0)
         sd = np.where(n_eff > 0, np.sqrt(np.clip(q * (1 - q), 0, None) / n_eff), 0.0)
-    value = float(np.sum(np.abs(qm - q)))
-    rng = np.random.default_rng(seed)
-    boot = np.abs(qm[None, :] - q[None, :] - sd[None, :] * rng.standard_normal((draws, q.size)))
-    return {"value": value, "floor": float(math.sqrt(2 / math.pi) * np.sum(sd)),
-            "err": float(boot.sum(axis=1).std(ddof=1)), "edges": edges, "q_model": qm,
-            "q": q, "sd": sd}
+    return edges, q, sd
 
 
 def reliability_at(km: dict[str, Any], when: float, horizon: float) -> dict[str, Any]:

@@ -115,6 +115,11 @@ def transient(scene: Any, *, start: float, times: tuple[float, ...],
     entries: dict[str, Any] = {}
     warnings: list[str] = []
     measured = fit_relaxation(times, [mean_of(h) for h in hists], start)
+    if measured is not None and not measured["err"] > 0:  # no error bar: not a measurement
+        measured = None
+        warnings.append("the original system's relaxation time has no error bar (its snapshot "
+                        "means have none: each law sits in one or two bins of the shared "
+                        "grid): NOT AN ESTIMATE, not reported")
     # a snapshot law narrower than a few bins of the shared grid has an L1 of ~0 whatever the
     # models say (all its mass in one or two bins): not a measurement
     occupied = [int(np.count_nonzero(np.asarray(h["p"]) > 0)) for h in hists]
@@ -146,7 +151,7 @@ def transient(scene: Any, *, start: float, times: tuple[float, ...],
                       "relaxation": {"predicted": pred,
                                      "fitted": fitted["value"] if fitted else None,
                                      "error": _tau_error(fitted, measured)}}
-    if measured is None:
+    if measured is None and not any("no error bar" in w for w in warnings):
         warnings.append(f"no relaxation time measured on the original system: the fit of its "
                         f"mean amplitude needs at least {MIN_FIT_TIMES} snapshot times that "
                         "resolve the decay (give times around the models' relaxation times)")
