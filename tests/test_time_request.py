@@ -8,6 +8,7 @@ round 7 names them."""
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 
 import numpy as np
@@ -451,3 +452,105 @@ def test_p49_real_run_every_path_censored_is_not_an_estimate():
     assert res.metrics["models"]["exact"]["verdict_class"] == "not an estimate"
     assert res.verdicts[0].startswith("exact model: NOT AN ESTIMATE -- no path")
     assert res.metrics["recommended_model"] == "none"
+
+
+# ------------------------------------------------- splitting: CLI knobs, the API, sweeps
+@pytest.fixture
+def split(monkeypatch):
+    """door.timedomain.passage_splitting replaced by a double: the original system's MFPT is
+    T_ORIGINAL +- 2 (95% interval +- 4); the settings it was called with are kept."""
+    from vifpk.harness.door import timedomain
+
+    from vifpk.core.result import Result
+
+    calls = []
+
+    def passage_splitting(scene, *, threshold, start, **kw):
+        calls.append(kw)
+        T = td.T_ORIGINAL
+        return Result(data={}, info={"mfpt": {"value": T, "stderr": 2.0, "ci": [T - 4, T + 4],
+                                              "p": {"value": 0.1}, "mean_cycle": 12.0},
+                                     "groups": kw.get("groups", 20),
+                                     "target": "reached (double)"})
+
+    monkeypatch.setattr(timedomain, "passage_splitting", passage_splitting)
+    return calls
+
+
+@pytest.mark.parametrize(("args", "needle"), [
+    (["--method", "splitting", "--particles", "1"],
+     "--particles 1: out of range; allowed: a whole number >= 2"),
+    (["--method", "splitting", "--groups", "401"],
+     "--groups 401: out of range; allowed: a whole number from 2 to 400"),
+    (["--method", "direct", "--particles", "50"], "--particles: does not apply to --method direct"),
+    (["--method", "direct", "--groups", "4"], "--groups: does not apply to --method direct"),
+])
+def test_splitting_knobs_are_validated(no_computation, capsys, args, needle):
+    _refused(["passage", "paper-base", "--threshold", "0.9", *args], capsys, needle)
+
+
+def test_cli_splitting_takes_particles_and_groups_and_gives_verdict_classes(
+        doubles, split, tmp_path, capsys):
+    """--method splitting --particles N --groups G reach the door; the report has a verdict
+    class per model (the direct run's classes: exact T = 100 against 120 +- 2 is -16.7%,
+    moderate) and a recommendation (none: the best model misses by more than 10%)."""
+    out = tmp_path / "s"
+    code, cap = _cli(["passage", str(TINY), "--threshold", "2", "--start", "0.5", "--method",
+                      "splitting", "--particles", "50", "--groups", "4", "--model", "exact",
+                      "--out", str(out), "--quiet"], capsys)
+    assert code == 0, cap.err
+    assert split[0]["particles"] == 50 and split[0]["groups"] == 4
+    met = json.loads((out / "metrics.json").read_text())
+    e = met["models"]["exact"]
+    assert e["mfpt_error"]["value"] == pytest.approx(td.T_MODEL["exact"] / td.T_ORIGINAL - 1)
+    assert e["verdict_class"] == "moderate" and met["recommended_model"] == "none"
+    assert "exact model: MODERATE -- MFPT error -16.7%" in cap.out
+    assert "recommended model for first passage: none" in cap.out
+    assert "moderate" in (out / "report.md").read_text()
+
+
+def test_api_method_splitting(doubles, split, tiny):
+    """vifpk.passage(method="splitting", groups=G): the splitting result with its verdicts;
+    "auto" (the command line's cost guard chooses) and a horizon with splitting refused."""
+    import vifpk
+    from vifpk.core.result import BadInput
+
+    res = vifpk.passage(tiny, threshold=2.0, start=0.5, models=["exact", "corrected"],
+                        method="splitting", groups=6)
+    assert split[-1]["groups"] == 6 and "particles" not in split[-1]
+    assert res.metrics["method"] == "splitting"
+    # 118 / 120 - 1 = -1.7% against an error bar of 1.6% (2 / 120): within 2 bars
+    assert res.metrics["models"]["corrected"]["verdict_class"] == "indistinguishable"
+    assert res.metrics["recommended_model"] == "corrected"
+    with pytest.raises(BadInput, match="--method 'auto': allowed: direct, splitting"):
+        vifpk.passage(tiny, threshold=2.0, method="auto")
+    with pytest.raises(BadInput, match="--horizon: does not apply to --method splitting"):
+        vifpk.passage(tiny, threshold=2.0, method="splitting", horizon=10.0)
+
+
+def test_sweep_passage_method_splitting(doubles, split, tmp_path, tiny):
+    """[passage] method = "splitting" in a sweep file: accepted (an unknown method refused),
+    and a point's record is the direct point's layout with the splitting MFPT."""
+    from types import SimpleNamespace
+
+    from vifpk.harness.sweeps.errors import SweepError
+    from vifpk.harness.sweeps.spec import load_sweep
+    from vifpk.harness.sweeps.timesweep import passage_point
+
+    (tmp_path / "tiny.toml").write_text(TINY.read_text())
+    p = tmp_path / "s.toml"
+    body = ('scene = "tiny.toml"\nworkflow = "passage"\n[passage]\nstart = 0.5\n'
+            'method = "{m}"\ngroups = 4\n[vary]\n"passage.threshold" = [1.5, 2.0]\n')
+    p.write_text(body.format(m="splitting"))
+    sw = load_sweep(p)
+    assert len(sw.points) == 2
+    p.write_text(body.format(m="nope"))
+    with pytest.raises(SweepError, match="method = 'nope'"):
+        load_sweep(p)
+    job = SimpleNamespace(bifurcation={"start": 0.5, "method": "splitting", "groups": 4,
+                                       "sde": False},
+                          params=(("passage.threshold", 2.0),), scene=tiny, models=("exact",))
+    rec = passage_point(job)
+    assert rec["mfpt_original"] == td.T_ORIGINAL and split[-1]["groups"] == 4
+    assert rec["models"]["exact"]["verdict_class"] == "moderate"
+    assert math.isnan(rec["models"]["exact"]["R_sup"])

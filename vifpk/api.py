@@ -151,24 +151,44 @@ def _time_scene(source: Any, options: dict[str, Any], what: str) -> Any:
 
 def passage(source: Scene | str | Path, *, threshold: float, start: float | str = "stationary",
             models: Any = None, horizon: float | None = None, sde: bool = True,
-            at: Any = None, out: str | Path | None = None, quiet: bool = True,
+            at: Any = None, method: str = "direct", particles: int | None = None,
+            groups: int | None = None, out: str | Path | None = None, quiet: bool = True,
             **options: Any) -> Any:
     """First passage out of A < ``threshold`` (``vifpk passage``): a ``PassageResult`` with
     ``metrics`` (metrics.json's: ``mfpt``, ``models``, ``R``, ``plan``, ``at``, ...),
     ``verdicts``, ``recommendation``, ``warnings``; with ``out``, the report folder is written
     there (checked before any work, as ``--out`` is). ``models``: registered names or objects
     with the averaged-model protocol (default: the check models that apply). ``at``: a
-    mission time T or a list of them (``--at``). ``options``: ``paths``, ``dt``, ``seed`` and
-    ``set``, as the command's flags. The inputs are checked as the command checks them, by the
-    same request (harness/request/timedomain.py: BadInput, one line); no cost guard."""
+    mission time T or a list of them (``--at``). ``method``: "direct" (default) or
+    "splitting" (the MFPT only, at thresholds direct simulation cannot reach: a
+    ``SplittingResult`` with ``metrics``, ``verdicts``, ``recommendation``; ``particles`` and
+    ``groups`` its settings; ``horizon``, ``paths`` and ``at`` do not apply). ``options``:
+    ``paths``, ``dt``, ``seed`` and ``set``, as the command's flags. The inputs are checked as
+    the command checks them, by the same request (harness/request/timedomain.py: BadInput,
+    one line); no cost guard, hence no "auto"."""
     from vifpk.harness.request.timedomain import output, passage_request, with_quadratures
-    from vifpk.harness.workflows.passage import run
 
     out = output(out)
     req = passage_request(_time_scene(source, options, "passage"), threshold=threshold,
                           start=start, models=models, horizon=horizon,
-                          paths=options.get("paths"), sde=sde, method="direct", at=at)
-    res = run(with_quadratures(req), quiet=quiet)
+                          paths=options.get("paths"), sde=sde, method=method, at=at,
+                          particles=particles, groups=groups,
+                          methods=("direct", "splitting"))
+    req = with_quadratures(req)
+    if req.method == "splitting":
+        from vifpk.harness.workflows import rarepassage
+
+        res = rarepassage.run(req, reason="asked for (method='splitting')")
+        if out is not None:
+            from vifpk.harness.outputs import provenance
+
+            rarepassage.write_report(res, out, provenance.collect(
+                scene_path=provenance.scene_file(req.scene.source) if req.scene.source
+                else None))
+        return res
+    from vifpk.harness.workflows.passage import run
+
+    res = run(req, quiet=quiet)
     if out is not None:
         from vifpk.harness.outputs.timereport import write_time_report
 

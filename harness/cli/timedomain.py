@@ -67,7 +67,8 @@ def check_passage(args: argparse.Namespace) -> Any:
     _refuse_common(args, "passage")
     req = passage_request(_checked_scene(args, mc=True), threshold=args.threshold,
                           start=args.start, models=args.model, horizon=args.horizon,
-                          paths=args.paths, method=args.method, at=args.at)
+                          paths=args.paths, method=args.method, at=args.at,
+                          particles=args.particles, groups=args.groups)
     cost.refuse_oversized(req.scene)
     return req
 
@@ -209,19 +210,18 @@ def _splitting(args: argparse.Namespace, req: Any, out: str, prov: dict[str, Any
 
     print(f"method: splitting ({reason})")
     with outdir.hold(out, run_id=prov["run_id"], allowed=PASSAGE_FILES, kind="passage report"):
-        met = passage_splitting_report(req.scene, threshold=req.threshold, start=req.start,
-                                       models=req.models, out=out, prov=prov, reason=reason,
-                                       quadratures=req.quadratures)
+        met = passage_splitting_report(req, out=out, prov=prov, reason=reason)
         _finite(met)
     o = met["mfpt"]["original_system"]
     if args.json:
-        print(json.dumps({"mfpt": met["mfpt"], "method": "splitting"}))
+        print(json.dumps({"mfpt": met["mfpt"], "method": "splitting",
+                          "recommended_model": met["recommended_model"]}))
     else:
         print(f"original system: MFPT {o['value']:.4g} +- {o['stderr']:.2g} "
               f"(95%: {o['ci'][0]:.4g} to {o['ci'][1]:.4g}; {met['splitting']['target']})")
-        for m, e in met["models"].items():
-            print(f"{m} model: MFPT {e['mfpt']:.4g}, relative error "
-                  f"{e['mfpt_error']['value']:+.3f} +- {e['mfpt_error']['err']:.3f}")
+        for line in met["verdicts"]:
+            print(line)
+        print(met["recommendation"])
     print(f"report: {Path(out) / 'report.md'}")
     return 0
 
@@ -318,6 +318,8 @@ def _common(p: argparse.ArgumentParser) -> None:
 
 def passage_arguments(p: argparse.ArgumentParser) -> None:
     """``vifpk passage``'s options."""
+    from vifpk.harness.cli.options import _whole_number
+
     _common(p)
     p.add_argument("--threshold", type=_number, required=True, metavar="Ac",
                    help="the amplitude threshold Ac (energy U(Ac)); required")
@@ -329,6 +331,12 @@ def passage_arguments(p: argparse.ArgumentParser) -> None:
                         "(the MFPT only, at thresholds direct simulation cannot reach); auto: "
                         "direct unless the cost guard prices it out, then splitting, said so "
                         "(default: %(default)s)")
+    p.add_argument("--particles", type=_whole_number, metavar="N",
+                   help="splitting: replicas per AMS run, >= 2 (default 200; --method "
+                        "splitting or auto)")
+    p.add_argument("--groups", type=_whole_number, metavar="G",
+                   help="splitting: independent repetitions per batch (the interval's "
+                        "samples), 2 to 400 (default 20; --method splitting or auto)")
     p.add_argument("--at", type=_number, action="append", metavar="T",
                    help="a mission time: print R(T) of the original system (with its 95%% "
                         "interval and simultaneous band) and of every model, and write it "

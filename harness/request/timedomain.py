@@ -36,6 +36,9 @@ from vifpk.core.scene import Scene, no_noise
 #: three snapshot times (two parameters and one degree of freedom to judge the fit)
 MIN_FIT_TIMES = 3
 METHODS = ("auto", "direct", "splitting")
+#: the most independent groups a splitting run may use (door.timedomain.passage_splitting's
+#: max_groups: its sequential stop adds groups up to this many)
+SPLITTING_MAX_GROUPS = 400
 TIMES_ALLOWED = f"at least {MIN_FIT_TIMES} times > 0 in strictly increasing order"
 
 
@@ -46,7 +49,9 @@ class PassageRequest:
     ``scene``: concrete, montecarlo.dt resolved (time_step); ``models``: registered names or
     objects with the averaged-model protocol, once each; ``horizon``, ``paths``: None for the
     plan's defaults; ``at``: mission times T at which R(T) is reported (``--at``);
-    ``quadratures``: {model label: fpk.mfpt's record} once priced (:func:`with_quadratures`)."""
+    ``particles``, ``groups``: splitting's replicas per AMS run and independent repetitions
+    (None: the door's defaults, 200 and 20); ``quadratures``: {model label: fpk.mfpt's
+    record} once priced (:func:`with_quadratures`)."""
 
     scene: Scene
     threshold: float
@@ -57,6 +62,8 @@ class PassageRequest:
     sde: bool = True
     method: str = "auto"
     at: tuple[float, ...] = ()
+    particles: int | None = None
+    groups: int | None = None
     quadratures: Mapping[str, Any] | None = field(default=None, compare=False)
 
     @property
@@ -210,13 +217,30 @@ def mission_times(at: Any) -> tuple[float, ...]:
 
 def passage_request(scene: Scene, *, threshold: Any, start: Any = "stationary",
                     models: Any = None, horizon: Any = None, paths: Any = None,
-                    sde: Any = True, method: Any = "auto", at: Any = None) -> PassageRequest:
+                    sde: Any = True, method: Any = "auto", at: Any = None,
+                    particles: Any = None, groups: Any = None,
+                    methods: tuple[str, ...] = METHODS) -> PassageRequest:
     """The checked PassageRequest (module docstring); InputError, one line, before any work.
     ``method`` "splitting" estimates the MFPT only, with no horizon and no paths of its own:
-    ``horizon``, ``paths`` and ``at`` given with it are refused (they do not apply)."""
+    ``horizon``, ``paths`` and ``at`` given with it are refused (they do not apply), as are
+    ``particles`` and ``groups`` with "direct". ``methods``: those the front end offers."""
     scene = time_scene(scene)
-    if method not in METHODS:
-        raise InputError(f"--method {method!r}: allowed: {', '.join(METHODS)}")
+    if not isinstance(method, str) or method not in methods:
+        raise InputError(f"--method {method!r}: allowed: {', '.join(methods)}")
+    knobs = {}
+    for option, value, lo, hi in (("--particles", particles, 2, math.inf),
+                                  ("--groups", groups, 2, SPLITTING_MAX_GROUPS)):
+        if value is None:
+            continue
+        if method == "direct":
+            raise InputError(f"{option}: does not apply to --method direct (a splitting "
+                             "setting); drop it, or use --method splitting")
+        if isinstance(value, bool) or not isinstance(value, numbers.Integral) or not (
+                lo <= value <= hi):
+            allowed = f">= {lo}" if hi == math.inf else f"from {lo} to {hi}"
+            raise InputError(f"{option} {value!r}: out of range; allowed: a whole number "
+                             f"{allowed}")
+        knobs[option[2:]] = int(value)
     if method == "splitting":
         for option, value in (("--horizon", horizon), ("--paths", paths), ("--at", at)):
             if value is not None:
@@ -227,7 +251,7 @@ def passage_request(scene: Scene, *, threshold: Any, start: Any = "stationary",
     ac, a0, h = passage_values(scene, threshold=threshold, start=start, horizon=horizon)
     return PassageRequest(scene=scene, threshold=ac, start=a0, models=models_of(scene, models),
                           horizon=h, paths=_paths(paths), sde=flag("sde", sde), method=method,
-                          at=mission_times(at))
+                          at=mission_times(at), **knobs)
 
 
 def with_quadratures(req: PassageRequest) -> PassageRequest:

@@ -7,6 +7,8 @@
     start = "stationary"         # or an amplitude A0 < Ac (default "stationary")
     horizon = 5000.0             # optional; default 8 x the largest model MFPT
     sde = false                  # optional: also the averaged SDEs' Monte Carlo (default off)
+    method = "direct"            # or "splitting": the MFPT only, at thresholds direct
+                                 # simulation cannot reach (no horizon; particles, groups)
 
     workflow = "transient"
     [transient]
@@ -27,7 +29,7 @@ from typing import Any
 #: workflow parameters that a sweep may vary or fix in its table, by workflow
 TIME_PARAMS = {"passage.threshold": "passage", "passage.start": "passage",
                "transient.start": "transient"}
-KEYS = {"passage": ("threshold", "start", "horizon", "sde"),
+KEYS = {"passage": ("threshold", "start", "horizon", "sde", "method", "particles", "groups"),
         "transient": ("start", "times", "sde")}
 POINT_SECONDS = 3600.0  # a point's Monte Carlo is refused above an hour at the fastest rate
 
@@ -76,6 +78,10 @@ def options(src: str, raw: Mapping[str, Any], workflow: str, vary: Mapping[str, 
             raise SweepError(f"{src}: [passage] start = {st!r}: an amplitude or 'stationary'")
         if "horizon" in opts and not (_finite(opts["horizon"]) and opts["horizon"] > 0):
             raise SweepError(f"{src}: [passage] horizon = {opts['horizon']!r}: a time > 0")
+        method = opts.get("method", "direct")  # not set by default: fingerprints kept
+        if method not in ("direct", "splitting"):
+            raise SweepError(f"{src}: [passage] method = {method!r}: allowed: 'direct', "
+                             "'splitting'")
     else:
         if "start" not in opts and "transient.start" not in vary:
             raise SweepError(f"{src}: [transient] start: missing (an amplitude)")
@@ -139,7 +145,8 @@ def request(workflow: str, opts: Mapping[str, Any], scene: Any, models: Any) -> 
     if workflow == "passage":
         return passage_request(scene, threshold=opts["threshold"], start=opts["start"],
                                models=models, horizon=opts.get("horizon"), sde=opts["sde"],
-                               method="direct")
+                               method=opts.get("method", "direct"),
+                               particles=opts.get("particles"), groups=opts.get("groups"))
     return transient_request(scene, start=opts["start"], times=opts["times"], models=models,
                              sde=opts["sde"])
 
@@ -162,6 +169,8 @@ def passage_point(job: Any) -> dict[str, Any]:
 
     o = point_options(job.bifurcation, job.params)
     req = with_quadratures(request("passage", o, job.scene, job.models))
+    if req.method == "splitting":
+        return _splitting_point(req)
     res = run(req, quiet=True,
               price=lambda p: _price(p, 1 + (len(req.models) if o["sde"] else 0)))
     mc = res.metrics["mfpt"]["original_system"]
@@ -177,6 +186,25 @@ def passage_point(job: Any) -> dict[str, Any]:
                censored_fraction=res.metrics["plan"]["censored_fraction"],
                recommended_model=res.metrics["recommended_model"],
                warnings=res.warnings, verdicts=res.verdicts)
+    return out
+
+
+def _splitting_point(req: Any) -> dict[str, Any]:
+    """A passage point by splitting (harness/workflows/rarepassage.py): the same record as a
+    direct point's, with the R(t) distances not measured (NaN) and nothing censored."""
+    from vifpk.harness.workflows import rarepassage
+
+    res = rarepassage.run(req, reason="asked for ([passage] method = 'splitting')")
+    met = res.metrics
+    out: dict[str, Any] = {"models": {
+        m: {"mfpt": e["mfpt"], "mfpt_error": e["mfpt_error"]["value"],
+            "mfpt_error_err": e["mfpt_error"]["err"], "R_sup": math.nan,
+            "R_sup_floor": math.nan, "verdict_class": e["verdict_class"]}
+        for m, e in met["models"].items()}}
+    o = met["mfpt"]["original_system"]
+    out.update(mfpt_original=o["value"], mfpt_original_err=o["stderr"], censored_fraction=0.0,
+               recommended_model=met["recommended_model"], warnings=res.warnings,
+               verdicts=res.verdicts)
     return out
 
 
