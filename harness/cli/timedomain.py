@@ -1,13 +1,17 @@
 """Command line of the time-domain workflows (registered by harness/cli/options.py):
 
     vifpk passage SCENE --threshold Ac [--start A0 | --start stationary] [--model M ...]
-                  [--horizon T] [--out DIR] [--json] [--paths N] [--dt H] [--seed S] [--yes]
-    vifpk transient SCENE --start A0 --times t1,t2,... [--model M ...] [--out DIR] [--json]
+                  [--method auto|direct|splitting] [--horizon T] [--at T ...]
+                  [--particles N] [--groups G] [--out DIR] [--json] [--paths N] [--dt H]
+                  [--seed S] [--yes]
+    vifpk transient SCENE --start A0 --times t1,t2,t3,... [--model M ...] [--out DIR] [--json]
                   [--paths N] [--dt H] [--seed S] [--yes]
 
-Every input is checked before any computation (one line, exit 2: :func:`check_passage`,
-:func:`check_transient`); the passage plan is priced by the cost guard once the averaged
-models have given their MFPT (seconds), before any Monte Carlo.
+Every input is checked before any computation by the time domain's request
+(harness/request/timedomain.py; one line, exit 2: :func:`check_passage`,
+:func:`check_transient`); the passage plan is priced by the cost guard from the averaged
+models' MFPTs (the quadrature, computed once and handed to the workflow), before any Monte
+Carlo.
 """
 
 from __future__ import annotations
