@@ -554,3 +554,45 @@ def test_sweep_passage_method_splitting(doubles, split, tmp_path, tiny):
     assert rec["mfpt_original"] == td.T_ORIGINAL and split[-1]["groups"] == 4
     assert rec["models"]["exact"]["verdict_class"] == "moderate"
     assert math.isnan(rec["models"]["exact"]["R_sup"])
+
+
+# ------------------------------------------------------------- own cases on the requests
+@pytest.mark.parametrize(("case", "call", "needle"), [
+    ("at-inf", lambda v: v.passage("paper-base", threshold=0.6, at=math.inf),
+     "--at inf: out of range; allowed: a finite time > 0"),
+    ("at-text", lambda v: v.passage("paper-base", threshold=0.6, at="10"), "--at '10'"),
+    ("particles-float", lambda v: v.passage("paper-base", threshold=0.6, method="splitting",
+                                            particles=50.0), "--particles 50.0"),
+    ("groups-bool", lambda v: v.passage("paper-base", threshold=0.6, method="splitting",
+                                        groups=True), "--groups True"),
+    ("method-case", lambda v: v.passage("paper-base", threshold=0.6, method="Splitting"),
+     "--method 'Splitting': allowed: direct, splitting"),
+    ("models-int", lambda v: v.passage("paper-base", threshold=0.6, models=[42]),
+     "--model 42: not a model"),
+    ("start-typo", lambda v: v.passage("paper-base", threshold=0.6, start="stationnary"),
+     "--start 'stationnary'"),
+    ("horizon-text", lambda v: v.passage("paper-base", threshold=0.6, horizon="5"),
+     "--horizon '5': not a number"),
+    ("paths-memory", lambda v: v.passage("paper-base", threshold=0.6, paths=10**9),
+     "--paths 1000000000: the simulation needs at least"),
+    ("transient-paths-memory", lambda v: v.transient("paper-base", start=1.0,
+                                                     times=(10, 20, 40), paths=10**9),
+     "--paths 1000000000: the simulation needs at least"),
+    ("assert-paths-memory", lambda v: v.assert_mfpt_close("paper-base", "exact", 0.6, rtol=0.1,
+                                                          paths=10**9),
+     "--paths 1000000000: the simulation needs at least"),
+    ("transient-sde-int", lambda v: v.transient("paper-base", start=1.0, times=(10, 20, 40),
+                                                sde=1), "sde 1: not true or false"),
+    ("transient-start-huge", lambda v: v.transient("paper-base", start=1e200,
+                                                   times=(10, 20, 40)), "--start 1e+200"),
+])
+def test_own_request_cases(no_computation, case, call, needle):
+    """Own hostile cases on the typed requests (docs/edges.md round 7): BadInput, one line,
+    before any work (a model that is not one was a TypeError; 1e9 paths a MemoryError after
+    the averaged models had run)."""
+    import vifpk
+    from vifpk.core.result import BadInput
+
+    with pytest.raises(BadInput) as e:
+        call(vifpk)
+    assert needle in str(e.value) and "\n" not in str(e.value), (case, str(e.value))

@@ -73,7 +73,6 @@ def check_passage(args: argparse.Namespace) -> Any:
                           start=args.start, models=args.model, horizon=args.horizon,
                           paths=args.paths, method=args.method, at=args.at,
                           particles=args.particles, groups=args.groups)
-    cost.refuse_oversized(req.scene)
     return req
 
 
@@ -85,7 +84,6 @@ def check_transient(args: argparse.Namespace) -> Any:
     _refuse_common(args, "transient")
     req = transient_request(_checked_scene(args, mc=True), start=args.start, times=args.times,
                             models=args.model, paths=args.paths)
-    cost.refuse_oversized(req.scene)
     return req
 
 

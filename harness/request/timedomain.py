@@ -156,6 +156,11 @@ def models_of(scene: Scene, models: Any, option: str = "--model") -> tuple[Any, 
 
         raise InputError(f"{option} {list(models)!r}: no model given; allowed: one or more "
                          f"of {', '.join(registry.model_names())}")
+    for m in models:
+        if not isinstance(m, str) and not callable(getattr(m, "drift", None)):
+            raise InputError(f"{option} {m!r}: not a model; allowed: a registered model's name "
+                             "or an object with the averaged-model protocol (drift(A), "
+                             "diffusion(A): docs/testing.md)")
     named = tuple(m for m in models if isinstance(m, str))
     if named:
         model_names(list(named), option)
@@ -249,9 +254,22 @@ def passage_request(scene: Scene, *, threshold: Any, start: Any = "stationary",
                                  "horizon, no paths and no R(t)); drop it, or use --method "
                                  "direct")
     ac, a0, h = passage_values(scene, threshold=threshold, start=start, horizon=horizon)
-    return PassageRequest(scene=scene, threshold=ac, start=a0, models=models_of(scene, models),
-                          horizon=h, paths=_paths(paths), sde=flag("sde", sde), method=method,
-                          at=mission_times(at), **knobs)
+    req = PassageRequest(scene=scene, threshold=ac, start=a0, models=models_of(scene, models),
+                         horizon=h, paths=_paths(paths), sde=flag("sde", sde), method=method,
+                         at=mission_times(at), **knobs)
+    if method != "splitting":
+        _fits_in_memory(scene, req.paths)
+    return req
+
+
+def _fits_in_memory(scene: Scene, paths: int | None) -> None:
+    """Memory is a hard limit for every front end (time is the caller's: the command line's
+    cost guard prices it): cost.refuse_oversized at the run's paths."""
+    from vifpk.harness.request import cost
+
+    if paths is not None and paths != scene.montecarlo.paths:
+        scene = scene.with_values({"montecarlo.paths": paths})
+    cost.refuse_oversized(scene)
 
 
 def with_quadratures(req: PassageRequest) -> PassageRequest:
@@ -315,8 +333,10 @@ def transient_request(scene: Scene, *, start: Any, times: Any, models: Any = Non
     """The checked TransientRequest (module docstring); InputError, one line, before any work."""
     scene = time_scene(scene)
     a0, t = transient_values(scene, start=start, times=times)
-    return TransientRequest(scene=scene, start=a0, times=t, models=models_of(scene, models),
-                            paths=_paths(paths), sde=flag("sde", sde))
+    req = TransientRequest(scene=scene, start=a0, times=t, models=models_of(scene, models),
+                           paths=_paths(paths), sde=flag("sde", sde))
+    _fits_in_memory(scene, req.paths)
+    return req
 
 
 def output(out: Any, option: str = "out") -> str | None:
