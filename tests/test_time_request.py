@@ -596,3 +596,22 @@ def test_own_request_cases(no_computation, case, call, needle):
     with pytest.raises(BadInput) as e:
         call(vifpk)
     assert needle in str(e.value) and "\n" not in str(e.value), (case, str(e.value))
+
+
+@pytest.mark.slow
+def test_s04_splitting_at_a_threshold_within_direct_reach(monkeypatch, tmp_path, capsys):
+    """S04: `--threshold 0.3 --start 0.29 --method splitting` (the default levels fall below
+    the start): exit 2, one line naming the entry level and --method direct, nothing written
+    and no splitting run (it was an internal error). Slow tier: the exact model's quadrature
+    and stationary density, a few seconds."""
+    import vifpk.montecarlo.splitting as splitting
+
+    def forbidden(*a, **k):
+        raise AssertionError("splitting started")
+
+    monkeypatch.setattr(splitting, "passage_splitting", forbidden)
+    out = tmp_path / "s04"
+    _refused(["passage", "paper-base", "--threshold", "0.3", "--start", "0.29", "--method",
+              "splitting", "--model", "exact", "--out", str(out)], capsys,
+             "passage_splitting start 0.29: not below the entry level 0.225")
+    assert not out.exists()

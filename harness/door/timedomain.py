@@ -272,8 +272,9 @@ def _splitting_levels_ok(chosen: dict[str, Any], threshold: float, start: float 
                        f"0 < low < entry < threshold = {float(threshold):g}")
     if start != "stationary" and not 0.0 < float(start) < entry:
         raise BadInput(f"passage_splitting start {float(start):g}: not below the entry level "
-                       f"{entry:g} ({how}); allowed: 0 < start < entry (give low and entry "
-                       "below the start, or simulate directly: the threshold is that near)")
+                       f"{entry:g} ({how}); allowed: 0 < start < entry (give low below and entry "
+                       "above the start, or simulate directly, --method direct: a threshold "
+                       "this near the start is within its reach)")
 
 
 # ------------------------------------------------ time domain (issue 30): averaged models' FPK
