@@ -615,3 +615,18 @@ def test_s04_splitting_at_a_threshold_within_direct_reach(monkeypatch, tmp_path,
               "splitting", "--model", "exact", "--out", str(out)], capsys,
              "passage_splitting start 0.29: not below the entry level 0.225")
     assert not out.exists()
+
+
+def test_direct_is_priced_before_any_r_stepping(doubles, monkeypatch, tmp_path, capsys):
+    """--method direct out of reach (a model MFPT of 1e9): refused by the cost guard from the
+    quadratures alone, before any model's R(t) is time-stepped (X14 died inside that stepping
+    at a threshold the guard would have refused)."""
+    from vifpk.harness.door import timedomain
+
+    def forbidden(*a, **k):
+        raise AssertionError("R(t) stepped before the price")
+
+    monkeypatch.setitem(td.T_MODEL, "exact", 1e9)
+    monkeypatch.setattr(timedomain, "passage_averaged", forbidden)
+    _refused(["passage", str(TINY), "--threshold", "2", "--model", "exact", "--method",
+              "direct", "--quiet", "--out", str(tmp_path / "p")], capsys, "MFPT at up to 1e+09")

@@ -179,8 +179,8 @@ def cmd_passage(args: argparse.Namespace) -> int:
 
     if req.method == "splitting":
         return _splitting(args, req, out, prov, "asked for (--method splitting)")
-    if req.method == "auto" and not args.yes:  # priced up front by the quadrature alone,
-        try:  # before any R(t) stepping (slow, and fragile, at high thresholds)
+    if not args.yes:  # priced up front by the quadrature alone (direct or auto), before
+        try:  # any R(t) stepping (slow, and fragile, at high thresholds)
             price(plan(scene, {m: float(q["value"]) for m, q in req.quadratures.items()},
                        paths=req.paths, horizon=req.horizon))
         except _Splitting as why:
