@@ -180,7 +180,7 @@ def passage(source: Scene | str | Path, *, threshold: float, start: float | str 
 
         res = rarepassage.run(req, reason="asked for (method='splitting')")
         if out is not None:
-            from vifpk.harness.outputs import provenance
+            from vifpk.core import provenance
 
             rarepassage.write_report(res, out, provenance.collect(
                 scene_path=provenance.scene_file(req.scene.source) if req.scene.source

@@ -97,7 +97,8 @@ def default_folder(scene: Any, command: str, *parts: str, models: Any = None) ->
     start, or start and times; the models when chosen), so that a different question never
     replaces another's report (issue 39, X15)."""
     from vifpk.harness.door.solvers import model_label
-    from vifpk.harness.outputs.provenance import folder_name
+
+    from vifpk.core.provenance import folder_name
 
     name = "-".join([folder_name(scene.name), command, *parts])
     if models:
@@ -113,7 +114,7 @@ def _out(args: argparse.Namespace, default: str) -> str:
 
 def _print(res: Any, files: dict[str, Any], as_json: bool) -> None:
     if as_json:
-        from vifpk.harness.outputs.io import jsonable
+        from vifpk.core.io import jsonable
 
         doc = {k: v for k, v in res.metrics.items() if k not in ("R",)}
         print(json.dumps(jsonable(doc), indent=1, allow_nan=False))
