@@ -630,3 +630,40 @@ def test_direct_is_priced_before_any_r_stepping(doubles, monkeypatch, tmp_path, 
     monkeypatch.setattr(timedomain, "passage_averaged", forbidden)
     _refused(["passage", str(TINY), "--threshold", "2", "--model", "exact", "--method",
               "direct", "--quiet", "--out", str(tmp_path / "p")], capsys, "MFPT at up to 1e+09")
+
+
+def test_every_request_field_is_an_option_of_every_front_end():
+    """One request, every front end: each field of PassageRequest / TransientRequest is an
+    option of the command (its flag), a parameter of vifpk.passage / vifpk.transient and a key
+    of the sweep's [passage] / [transient] table (where it applies), so no front end drops a
+    question the request can ask."""
+    import argparse
+    import inspect
+
+    from vifpk.harness.cli.timedomain import passage_arguments, transient_arguments
+    from vifpk.harness.request.timedomain import PassageRequest, TransientRequest
+    from vifpk.harness.sweeps.timesweep import KEYS
+
+    import vifpk
+
+    def dests(build):
+        p = argparse.ArgumentParser()
+        build(p)
+        return {a.dest for a in p._actions}
+
+    own = {"scene", "quadratures"}  # the scene is the positional; quadratures are priced
+    cli_name = {"models": "model", "sde": None}  # sde: the command always runs the SDEs
+    sweep_only_not = {"models", "paths", "at"}  # a sweep's [models]/[montecarlo]; no --at
+    for req, build, api, table in ((PassageRequest, passage_arguments, vifpk.passage,
+                                    "passage"),
+                                   (TransientRequest, transient_arguments, vifpk.transient,
+                                    "transient")):
+        fields = {f.name for f in dataclasses.fields(req)} - own
+        cli = dests(build)
+        for f in fields:
+            name = cli_name.get(f, f)
+            assert name is None or name in cli, (req.__name__, f)
+        params = set(inspect.signature(api).parameters) | {"paths"}  # paths: **options
+        assert fields <= params, (req.__name__, fields - params)
+        missing = fields - sweep_only_not - set(KEYS[table])
+        assert not missing, (req.__name__, missing)
