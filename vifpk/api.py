@@ -178,7 +178,7 @@ def passage(source: Scene | str | Path, *, threshold: float, start: float | str 
     if req.method == "splitting":
         from vifpk.harness.workflows import rarepassage
 
-        res = rarepassage.run(req, reason="asked for (method='splitting')")
+        res = rarepassage.run(req, reason="asked for: method='splitting'")
         if out is not None:
             from vifpk.core import provenance
 

@@ -179,7 +179,7 @@ def cmd_passage(args: argparse.Namespace) -> int:
             raise _Splitting(f"chosen automatically: {exc}") from None
 
     if req.method == "splitting":
-        return _splitting(args, req, out, prov, "asked for (--method splitting)")
+        return _splitting(args, req, out, prov, "asked for: --method splitting")
     if not args.yes:  # priced up front by the quadrature alone (direct or auto), before
         try:  # any R(t) stepping (slow, and fragile, at high thresholds)
             price(plan(scene, {m: float(q["value"]) for m, q in req.quadratures.items()},

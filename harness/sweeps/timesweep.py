@@ -180,7 +180,7 @@ def _splitting_point(req: Any) -> dict[str, Any]:
     direct point's, with the R(t) distances not measured (NaN) and nothing censored."""
     from vifpk.harness.workflows import rarepassage
 
-    res = rarepassage.run(req, reason="asked for ([passage] method = 'splitting')")
+    res = rarepassage.run(req, reason="asked for: [passage] method = 'splitting'")
     met = res.metrics
     out: dict[str, Any] = {"models": {
         m: {"mfpt": e["mfpt"], "mfpt_error": e["mfpt_error"]["value"],
