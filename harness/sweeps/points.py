@@ -184,7 +184,7 @@ def _validate_point(scene: Scene, workflow: str, bifurcation: Mapping[str, Any],
         if workflow in ("passage", "transient"):
             from vifpk.harness.sweeps import timesweep
 
-            timesweep.check_point(workflow, bifurcation)
+            timesweep.check_point(workflow, bifurcation, scene)  # the request's checks
         if workflow in ("check", "passage", "transient") or (workflow == "bifurcation"
                                                              and bifurcation.get("mc")):
             # with a fixed step the checks depend on [montecarlo] and omega0 only: once each
