@@ -336,3 +336,33 @@ def test_runtime_warnings_key_says_whether_they_were_recorded(canned_check):
     doc = metrics_document(canned_check, {}, tally.records())
     assert doc["runtime_warnings"] == [] and list(doc)[-3:] == ["runtime_warnings", "timings",
                                                                  "provenance"]
+
+
+def test_drawing_changes_no_matplotlib_state_and_closes_on_every_path(monkeypatch):
+    """Issue 38: vifpk/core/io.py called matplotlib.use("Agg") on every plot (a notebook
+    user's backend switched by a library call) and left a figure open when savefig raised.
+    Figures are drawn on their own Agg canvas: matplotlib.use is never called, pyplot never
+    imported by it (tests/test_layers.py scans for both); png_bytes closes a (pyplot) figure
+    even when savefig raises."""
+    import matplotlib
+
+    from vifpk.core.io import figures, png_bytes
+
+    def refuse(*a, **k):
+        raise AssertionError("matplotlib.use called")
+
+    monkeypatch.setattr(matplotlib, "use", refuse)
+    fig, ax = figures().subplots(1, 2, figsize=(2, 1))
+    ax[0].plot([0, 1], [0, 1])
+    assert png_bytes(fig, text={"vifpk run id": "x"}).startswith(b"\x89PNG")
+    import matplotlib.pyplot as plt
+
+    opened = plt.figure()
+
+    def broken(*a, **k):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(opened, "savefig", broken)
+    with pytest.raises(OSError, match="disk full"):
+        png_bytes(opened)
+    assert opened.number not in plt.get_fignums()

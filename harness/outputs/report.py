@@ -42,9 +42,9 @@ def _figure_densities(res: CheckResult, text: dict[str, str] | None = None) -> b
     closed form (solid line), its FPK (open circles), the Monte Carlo of its averaged SDE
     (dashed steps), in one colour per model; the Monte Carlo of the original system in black
     with +/- 2 s.e. bars. One legend for all panels."""
-    from vifpk.core.io import pyplot
+    from vifpk.core.io import figures
 
-    plt = pyplot()
+    plt = figures()
 
     sol = res.solutions
     fig, axes = plt.subplots(1, 3, figsize=(13, 4.4))
@@ -86,9 +86,9 @@ def _figure_decomposition(res: CheckResult, text: dict[str, str] | None = None) 
     """Bars: the L1 distance of each part of the decomposition, with +/- 1 s.e. error bars
     (black, capped). Grey hatched boxes: the Monte Carlo noise floor, from the bottom of the
     axis up to the floor (a bar inside its box is noise)."""
-    from vifpk.core.io import pyplot
+    from vifpk.core.io import figures
 
-    plt = pyplot()
+    plt = figures()
     from matplotlib.patches import Rectangle
 
     models = tuple(res.metrics["models"])
