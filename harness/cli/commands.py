@@ -325,8 +325,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     from vifpk.core.provenance import folder_name
 
     validate.output_folder(args.out, "--out")
-    validate.outputs_apart_from_inputs(args, replaced=False, names=store.SWEEP_FILES)
     sweep = sweeps_spec.load_sweep(args.sweep)
+    validate.outputs_apart_from_inputs(args, replaced=False, names=store.SWEEP_FILES,
+                                       extra=sweeps_spec.inputs(sweep))
     spec = executors.parse_executor(args.executor)
     executors.require_output_libraries(
         surface=bool(sweep.adaptive and sweep.adaptive.get("method") == "band"))
