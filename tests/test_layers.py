@@ -247,3 +247,17 @@ def test_no_library_module_switches_matplotlib_state():
         if "matplotlib.pyplot" in imported_modules(p):
             bad.append(f"{p.relative_to(ROOT)} imports matplotlib.pyplot")
     assert not bad, bad
+
+
+def test_no_blanket_suppress():
+    """No ``contextlib.suppress(Exception)`` (or BaseException) anywhere of ours: it hid a
+    second parser of the sweep file and plugin code run during validation (issue 38)."""
+    bad = []
+    for p in sources():
+        for node in nodes(p):
+            if isinstance(node, ast.Call) and getattr(node.func, "attr", getattr(
+                    node.func, "id", None)) == "suppress" and any(
+                    isinstance(a, ast.Name) and a.id in ("Exception", "BaseException")
+                    for a in node.args):
+                bad.append(f"{p.relative_to(ROOT)}:{node.lineno}")
+    assert not bad, bad
