@@ -22,6 +22,7 @@ from vifpk.harness.door.solvers import (
     model_label,
     model_period,
     phase_solution,
+    solver_failure,
 )
 
 from vifpk.core.defaults import FPK_CELLS
@@ -129,9 +130,9 @@ def passage_sde(scene: Any, model: Any, *, threshold: float, start: Any, horizon
                                 start=_start_amplitudes(start, paths, seed), paths=paths,
                                 blocks=blocks, dt=dt, horizon=horizon, seed=seed,
                                 progress=progress)
-    except ValueError as exc:  # coefficients not finite on the table
-        if isinstance(exc, BadInput):
-            raise
+    except ValueError as exc:  # coefficients not finite on the table: a numerical failure
+        if isinstance(exc, BadInput) or solver_failure(exc) is None:
+            raise  # any other ValueError is not the solver's failure (boundary.py)
         raise SolverFailure(f"averaged SDE of {model_label(model)}: {exc}") from None
     res.info.update(extra)
     return res
@@ -168,9 +169,9 @@ def transient_sde(scene: Any, model: Any, *, start: Any, times: Any, edges_A: An
         res = sde_snapshots(m.drift, m.diffusion, start=_start_amplitudes(start, paths, seed),
                             times=times, edges_A=edges_A, paths=paths, blocks=blocks, dt=dt,
                             seed=seed, progress=progress)
-    except ValueError as exc:
-        if isinstance(exc, BadInput):
-            raise
+    except ValueError as exc:  # coefficients not finite on the table: a numerical failure
+        if isinstance(exc, BadInput) or solver_failure(exc) is None:
+            raise  # any other ValueError is not the solver's failure (boundary.py)
         raise SolverFailure(f"averaged SDE of {model_label(model)}: {exc}") from None
     res.info.update(extra)
     return res

@@ -74,6 +74,8 @@ class Sweep:
     tolerance_question: tuple[str, str, float] = ("L1", "A", TOLERANCE_CONFIDENCE)
     #: check sweeps whose file gives a tolerance: fit the error surface (sweeps/surface.py)
     surface: bool = False
+    #: the file the base scene was read from (None: not a file on disk)
+    base_file: str | None = None
 
     @property
     def names(self) -> tuple[str, ...]:
