@@ -277,7 +277,8 @@ class CorrectedModel(CompoundedModel):
 
     @property
     def correlated(self) -> bool:
-        return self.spectrum.kind == "ou"
+        """Coloured noise with the rational (OU) spectrum the wall table is derived for."""
+        return self.spectrum.rational
 
     @property
     def observes(self) -> bool:

@@ -222,8 +222,8 @@ class ExactModel:
         o = self.orbit(A) if orbit is None else orbit
         f2 = self.f**2
         S = self.spectrum
-        if S.kind == "white":
-            return 2.0 * np.pi * f2 * S(0.0) * o["v2"]
+        if S.flat:
+            return 2.0 * np.pi * f2 * S.level() * o["v2"]
         c, a2 = S.rational_parts()  # raises for a kind without it: no silent fallback
         rest_point = o["v2"] == 0.0  # A = 0 (k1 = 0: T = inf there): no motion, no noise power
         if np.any(rest_point):  # the sums at a stand-in amplitude, then 0 there

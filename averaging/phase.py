@@ -20,7 +20,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from .geometry import Array, amplitude_of_energy_k, potential_k
+from vifpk.physics.spring import amplitude_of_energy, potential
+
+from .geometry import Array
 
 
 @dataclass(frozen=True)
@@ -48,19 +50,14 @@ def phase_densities(A: Array, log_h: Array, log_T: Array, *,
         restoring = (omega0**2, alpha)
     k = tuple(restoring)
 
-    def potential(x: Array, *_: float) -> Array:
-        return potential_k(x, k)
-
-    def amplitude_of_energy(E: Array, *_: float) -> Array:
-        return amplitude_of_energy_k(E, k)
-
     A = np.asarray(A, dtype=float)
     spline = CubicSpline(A, log_h)
     lo, hi = float(A[0]), float(A[-1])
-    E_lo, E_hi = float(potential(lo, omega0, alpha)), float(potential(hi, omega0, alpha))
+    E_lo = float(potential(np.asarray(lo, dtype=float), k))
+    E_hi = float(potential(np.asarray(hi, dtype=float), k))
 
     def dens(x: Array, v: Array) -> Array:
-        a = amplitude_of_energy(0.5 * v**2 + potential(x, omega0, alpha), omega0, alpha)
+        a = amplitude_of_energy(0.5 * v**2 + potential(x, k), k)
         inside = (a >= lo) & (a <= hi)
         return np.where(inside, np.exp(spline(np.clip(a, lo, hi))), 0.0)
 
@@ -68,7 +65,7 @@ def phase_densities(A: Array, log_h: Array, log_T: Array, *,
     gx, gw = np.polynomial.legendre.leggauss(nodes)
     # p(x1): integrate over v >= 0 where E in [E_lo, E_hi]
     x1 = np.linspace(0.0 if barrier else -hi, hi, points)
-    Ux = potential(x1, omega0, alpha)
+    Ux = potential(x1, k)
     v_lo = np.sqrt(2.0 * np.maximum(E_lo - Ux, 0.0))
     v_hi = np.sqrt(2.0 * np.maximum(E_hi - Ux, 0.0))
     vm, vh = 0.5 * (v_hi + v_lo), 0.5 * (v_hi - v_lo)
@@ -78,15 +75,15 @@ def phase_densities(A: Array, log_h: Array, log_T: Array, *,
     vmax = float(np.sqrt(2.0 * E_hi))
     x2 = np.linspace(-vmax, vmax, points)
     K = 0.5 * x2**2
-    x_lo = amplitude_of_energy(np.maximum(E_lo - K, 0.0), omega0, alpha)
-    x_hi = amplitude_of_energy(np.maximum(E_hi - K, 0.0), omega0, alpha)
+    x_lo = amplitude_of_energy(np.maximum(E_lo - K, 0.0), k)
+    x_hi = amplitude_of_energy(np.maximum(E_hi - K, 0.0), k)
     xm, xh = 0.5 * (x_hi + x_lo), 0.5 * (x_hi - x_lo)
     x = xm[:, None] + xh[:, None] * gx[None, :]
     p_x2 = 2.0 * xh * (dens(x, x2[:, None]) @ gw)
     joint = fold * dens(x1[:, None], x2[None, :])
     # p(E) = p(y, y') T(E) = p_A / g on the energy grid E_k = U(A_k): exact pointwise; its
     # trapezoid mass differs from 1 by the quadrature error on this uneven grid (~1e-5)
-    E = potential(A, omega0, alpha)
+    E = potential(A, k)
     p_E = np.exp(log_h + log_T)
     # no linear spring (k1 = 0): T = inf at A = 0, where p_E ~ T has an integrable
     # singularity; the E record starts at the first grid point with a finite period

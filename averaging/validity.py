@@ -46,10 +46,10 @@ def validity(scene: Any) -> dict[str, Any]:
     cm = CorrectedModel.from_scene(scene)
     out: dict[str, Any] = {"quantiles": list(QUANTILES), "amplitudes": A.tolist(),
                            "lambda": float(cm.lam) + 0.0}  # no -0.0 for r = 1
-    out["band"] = ((ex.spectrum.alpha1 * T / (2 * np.pi)).tolist()
-                   if ex.spectrum.kind == "ou" else None)
+    rate = ex.spectrum.correlation_rate()  # None: a noise without correlation time
+    out["band"] = (rate * T / (2 * np.pi)).tolist() if rate is not None else None
     out["wall"] = (cm.wall_offset(A) / E).tolist()
     out["noise"] = (et["sigma2"] * T / E**2).tolist()
-    out["correlation"] = ((et["sigma2"] / (ex.spectrum.alpha1 * E**2)).tolist()
-                          if ex.spectrum.kind == "ou" else None)
+    out["correlation"] = ((et["sigma2"] / (rate * E**2)).tolist()
+                          if rate is not None else None)
     return out
