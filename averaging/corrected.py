@@ -45,6 +45,8 @@ from .geometry import (
     restoring_k,
     restoring_slope_k,
 )
+from .noise import Spectrum
+from .walls import is_paper_wall, walls_of
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -267,9 +269,23 @@ class CorrectedModel(CompoundedModel):
     name: str = "corrected"
     fast: bool = False
 
+    @staticmethod
+    def applies(scene: Any) -> str | None:
+        """None unless the walls are other than the paper's under a correlated (OU) noise:
+        the energy at the wall (section 10.3) is derived for one wall at 0 only (for white
+        noise it vanishes and the model is the compounded one on any walls)."""
+        walls = walls_of(scene.system)
+        if walls and not is_paper_wall(walls) and Spectrum.from_scene(scene).rational:
+            return ("the wall offset of correlated noise (docs/averaging.md 10.3) is derived "
+                    "for one lower wall at x = 0 with Newton's law only")
+        return None
+
     @classmethod
     def from_scene(cls, scene: Any, *, noise: str = "sgn", theta_nodes: int | None = None,
                    harmonics: int | None = None, fast: bool = False) -> CorrectedModel:
+        problem = cls.applies(scene)
+        if problem is not None:
+            raise ValueError(f"model 'corrected' does not apply: {problem}")
         base = CompoundedModel.from_scene(scene, noise=noise, theta_nodes=theta_nodes,
                                           harmonics=harmonics)
         fields = {k: v for k, v in base.__dict__.items() if k not in ("name",)}

@@ -46,6 +46,7 @@ import numpy as np
 
 from vifpk.core.registry import IMPACT_LAWS, one_of
 
+from . import truncated
 from .geometry import (
     Array,
     amplitudes,
@@ -57,6 +58,7 @@ from .geometry import (
     time_of_theta_k,
 )
 from .noise import Spectrum
+from .walls import WallSpec, is_paper_wall, loss_rate, reached, span, walls_of
 
 # IMPACT_LAWS (vifpk.core.registry): a new law there and in ExactModel.energy_terms
 #: relative size of a negative sigma_E^2 that is rounding (the two terms' cancellation): on
@@ -74,7 +76,12 @@ class ExactModel:
     The system's laws as coefficient tuples (issue 21): ``restoring`` k = (k1, k3, ...) for
     g(x) = k1 x + k3 x^3 + ...; ``damping`` d = (d0, d2, ...) for the force
     (d0 + d2 x^2 + ...) x'; ``velocity_damping`` e = (e2, e4, ...) for (e2 x'^2 + ...) x'.
-    The paper's c1, c2, omega0, alpha are d0 = -c1, d2 = c2, k1 = omega0^2, k3 = alpha."""
+    The paper's c1, c2, omega0, alpha are d0 = -c1, d2 = c2, k1 = omega0^2, k3 = alpha.
+
+    Walls: ``barrier`` with ``r`` is the paper's wall (a lower wall at 0, Newton's law), done
+    in the transformed coordinate y (x = |y|); any other walls are ``walls``
+    (averaging.walls.WallSpec), done on the truncated orbit (averaging/truncated.py,
+    docs/averaging.md "Walls anywhere"); the two are never given together."""
 
     restoring: tuple[float, ...]
     damping: tuple[float, ...]
@@ -84,6 +91,7 @@ class ExactModel:
     f: float
     barrier: bool
     spectrum: Spectrum
+    walls: tuple[WallSpec, ...] = ()
     noise: str = "sgn"
     impact: str = "exact"
     theta_nodes: int = 64
@@ -93,6 +101,8 @@ class ExactModel:
     def __post_init__(self) -> None:
         one_of("noise", self.noise, NOISE_FORMS)
         one_of("impact", self.impact, IMPACT_LAWS)
+        if self.walls and self.barrier:
+            raise ValueError("ExactModel: give the paper's wall (barrier, r) or walls, not both")
 
     @classmethod
     def from_scene(cls, scene: Any, *, noise: str = "sgn", impact: str = "exact",
@@ -101,10 +111,13 @@ class ExactModel:
         one_of("impact", impact, IMPACT_LAWS)
         s = scene.system
         st = getattr(scene, "averaging", None)
+        walls = walls_of(s)
+        paper = is_paper_wall(walls)
         return cls(restoring=tuple(s.restoring_law), damping=tuple(s.damping_law),
-                   velocity_damping=tuple(s.velocity_law), mu=s.mu, r=s.r, f=s.f,
-                   barrier=s.barrier, spectrum=Spectrum.from_scene(scene),
-                   noise=noise if s.barrier else "additive", impact=impact,
+                   velocity_damping=tuple(s.velocity_law), mu=s.mu,
+                   r=walls[0].r if paper else 1.0, f=s.f, barrier=paper,
+                   walls=() if paper else walls, spectrum=Spectrum.from_scene(scene),
+                   noise=noise if paper else "additive", impact=impact,
                    theta_nodes=theta_nodes or getattr(st, "theta_nodes", 64),
                    harmonics=harmonics or getattr(st, "harmonics", 24))
 
@@ -131,6 +144,34 @@ class ExactModel:
 
     # ------------------------------------------------------------------ orbit averages
     def orbit(self, A: Array) -> dict[str, Array]:
+        """Period and time averages along the orbit of amplitude A (any shape): the free orbit
+        (:meth:`free_orbit`), truncated by ``walls`` where A reaches one (truncated.orbit;
+        the keys of the free orbit, the same numbers where no wall is reached)."""
+        A = np.asarray(A, dtype=float)
+        o = self.free_orbit(A)
+        hit = self.reached(A)
+        if not np.any(hit):
+            return o
+        a, b = span(self.walls)
+        t = truncated.orbit(np.where(hit, A, 1.0), self.restoring, a, b,
+                            n_damping=len(self.damping),
+                            n_velocity=len(self.velocity_damping),
+                            nodes=2 * self.theta_nodes)
+        for key in ("T", "v2", "x2v2", "y2", "absv", "E"):
+            o[key] = np.where(hit, t[key], o[key])
+        o["x2jv2"] = [np.where(hit, u, f) for u, f in zip(t["x2jv2"], o["x2jv2"], strict=True)]
+        o["v2jv2"] = [np.where(hit, u, f) for u, f in zip(t["v2jv2"], o["v2jv2"], strict=True)]
+        return o
+
+    def reached(self, A: Array) -> Array:
+        """Whether the orbit of amplitude A reaches one of ``walls`` (False without them)."""
+        A = np.asarray(A, dtype=float)
+        hit = np.zeros(A.shape, dtype=bool)
+        for w in self.walls:
+            hit |= reached(A, w)
+        return hit
+
+    def free_orbit(self, A: Array) -> dict[str, Array]:
         """Period and time averages along the exact orbit of amplitude A (any shape).
 
         ``x2jv2`` [j] = <x^{2j} v^2> for each damping term d_{2j}, ``v2jv2`` [j] =
@@ -220,15 +261,44 @@ class ExactModel:
         than the quarter-orbit quadrature resolves): ArithmeticError naming A, never a clamp."""
         A = np.asarray(A, dtype=float)
         o = self.orbit(A) if orbit is None else orbit
-        f2 = self.f**2
         S = self.spectrum
         if S.flat:
-            return 2.0 * np.pi * f2 * S.level() * o["v2"]
+            return 2.0 * np.pi * self.f**2 * S.level() * o["v2"]
+        hit = self.reached(A)
+        if not np.any(hit):
+            return self._sigma2_free(A, o)
+        free = self._sigma2_free(A, self.free_orbit(A))
+        return np.where(hit, self._sigma2_truncated(np.where(hit, A, 1.0)), free)
+
+    def _sigma2_truncated(self, A: Array) -> Array:
+        """sigma_E^2 for a rational (OU) spectrum on the truncated orbit (A reaches a wall):
+        4 pi f^2 sum_n (n Omega)^2 X_n^2 S(n Omega) for x(t) itself (G = f dx/dt), summed as
+        (P) c (<x^2> - X_0^2)/2 - a2 sum_n X_n^2 S(n Omega) (X_n ~ n^-2 at a wall: the
+        remainder falls as n^-6), or directly where (P)'s two terms cancel (a slow orbit).
+        Harmonics 1..2 ``harmonics``, Gauss-Legendre on 2 ``theta_nodes`` nodes."""
+        c, a2 = self.spectrum.rational_parts()
+        a, b = span(self.walls)
+        o = truncated.orbit(A, self.restoring, a, b, n_damping=0, n_velocity=0,
+                            nodes=2 * self.theta_nodes)
+        X0, Xn = truncated.harmonics(A, o["T"], self.restoring, a, b,
+                                     count=2 * self.harmonics, nodes=2 * self.theta_nodes)
+        u = (2.0 * np.pi / o["T"])[..., None] * np.arange(1, Xn.shape[-1] + 1)
+        Su = self.spectrum(u)
+        head = 0.5 * c * (o["y2"] - X0**2)
+        sub = a2 * np.sum(Xn**2 * Su, axis=-1)
+        direct = np.sum(u**2 * Xn**2 * Su, axis=-1)
+        total = np.where(head - sub > 1e-6 * head, head - sub, direct)
+        return 4.0 * np.pi * self.f**2 * np.maximum(total, 0.0)
+
+    def _sigma2_free(self, A: Array, o: dict[str, Array]) -> Array:
+        """sigma_E^2 for a rational (OU) spectrum on the free orbit (or the paper's wall)."""
+        f2 = self.f**2
+        S = self.spectrum
         c, a2 = S.rational_parts()  # raises for a kind without it: no silent fallback
         rest_point = o["v2"] == 0.0  # A = 0 (k1 = 0: T = inf there): no motion, no noise power
         if np.any(rest_point):  # the sums at a stand-in amplitude, then 0 there
             A = np.where(rest_point, 1.0, A)
-            o = self.orbit(A)
+            o = self.free_orbit(A)
         Y0, n, Yn = self.harmonics_of_Y(A, o["T"])
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             Omega = 2 * np.pi / o["T"]
@@ -315,7 +385,9 @@ class ExactModel:
         A = np.asarray(A, dtype=float)
         o = self.orbit(A)
         E, T = o["E"], o["T"]
-        if not self.barrier:
+        if self.walls:
+            loss = self.wall_losses(A, E, T)
+        elif not self.barrier:
             loss = np.zeros_like(A)
         elif self.impact == "exact":
             loss = -(2.0 / T) * (1.0 - self.r**2) * E
@@ -333,6 +405,10 @@ class ExactModel:
             "T": T,
             "E": E,
         }
+
+    def wall_losses(self, A: Array, E: Array, T: Array) -> Array:
+        """The impact loss rate of ``walls`` (averaging.walls.loss_rate)."""
+        return loss_rate(self.walls, A, E, T, self.restoring, self.impact)
 
     # ------------------------------------------------------------------ amplitude form
     def terms(self, A: Array) -> dict[str, Array]:

@@ -15,6 +15,7 @@ marginals are independent computations that a test can compare.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -40,8 +41,14 @@ class PhaseDensities:
 def phase_densities(A: Array, log_h: Array, log_T: Array, *,
                     restoring: tuple[float, ...] | None = None, omega0: float | None = None,
                     alpha: float | None = None, barrier: bool, points: int = 201,
-                    nodes: int = 128) -> PhaseDensities:
+                    nodes: int = 128, lower: float = -math.inf, upper: float = math.inf
+                    ) -> PhaseDensities:
     """Map h(A) = log p(y, y') (given on the A grid, with log T(A)) to phase space.
+
+    ``barrier``: the paper's wall (x = |y|, folded); otherwise walls at ``lower`` <= 0 and
+    ``upper`` >= 0 (issue 37): h is then log p(x, x') itself (T the truncated orbit's period,
+    p(x, x') = p_E / T on the region the orbits fill), which lives on [lower, upper]; p(x2)
+    integrates the two sides x > 0 and x < 0 separately (each cut at its wall).
 
     The spring: ``restoring`` = (k1, k3, k5, ...), or the paper's ``omega0``, ``alpha``."""
     if restoring is None:
@@ -64,7 +71,8 @@ def phase_densities(A: Array, log_h: Array, log_T: Array, *,
     fold = 2.0 if barrier else 1.0
     gx, gw = np.polynomial.legendre.leggauss(nodes)
     # p(x1): integrate over v >= 0 where E in [E_lo, E_hi]
-    x1 = np.linspace(0.0 if barrier else -hi, hi, points)
+    walls = not barrier and (lower > -hi or upper < hi)
+    x1 = np.linspace(0.0 if barrier else max(lower, -hi), min(upper, hi), points)
     Ux = potential(x1, k)
     v_lo = np.sqrt(2.0 * np.maximum(E_lo - Ux, 0.0))
     v_hi = np.sqrt(2.0 * np.maximum(E_hi - Ux, 0.0))
@@ -79,7 +87,15 @@ def phase_densities(A: Array, log_h: Array, log_T: Array, *,
     x_hi = amplitude_of_energy(np.maximum(E_hi - K, 0.0), k)
     xm, xh = 0.5 * (x_hi + x_lo), 0.5 * (x_hi - x_lo)
     x = xm[:, None] + xh[:, None] * gx[None, :]
-    p_x2 = 2.0 * xh * (dens(x, x2[:, None]) @ gw)
+    if walls:  # each side cut at its wall: |x| in [x_lo, min(x_hi, wall)]
+        p_x2 = np.zeros_like(x2)
+        for sign, end in ((1.0, upper), (-1.0, -lower)):
+            top = np.minimum(x_hi, end)
+            xm, xh = 0.5 * (top + x_lo), 0.5 * np.maximum(top - x_lo, 0.0)
+            x = xm[:, None] + xh[:, None] * gx[None, :]
+            p_x2 = p_x2 + xh * (dens(sign * x, x2[:, None]) @ gw)
+    else:
+        p_x2 = 2.0 * xh * (dens(x, x2[:, None]) @ gw)
     joint = fold * dens(x1[:, None], x2[None, :])
     # p(E) = p(y, y') T(E) = p_A / g on the energy grid E_k = U(A_k): exact pointwise; its
     # trapezoid mass differs from 1 by the quadrature error on this uneven grid (~1e-5)
