@@ -45,8 +45,9 @@ from typing import Any
 import numpy as np
 
 from vifpk.core.registry import IMPACT_LAWS, one_of
+from vifpk.physics.noise import parametric as parametric_noise
 
-from . import truncated
+from . import parametric, truncated
 from .geometry import (
     Array,
     amplitudes,
@@ -81,7 +82,10 @@ class ExactModel:
     Walls: ``barrier`` with ``r`` is the paper's wall (a lower wall at 0, Newton's law), done
     in the transformed coordinate y (x = |y|); any other walls are ``walls``
     (averaging.walls.WallSpec), done on the truncated orbit (averaging/truncated.py,
-    docs/averaging.md "Walls anywhere"); the two are never given together."""
+    docs/averaging.md "Walls anywhere"); the two are never given together.
+
+    Parametric white noises (Stratonovich; vifpk/physics/noise/parametric.py, docs/averaging.md
+    section 12): ``D_k`` on the restoring force, ``D_c`` on the damping force d(x) x'."""
 
     restoring: tuple[float, ...]
     damping: tuple[float, ...]
@@ -92,6 +96,8 @@ class ExactModel:
     barrier: bool
     spectrum: Spectrum
     walls: tuple[WallSpec, ...] = ()
+    D_k: float = 0.0
+    D_c: float = 0.0
     noise: str = "sgn"
     impact: str = "exact"
     theta_nodes: int = 64
@@ -113,10 +119,13 @@ class ExactModel:
         st = getattr(scene, "averaging", None)
         walls = walls_of(s)
         paper = is_paper_wall(walls)
+        par = getattr(scene, "parametric", None)  # the [parametric] table (issue 37)
         return cls(restoring=tuple(s.restoring_law), damping=tuple(s.damping_law),
                    velocity_damping=tuple(s.velocity_law), mu=s.mu,
                    r=walls[0].r if paper else 1.0, f=s.f, barrier=paper,
                    walls=() if paper else walls, spectrum=Spectrum.from_scene(scene),
+                   D_k=float(par.stiffness) if par is not None else 0.0,
+                   D_c=float(par.damping) if par is not None else 0.0,
                    noise=noise if paper else "additive", impact=impact,
                    theta_nodes=theta_nodes or getattr(st, "theta_nodes", 64),
                    harmonics=harmonics or getattr(st, "harmonics", 24))
@@ -241,8 +250,33 @@ class ExactModel:
         Y0 = base.sum(axis=-1) if sgn else np.zeros_like(A)
         return Y0, n.astype(float), Yn
 
+    @property
+    def parametric(self) -> bool:
+        """Whether a parametric noise is on (D_k or D_c nonzero)."""
+        return bool(self.D_k or self.D_c)
+
+    def parametric_terms(self, A: Array) -> tuple[Array, Array]:
+        """(drift beyond the symmetric part, sigma_E^2) of the parametric noises on the orbit
+        of amplitude A (vifpk.physics.noise.parametric; zeros when they are off)."""
+        A = np.asarray(A, dtype=float)
+        if not self.parametric:
+            return np.zeros_like(A), np.zeros_like(A)
+        avg = parametric.averages(self, np.where(A > 0, A, 1.0))
+        kw = {"D_k": self.D_k, "D_c": self.D_c, "avg": avg}
+        rest = A > 0  # at A = 0 every average is 0
+        return (np.where(rest, parametric_noise.drift_beyond_symmetric(**kw), 0.0),
+                np.where(rest, parametric_noise.energy_diffusion(**kw), 0.0))
+
     def sigma2_energy(self, A: Array, orbit: dict[str, Array] | None = None) -> Array:
-        """sigma_E^2(E(A)) of the averaged energy equation.
+        """sigma_E^2(E(A)): the external noise's (:meth:`sigma2_external`) plus the
+        parametric noises' 2 D_k <g^2 v^2> + 2 D_c <d^2 v^4> when they are on."""
+        s2 = self.sigma2_external(A, orbit)
+        if self.parametric:
+            s2 = s2 + self.parametric_terms(A)[1]
+        return s2
+
+    def sigma2_external(self, A: Array, orbit: dict[str, Array] | None = None) -> Array:
+        """sigma_E^2(E(A)) of the averaged energy equation from the external noise f xi.
 
         White noise: 2 pi f^2 S <v^2>. OU noise: the harmonic sum 4 pi f^2 sum_n u_n^2 Y_n^2
         S(u_n), u_n = n Omega, is taken in one of two exact forms, both from the identity
@@ -397,11 +431,14 @@ class ExactModel:
             loss = -(2.0 / T) * (-2.0 * np.log(self.r)) * E
         else:
             one_of("impact", self.impact, IMPACT_LAWS)  # raises: a law without a branch
+        wz, s2p = self.parametric_terms(A)
         return {
             "damping": self.damping_rate(o),
             "impact": loss,
             "friction": -self.mu * o["absv"],
-            "sigma2": self.sigma2_energy(A, o),
+            "parametric": wz,
+            "sigma2": self.sigma2_external(A, o) + s2p if self.parametric
+            else self.sigma2_external(A, o),
             "T": T,
             "E": E,
         }
@@ -433,6 +470,7 @@ class ExactModel:
             "damping": et["damping"] / g,
             "impact": et["impact"] / g,
             "friction": et["friction"] / g,
+            "parametric": et["parametric"] / g,
             "noise": m_noise_E / g - gp * s2E / (2.0 * g**3),
             "sigma2": s2E / g**2,
         }
@@ -440,7 +478,7 @@ class ExactModel:
     @amplitudes
     def drift(self, A: Array) -> Array:
         t = self.terms(A)
-        return t["damping"] + t["impact"] + t["friction"] + t["noise"]
+        return t["damping"] + t["impact"] + t["friction"] + t["parametric"] + t["noise"]
 
     @amplitudes
     def diffusion(self, A: Array) -> Array:
@@ -456,7 +494,7 @@ class ExactModel:
         A = np.asarray(A, dtype=float)
         et = self.energy_terms(A)
         g = restoring_k(A, self.restoring)
-        md = et["damping"] + et["impact"] + et["friction"]
+        md = et["damping"] + et["impact"] + et["friction"] + et["parametric"]
         with np.errstate(divide="ignore", invalid="ignore"):
             q = 2.0 * md * g / et["sigma2"]
             log_pre = np.log(et["T"]) + np.log(g)

@@ -96,3 +96,4 @@ def harmonics(A: Array, T: Array, k: tuple[float, ...], lower: float, upper: flo
     n = np.arange(1, count + 1)
     cos = np.cos(Omega * n[:, None] * t[..., None, :])  # (..., count, nodes)
     return base.sum(axis=-1), np.einsum("...k,...nk->...n", base, cos)
+

@@ -15,6 +15,8 @@ from typing import Any
 
 #: kind -> module (the scene's noise kinds, vifpk.core.registry.NOISE_KINDS)
 MODULES = {"ou": "vifpk.physics.noise.ou", "white": "vifpk.physics.noise.white"}
+#: the parametric white noises ([parametric]): not a kind of the external excitation
+PARAMETRIC = "vifpk.physics.noise.parametric"
 
 
 def module(kind: str, *, solver: str) -> ModuleType:
