@@ -305,24 +305,10 @@ class ExactModel:
         return np.where(hit, self._sigma2_truncated(np.where(hit, A, 1.0)), free)
 
     def _sigma2_truncated(self, A: Array) -> Array:
-        """sigma_E^2 for a rational (OU) spectrum on the truncated orbit (A reaches a wall):
-        4 pi f^2 sum_n (n Omega)^2 X_n^2 S(n Omega) for x(t) itself (G = f dx/dt), summed as
-        (P) c (<x^2> - X_0^2)/2 - a2 sum_n X_n^2 S(n Omega) (X_n ~ n^-2 at a wall: the
-        remainder falls as n^-6), or directly where (P)'s two terms cancel (a slow orbit).
-        Harmonics 1..2 ``harmonics``, Gauss-Legendre on 2 ``theta_nodes`` nodes."""
-        c, a2 = self.spectrum.rational_parts()
+        """sigma_E^2 of a rational (OU) spectrum on the truncated orbit (truncated.sigma2)."""
         a, b = span(self.walls)
-        o = truncated.orbit(A, self.restoring, a, b, n_damping=0, n_velocity=0,
-                            nodes=2 * self.theta_nodes)
-        X0, Xn = truncated.harmonics(A, o["T"], self.restoring, a, b,
-                                     count=2 * self.harmonics, nodes=2 * self.theta_nodes)
-        u = (2.0 * np.pi / o["T"])[..., None] * np.arange(1, Xn.shape[-1] + 1)
-        Su = self.spectrum(u)
-        head = 0.5 * c * (o["y2"] - X0**2)
-        sub = a2 * np.sum(Xn**2 * Su, axis=-1)
-        direct = np.sum(u**2 * Xn**2 * Su, axis=-1)
-        total = np.where(head - sub > 1e-6 * head, head - sub, direct)
-        return 4.0 * np.pi * self.f**2 * np.maximum(total, 0.0)
+        return truncated.sigma2(A, self.restoring, a, b, f=self.f, spectrum=self.spectrum,
+                                count=2 * self.harmonics, nodes=2 * self.theta_nodes)
 
     def _sigma2_free(self, A: Array, o: dict[str, Array]) -> Array:
         """sigma_E^2 for a rational (OU) spectrum on the free orbit (or the paper's wall)."""

@@ -14,7 +14,6 @@ import dataclasses
 
 import numpy as np
 import pytest
-
 from vifpk.averaging.exact import ExactModel
 from vifpk.averaging.noise import Spectrum
 from vifpk.averaging.stationary import amplitude_density
