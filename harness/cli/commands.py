@@ -224,6 +224,7 @@ def cmd_figures(args: argparse.Namespace) -> int:
         for scene in scenes:
             validate.scene_magnitudes(scene)
             validate.stationary_density(scene)
+            request.physics_supported(scene)
             validate.montecarlo_settings(scene, options)
             cost.refuse_oversized(scene)
         cost.refuse_costly(lambda sp: sum(cost.montecarlo_seconds(sc, speed=sp)
@@ -322,7 +323,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     validate.outputs_apart_from_inputs(args, replaced=False, names=store.SWEEP_FILES)
     sweep = sweeps_spec.load_sweep(args.sweep)
     spec = executors.parse_executor(args.executor)
-    executors.require_output_libraries()
+    executors.require_output_libraries(
+        surface=bool(sweep.adaptive and sweep.adaptive.get("method") == "band"))
     # the default folder is out/<the sweep's name made one safe folder name>: never outside out/
     out = args.out or f"out/{folder_name(sweep.name)}"
     if args.out is None:

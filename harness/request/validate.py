@@ -147,7 +147,7 @@ def stationary_density(scene: Scene) -> None:
     balance; a tie of gains and losses at the top degree is left to the solvers)."""
     from vifpk.core.scene import energy_balance
 
-    bal = energy_balance(scene.system)
+    bal = energy_balance(scene.system, scene.parametric)
     if not bal.grows:
         return
     if bal.gains:

@@ -7,6 +7,7 @@ sweep, once per point.
 
 from __future__ import annotations
 
+import importlib
 import os
 import sys
 from collections.abc import Iterator
@@ -72,14 +73,28 @@ def parse_executor(text: str) -> ExecutorSpec:
     return spec
 
 
-def require_output_libraries() -> None:
-    """sweep.nc needs xarray and netCDF4 (the `sweep` extra): say so before any work."""
-    try:
-        import netCDF4  # noqa: F401
-        import xarray  # noqa: F401
-    except ImportError as exc:
-        raise SweepError(f"sweep.nc needs xarray and netCDF4 ({exc.name} is missing); install "
-                         "the 'sweep' extra: pip install 'vifpk[sweep]'") from None
+#: the `sweep` extra's libraries, by the module name each is imported as
+SWEEP_LIBRARIES = {"xarray": "xarray", "netCDF4": "netCDF4", "sklearn": "scikit-learn"}
+
+
+def require_output_libraries(*, surface: bool = False) -> None:
+    """sweep.nc needs xarray and netCDF4, an error surface (a band sweep, the surface maps)
+    scikit-learn too (the `sweep` extra): say which are missing before any work. Each is
+    imported, not only found: a library that is there but fails to import (a broken
+    dependency of its own) is named with the reason."""
+    wanted = [m for m in SWEEP_LIBRARIES if surface or m != "sklearn"]
+    missing = []
+    for module in wanted:
+        try:
+            importlib.import_module(module)
+        except ImportError as exc:
+            why = "" if exc.name == module else f": {exc}"
+            missing.append(f"{SWEEP_LIBRARIES[module]}{why}")
+    if missing:
+        need = "sweep.nc and its error surface need" if surface else "sweep.nc needs"
+        raise SweepError(f"{need} {', '.join(SWEEP_LIBRARIES[m] for m in wanted)} "
+                         f"({'; '.join(missing)} missing); install the 'sweep' extra: "
+                         "pip install 'vifpk[sweep]'")
 
 
 def threads_per_worker(workers: int) -> int:

@@ -85,6 +85,12 @@ ADAPTIVE_BATCH = 8
 
 
 ADAPTIVE_RESOLUTION = 40  # refine the boundary as finely as a 40 x 40 grid (adaptive.min_edge)
+#: a band sweep weighs every lattice place (resolution^dims candidates) with their covariance
+#: (band.choose: candidates^2 doubles, 134 MB at 4096, and 41^2 x candidates for the band's
+#: grid), so the lattice holds at most MAX_CANDIDATES places: resolution <= 64 in 2-D
+MAX_CANDIDATES = 4096
+#: the verdict refiner's finest cell: 1/999 of each range (its triangles stop there)
+MAX_VERDICT_RESOLUTION = 1000
 
 
 BIFURCATION_KEYS = ("find", "range", "mc")
@@ -449,9 +455,17 @@ def _adaptive_table(src: str, raw: Mapping[str, Any], mode: str, workflow: str, 
     if method == "band" and not tolerance_given:
         raise SweepError(f"{src}: [adaptive] method = 'band' shrinks the band of a tolerance: "
                          "give tolerance = VALUE (e.g. 0.02)")
+    resolution = whole("resolution", 3, ADAPTIVE_RESOLUTION)
+    top = (int(MAX_CANDIDATES ** (1.0 / dims) + 1e-9) if method == "band"
+           else MAX_VERDICT_RESOLUTION)
+    if resolution > top:
+        why = (f"a band sweep weighs all resolution^{dims} lattice places at once"
+               if method == "band" else "the refiner's finest cell")
+        raise SweepError(f"{src}: [adaptive] resolution = {resolution}: too fine ({why}); "
+                         f"allowed: 3 to {top}")
     return {"points": whole("points", 3), "model": model,
             "batch": whole("batch", 1, ADAPTIVE_BATCH),
-            "resolution": whole("resolution", 3, ADAPTIVE_RESOLUTION), "method": method}
+            "resolution": resolution, "method": method}
 
 
 def adaptive_params(vary: Sequence[tuple[str, tuple[float, float]]], unit: Sequence[float]

@@ -35,8 +35,12 @@ from typing import Any
 CLOSED_FORM, ORIGINAL = "averaging", "montecarlo"
 #: Kinds of excitation xi(t): Ornstein-Uhlenbeck ("real") noise, Gaussian white noise.
 NOISE_KINDS = ("ou", "white")
-#: Impact laws of the exact averaged model (averaging/exact.py, ``energy_terms``).
+#: The exact averaged model's treatments of the impact term (averaging/exact.py,
+#: ``energy_terms``): not physical laws (those are IMPACT_LAW_NAMES).
 IMPACT_LAWS = ("exact", "transformed", "compounded")
+#: Physical impact laws a wall can have (vifpk.core.walls): Newton's constant restitution,
+#: and Johnson's elastic-plastic restitution that falls as v^(-1/4) above a yield speed.
+IMPACT_LAW_NAMES = ("newton", "johnson")
 
 MODEL_GROUP = "vifpk.models"
 WORKFLOW_GROUP = "vifpk.workflows"

@@ -29,6 +29,7 @@ from typing import Any
 
 from .registry import NOISE_KINDS
 from .result import BadInput
+from .walls import Parametric, Wall, check_walls, wall_from_table
 
 
 class SceneError(BadInput):
@@ -61,6 +62,10 @@ def _tail(v: float) -> str | None:
 def _floor(v: float) -> str | None:
     """A target L1 noise floor: an L1 distance between densities is at most 2."""
     return None if math.isfinite(v) and 0.0 <= v < 2.0 else "0 <= floor < 2 (0: none)"
+
+
+def _wall(v: Any) -> str | None:
+    return None if v is None or isinstance(v, Wall) else "a table (vifpk.core.walls)"
 
 
 def _restitution(v: float) -> str | None:
@@ -163,9 +168,13 @@ class System:
     velocity_damping: tuple[float, ...] = field(default=(), metadata=_meta(
         _coefficients(True), "[e2, e4, ...]: Rayleigh force (e2 x'^2 + e4 x'^4 + ...) x'"))
     mu: float = field(default=0.001, metadata=_meta(_nonneg, "Coulomb friction amplitude"))
-    r: float = field(default=0.96, metadata=_meta(_restitution, "restitution at x = 0"))
+    r: float | None = field(default=0.96, metadata=_meta(_restitution, "restitution at x = 0"))
     f: float = field(default=1.0, metadata=_meta(_finite, "noise gain (not given in paper)"))
-    barrier: bool = field(default=True, metadata=_meta(_bool, "impact barrier at x = 0"))
+    barrier: bool | None = field(default=True, metadata=_meta(_bool, "impact barrier at x = 0"))
+    lower_wall: Wall | None = field(default=None, metadata=_meta(
+        _wall, "[system.lower_wall]: at <= 0, r, law, v_yield (vifpk.core.walls)"))
+    upper_wall: Wall | None = field(default=None, metadata=_meta(
+        _wall, "[system.upper_wall]: at >= 0, r, law, v_yield (vifpk.core.walls)"))
 
     def __post_init__(self) -> None:
         # a law given as a list: its paper names do not apply (None, never a stale default)
@@ -175,6 +184,32 @@ class System:
         if self.damping:
             object.__setattr__(self, "c1", None)
             object.__setattr__(self, "c2", None)
+        lo, up = self.lower_wall, self.upper_wall
+        if lo is not None and up is None and lo.at == 0.0 and lo.law == "newton":
+            # the paper's wall spelled as a table: one meaning, one spelling (r, barrier)
+            object.__setattr__(self, "r", lo.r)
+            object.__setattr__(self, "barrier", True)
+            object.__setattr__(self, "lower_wall", None)
+        elif lo is not None or up is not None:
+            # walls given as tables: the old spelling does not apply (None, never stale)
+            object.__setattr__(self, "r", None)
+            object.__setattr__(self, "barrier", None)
+
+    @property
+    def walls(self) -> tuple[Wall, ...]:
+        """Every wall, lower first: the tables, or the paper's wall at x = 0 (``barrier`` with
+        restitution ``r``, Newton's law), or none."""
+        if self.r is not None:
+            return (Wall(side="lower", at=0.0, r=self.r),) if self.barrier else ()
+        return tuple(w for w in (self.lower_wall, self.upper_wall) if w is not None)
+
+    def walls_problem(self) -> str | None:
+        """None when the walls are the paper's (at most one, at x = 0, Newton's law), else
+        what they are, in words (for a solver or model that covers the paper's wall only)."""
+        if self.r is not None:
+            return None
+        named = "; ".join(f"system.{w.side}_wall at {w.at:g} ({w.law})" for w in self.walls)
+        return f"walls other than one at x = 0 with Newton's law ({named})"
 
     @property
     def restoring_law(self) -> tuple[float, ...]:
@@ -215,6 +250,9 @@ class System:
             return "the paper's model needs c2 >= 0 (d2 >= 0)"
         if any(e != 0.0 for e in self.velocity_law):
             return "system.velocity_damping is set; the paper's model has no velocity damping"
+        walls = self.walls_problem()
+        if walls is not None:
+            return f"{walls}: the paper's model has one wall at x = 0 with Newton's law"
         return None
 
     def to_dict(self) -> dict[str, Any]:
@@ -224,7 +262,8 @@ class System:
             v = getattr(self, f.name)
             if v is None or (isinstance(v, tuple) and not v):
                 continue
-            out[f.name] = list(v) if isinstance(v, tuple) else v
+            out[f.name] = (list(v) if isinstance(v, tuple) else
+                           v.to_dict() if isinstance(v, Wall) else v)
         return out
 
 
@@ -283,7 +322,7 @@ class EnergyBalance:
     text: str
 
 
-def energy_balance(system: Any) -> EnergyBalance:
+def energy_balance(system: Any, parametric: Any = None) -> EnergyBalance:
     """Does a mechanism remove energy at large amplitude faster than the noise feeds it?
 
     With H = x'^2 / 2 + U(x), dH/dt = -(d(x) + e(x'^2)) x'^2 - mu |x'| + f x' xi, and each
@@ -309,29 +348,64 @@ def energy_balance(system: Any) -> EnergyBalance:
     Derived here from the energy equation above (the sign of the orbit-averaged energy drift
     at large amplitude, as first-order stochastic averaging would give it); docs/edges.md,
     "No stationary density".
+
+    Walls on both sides (issue 37) hold x in [a, b]: x stays bounded while x' ~ A^{n+1}, so
+    every damping term ~ A^{2n+2}, the period ~ A^{-(n+1)} and the impacts (1 - e^2) H / T ~
+    A^{3n+3}. A "johnson" wall loses (1 - e^2) -> 1 of the energy at high impact speed even
+    with r = 1. Parametric noises (``parametric``: the scene's section) feed energy that
+    grows with the amplitude (D_k <g(x)^2>, D_c <d(x)^2 x'^2>); they are counted as gains of
+    their degree that never decide alone: at or above the top loss they make a ``tie`` (the
+    averaged model decides), since a multiplicative noise also spreads the law without
+    making its mean energy grow.
     """
     k = _trim(tuple(system.restoring_law))
     n = max(len(k) - 1, 0)
+    walls = tuple(getattr(system, "walls", ()))
+    bounded = len(walls) == 2  # both sides: x stays in [a, b]
     paper_k = not getattr(system, "restoring", ())
     paper_d = not getattr(system, "damping", ())
     terms: list[tuple[str, int, int]] = []
-    for j, c in enumerate(system.damping_law):
+    d_law = tuple(system.damping_law)
+    for j, c in enumerate(d_law):
         if c != 0.0:
             name = (("system.c1" if j == 0 else "system.c2") if paper_d and j < 2
                     else f"system.damping[{j}]")
-            terms.append((name, 2 * j + 2 * n + 2, 1 if c > 0 else -1))
+            terms.append((name, (2 * n + 2) if bounded else 2 * j + 2 * n + 2,
+                          1 if c > 0 else -1))
     for i, c in enumerate(system.velocity_law):
         if c != 0.0:
             terms.append((f"system.velocity_damping[{i}]", (2 * i + 4) * (n + 1),
                           1 if c > 0 else -1))
     if system.mu > 0:
         terms.append(("system.mu", n + 1, 1))
-    if getattr(system, "barrier", True) and system.r < 1.0:
-        terms.append(("system.r", 3 * n + 2, 1))
+    for w in walls:
+        if w.r < 1.0 or w.law == "johnson":
+            name = "system.r" if getattr(system, "r", None) is not None else (
+                f"system.{w.side}_wall")
+            terms.append((name, (3 * n + 3) if bounded else 3 * n + 2, 1))
+    gains_p: list[tuple[str, int]] = []
+    if parametric is not None and getattr(parametric, "stiffness", 0.0) > 0.0:
+        gains_p.append(("parametric.stiffness", 0 if bounded else 4 * n + 2))
+    if parametric is not None and getattr(parametric, "damping", 0.0) > 0.0:
+        top_d = max((j for j, c in enumerate(d_law) if c != 0.0), default=None)
+        if top_d is not None:
+            gains_p.append(("parametric.damping",
+                            (4 * n + 4) if bounded else 4 * top_d + 2 * n + 2))
     spring = (f"system.restoring[{n}]" if not paper_k else
               "system.alpha" if n == 1 else "system.omega0")
+    if gains_p and terms:
+        top_loss = max(p for _, p, s in terms) if terms else 0
+        reach = [nm for nm, p in gains_p if p >= top_loss]
+        if reach:
+            losses = tuple(nm for nm, p, s in terms if p == top_loss and s > 0)
+            text = (f"the parametric noise ({', '.join(reach)}) feeds energy that grows with "
+                    f"the amplitude as fast as the losses ({', '.join(losses) or 'none'}): "
+                    "their constants decide whether the energy is held")
+            return EnergyBalance(False, True, top_loss, tuple(reach), losses, tuple(terms),
+                                 text)
     if not terms:
-        wall = "system.r = 1" if getattr(system, "barrier", True) else "no barrier"
+        wall = ("system.r = 1" if walls and getattr(system, "r", None) is not None
+                else "elastic walls" if walls else "no barrier")
         text = (f"nothing removes energy at large amplitude (no damping law, no "
                 f"velocity_damping, system.mu = 0, {wall}): the noise feeds the energy "
                 "without bound, so there is no stationary density")
@@ -423,11 +497,14 @@ class Observables:
 SECTIONS: dict[str, type] = {
     "system": System,
     "noise": Noise,
+    "parametric": Parametric,
     "averaging": AveragingSettings,
     "montecarlo": MonteCarloSettings,
     "observables": Observables,
 }
-SWEEPABLE = {"system", "noise"}
+SWEEPABLE = {"system", "noise", "parametric"}
+#: the system's wall tables (vifpk.core.walls): "system.lower_wall.at" and so on
+WALL_TABLES = {"lower_wall": "lower", "upper_wall": "upper"}
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -451,6 +528,7 @@ class Scene:
     description: str = ""
     system: System = field(default_factory=System)
     noise: Noise = field(default_factory=Noise)
+    parametric: Parametric = field(default_factory=Parametric)
     averaging: AveragingSettings = field(default_factory=AveragingSettings)
     montecarlo: MonteCarloSettings = field(default_factory=MonteCarloSettings)
     observables: Observables = field(default_factory=Observables)
@@ -493,6 +571,8 @@ class Scene:
         """Plain, JSON-ready dictionary (the ``scene`` entry of the solution JSON)."""
         d: dict[str, Any] = {"name": self.name, "description": self.description}
         for sec in SECTIONS:
+            if sec == "parametric" and not self.parametric.on:
+                continue  # off: the paper's scenes keep their dictionary (and hash)
             d[sec] = (self.system.to_dict() if sec == "system"
                       else dataclasses.asdict(getattr(self, sec)))
         if self.sweep is not None:
@@ -560,6 +640,20 @@ def _set_system(raw: dict[str, Any], path: str, key: str, value: Any) -> None:
     """Apply ``system.key = value`` to a raw system table. ``key`` may index a law
     ("restoring[2]": the k5 coefficient; the list grows with zeros) or be a paper name; either
     spelling works whichever one the scene was written in."""
+    table, dot, sub = key.partition(".")
+    if dot:
+        if table not in WALL_TABLES:
+            raise SceneError(f"{path}: unknown field; only {sorted(WALL_TABLES)} have "
+                             "sub-keys (e.g. system.lower_wall.at)")
+        if table not in raw and not any(t in raw for t in WALL_TABLES):
+            # the paper's wall (r, barrier) becomes a table, so one spelling stays
+            if raw.pop("barrier", True):
+                raw["lower_wall"] = {"at": 0.0, "r": raw.pop("r", System.r)}
+            raw.pop("r", None)
+        wall = dict(raw.get(table) or {})
+        wall[sub] = value
+        raw[table] = wall
+        return
     m = INDEXED.fullmatch(key)
     name, index = (m.group(1), int(m.group(2))) if m else (key, None)
     laws = {law for law, _, _ in ALIASES.values()} | {"velocity_damping"}
@@ -660,10 +754,20 @@ def scene_from_dict(raw: Mapping[str, Any], *, source: str = "<dict>") -> Scene:
             raise SceneError(f"{source}: [{sec}] must be a table")
         known = [f.name for f in fields(cls)]
         kwargs: dict[str, Any] = {}
+        if cls is System:
+            _check_wall_spelling(f"{source}: system", table)
         for key, value in table.items():
             where = f"{source}: {sec}"
             if key not in known:
                 raise SceneError(f"{where}.{key}: unknown key; {_suggest(key, known)}")
+            if cls is System and key in WALL_TABLES:
+                try:
+                    kwargs[key] = wall_from_table(f"{where}.{key}", WALL_TABLES[key], value)
+                except SceneError:
+                    raise
+                except BadInput as e:
+                    raise SceneError(str(e)) from None
+                continue
             if isinstance(value, list) and not isinstance(
                     next(f for f in fields(cls) if f.name == key).default, tuple):
                 if sec not in SWEEPABLE:
@@ -684,6 +788,11 @@ def scene_from_dict(raw: Mapping[str, Any], *, source: str = "<dict>") -> Scene:
                 kwargs[key] = _coerce(f"{where}.{key}", cls, key, value)
         if cls is System:
             _check_laws(f"{source}: system", table, kwargs)
+            try:
+                check_walls(f"{source}: system", kwargs.get("lower_wall"),
+                            kwargs.get("upper_wall"))
+            except BadInput as e:
+                raise SceneError(str(e)) from None
         if cls is AveragingSettings:
             _check_harmonics(f"{source}: averaging", kwargs)
         parts[sec] = cls(**kwargs)
@@ -691,6 +800,16 @@ def scene_from_dict(raw: Mapping[str, Any], *, source: str = "<dict>") -> Scene:
                       if isinstance(raw.get(sec), Mapping) for key in raw[sec])
     return Scene(name=name, description=description, sweep=sweep, source=source, given=given,
                  **parts)
+
+
+def _check_wall_spelling(where: str, table: Mapping[str, Any]) -> None:
+    """One spelling of the walls: the tables, or the paper's ``r`` and ``barrier``."""
+    tables = [t for t in WALL_TABLES if t in table]
+    old = [k for k in ("r", "barrier") if k in table]
+    if tables and old:
+        raise SceneError(f"{where}.{old[0]} and {where.split(': ')[-1]}.{tables[0]} both set "
+                         f"the walls; give one spelling (a wall table has its own r; "
+                         f"barrier = false is no table)")
 
 
 def _check_laws(where: str, table: Mapping[str, Any], kwargs: Mapping[str, Any]) -> None:
