@@ -119,13 +119,12 @@ class ExactModel:
         st = getattr(scene, "averaging", None)
         walls = walls_of(s)
         paper = is_paper_wall(walls)
-        par = getattr(scene, "parametric", None)  # the [parametric] table (issue 37)
+        par = scene.parametric  # the [parametric] table (issue 37)
         return cls(restoring=tuple(s.restoring_law), damping=tuple(s.damping_law),
                    velocity_damping=tuple(s.velocity_law), mu=s.mu,
                    r=walls[0].r if paper else 1.0, f=s.f, barrier=paper,
                    walls=() if paper else walls, spectrum=Spectrum.from_scene(scene),
-                   D_k=float(par.stiffness) if par is not None else 0.0,
-                   D_c=float(par.damping) if par is not None else 0.0,
+                   D_k=float(par.stiffness), D_c=float(par.damping),
                    noise=noise if paper else "additive", impact=impact,
                    theta_nodes=theta_nodes or getattr(st, "theta_nodes", 64),
                    harmonics=harmonics or getattr(st, "harmonics", 24))

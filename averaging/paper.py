@@ -88,8 +88,7 @@ class PaperModel:
         if walls and not is_paper_wall(walls):
             return ("walls other than one lower wall at x = 0 with Newton's law are outside "
                     "the paper's family")
-        par = getattr(scene, "parametric", None)
-        if par is not None and (par.stiffness or par.damping):
+        if scene.parametric.on:
             return "parametric noise is outside the paper's family"
         return None
 

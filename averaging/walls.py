@@ -48,21 +48,18 @@ class WallSpec:
 
 
 def walls_of(system: Any) -> tuple[WallSpec, ...]:
-    """The scene's walls, lower first: ``system.walls`` (the wall tables of issue 37), or,
-    for a system object without them, the old keys (``barrier`` with ``r``: a lower wall at 0
-    with Newton's law)."""
-    walls = getattr(system, "walls", None)
-    if walls is not None:
-        return tuple(WallSpec(side=w.side, at=float(w.at), r=float(w.r), law=w.law,
-                              v_yield=float(w.v_yield) if w.v_yield is not None else math.inf)
-                     for w in walls)
-    return (WallSpec(side="lower", at=0.0, r=float(system.r)),) if system.barrier else ()
+    """The scene's walls, lower first (``system.walls``, vifpk.core.scene: the wall tables of
+    issue 37, or the paper's ``barrier`` with ``r``); a Newton wall's v_yield is inf."""
+    return tuple(WallSpec(side=w.side, at=float(w.at), r=float(w.r), law=w.law,
+                          v_yield=float(w.v_yield) if w.v_yield is not None else math.inf)
+                 for w in system.walls)
 
 
 def is_paper_wall(walls: tuple[WallSpec, ...]) -> bool:
-    """One lower wall at x = 0 with Newton's law: the paper's system."""
+    """One lower wall at x = 0 whose law has a constant restitution (Newton's): the paper's
+    system."""
     return (len(walls) == 1 and walls[0].side == "lower" and walls[0].at == 0.0
-            and walls[0].law == "newton")
+            and impact.module(walls[0].law, solver=SOLVER).CONSTANT_RESTITUTION)
 
 
 def span(walls: tuple[WallSpec, ...]) -> tuple[float, float]:

@@ -79,3 +79,17 @@ def test_numba_compiles_the_same_source():
             assert G(x, ka) == spring.restoring(x, k)
             E = spring.potential(x, k)
             assert A(E, ka) == spring.amplitude_scalar(E, k)
+
+
+def test_the_averaged_models_decide_nothing_by_a_kind_or_law_name():
+    # issue 37: a kind or law is one module; no branch on its name in averaging/ or fpk/
+    import re
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    pattern = re.compile(r"\b(kind|law)\s*[!=]=|alpha1 is None")
+    bad = [f"{p.relative_to(root)}:{i}" for d in ("averaging", "fpk")
+           for p in sorted((root / d).rglob("*.py"))
+           for i, line in enumerate(p.read_text(encoding="utf-8").splitlines(), 1)
+           if pattern.search(line)]
+    assert not bad, bad

@@ -14,6 +14,9 @@ from typing import Any
 
 import numpy as np
 
+#: e depends on the impact speed above v_yield
+CONSTANT_RESTITUTION = False
+
 
 def restitution(v: Any, r: float, v_yield: float) -> Any:
     """e(v) = r min(1, (v_yield / |v|)^(1/4)) (r at v = 0)."""

@@ -7,6 +7,9 @@ from __future__ import annotations
 
 from typing import Any
 
+#: e does not depend on the impact speed (the paper's law: its models' closed forms use it)
+CONSTANT_RESTITUTION = True
+
 
 def restitution(v: Any, r: float, v_yield: float) -> Any:
     """e(v) = r for every impact speed (``v_yield`` unused)."""
