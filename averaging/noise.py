@@ -36,7 +36,11 @@ class Spectrum:
 
     def __post_init__(self) -> None:
         one_of("noise kind", self.kind, NOISE_KINDS)
-        noise_kinds.module(self.kind, solver=SOLVER)  # a registered kind with no module
+        noise_kinds.piece(self.kind, SOLVER, "spectral_density")  # one line if it has none
+
+    def _has(self, name: str) -> bool:
+        """Whether the kind declares the averaging piece ``name``."""
+        return self.kind in noise_kinds.kinds_with(SOLVER, name)
 
     @classmethod
     def from_scene(cls, scene: Any) -> Spectrum:
@@ -45,30 +49,30 @@ class Spectrum:
 
     def __call__(self, omega: Any) -> np.ndarray:
         """S(omega), elementwise (the kind's ``spectral_density``)."""
-        S = noise_kinds.piece(self.kind, "spectral_density", solver=SOLVER)
+        S = noise_kinds.piece(self.kind, SOLVER, "spectral_density")
         return S(omega, D=self.D, alpha1=self.alpha1)
 
     @property
     def flat(self) -> bool:
         """Whether S is the same at every frequency (the kind declares ``flat_level``)."""
-        return noise_kinds.has_piece(self.kind, "flat_level", solver=SOLVER)
+        return self._has("flat_level")
 
     @property
     def rational(self) -> bool:
         """Whether the kind declares the rational split of :meth:`rational_parts` (OU)."""
-        return noise_kinds.has_piece(self.kind, "rational_parts", solver=SOLVER)
+        return self._has("rational_parts")
 
     def correlation_rate(self) -> float | None:
         """The kind's correlation rate (1 / correlation time; OU: alpha1), or None for a kind
         that declares none (white noise: no correlation time)."""
-        if not noise_kinds.has_piece(self.kind, "correlation_rate", solver=SOLVER):
+        if not self._has("correlation_rate"):
             return None
-        return float(noise_kinds.piece(self.kind, "correlation_rate", solver=SOLVER)(
+        return float(noise_kinds.piece(self.kind, SOLVER, "correlation_rate")(
             D=self.D, alpha1=self.alpha1))
 
     def level(self) -> float:
         """The flat spectrum's S (ValueError naming the kind for a kind that is not flat)."""
-        return float(noise_kinds.piece(self.kind, "flat_level", solver=SOLVER)(
+        return float(noise_kinds.piece(self.kind, SOLVER, "flat_level")(
             D=self.D, alpha1=self.alpha1))
 
     def rational_parts(self) -> tuple[float, float]:
@@ -76,5 +80,5 @@ class Spectrum:
         c = D / pi, a2 = alpha1^2), which lets a harmonic sum of w^2 S(w) be split into a
         Parseval sum and a remainder decaying like S. A kind that declares no such split
         (white noise: w^2 S grows without bound) raises ValueError naming it."""
-        return noise_kinds.piece(self.kind, "rational_parts", solver=SOLVER)(
+        return noise_kinds.piece(self.kind, SOLVER, "rational_parts")(
             D=self.D, alpha1=self.alpha1)

@@ -2,6 +2,6 @@
 
 import sys
 
-from vifpk.harness.cli.app import main
+from vifpk.harness.cli.entry import main
 
 sys.exit(main())

@@ -61,10 +61,10 @@ def test_noise_kinds_declare_their_spectra_and_refuse_what_they_lack():
     white = Spectrum(kind="white", D=0.02, alpha1=0.7)
     assert white.flat and white.level() == 0.02 / math.pi and white.correlation_rate() is None
     np.testing.assert_array_equal(white(w), 0.02 / math.pi)
-    with pytest.raises(ValueError, match="'white' has no rational_parts for the averaging"):
+    with pytest.raises(ValueError, match="'white' has no averaging piece 'avg_rational_parts'"):
         white.rational_parts()
-    with pytest.raises(ValueError, match="'harmonic' is not available in the averaging solver"):
-        noise.module("harmonic", solver="averaging")
+    with pytest.raises(ValueError, match="'harmonic' is not registered .* the averaging solver"):
+        noise.piece("harmonic", "averaging", "spectral_density")
 
 
 @pytest.mark.slow

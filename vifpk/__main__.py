@@ -1,7 +1,7 @@
-"""``python -m vifpk`` is the ``vifpk`` command (vifpk.harness.cli.app.main)."""
+"""``python -m vifpk`` is the ``vifpk`` command (vifpk.harness.cli.entry.main)."""
 
 import sys
 
-from vifpk.harness.cli.app import main
+from vifpk.harness.cli.entry import main
 
 sys.exit(main())

@@ -254,7 +254,10 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
         metrics["models"][m]["verdict_cause"] = cause
         metrics["models"][m]["verdict_by_observable"] = observable_classes(metrics["models"][m])
     metrics["tolerance"] = tol.record()
-    tverdicts = model_verdicts(metrics, tol)
+    # the jackknife over the blocks has blocks - 1 degrees of freedom; a step bias the run's
+    # check could not rule out is carried by the interval and the class (tolerance.py)
+    tverdicts = model_verdicts(metrics, tol, dof=int(scene.montecarlo.blocks) - 1,
+                               dt_check=mc.info.get("dt_check"))
     for m, v in tverdicts.items():
         metrics["models"][m]["tolerance"] = v
     stages.done()

@@ -1,0 +1,29 @@
+"""Issue 39 (edges, round 7): signals in the first second (X11). ``vifpk`` answers Ctrl-C and
+SIGTERM during its imports in one line, with the commands' exit codes (harness/cli/entry.py)."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+
+@pytest.mark.parametrize("signum, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+def test_x11_a_signal_during_the_imports_is_one_line(tmp_path, signum, code):
+    """0.3 s after start the command is still importing numpy, scipy and the workflows
+    (about 0.9 s warm on this machine): before harness/cli/entry.py, Ctrl-C there printed a
+    KeyboardInterrupt traceback and SIGTERM nothing."""
+    out = tmp_path / "out"
+    p = subprocess.Popen([sys.executable, "-m", "vifpk", "check", "paper-base", "--out",
+                          str(out)], stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
+                         # a test run started in the background inherits SIGINT ignored
+                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    time.sleep(0.3)
+    p.send_signal(signum)
+    _, err = p.communicate(timeout=60)
+    assert p.returncode == code, err
+    assert err == "vifpk: interrupted; nothing was written\n"
+    assert not out.exists()
