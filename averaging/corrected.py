@@ -271,13 +271,19 @@ class CorrectedModel(CompoundedModel):
 
     @staticmethod
     def applies(scene: Any) -> str | None:
-        """None unless the walls are other than the paper's under a correlated (OU) noise:
-        the energy at the wall (section 10.3) is derived for one wall at 0 only (for white
-        noise it vanishes and the model is the compounded one on any walls)."""
+        """None unless a wall meets a correlated (OU) noise with walls other than the paper's
+        or with parametric noise: the energy at the wall (section 10.3) is derived for one
+        wall at 0 and the external noise only (for white noise it vanishes and the model is
+        the compounded one on any walls, parametric noise included)."""
         walls = walls_of(scene.system)
-        if walls and not is_paper_wall(walls) and Spectrum.from_scene(scene).rational:
+        if not (walls and Spectrum.from_scene(scene).rational):
+            return None
+        if not is_paper_wall(walls):
             return ("the wall offset of correlated noise (docs/averaging.md 10.3) is derived "
                     "for one lower wall at x = 0 with Newton's law only")
+        if scene.parametric.on:
+            return ("the wall offset of correlated noise (docs/averaging.md 10.3) is derived "
+                    "without parametric noise")
         return None
 
     @classmethod
@@ -338,7 +344,8 @@ class CorrectedModel(CompoundedModel):
         A = np.asarray(A, dtype=float)
         if not self.observes:
             return np.zeros_like(A)
-        return np.sqrt(self.sigma2_energy(np.maximum(A, 1e-12)) / (2.0 * self.spectrum.alpha1))
+        return np.sqrt(self.sigma2_external(np.maximum(A, 1e-12))
+                       / (2.0 * self.spectrum.alpha1))
 
     def observation_matrix(self, A_src: Array, edges_dst: Array) -> Array:
         """M[i, j] = P(H in cell i of edges_dst (amplitudes) | slow energy at A_src[j]): the

@@ -211,3 +211,43 @@ def test_ou_noise_power_on_a_truncated_orbit_against_an_fft_of_the_integrated_or
         ref, T = fft_sigma2(A)
         assert m.orbit(np.array([A]))["T"][0] == pytest.approx(T, rel=1e-12)
         assert m.sigma2_energy(np.array([A]))[0] == pytest.approx(ref, rel=3e-7)
+
+
+TWO = {"system": {"restoring": [1.0, 0.6], "damping": [0.1], "mu": 0.0,
+                      "lower_wall": {"at": LO, "r": 0.8},
+                      "upper_wall": {"at": HI, "r": 0.9, "law": "johnson", "v_yield": 0.5}},
+           "parametric": {"stiffness": 0.004, "damping": 0.01}}
+
+
+def test_scene_keys_reach_the_models_and_the_refusals_are_one_line():
+    from vifpk import averaging
+    from vifpk.core.registry import model_applies
+    from vifpk.core.scene import scene_from_dict
+
+    sc = scene_from_dict({**TWO, "noise": {"kind": "white", "D": D}})
+    m = averaging.build_model(sc, "exact")
+    assert m.walls == (WallSpec(side="lower", at=LO, r=0.8),
+                       WallSpec(side="upper", at=HI, r=0.9, law="johnson", v_yield=0.5))
+    assert (m.D_k, m.D_c, m.barrier) == (0.004, 0.01, False)
+    why = model_applies("paper", sc)
+    assert why is not None and "\n" not in why
+    ou = scene_from_dict({**TWO, "noise": {"kind": "ou", "D": D, "alpha1": 2.0}})
+    why = model_applies("corrected", ou)
+    assert "wall offset" in why and "\n" not in why
+    assert model_applies("corrected", sc) is None  # white noise: the compounded losses
+
+
+@pytest.mark.slow
+def test_solve_on_a_walled_scene_gives_phase_densities_on_the_interval():
+    from vifpk import averaging
+    from vifpk.core.scene import scene_from_dict
+
+    sc = scene_from_dict({**TWO, "noise": {"kind": "white", "D": D},
+                          "averaging": {"points": 201, "phase_points": 41}})
+    res = averaging.solve(sc, model="exact")
+    x1 = res.data["x1"]["x"]
+    assert (x1[0], x1[-1]) == (LO, HI)  # p(x1) lives on [a, b]
+    for key in ("A", "E", "x1", "x2"):
+        d = res.data[key]
+        assert np.all(np.isfinite(d["p"])) and np.trapezoid(d["p"], d["x"]) == pytest.approx(1.0)
+    assert res.info["diagnostics"]["tail_mass"] < 1e-8
