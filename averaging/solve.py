@@ -26,7 +26,7 @@ from vifpk.core.scene import no_noise
 from .corrected import observed_density, observed_log_h
 from .phase import phase_densities
 from .stationary import NoStationaryDensity, amplitude_density, describe
-from .walls import is_paper_wall, span, walls_of
+from .walls import phase_walls
 
 
 class NoClosedForm(ValueError):
@@ -69,12 +69,8 @@ def solve(scene: Any, *, model: Any = "paper", tail_mass: bool = True, **options
         log_h = observed_log_h(m, A_obs, p_obs)
     t1 = time.perf_counter()
     log_T = np.log(m.period(A_obs))
-    walls = walls_of(sys_)
-    paper_wall = is_paper_wall(walls)
-    lower, upper = span(() if paper_wall else walls)
     ph = phase_densities(A_obs, log_h, log_T, restoring=tuple(sys_.restoring_law),
-                         barrier=paper_wall, lower=lower, upper=upper,
-                         points=settings.phase_points)
+                         **phase_walls(sys_), points=settings.phase_points)
     t2 = time.perf_counter()
     data = {
         "A": {"x": A_obs, "p": p_obs},

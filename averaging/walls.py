@@ -62,6 +62,16 @@ def is_paper_wall(walls: tuple[WallSpec, ...]) -> bool:
             and impact.module(walls[0].law, solver=SOLVER).CONSTANT_RESTITUTION)
 
 
+def phase_walls(system: Any) -> dict[str, Any]:
+    """The keywords of averaging.phase.phase_densities for a scene's system: ``barrier`` (the
+    paper's wall: the folded coordinate x = |y|), ``lower`` and ``upper`` (any other walls;
+    -inf / +inf for none)."""
+    walls = walls_of(system)
+    paper = is_paper_wall(walls)
+    lower, upper = span(() if paper else walls)
+    return {"barrier": paper, "lower": lower, "upper": upper}
+
+
 def span(walls: tuple[WallSpec, ...]) -> tuple[float, float]:
     """(a, b): the lower wall's position (-inf without one) and the upper's (+inf)."""
     lo = [w.at for w in walls if w.side == "lower"]
