@@ -24,7 +24,8 @@ the microcanonical measure T(E) dE. Hence, with no derivative::
 
     p(E) = C T(E) exp( int_0^E 2 m_d / sigma_E^2 dE' )
 
-S(w) comes from averaging.noise (its one home). For the OU spectrum, whose identity
+S(w) comes from averaging.noise, which reads the kind's module (vifpk/physics/noise/).
+For the OU spectrum, whose identity
 w^2 S(w) = c - a2 S(w) (c = D / pi, a2 = alpha1^2) is ``Spectrum.rational_parts``, the series
 is summed with Parseval, sum_{n>=1} Y_n^2 = (<Y^2> - Y_0^2) / 2, so that the truncated
 remainder decays as n^-6:
@@ -35,6 +36,13 @@ White noise (S constant): by Parseval sum_n n^2 Omega^2 Y_n^2 = <v^2>/2, so
 sigma_E^2 = 2 pi f^2 S <v^2> = 2 D f^2 <v^2> whatever s is.
 The amplitude form follows by Ito's rule with A = U^{-1}(E), dA/dE = 1/g(A):
 m_A = m_E / g - g' sigma_E^2 / (2 g^3), sigma_A^2 = sigma_E^2 / g^2.
+
+Walls other than the paper's (issue 37): the orbit of energy E truncated at the walls it
+reaches, one impact per wall per period (averaging/truncated.py, averaging/walls.py;
+docs/averaging.md section 11). Parametric white noises on the stiffness and the damping
+(Stratonovich): their Ito drift and diffusion on the orbit, with the part of the drift that is
+not (1/(2T)) d(T sigma_E^2)/dE kept in m_d as "parametric" (vifpk/physics/noise/parametric.py,
+averaging/parametric.py; docs/averaging.md section 12).
 """
 
 from __future__ import annotations

@@ -1,4 +1,5 @@
-"""The excitation's spectral density: the one home of S(omega) in the averaged models.
+"""The excitation's spectral density as the averaged models see it (each kind's module in
+vifpk/physics/noise/ declares it; this class reads it).
 
 Two-sided spectral density of xi, S(w) = (1/pi) int_0^inf R(t) cos(w t) dt, for the two kinds
 of noise the scene may name (Liu et al., Symmetry 2019, eq. 18 for the OU case)::
