@@ -59,6 +59,10 @@ def test_a_wall_at_zero_on_the_truncated_orbit_is_the_papers_wall(paper_pair):
         np.testing.assert_allclose(b[key], a[key], rtol=2e-14)
     # measured 7.7e-10: the truncated sum (48 harmonics, remainder ~ n^-5) against the tails
     np.testing.assert_allclose(b["sigma2"], a["sigma2"], rtol=5e-9)
+    for treatment in ("transformed", "compounded"):  # the other treatments of the loss
+        a = dataclasses.replace(mp, impact=treatment).energy_terms(A)["impact"]
+        b = dataclasses.replace(mw, impact=treatment).energy_terms(A)["impact"]
+        np.testing.assert_allclose(b, a, rtol=2e-14)
 
 
 def test_walls_out_of_reach_are_bit_for_bit_the_wall_free_model():
