@@ -53,7 +53,6 @@ from typing import Any
 import numpy as np
 
 from vifpk.core.registry import IMPACT_LAWS, one_of
-from vifpk.physics.noise import parametric as parametric_noise
 
 from . import parametric, truncated
 from .geometry import (
@@ -263,16 +262,9 @@ class ExactModel:
         return bool(self.D_k or self.D_c)
 
     def parametric_terms(self, A: Array) -> tuple[Array, Array]:
-        """(drift beyond the symmetric part, sigma_E^2) of the parametric noises on the orbit
-        of amplitude A (vifpk.physics.noise.parametric; zeros when they are off)."""
-        A = np.asarray(A, dtype=float)
-        if not self.parametric:
-            return np.zeros_like(A), np.zeros_like(A)
-        avg = parametric.averages(self, np.where(A > 0, A, 1.0))
-        kw = {"D_k": self.D_k, "D_c": self.D_c, "avg": avg}
-        rest = A > 0  # at A = 0 every average is 0
-        return (np.where(rest, parametric_noise.drift_beyond_symmetric(**kw), 0.0),
-                np.where(rest, parametric_noise.energy_diffusion(**kw), 0.0))
+        """(drift beyond the symmetric part, sigma_E^2) of the parametric noises
+        (averaging.parametric.terms; zeros when they are off)."""
+        return parametric.terms(self, A)
 
     def sigma2_energy(self, A: Array, orbit: dict[str, Array] | None = None) -> Array:
         """sigma_E^2(E(A)): the external noise's (:meth:`sigma2_external`) plus the

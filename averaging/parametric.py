@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from vifpk.physics import spring
+from vifpk.physics.noise import parametric as parametric_noise
 
 from . import truncated
 from .geometry import Array, nu_k
@@ -58,3 +59,17 @@ def averages(model: Any, A: Array) -> dict[str, Array]:
         tr = _averages(x, v2, w / nu, k, d)
         out = {key: np.where(hit, tr[key], out[key]) for key in out}
     return out
+
+
+def terms(model: Any, A: Array) -> tuple[Array, Array]:
+    """(drift beyond the symmetric part, sigma_E^2) of the parametric noises of an ExactModel
+    on the orbit of amplitude A (vifpk.physics.noise.parametric: -D_c <d^2 v^2> and
+    2 D_k <g^2 v^2> + 2 D_c <d^2 v^4>); zeros when they are off and at A = 0."""
+    A = np.asarray(A, dtype=float)
+    if not (model.D_k or model.D_c):
+        return np.zeros_like(A), np.zeros_like(A)
+    avg = averages(model, np.where(A > 0, A, 1.0))
+    kw = {"D_k": model.D_k, "D_c": model.D_c, "avg": avg}
+    rest = A > 0
+    return (np.where(rest, parametric_noise.drift_beyond_symmetric(**kw), 0.0),
+            np.where(rest, parametric_noise.energy_diffusion(**kw), 0.0))
