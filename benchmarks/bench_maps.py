@@ -33,8 +33,9 @@ from pathlib import Path
 
 import numpy as np
 import xarray as xr
+from vifpk.harness.request.tolerance import Tolerance
 from vifpk.harness.sweeps.surface import Axis, fit_surface
-from vifpk.harness.workflows.tolerance import Tolerance, tolerance_verdict
+from vifpk.harness.workflows.tolerance import tolerance_verdict
 
 MODEL = "exact"
 AXES = (Axis(name="system.r", lo=0.95, hi=0.99), Axis(name="system.mu", lo=0.0, hi=0.004))

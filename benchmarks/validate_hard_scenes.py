@@ -21,11 +21,11 @@ import time
 from pathlib import Path
 from typing import Any
 
-from vifpk.harness.outputs.io import write_atomic
-from vifpk.harness.outputs.provenance import collect
 from vifpk.harness.workflows.check import cross_check, output_problems
 
 from vifpk.core.defaults import CHECK_MODELS as MODELS
+from vifpk.core.io import write_atomic
+from vifpk.core.provenance import collect
 from vifpk.core.scene import load_scene
 
 ROOT = Path(__file__).resolve().parent.parent

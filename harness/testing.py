@@ -39,10 +39,10 @@ from pathlib import Path
 from typing import Any, Protocol
 
 import numpy as np
-from vifpk.harness.outputs.io import atomic_path, jsonable, write_atomic
 from vifpk.harness.workflows.compare import compare, is_histogram
 
 from vifpk.core.defaults import DENSITY_OBSERVABLES
+from vifpk.core.io import atomic_path, jsonable, write_atomic
 from vifpk.core.registry import one_of
 from vifpk.core.scene import Scene, load_scene
 
@@ -60,12 +60,13 @@ def assertion(workflow: str) -> Any:
     vifpk.core.protocols.Workflow): ``assertion("check")`` is :func:`assert_averaging_error`,
     ``"passage"`` :func:`assert_mfpt_close`, ``"transient"`` :func:`assert_relaxation_close`,
     and a plugin workflow's comes the same way. UnknownName naming those that have one."""
+    from vifpk.core.protocols import resolved
     from vifpk.core.registry import workflows
 
     have = {w.name: w.assertion for w in workflows()
             if getattr(w, "assertion", None) is not None}
     one_of("workflow with a tolerance test", workflow, tuple(have))
-    return have[workflow]
+    return resolved(have[workflow])
 
 
 def configure(*, cache: str | Path | None = None, refresh: bool | None = None) -> None:

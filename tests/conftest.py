@@ -79,7 +79,7 @@ def canned_check(tiny_check, monkeypatch):
     import vifpk.harness.workflows.check
 
     def canned(scene, *, quiet=False, fpk=True, sde=True, tail_mass=True, models=None,
-               tolerance=None):
+               tolerance=None, run=None):  # run: no Monte Carlo runs, its state stays None
         res = replace(tiny_check, scene=scene, metrics=copy.deepcopy(tiny_check.metrics))
         if models is not None:
             keep = tuple(dict.fromkeys(models))
@@ -95,7 +95,8 @@ def canned_check(tiny_check, monkeypatch):
                                        if not any(v.startswith(f"{m} model") for m in drop)]
             res = replace(res, verdicts=list(res.metrics["verdicts"]))
         if models is not None or tolerance is not None:  # the verdicts of what was asked
-            from vifpk.harness.workflows.tolerance import Tolerance, line, model_verdicts
+            from vifpk.harness.request.tolerance import Tolerance
+            from vifpk.harness.workflows.tolerance import line, model_verdicts
             from vifpk.harness.workflows.verdict import recommend
 
             met = res.metrics

@@ -18,6 +18,7 @@ from __future__ import annotations
 import ast
 import subprocess
 import sys
+from functools import cache
 from pathlib import Path
 
 import pytest
@@ -31,10 +32,21 @@ CORE = "vifpk.core"
 PHYSICS = "vifpk.physics"  # issue 37: the physics every solver reads, on the core only
 
 
+def parsed(path: Path) -> ast.Module:
+    """The syntax tree of a source file, parsed once a session per text (every scan here and
+    in tests/test_layers.py reads the same ~100 files; parsing them is ~0.4 s)."""
+    return _parse(path.read_text(encoding="utf-8"), str(path))
+
+
+@cache
+def _parse(text: str, filename: str) -> ast.Module:
+    return ast.parse(text, filename=filename)
+
+
 def imported_modules(path: Path) -> set[str]:
     """Dotted names of the modules a module imports (absolute imports; relative ones stay in
     their own package)."""
-    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    tree = parsed(path)
     found: set[str] = set()
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
@@ -249,7 +261,7 @@ def test_the_door_imports_no_harness_module():
     run.py and validate.py imported each other; the cost guard's words now wrap the door from
     the request layer)."""
     for path in modules(str(DOOR)):
-        tree = ast.parse(path.read_text(encoding="utf-8"))
+        tree = parsed(path)
         relative = [n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and n.level]
         assert not relative, (path, relative)
         outside = {m for m in imported_modules(path)
@@ -318,7 +330,7 @@ def test_harness_imports_are_absolute_and_resolve(path: Path):
     """Every harness import of ours is written vifpk.harness.<layer>.<module> and names a
     module that exists (a relative import inside a function survived the move to layers and
     failed only when a slow test reached it: the fresh-clone CI's three failures at 49a2b7c)."""
-    tree = ast.parse(path.read_text(encoding="utf-8"))
+    tree = parsed(path)
     relative = [n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and n.level]
     assert not relative, relative
     mods = set(_harness_modules())

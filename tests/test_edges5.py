@@ -322,7 +322,7 @@ def test_a_failing_plugin_in_a_sweep_keeps_the_other_models_numbers(tmp_path, mo
     _plugin(tmp_path, monkeypatch, GOOD.replace("return -0.1 * A + 0.005 / A",
                                                 "return {}['k']"))
     job = SimpleNamespace(scene=load_scene("paper-base"), models=("exact", "mine"))
-    out = sweeps_points._averaging_point(job)
+    out = sweeps_points.averaging_point(job)
     assert out["models"]["exact"]["mean_A"] > 0
     assert "model plugin 'mine'" in out["models"]["mine"]["failure"]
     assert "drift(A) raised KeyError" in out["models"]["mine"]["failure"]
@@ -337,7 +337,7 @@ def test_a_failing_plugin_in_a_sweep_keeps_the_other_models_numbers(tmp_path, mo
 
     monkeypatch.setattr(check, "cross_check", fake_cross_check)
     with pytest.raises(RuntimeError, match="stop here"):
-        sweeps_points._check_point(SimpleNamespace(scene=job.scene, models=("exact", "mine"),
+        sweeps_points.check_point(SimpleNamespace(scene=job.scene, models=("exact", "mine"),
                                            sde=False, tolerance=0.02, keep_state=False,
                                            tolerance_question=("L1", "A", 0.95)))
     assert seen == [("exact", "mine"), ("exact",)]

@@ -15,7 +15,8 @@ from pathlib import Path
 
 import pytest
 from vifpk.harness.outputs import outdir
-from vifpk.harness.outputs.io import write_json
+
+from vifpk.core.io import write_json
 
 ROOT = Path(__file__).resolve().parent.parent
 NAMES = ("a.txt", "b.txt", "sub")

@@ -4,7 +4,7 @@ import hashlib
 import re
 from datetime import UTC, datetime
 
-from vifpk.harness.outputs import provenance
+from vifpk.core import provenance
 
 
 def test_block_has_every_key(tmp_path):

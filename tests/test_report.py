@@ -87,7 +87,7 @@ def test_every_option_has_help_showing_its_default():
 
 
 def test_version_and_bare_usage(capsys):
-    from vifpk.harness.outputs.provenance import vifpk_version
+    from vifpk.core.provenance import vifpk_version
 
     with pytest.raises(SystemExit) as exc:
         main(["--version"])

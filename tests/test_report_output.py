@@ -25,11 +25,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 from vifpk.harness.cli.app import main
-from vifpk.harness.outputs import provenance
-from vifpk.harness.outputs.io import dumps
 from vifpk.harness.outputs.report import write_report
 
 from tests.conftest import TINY_CHECK_SET
+from vifpk.core import provenance
+from vifpk.core.io import dumps
 
 ROOT = Path(__file__).resolve().parent.parent
 TINY = str(ROOT / "tests" / "data" / "tiny.toml")
@@ -117,7 +117,7 @@ def test_metrics_byte_identical_across_runs_and_modes_follow_umask(run, tmp_path
 
 _KILLED = textwrap.dedent("""
     import pickle, sys
-    from vifpk.harness.outputs import provenance
+    from vifpk.core import provenance
     from vifpk.harness.outputs.report import write_report
     res = pickle.loads(open(sys.argv[1], "rb").read())
     prov = provenance.collect(argv=["vifpk", "check"], run_id=sys.argv[3])

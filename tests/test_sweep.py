@@ -282,8 +282,9 @@ def test_the_grid_map_boundary_is_the_cell_edges_between_verdicts():
     an interpolated contour that broke into dashes on coarse grids; issue 20 G); an unknown
     (failed) neighbour draws no edge."""
     import numpy as np
-    from vifpk.harness.outputs.io import pyplot
     from vifpk.harness.sweeps.maps import _edges, _verdict_boundary
+
+    from vifpk.core.io import pyplot
 
     plt = pyplot()
 

@@ -15,8 +15,9 @@ import math
 
 import numpy as np
 import pytest
+from vifpk.harness.request.tolerance import Tolerance, ToleranceError
 from vifpk.harness.workflows.compare import compare
-from vifpk.harness.workflows.tolerance import Tolerance, ToleranceError, debias, tolerance_verdict
+from vifpk.harness.workflows.tolerance import debias, tolerance_verdict
 
 EDGES = np.linspace(0.0, 1.3, 101)
 W = np.diff(EDGES)
@@ -135,7 +136,8 @@ def test_the_line_states_the_bounds_its_class_is_decided_by():
     """Review: a line said INSIDE while printing a two-sided 95% interval reaching above the
     tolerance (the class is one-sided). The line now prints the one-sided bounds: an INSIDE
     model's upper bound is below the tolerance, an OUTSIDE model's lower bound above it."""
-    from vifpk.harness.workflows.tolerance import Tolerance, line, tolerance_verdict
+    from vifpk.harness.request.tolerance import Tolerance
+    from vifpk.harness.workflows.tolerance import line, tolerance_verdict
 
     tol = Tolerance()
     for e in ({"L1": 0.0165, "L1_floor": 0.0, "L1_err": 0.002},

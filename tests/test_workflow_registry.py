@@ -7,7 +7,7 @@ from __future__ import annotations
 import pytest
 
 from vifpk.core import registry
-from vifpk.core.protocols import Workflow, WorkflowSpec
+from vifpk.core.protocols import Ref, Workflow, WorkflowSpec, resolved
 
 
 def _args(p):
@@ -62,13 +62,13 @@ def with_entry(monkeypatch):
 
 
 def test_builtin_workflows_are_workflows_and_drive_the_cli_and_sweeps():
-    from vifpk.harness.cli.app import build_parser
+    from vifpk.harness.cli.app import ORDER, build_parser
     from vifpk.harness.sweeps.points import sweep_functions
 
     ws = registry.workflows()
     assert all(isinstance(w, Workflow) for w in ws)
     sub = build_parser()._subparsers._group_actions[0]
-    assert list(sub.choices) == [w.name for w in ws if w.command is not None]
+    assert list(sub.choices) == [n for n in ORDER if n in {w.name for w in ws if w.command}]
     assert list(sweep_functions()) == [w.name for w in ws if w.sweep_point is not None]
     assert {"check", "averaging", "bifurcation", "passage", "transient"} <= set(sweep_functions())
 
@@ -92,10 +92,11 @@ def test_the_python_and_testing_apis_are_the_registry_s(with_entry):
 
     for w in registry.workflows():
         if w.api is not None:
-            assert getattr(vifpk, w.name) is w.api and w.name in vifpk.__all__
+            assert getattr(vifpk, w.name) is resolved(w.api) and w.name in vifpk.__all__
         if w.assertion is not None:
-            assert testing.assertion(w.name) is w.assertion
-            assert getattr(vifpk, w.assertion.__name__) is w.assertion
+            fn = resolved(w.assertion)
+            assert testing.assertion(w.name) is fn
+            assert getattr(vifpk, fn.__name__) is fn
     assert {"solve", "check", "sweep", "passage", "transient"} <= set(vifpk.__all__)
     with_entry("tests.test_workflow_registry:HELLO")
     assert vifpk.hello("paper-base", loud=True) == "hello paper-base!"
@@ -103,7 +104,8 @@ def test_the_python_and_testing_apis_are_the_registry_s(with_entry):
     vifpk.assert_hello("x", says="hello x")
     assert testing.assertion("hello") is assert_hello
     assert {"hello", "assert_hello"} <= set(vifpk.__all__)
-    with pytest.raises(vifpk.core.result.BadInput, match="allowed: solve, check"):
+    with pytest.raises(vifpk.core.result.BadInput,
+                       match="allowed: check, passage, solve, sweep, transient"):
         vifpk.run("models")
 
 
@@ -114,3 +116,51 @@ def test_a_broken_workflow_entry_is_one_line_naming_it(with_entry, capsys):
     assert main(["models"]) == 3
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "workflow 'hello'" in err, err
+
+
+def test_every_builtin_reference_names_a_function():
+    """The built-in records name their parts by Ref (a string): each must import and be
+    callable, and its ``name`` is the function's own (vifpk.<name> for an assertion)."""
+    refs = [(w.name, k, getattr(w, k)) for w in registry.workflows() if w.name != "hello"
+            for k in ("add_arguments", "command", "sweep_point", "api", "assertion")
+            if isinstance(getattr(w, k), Ref)]
+    assert len(refs) >= 20
+    for name, k, ref in refs:
+        fn = ref.load()
+        assert callable(fn) and fn.__name__ == ref.name, (name, k, ref)
+
+
+def test_the_registry_and_the_argument_builders_load_no_front_end():
+    """Every built-in record lives in the workflows layer or below (tests/test_layers.py: no
+    module there imports a layer above it, function-local imports included), so loading the
+    registry imports no command line, sweep, Python or testing API; and the argparse builders
+    import neither vifpk.api nor the testing API (issue 38: the records lived in harness/cli
+    and imported vifpk.api, so vifpk.solve was reached by importing argparse builders). Static,
+    by the AST scan: a fresh interpreter would cost ~1 s of imports."""
+    from importlib import metadata
+
+    from tests.conftest import ROOT
+    from tests.test_architecture import imported_modules
+    from tests.test_layers import LAYERS, package_of
+
+    own = [ep.value.partition(":")[0] for ep in
+           metadata.entry_points(group=registry.WORKFLOW_GROUP)
+           if ep.dist is not None and ep.dist.metadata["Name"] == registry.DISTRIBUTION]
+    assert len(own) >= 10
+    assert all(LAYERS[package_of(m)] <= LAYERS["vifpk.harness.workflows"] for m in own), own
+    builders = imported_modules(ROOT / "harness" / "cli" / "arguments.py")
+    assert not {m for m in builders if m.startswith(("vifpk.api", "vifpk.harness.testing",
+                                                     "vifpk.harness.sweeps"))}, builders
+
+
+def test_the_help_order_does_not_depend_on_the_registry_order(monkeypatch):
+    """vifpk's own subcommands keep cli/app.py's ORDER whatever order the installed metadata
+    gives (an editable install and a wheel gave two orders, issue 38)."""
+    from vifpk.harness.cli.app import ORDER, build_parser
+
+    ws = registry.workflows()
+    names = []
+    for order in (ws, tuple(reversed(ws))):
+        monkeypatch.setattr(registry, "workflows", lambda order=order: order)
+        names.append(list(build_parser()._subparsers._group_actions[0].choices))
+    assert names[0] == names[1] == [n for n in ORDER if n in names[0]]

@@ -43,11 +43,12 @@ def _registered() -> dict[str, Any]:
     name, its ``assertion`` under the assertion's own name (vifpk.core.protocols.Workflow), in
     registry order (vifpk's own first): a name already taken keeps its first meaning, and the
     fixed names above (``scene``, ``run``, ...) come before any workflow's."""
+    from vifpk.core.protocols import resolved
     from vifpk.core.registry import workflows
 
     out: dict[str, Any] = {}
     for w in workflows():
-        api, assertion = getattr(w, "api", None), getattr(w, "assertion", None)
+        api, assertion = (resolved(getattr(w, k, None)) for k in ("api", "assertion"))
         if api is not None:
             out.setdefault(w.name, api)
         name = getattr(assertion, "__name__", None)  # a partial has none: not exposed

@@ -19,8 +19,9 @@ from pathlib import Path
 
 import numpy as np
 import xarray as xr
+from vifpk.harness.request.tolerance import Tolerance
 from vifpk.harness.sweeps.surfacemaps import surface_figure, with_surfaces
-from vifpk.harness.workflows.tolerance import Tolerance, tolerance_verdict
+from vifpk.harness.workflows.tolerance import tolerance_verdict
 
 ROOT = Path(__file__).resolve().parents[2]
 

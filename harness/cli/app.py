@@ -29,9 +29,14 @@ from vifpk.core import registry
 from vifpk.core.guard import PluginError
 from vifpk.core.result import BadInput
 
+#: The order ``vifpk --help`` lists vifpk's own subcommands in (the registry gives them by
+#: name, the same in every install); any other workflow follows, in registry order.
+ORDER = ("solve", "check", "bifurcation", "figures", "workprecision", "sweep", "passage",
+         "transient", "models")
+
 
 def build_parser() -> argparse.ArgumentParser:
-    from vifpk.harness.outputs.provenance import vifpk_version
+    from vifpk.core.provenance import vifpk_version
 
     p = _Parser(prog="vifpk", description="How wrong is a stochastic-averaging approximation?")
     p.add_argument("--version", action="version", version=f"vifpk {vifpk_version()}",
@@ -40,7 +45,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="on a failure, print the traceback (a solver's failure with its cause; "
                         "default: one line; also VIFPK_TRACEBACK=1)")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
-    for w in registry.workflows():  # the vifpk.workflows entry points (cli/workflows.py)
+    rank = {name: i for i, name in enumerate(ORDER)}
+    listed = sorted(registry.workflows(), key=lambda w: rank.get(w.name, len(ORDER)))
+    for w in listed:  # the vifpk.workflows entry points, vifpk's own in ORDER (stable sort)
         if w.command is not None:
             sp = sub.add_parser(w.name, help=w.summary)
             w.add_arguments(sp)

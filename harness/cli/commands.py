@@ -27,7 +27,7 @@ from vifpk.core.scene import Scene, load_scene, no_noise
 
 
 def cmd_solve(args: argparse.Namespace) -> int:
-    from vifpk.harness.outputs.io import write_json
+    from vifpk.core.io import write_json
 
     if args.joint and not args.json:
         validate.refuse_options(["joint"], "without --json (the summary has no joint density)")
@@ -45,8 +45,8 @@ def cmd_solve(args: argparse.Namespace) -> int:
         cost.refuse_oversized(scene)
     if args.solver == "montecarlo":
         # priced again once the relaxation pilot has measured an automatic burn-in
-        with cost.guarded_run(scene, args.yes):
-            result = run_solver(scene, "montecarlo")
+        with cost.guarded_run(scene, args.yes) as run:
+            result = run_solver(scene, "montecarlo", run=run)
     else:
         result = run_solver(scene, args.solver, model=model, grid=args.grid)
     _finite_or_fail(result, scene)
@@ -106,9 +106,10 @@ def _mc_overrides(args: argparse.Namespace) -> dict[str, Any]:
 
 def cmd_check(args: argparse.Namespace) -> int:
     from vifpk.harness.outputs import outdir
-    from vifpk.harness.outputs.provenance import folder_name
     from vifpk.harness.outputs.report import REPORT_FILES, write_report
     from vifpk.harness.workflows.check import cross_check
+
+    from vifpk.core.provenance import folder_name
 
     validate.output_folder(args.out, "--out", replaced=True)
     validate.outputs_apart_from_inputs(args, replaced=True)
@@ -127,8 +128,9 @@ def cmd_check(args: argparse.Namespace) -> int:
     prov = _provenance(args)
     # hold the folder from the start: a second run into it is refused before any work
     with outdir.hold(out, run_id=prov["run_id"], allowed=REPORT_FILES, kind="check report"):
-        with cost.guarded_run(scene, args.yes):
-            result = cross_check(scene, quiet=args.quiet, models=models, tolerance=tol)
+        with cost.guarded_run(scene, args.yes) as run:
+            result = cross_check(scene, quiet=args.quiet, models=models, tolerance=tol,
+                                 run=run)
         files = write_report(result, out, prov=prov)
     for v in result.verdicts:
         print(v)
@@ -142,8 +144,9 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 
 def cmd_bifurcation(args: argparse.Namespace) -> int:
-    from vifpk.harness.outputs.io import write_json
     from vifpk.harness.workflows.bifurcation import VARIABLES, bifurcation
+
+    from vifpk.core.io import write_json
 
     if args.no_mc:
         validate.refuse_options(_mc_given(args), "with --no-mc (no Monte Carlo is run)")
@@ -262,14 +265,15 @@ def cmd_workprecision(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from vifpk.harness.outputs import outdir
-    from vifpk.harness.outputs.io import dumps
-    from vifpk.harness.outputs.provenance import folder_name
     from vifpk.harness.workflows.workprecision import (
         log_stderr,
         plot,
         run_workprecision,
         table_markdown,
     )
+
+    from vifpk.core.io import dumps
+    from vifpk.core.provenance import folder_name
 
     validate.refuse_options([k for k in ("paths", "time", "floor", "budget")
                              if getattr(args, k) is not None],
@@ -315,9 +319,10 @@ def cmd_workprecision(args: argparse.Namespace) -> int:
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
-    from vifpk.harness.outputs.provenance import folder_name
     from vifpk.harness.sweeps import errors, executors, runs, store
     from vifpk.harness.sweeps import spec as sweeps_spec
+
+    from vifpk.core.provenance import folder_name
 
     validate.output_folder(args.out, "--out")
     validate.outputs_apart_from_inputs(args, replaced=False, names=store.SWEEP_FILES)

@@ -124,8 +124,8 @@ def _summary(result: Any) -> str:
 
 
 def _provenance(args: argparse.Namespace) -> dict[str, Any]:
-    """The provenance block of this run (harness/outputs/provenance.py)."""
-    from vifpk.harness.outputs import provenance
+    """The provenance block of this run (vifpk/core/provenance.py)."""
+    from vifpk.core import provenance
 
     scene = getattr(args, "scene", None)
     return provenance.collect(argv=getattr(args, "argv", None),
@@ -151,7 +151,7 @@ def _checked_scene(args: argparse.Namespace, *, mc: bool) -> Scene:
 
 def _add_tolerance_options(p: argparse.ArgumentParser) -> None:
     """The tolerance verdict's question (harness/workflows/tolerance.py; checked in cmd_check)."""
-    from vifpk.harness.workflows.tolerance import METRICS, OBSERVABLES
+    from vifpk.harness.request.tolerance import METRICS, OBSERVABLES
 
     from vifpk.core.defaults import TOLERANCE, TOLERANCE_CONFIDENCE
 

@@ -205,7 +205,7 @@ def _cores(scene: Any) -> int:
 
 
 def _out(args: argparse.Namespace, scene: Any, suffix: str) -> str:
-    from vifpk.harness.outputs.provenance import folder_name
+    from vifpk.core.provenance import folder_name
 
     out = args.out or f"out/{folder_name(scene.name)}-{suffix}"
     if args.out is None:
@@ -215,7 +215,7 @@ def _out(args: argparse.Namespace, scene: Any, suffix: str) -> str:
 
 def _print(res: Any, files: dict[str, Any], as_json: bool) -> None:
     if as_json:
-        from vifpk.harness.outputs.io import jsonable
+        from vifpk.core.io import jsonable
 
         doc = {k: v for k, v in res.metrics.items() if k not in ("R",)}
         print(json.dumps(jsonable(doc), indent=1, allow_nan=False))

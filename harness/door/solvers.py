@@ -11,9 +11,7 @@ the one place exceptions are mapped.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from contextlib import contextmanager
-from contextvars import ContextVar
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -30,38 +28,26 @@ from vifpk.core.registry import CLOSED_FORM, one_of
 from vifpk.core.result import Result, Status
 from vifpk.core.scene import no_noise
 
-# (seconds allowed, path-steps per second on every core the run uses): the cost guard of the
-# command that runs the Monte Carlo (harness.request.cost.run_cost_limit); None: no limit
-_COST_LIMIT: ContextVar[tuple[float, float] | None] = ContextVar("cost_limit", default=None)
 
+@dataclass(kw_only=True)
+class MonteCarloRun:
+    """What a run of the original system is handed beyond its scene, passed explicitly (as
+    py-pde passes a tracker) from the command or the sweep point through the workflow's
+    signature to :func:`montecarlo_solution`: no hidden context, so a thread-pool executor
+    cannot lose it (issue 38). Mutable on purpose: the door writes ``state`` after the run.
 
-# a Monte Carlo run to continue and where it stopped (mc_checkpoint); None: plain runs
-_MC_STATE: ContextVar[dict[str, Any] | None] = ContextVar("mc_state", default=None)
+    ``cost_limit``: (seconds allowed, path-steps per second on every core the run uses), the
+    cost guard of the command (harness.request.cost.run_cost_limit): a run with an automatic
+    burn-in is priced again once its relaxation pilot has measured the burn-in, and stops
+    before the burn-in above it (CostRefused, exit 2); None: no limit.
+    ``keep_state``: continue from ``resume`` (the bytes of a montecarlo.checkpoint.Checkpoint;
+    None: a new run) toward the scene's floor, and leave where it stopped in ``state`` (bytes)
+    once it has run; False: a plain run, ``state`` stays None."""
 
-
-@contextmanager
-def mc_checkpoint(resume: bytes | None = None) -> Iterator[dict[str, Any]]:
-    """Within it, the Monte Carlo of the original system continues from ``resume`` (the
-    bytes of a montecarlo.checkpoint.Checkpoint; None: a new run) toward the scene's floor,
-    and the yielded dict's "state" holds where it stopped (bytes) once it has run."""
-    box: dict[str, Any] = {"resume": resume, "state": None}
-    token = _MC_STATE.set(box)
-    try:
-        yield box
-    finally:
-        _MC_STATE.reset(token)
-
-
-@contextmanager
-def cost_limit(limit: tuple[float, float] | None) -> Iterator[None]:
-    """Within it, a Monte Carlo of the original system with an automatic burn-in is priced
-    again once its relaxation pilot has measured the burn-in: above ``seconds`` at ``rate``
-    path-steps per second it stops before the burn-in (CostRefused, exit 2)."""
-    token = _COST_LIMIT.set(limit)
-    try:
-        yield
-    finally:
-        _COST_LIMIT.reset(token)
+    cost_limit: tuple[float, float] | None = None
+    keep_state: bool = False
+    resume: bytes | None = None
+    state: bytes | None = None
 
 
 @boundary
@@ -353,8 +339,11 @@ def phase_solution(scene: Any, res: Any, period: Any) -> tuple[dict[str, Any], d
 
 
 @boundary
-def montecarlo_solution(scene: Any, *, progress: bool = True, **edges: Any) -> Result:
+def montecarlo_solution(scene: Any, *, progress: bool = True, run: MonteCarloRun | None = None,
+                        **edges: Any) -> Result:
     """The Monte Carlo of the original system with the scene's settings and observables.
+
+    ``run``: its cost limit and checkpoint (:class:`MonteCarloRun`; None: neither).
 
     ``edges``: optional histogram edges (``edges_A``, ``edges_x``, ``edges_v``); by default
     the Monte Carlo picks its ranges from a pilot run, independently of the other solvers.
@@ -366,18 +355,18 @@ def montecarlo_solution(scene: Any, *, progress: bool = True, **edges: Any) -> R
 
     if no_noise(scene.system):
         raise SolverFailure(no_noise(scene.system))
-    limit = _COST_LIMIT.get()
+    limit = run.cost_limit if run is not None else None
     settings = montecarlo.Settings(**dataclasses.asdict(scene.montecarlo),
                                    observables=scene.observables.names(), progress=progress,
                                    edges=edges,
                                    max_path_steps=limit[0] * limit[1] if limit else math.inf)
-    box = _MC_STATE.get()
-    if box is not None:
-        settings = dataclasses.replace(settings, resume=box["resume"], keep_state=True)
+    keep = run is not None and run.keep_state
+    if keep:
+        settings = dataclasses.replace(settings, resume=run.resume, keep_state=True)
     res = montecarlo.simulate(scene.system, scene.noise, settings)
     info = dict(res.info)
-    if box is not None:
-        box["state"] = info.pop("checkpoint").to_bytes()
+    if keep:
+        run.state = info.pop("checkpoint").to_bytes()
     mom = info.get("moments", {}).get("A", {}).get("mean")
     if mom is not None:
         info["summary"] = {"mean": mom["value"], "mean_err": mom["err"]}
@@ -432,7 +421,7 @@ def solution_record(scene: Any, solver: str, model: str | None, result: Any, *,
         {"scene": {...}, "solver": ..., "model": ..., "pdf": {"A": {"x", "p"[, "edges", "err"]},
          "x1": {...}, "x2": {...}[, "E", "joint"]}, "info": {..., "provenance": {...}}}
 
-    ``provenance``: the run's block (harness/outputs/provenance.py), stored as ``info.provenance``.
+    ``provenance``: the run's block (vifpk/core/provenance.py), stored as ``info.provenance``.
     """
     # the blocks' own densities (p_blocks: the error bars' input) stay out of the contract
     pdf = {k: {f: a for f, a in v.items() if f != "p_blocks"} for k, v in result.data.items()

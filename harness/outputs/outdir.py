@@ -77,7 +77,7 @@ def lock_path(folder: str | Path) -> Path:
     return folder.parent / f".{folder.name}.lock"
 
 
-def _resolve(folder: str | Path) -> Path:
+def resolve(folder: str | Path) -> Path:
     p = Path(folder).expanduser()
     return p.parent.resolve() / p.name if p.name not in ("", ".", "..") else p.resolve()
 
@@ -103,7 +103,7 @@ def hold(folder: str | Path, *, run_id: str = "", allowed: Collection[str] | Non
     """
     from vifpk.harness.outputs import signals
 
-    target = _resolve(folder)
+    target = resolve(folder)
     if target in _held:
         yield target
         return
@@ -187,7 +187,7 @@ KINDS = {"passage report": ("passage.npz",), "transient report": ("transient.npz
 
 
 def _temporary(name: str) -> bool:
-    """A temporary file of an atomic write (harness/outputs/io.py: ``.NAME.<hex>.tmp<suffix>``)."""
+    """A temporary file of an atomic write (vifpk/core/io.py: ``.NAME.<hex>.tmp<suffix>``)."""
     return name.startswith(".") and ".tmp" in name
 
 

@@ -4,7 +4,7 @@ embedded), report.md (+ figures/*.png), metrics.json (a contract scripts read), 
 The folder is written as a unit (harness/outputs/outdir.py): the whole new set is built beside DIR
 and
 swapped in with one atomic exchange, under a lock that refuses a second run into DIR. Every
-file carries the run's provenance (harness/outputs/provenance.py): metrics.json ``provenance``, a
+file carries the run's provenance (vifpk/core/provenance.py): metrics.json ``provenance``, a
 block in report.html and report.md, ``run_id`` in arrays.npz and a text chunk in each PNG.
 """
 
@@ -18,10 +18,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from vifpk.harness.outputs import outdir, provenance
-from vifpk.harness.outputs.io import dumps, png_bytes
+from vifpk.harness.outputs import outdir
 from vifpk.harness.workflows.check import OBSERVABLES, CheckResult
 from vifpk.harness.workflows.verdict import INDISTINGUISHABLE_FACTOR, LARGE_L1, SMALL_L1
+
+from vifpk.core import provenance
+from vifpk.core.io import dumps, png_bytes
 
 LABELS = {"A": "amplitude A (dimensionless)", "x1": "displacement x1 (dimensionless)",
           "x2": "velocity x2 (dimensionless)"}
@@ -39,7 +41,7 @@ def _figure_densities(res: CheckResult, text: dict[str, str] | None = None) -> b
     closed form (solid line), its FPK (open circles), the Monte Carlo of its averaged SDE
     (dashed steps), in one colour per model; the Monte Carlo of the original system in black
     with +/- 2 s.e. bars. One legend for all panels."""
-    from vifpk.harness.outputs.io import pyplot
+    from vifpk.core.io import pyplot
 
     plt = pyplot()
 
@@ -83,7 +85,7 @@ def _figure_decomposition(res: CheckResult, text: dict[str, str] | None = None) 
     """Bars: the L1 distance of each part of the decomposition, with +/- 1 s.e. error bars
     (black, capped). Grey hatched boxes: the Monte Carlo noise floor, from the bottom of the
     axis up to the floor (a bar inside its box is noise)."""
-    from vifpk.harness.outputs.io import pyplot
+    from vifpk.core.io import pyplot
 
     plt = pyplot()
     from matplotlib.patches import Rectangle

@@ -16,9 +16,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from vifpk.harness.outputs import outdir, provenance
-from vifpk.harness.outputs.io import dumps, png_bytes, pyplot
+from vifpk.harness.outputs import outdir
 from vifpk.harness.outputs.report import MODEL_COLORS, write_figures
+
+from vifpk.core import provenance
+from vifpk.core.io import dumps, png_bytes, pyplot
 
 #: the files of a time-domain report; arrays-<workflow>.npz tells its kind (outdir.KINDS)
 PASSAGE_FILES = ("report.html", "report.md", "metrics.json", "passage.npz", "figures")

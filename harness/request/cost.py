@@ -15,6 +15,7 @@ from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
 
+from vifpk.harness.door.solvers import MonteCarloRun
 from vifpk.harness.request.errors import InputError
 
 from vifpk.core import registry
@@ -149,7 +150,7 @@ def refuse_costly(seconds: float | Callable[[float | None], float], what: str, y
 
 
 def run_cost_limit(scene: Scene, yes: bool) -> tuple[float, float] | None:
-    """(seconds, path-steps per second) for harness.door.solvers.cost_limit: the hour the guard
+    """(seconds, path-steps per second) for harness.door.solvers.MonteCarloRun: the hour the guard
     allows without ``--yes`` at this machine's speed on the run's cores, the one refuse_costly
     applies up front. The speed is the cached calibration (or VIFPK_STEPS_PER_SECOND), never
     faster than MC_STEPS_PER_CORE; with none cached, MC_STEPS_PER_CORE (so that only a run
@@ -163,22 +164,20 @@ def run_cost_limit(scene: Scene, yes: bool) -> tuple[float, float] | None:
 
 
 @contextmanager
-def guarded_run(scene: Scene, yes: bool) -> Iterator[None]:
-    """The run inside is priced again once its relaxation pilot has measured an automatic
-    burn-in (run_cost_limit, handed to the door as run.cost_limit); a refusal then is worded
-    here (priced_burn_in), where the rest of the guard's words are."""
-    from vifpk.harness.door.solvers import cost_limit
-
+def guarded_run(scene: Scene, yes: bool) -> Iterator[MonteCarloRun]:
+    """Yields the MonteCarloRun to hand the workflow inside (its ``run`` argument): the run
+    is priced again once its relaxation pilot has measured an automatic burn-in
+    (run_cost_limit, the run's ``cost_limit``); a refusal then is worded here
+    (priced_burn_in), where the rest of the guard's words are."""
     from vifpk.core.result import CostRefused
 
     limit = run_cost_limit(scene, yes)
-    with cost_limit(limit):
-        try:
-            yield
-        except CostRefused as exc:
-            if limit is None:
-                raise
-            raise CostRefused(priced_burn_in(exc.numbers, *limit), **exc.numbers) from None
+    try:
+        yield MonteCarloRun(cost_limit=limit)
+    except CostRefused as exc:
+        if limit is None:
+            raise
+        raise CostRefused(priced_burn_in(exc.numbers, *limit), **exc.numbers) from None
 
 
 def priced_burn_in(numbers: Mapping[str, float], seconds: float, rate: float) -> str:
@@ -219,7 +218,7 @@ def machine_speed() -> float:
     path = _cache_file()
     speed = _calibrate()
     try:
-        from vifpk.harness.outputs.io import write_json
+        from vifpk.core.io import write_json
 
         write_json(path, {**key, "steps_per_second_per_core": speed,
                           "load_average": os.getloadavg()[0],

@@ -48,7 +48,7 @@ class Request:
     given: tuple[str, ...] = ()
     #: models asked for that do not apply to the scene, and why (reported, not run)
     skipped: Mapping[str, str] = field(default_factory=dict)
-    #: check: the tolerance question (harness.workflows.tolerance.Tolerance)
+    #: check: the tolerance question (harness.request.tolerance.Tolerance)
     tolerance: Any = None
 
 
@@ -127,7 +127,7 @@ def concrete(source: Scene | str | Path, overrides: Sequence[str] = (),
     """The one scene a request runs on: a Scene, a scene file or a shipped scene's name, with
     ``--set`` texts (``overrides``) or dotted ``values`` applied. A scene that still varies a
     parameter (a list of values) is refused: choose one value."""
-    from vifpk.harness.outputs.provenance import overridden_name
+    from vifpk.core.provenance import overridden_name
 
     if isinstance(source, Scene):
         scene = source
@@ -279,7 +279,7 @@ def prepare_check(source: Scene | str | Path, *, models: Sequence[str] | None = 
     """``vifpk check``'s request: the models (default CHECK_MODELS, those that apply; models
     named by the user must apply), the tolerance question (harness/workflows/tolerance.py; defaults
     there) and the Monte Carlo options by flag name."""
-    from vifpk.harness.workflows.tolerance import Tolerance
+    from vifpk.harness.request.tolerance import Tolerance
 
     from vifpk.core.defaults import TOLERANCE, TOLERANCE_CONFIDENCE
 

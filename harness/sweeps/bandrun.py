@@ -48,9 +48,10 @@ def run_band(sweep: Sweep, out: str | Path, *, executor: ExecutorSpec, quiet: bo
              time_limit: float | None = None) -> SweepRun:
     """A band sweep (module docstring); progress on stderr, one line a point and a batch."""
     from vifpk.harness.outputs import signals
-    from vifpk.harness.outputs.io import write_json
     from vifpk.harness.sweeps.adaptive import initial_design
     from vifpk.harness.sweeps.dataset import write_results
+
+    from vifpk.core.io import write_json
 
     require_output_libraries()
     out = Path(out)
@@ -121,7 +122,7 @@ def run_band(sweep: Sweep, out: str | Path, *, executor: ExecutorSpec, quiet: bo
 
 def _store(out: Path, rec: dict[str, Any], write_json: Any) -> None:
     """The record, and its Monte Carlo's checkpoint as the point's only state file."""
-    from vifpk.harness.outputs.io import atomic_path
+    from vifpk.core.io import atomic_path
 
     stage = int(rec.get("stage", 0))
     state = (rec.get("result") or {}).pop("state", None)

@@ -177,7 +177,7 @@ def write_netcdf(ds: Any, path: Path) -> Path:
     """Write a Dataset atomically (temporary file beside it, then rename). The temporary file
     is created with mode 0666 minus the umask, as every other output (netCDF keeps the mode of
     the file it overwrites; ``tempfile`` would give 0600)."""
-    from vifpk.harness.outputs.io import atomic_path
+    from vifpk.core.io import atomic_path
 
     with atomic_path(path) as tmp:
         ds.to_netcdf(tmp, engine="netcdf4")
@@ -189,7 +189,7 @@ def write_results(sweep: Sweep, out: Path, *, executor: str = "", report: bool =
                   stages: Mapping[str, int] | None = None) -> dict[str, Path]:
     """DIR/sweep.nc (and DIR/report.html) from the records on disk; ``stages``: the record
     of each point's ``stages[key]``-th extension (band sweeps), else its first."""
-    from vifpk.harness.outputs import provenance as prov
+    from vifpk.core import provenance as prov
 
     records = {}
     for pt in sweep.points:

@@ -30,7 +30,7 @@ FLAG_VARS = ("warn_narrow_band", "warn_sticking", "warn_strong_damping", "warn_s
 
 
 def _png(fig: Any) -> str:
-    from vifpk.harness.outputs.io import png_bytes
+    from vifpk.core.io import png_bytes
 
     return base64.b64encode(png_bytes(fig, dpi=110, bbox_inches="tight")).decode()
 
@@ -87,7 +87,7 @@ def _no_values(ax: Any) -> None:
 
 def _map_figure(ds: Any, var: str, title: str, *, contour: bool) -> str:
     """Colour maps of ``var`` (dims: two parameters and model), models side by side."""
-    from vifpk.harness.outputs.io import pyplot
+    from vifpk.core.io import pyplot
 
     plt = pyplot()
     from matplotlib.patches import Rectangle
@@ -194,7 +194,7 @@ def _scattered_map_figure(ds: Any, var: str, title: str) -> str:
 
 
 def _curve_figure(ds: Any, var: str, err: str | None, title: str) -> str:
-    from vifpk.harness.outputs.io import pyplot
+    from vifpk.core.io import pyplot
 
     plt = pyplot()
 
@@ -224,7 +224,7 @@ def _curve_figure(ds: Any, var: str, err: str | None, title: str) -> str:
 
 
 def _bifurcation_figure(ds: Any) -> str:
-    from vifpk.harness.outputs.io import pyplot
+    from vifpk.core.io import pyplot
 
     plt = pyplot()
 
@@ -367,7 +367,7 @@ def render(sweep: Any, ds: Any) -> str:
 
 
 def write_maps(sweep: Any, ds: Any, out: Path) -> Path:
-    from vifpk.harness.outputs.io import write_atomic
+    from vifpk.core.io import write_atomic
 
     return write_atomic(Path(out) / "report.html", render(sweep, ds))
 
@@ -386,7 +386,7 @@ def time_figures(ds: Any) -> list[tuple[str, str]]:
                          "relaxation time (time units, log scale)"))
     if var not in ds or orig not in ds:
         return []
-    from vifpk.harness.outputs.io import pyplot
+    from vifpk.core.io import pyplot
 
     plt = pyplot()
     x, xl = _axis(ds, params[0]) if params[0] in ds.coords else (

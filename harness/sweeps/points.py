@@ -24,6 +24,7 @@ from vifpk.harness.workflows.assumptions import ASSUMPTION_KINDS
 
 from vifpk.core import registry
 from vifpk.core.defaults import BIFURCATION_MODELS, CHECK_MODELS, TOLERANCE, TOLERANCE_CONFIDENCE
+from vifpk.core.protocols import resolved
 from vifpk.core.result import BadInput
 from vifpk.core.scene import Scene, SceneError
 
@@ -116,7 +117,7 @@ def fingerprint(workflow: str, scene: Scene, bifurcation: Mapping[str, Any], *,
     if models is not None:
         what["models"] = list(models)
     if tolerance is not None and workflow == "check":
-        from vifpk.harness.workflows.tolerance import Tolerance
+        from vifpk.harness.request.tolerance import Tolerance
 
         if tolerance != Tolerance():
             what["tolerance"] = tolerance.record()
@@ -181,9 +182,9 @@ def _validate_point(scene: Scene, workflow: str, bifurcation: Mapping[str, Any],
         validate.stationary_density(scene)
         prepare.physics_supported(scene)
         if workflow in ("passage", "transient"):
-            from vifpk.harness.sweeps.timesweep import check_point
+            from vifpk.harness.sweeps import timesweep
 
-            check_point(workflow, bifurcation)
+            timesweep.check_point(workflow, bifurcation)
         if workflow in ("check", "passage", "transient") or (workflow == "bifurcation"
                                                              and bifurcation.get("mc")):
             # with a fixed step the checks depend on [montecarlo] and omega0 only: once each
@@ -262,28 +263,26 @@ def _flags(warnings: list[Any]) -> dict[str, bool]:
     return {k: v in kinds for k, v in WARNING_FLAGS.items()}
 
 
-def _check_point(job: Job) -> dict[str, Any]:
+def check_point(job: Job) -> dict[str, Any]:
     """The cross-check without the FPK: the averaging error of p(A) of each model."""
-    from contextlib import nullcontext
-
     import numpy as np
-    from vifpk.harness.door.solvers import mc_checkpoint
+    from vifpk.harness.door.solvers import MonteCarloRun
+    from vifpk.harness.request.tolerance import Tolerance
     from vifpk.harness.workflows.check import cross_check
-    from vifpk.harness.workflows.tolerance import Tolerance
 
     from vifpk.core.guard import PluginError
 
     names, failed = list(_models(job, CHECK_MODELS)), {}
-    box: dict[str, Any] | None = None
+    run = MonteCarloRun(keep_state=job.keep_state, resume=job.state if job.keep_state else None)
     while True:  # a plugin that fails is dropped, named, and the check run without it
         try:
-            with mc_checkpoint(job.state) if job.keep_state else nullcontext(None) as box:
-                res = cross_check(job.scene, quiet=True, fpk=False, sde=job.sde, tail_mass=False,
-                                  models=tuple(names),
-                                  tolerance=Tolerance(value=job.tolerance,
-                                                      metric=job.tolerance_question[0],
-                                                      observable=job.tolerance_question[1],
-                                                      confidence=job.tolerance_question[2]))
+            res = cross_check(job.scene, quiet=True, fpk=False, sde=job.sde, tail_mass=False,
+                              models=tuple(names),
+                              tolerance=Tolerance(value=job.tolerance,
+                                                  metric=job.tolerance_question[0],
+                                                  observable=job.tolerance_question[1],
+                                                  confidence=job.tolerance_question[2]),
+                              run=run)
             break
         except PluginError as exc:
             if exc.model not in names or len(names) == 1:
@@ -322,7 +321,7 @@ def _check_point(job: Job) -> dict[str, Any]:
             "flags": {**_flags(res.warnings), "warn_not_converged": not converged},
             "recommended_model": res.metrics["recommended_model"],
             "warnings": [w.text for w in res.warnings], "verdicts": res.verdicts,
-            **_mc_cost(mc.info), **({"state": box["state"]} if box else {})}
+            **_mc_cost(mc.info), **({"state": run.state} if run.keep_state else {})}
 
 
 def _mc_cost(info: Mapping[str, Any]) -> dict[str, float]:
@@ -335,7 +334,7 @@ def _mc_cost(info: Mapping[str, Any]) -> dict[str, float]:
             "mc_sampled_steps": float(round(st["time"] / st["dt"]) * st["paths"])}
 
 
-def _averaging_point(job: Job) -> dict[str, Any]:
+def averaging_point(job: Job) -> dict[str, Any]:
     """Closed forms of each model (computed once), the L1 between them, the assumption
     warnings that need no simulation (strong damping, narrow band, strong noise)."""
     from vifpk.harness.door.solvers import run_solver
@@ -369,7 +368,7 @@ def _averaging_point(job: Job) -> dict[str, Any]:
     return out
 
 
-def _bifurcation_point(job: Job) -> dict[str, Any]:
+def bifurcation_point(job: Job) -> dict[str, Any]:
     """Critical mu or r of each model at this point, with the Monte Carlo checks."""
     from vifpk.harness.workflows.bifurcation import bifurcation
 
@@ -383,16 +382,16 @@ def _bifurcation_point(job: Job) -> dict[str, Any]:
             "range": res["range"], "mc_check": checks}
 
 
-def _passage_point(job: Job) -> dict[str, Any]:
-    from vifpk.harness.sweeps.timesweep import passage_point
+def passage_point(job: Job) -> dict[str, Any]:
+    from vifpk.harness.sweeps import timesweep
 
-    return passage_point(job)
+    return timesweep.passage_point(job)
 
 
-def _transient_point(job: Job) -> dict[str, Any]:
-    from vifpk.harness.sweeps.timesweep import transient_point
+def transient_point(job: Job) -> dict[str, Any]:
+    from vifpk.harness.sweeps import timesweep
 
-    return transient_point(job)
+    return timesweep.transient_point(job)
 
 
 _CHECKED: set[Any] = set()  # Monte Carlo settings already validated in this process
@@ -406,6 +405,6 @@ WORKFLOW_FUNCTIONS: dict[str, Callable[[Job], dict[str, Any]]] = {}
 def sweep_functions() -> dict[str, Callable[[Job], dict[str, Any]]]:
     """The sweepable workflows (module comment above), in registration order."""
     if not WORKFLOW_FUNCTIONS:
-        WORKFLOW_FUNCTIONS.update({w.name: w.sweep_point for w in registry.workflows()
+        WORKFLOW_FUNCTIONS.update({w.name: resolved(w.sweep_point) for w in registry.workflows()
                                    if w.sweep_point is not None})
     return WORKFLOW_FUNCTIONS

@@ -52,7 +52,8 @@ def run_sweep(sweep: Sweep, out: str | Path, *, executor: str | ExecutorSpec = "
     workers and keep every record written so far (``signals.message()`` says how many).
     """
     from vifpk.harness.outputs import outdir, signals
-    from vifpk.harness.outputs.provenance import new_run_id
+
+    from vifpk.core.provenance import new_run_id
 
     spec = parse_executor(executor) if isinstance(executor, str) else executor
     require_output_libraries()
@@ -75,7 +76,7 @@ def run_sweep(sweep: Sweep, out: str | Path, *, executor: str | ExecutorSpec = "
 def _run_held(sweep: Sweep, out: Path, spec: ExecutorSpec, *, quiet: bool, report: bool,
               provenance: Mapping[str, Any] | None, signals: Any,
               time_limit: float | None = None) -> SweepRun:
-    from vifpk.harness.outputs.io import write_json
+    from vifpk.core.io import write_json
 
     done = finished(sweep, out)
     todo = [pt for pt in sweep.points if pt.key not in done]
@@ -152,8 +153,9 @@ def run_adaptive(sweep: Sweep, out: str | Path, *, executor: ExecutorSpec,
     """
     from dataclasses import replace
 
-    from vifpk.harness.outputs.io import write_json
     from vifpk.harness.sweeps.adaptive import next_batch
+
+    from vifpk.core.io import write_json
 
     require_output_libraries()
     out = Path(out)

@@ -281,7 +281,7 @@ def load_sweep(path: str | Path) -> Sweep:
             or not math.isfinite(tolerance) or tolerance <= 0):
         raise SweepError(f"{src}: tolerance = {tolerance!r}: a number > 0 (the largest "
                          "accepted averaging error)")
-    from vifpk.harness.workflows.tolerance import Tolerance, ToleranceError
+    from vifpk.harness.request.tolerance import Tolerance, ToleranceError
 
     try:
         tol = Tolerance(value=float(tolerance), **question)

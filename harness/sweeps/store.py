@@ -79,8 +79,8 @@ def adaptive_point(sweep: Sweep, unit: Any, *, first: bool) -> Point:
 
 
 def _tolerance(sweep: Sweep) -> Any:
-    """The sweep's tolerance question as a harness.workflows.tolerance.Tolerance."""
-    from vifpk.harness.workflows.tolerance import Tolerance
+    """The sweep's tolerance question as a harness.request.tolerance.Tolerance."""
+    from vifpk.harness.request.tolerance import Tolerance
 
     metric, observable, confidence = sweep.tolerance_question
     return Tolerance(value=sweep.tolerance, metric=metric, observable=observable,
@@ -114,7 +114,7 @@ def check_sweep_folder(out: str | Path) -> Path:
     ``sweep.nc`` or ``report.html`` that are not files (SweepError naming them)."""
     from vifpk.harness.outputs import outdir
 
-    target = outdir._resolve(out)
+    target = outdir.resolve(out)
     try:
         outdir.check_replaceable(target, set(SWEEP_FILES), "sweep")
     except SceneError as exc:

@@ -161,7 +161,8 @@ def surface_figure(ds: Any, *, axis: Any = None) -> str | None:
     import json
 
     from matplotlib.colors import LogNorm
-    from vifpk.harness.outputs.io import png_bytes, pyplot
+
+    from vifpk.core.io import png_bytes, pyplot
 
     if "surface_error" not in ds:
         return None

@@ -35,6 +35,7 @@ from vifpk.harness.door.solvers import (
 
 from vifpk.core import registry
 from vifpk.core.defaults import BIFURCATION_MODELS
+from vifpk.core.protocols import Ref, WorkflowSpec
 
 VARIABLES = {"mu": ("system", "mu", (0.0, 0.05)), "r": ("system", "r", (0.9, 1.0))}
 PAPER_CLAIMS = {
@@ -179,3 +180,15 @@ def _disagreement(vary: str, chk: dict[str, Any]) -> str:
     wrong = [k for k, ok in chk["agrees"].items() if not ok]
     preds = ", ".join(f"{k} model predicts a {chk['predicted'][k]}" for k in wrong)
     return f"{vary} = {chk['value']:.4g} ({preds}; the MC shows a {chk['monte_carlo']['shape']})"
+
+
+# ------------------------------------------------------------------ the workflow's record
+#: ``vifpk bifurcation`` (vifpk.core.protocols.Workflow), registered in pyproject.toml's
+#: ``vifpk.workflows``. Its command line (harness/cli) and sweep point (harness/sweeps) are
+#: named by Ref, imported when used: the registry does not depend on the layers above this one.
+SPEC = WorkflowSpec(
+    "bifurcation", "find the critical mu or r of the P-bifurcation of "
+    "each averaged model and check it by Monte Carlo",
+    add_arguments=Ref("vifpk.harness.cli.arguments:bifurcation_arguments"),
+    command=Ref("vifpk.harness.cli.commands:cmd_bifurcation"),
+    sweep_point=Ref("vifpk.harness.sweeps.points:bifurcation_point"))

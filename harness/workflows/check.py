@@ -28,16 +28,18 @@ from typing import Any
 
 import numpy as np
 from vifpk.harness.door.solvers import (
+    MonteCarloRun,
     averaged_sde_solution,
     closed_form,
     model_solution,
     montecarlo_solution,
     validity,
 )
+from vifpk.harness.request.tolerance import Tolerance
 from vifpk.harness.workflows.assumptions import assumption_warnings
 from vifpk.harness.workflows.compare import compare
-from vifpk.harness.workflows.tolerance import Tolerance, model_verdicts
 from vifpk.harness.workflows.tolerance import line as tolerance_line
+from vifpk.harness.workflows.tolerance import model_verdicts
 from vifpk.harness.workflows.verdict import (
     _evidence,
     _sampling_ok,
@@ -49,6 +51,7 @@ from vifpk.harness.workflows.verdict import (
 
 from vifpk.core import registry
 from vifpk.core.defaults import CHECK_MODELS, DENSITY_OBSERVABLES, FPK_CELLS
+from vifpk.core.protocols import Ref, WorkflowSpec
 from vifpk.core.result import WarningRecord
 
 OBSERVABLES = DENSITY_OBSERVABLES
@@ -69,7 +72,7 @@ class CheckResult:
     metrics: dict[str, Any]
     warnings: list[WarningRecord]
     verdicts: list[str]
-    #: harness.outputs.provenance.collect(); set by the writer
+    #: vifpk.core.provenance.collect(); set by the writer
     provenance: dict[str, Any] | None = None
     recommendation: str = ""  # one line: the model to trust here and why (recommend())
     models: tuple[str, ...] = CHECK_MODELS  # the averaged models checked, in report order
@@ -132,8 +135,12 @@ def sde_seed(root: int, model: str) -> int:
 
 def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool = True,
                 tail_mass: bool = True, models: tuple[str, ...] = CHECK_MODELS,
-                tolerance: Tolerance | None = None) -> CheckResult:
+                tolerance: Tolerance | None = None,
+                run: MonteCarloRun | None = None) -> CheckResult:
     """Run every solver on a concrete scene and compute the error decomposition.
+
+    ``run``: the cost limit and checkpoint of the original system's Monte Carlo
+    (harness.door.solvers.MonteCarloRun, handed to every run of it here; None: neither).
 
     ``models``: registered averaged models (vifpk.core.registry), in report order (those that
     do not apply to the scene are named in ``models_absent``); the Monte Carlo of model i's
@@ -184,7 +191,7 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
                                                        if extensions else ""))
         mc = montecarlo_solution(replace(run_scene, observables=replace(
             run_scene.observables, A=True, x1=True, x2=True, events=True, moments=True)),
-            progress=not quiet)
+            progress=not quiet, run=run)
         st = mc.info["settings"]
         bad = _evidence(mc.info.get("convergence", {}), {})
         spent = time.perf_counter() - t_mc
@@ -344,3 +351,19 @@ def output_problems(result: CheckResult) -> list[str]:
                 if not all(math.isfinite(v) for v in e.values()):
                     out.append(f"{m} {kind} {o}: not finite")
     return out
+
+
+# ------------------------------------------------------------------ the workflow's record
+#: ``vifpk check`` (vifpk.core.protocols.Workflow), registered in pyproject.toml's
+#: ``vifpk.workflows``. Its command line (harness/cli), sweep point (harness/sweeps), Python
+#: function (vifpk.api) and tolerance test (harness/testing.py) are named by Ref, imported
+#: when used: the registry does not depend on the layers above this one.
+SPEC = WorkflowSpec(
+    "check", "cross-check the averaged models (default: "
+    f"{', '.join(CHECK_MODELS)}; outside the paper's family "
+    "without paper) against the Monte Carlo of the original "
+    "system and write an error report",
+    add_arguments=Ref("vifpk.harness.cli.arguments:check_arguments"),
+    command=Ref("vifpk.harness.cli.commands:cmd_check"),
+    sweep_point=Ref("vifpk.harness.sweeps.points:check_point"), api=Ref("vifpk.api:check"),
+    assertion=Ref("vifpk.harness.testing:assert_averaging_error"))

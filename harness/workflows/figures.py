@@ -17,10 +17,11 @@ from typing import Any
 
 import numpy as np
 from vifpk.harness.door.solvers import closed_form, montecarlo_solution
-from vifpk.harness.outputs.io import atomic_path, write_atomic, write_json
 from vifpk.harness.workflows.check import models_of
 from vifpk.harness.workflows.compare import compare
 
+from vifpk.core.io import atomic_path, write_atomic, write_json
+from vifpk.core.protocols import Ref, WorkflowSpec
 from vifpk.core.scene import Scene, Sweep, load_scene
 
 FIGURES = {2: "paper-fig2", 3: "paper-fig3", 4: "paper-fig4", 5: "paper-fig5", 6: "paper-fig6"}
@@ -56,7 +57,7 @@ def _run_variant(scene: Scene, joint: bool) -> dict[str, Any]:
 
 
 def _plot_pdfs(fig_no: int, scene: Scene, runs: list[dict[str, Any]], path: Path) -> None:
-    from vifpk.harness.outputs.io import pyplot
+    from vifpk.core.io import pyplot
 
     plt = pyplot()
 
@@ -89,7 +90,7 @@ def _plot_pdfs(fig_no: int, scene: Scene, runs: list[dict[str, Any]], path: Path
 
 
 def _plot_joint(fig_no: int, scene: Scene, runs: list[dict[str, Any]], path: Path) -> None:
-    from vifpk.harness.outputs.io import pyplot
+    from vifpk.core.io import pyplot
 
     plt = pyplot()
 
@@ -181,7 +182,7 @@ def draw_scene_figures(out_dir: str | Path, scene: Scene, *, quiet: bool = False
         _plot_pdfs(0, sw, runs, tmp)
     table = {f"figure-{scene.name}": _table_entry(sw, runs)}
     if prov is None:
-        from vifpk.harness.outputs.provenance import collect
+        from vifpk.core.provenance import collect
 
         prov = collect()
     write_json(out / "figures.json", dict(table, provenance=prov))
@@ -210,7 +211,7 @@ def draw_figures(out_dir: str | Path, *, numbers: tuple[int, ...] = tuple(FIGURE
             (_plot_joint if no in JOINT else _plot_pdfs)(no, scene, runs, tmp)
         table[f"figure{no}"] = _table_entry(scene, runs)
     if prov is None:
-        from vifpk.harness.outputs.provenance import collect
+        from vifpk.core.provenance import collect
 
         prov = collect()
     write_json(out / "figures.json", dict(table, provenance=prov))
@@ -236,3 +237,15 @@ def render_table(table: dict[str, Any]) -> str:
             lines.append(f"| {name[6:].lstrip('-')} | {t['varied'].split('.')[1]} = {v:g} | "
                          f"{vals} | {fl['A']:.3f} |")
     return "\n".join(lines) + "\n"
+
+
+# ------------------------------------------------------------------ the workflow's record
+#: ``vifpk figures`` (vifpk.core.protocols.Workflow), registered in pyproject.toml's
+#: ``vifpk.workflows``. Its command line (harness/cli) is named by Ref, imported when
+#: used: the registry does not depend on the layers above this one.
+SPEC = WorkflowSpec(
+    "figures", "redraw the paper's Figures 2-6: two averaged models "
+    "(the paper's and the exact one) against the Monte "
+    "Carlo of the original system",
+    add_arguments=Ref("vifpk.harness.cli.arguments:figures_arguments"),
+    command=Ref("vifpk.harness.cli.commands:cmd_figures"))

@@ -17,10 +17,10 @@ from pathlib import Path
 from typing import Any
 
 from vifpk.harness.door import timedomain
-from vifpk.harness.outputs.io import write_atomic, write_json
 from vifpk.harness.workflows import survival
 
 from vifpk.core import registry
+from vifpk.core.io import write_atomic, write_json
 
 #: the target 95% half-width of the original system's MFPT, relative, and the wall budget
 REL_CI, BUDGET = 0.10, 900.0

@@ -194,7 +194,8 @@ def recommend(metrics: dict[str, Any], warnings: list[WarningRecord], val: dict[
     as advice (the assumptions that fail here, so the measured error holds for this scene, not
     as a trend). The line names the tolerance used.
     """
-    from vifpk.harness.workflows.tolerance import Tolerance, tolerance_verdict
+    from vifpk.harness.request.tolerance import Tolerance
+    from vifpk.harness.workflows.tolerance import tolerance_verdict
 
     conv = convergence or {}
     head = "recommended model: "

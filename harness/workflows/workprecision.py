@@ -27,6 +27,7 @@ from vifpk.harness.door.solvers import SolverFailure
 from vifpk.harness.workflows.compare import compare
 
 from vifpk.core.guard import PluginError
+from vifpk.core.protocols import Ref, WorkflowSpec
 
 TARGETS = (1e-2, 1e-3, 1e-4)
 
@@ -296,7 +297,7 @@ def seconds_to_reach(solvers: dict[str, list[dict[str, Any]]]) -> dict[str, dict
 
 
 def plot(data: dict[str, Any], path: Any) -> None:
-    from vifpk.harness.outputs.io import pyplot
+    from vifpk.core.io import pyplot
 
     plt = pyplot()
 
@@ -363,3 +364,13 @@ def table_markdown(data: dict[str, Any]) -> str:
 
 def log_stderr(msg: str) -> None:
     print(f"workprecision: {msg} ...", file=sys.stderr, flush=True)
+
+
+# ------------------------------------------------------------------ the workflow's record
+#: ``vifpk workprecision`` (vifpk.core.protocols.Workflow), registered in pyproject.toml's
+#: ``vifpk.workflows``. Its command line (harness/cli) is named by Ref, imported when
+#: used: the registry does not depend on the layers above this one.
+SPEC = WorkflowSpec(
+    "workprecision", "what accuracy costs in time, for every solver",
+    add_arguments=Ref("vifpk.harness.cli.arguments:workprecision_arguments"),
+    command=Ref("vifpk.harness.cli.commands:cmd_workprecision"))

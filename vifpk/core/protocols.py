@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cache
 from typing import Any, Protocol, runtime_checkable
 
 #: Bumped when a required member is added or a signature changes (docs/plugins.md lists what
@@ -96,8 +97,47 @@ class Workflow(Protocol):
 
 
 @dataclass(frozen=True)
+class Ref:
+    """A function named by ``"module:attribute"``, imported when it is first called or
+    :func:`resolved`: a workflow's record names its command-line parts, its sweep point and
+    its Python function without importing them, so the registry (and ``vifpk --help``) does
+    not depend on the layers those live in (issue 38: the built-in records sit with the
+    workflows; their argparse builders stay in harness/cli). ``name``: the attribute's own
+    name (what ``vifpk.<name>`` exposes an assertion as)."""
+
+    target: str
+
+    @property
+    def name(self) -> str:
+        return self.target.rpartition(":")[2].rpartition(".")[2]
+
+    def load(self) -> Callable[..., Any]:
+        return _load_ref(self.target)
+
+    def __call__(self, *args: Any, **kwargs: Any) -> Any:
+        return self.load()(*args, **kwargs)
+
+
+@cache
+def _load_ref(target: str) -> Callable[..., Any]:
+    from importlib import import_module
+
+    module, _, attr = target.partition(":")
+    obj: Any = import_module(module)
+    for part in attr.split("."):
+        obj = getattr(obj, part)
+    return obj
+
+
+def resolved(obj: Any) -> Any:
+    """``obj`` itself, or the function a :class:`Ref` names (imported now)."""
+    return obj.load() if isinstance(obj, Ref) else obj
+
+
+@dataclass(frozen=True)
 class WorkflowSpec:
-    """The plain record that satisfies :class:`Workflow` (docstring there)."""
+    """The plain record that satisfies :class:`Workflow` (docstring there). Each callable may
+    be given as a :class:`Ref` (``Ref("pkg.module:function")``), imported on first use."""
 
     name: str
     summary: str

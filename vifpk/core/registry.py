@@ -14,19 +14,17 @@ The object a factory returns follows the averaged-model protocol (docs/testing.m
 (``paper``, ``exact``, ``corrected``) are registered the same way in vifpk's pyproject.toml,
 so a new built-in model is its own file plus one line there.
 
-In a source checkout (``pyproject.toml`` beside this package: the repository, installed
-editable or only on ``sys.path``) vifpk's own registrations are read from that file, so a
-model added there is seen without reinstalling; installed metadata gives everyone else's.
+Every registration is read from the installed metadata (vifpk's own too: a line added to
+pyproject.toml is seen after ``pip install -e .``), so an editable install and a wheel see the
+same entries in the same order: vifpk's own by name, then other distributions' by name.
 """
 
 from __future__ import annotations
 
-import tomllib
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cache
 from importlib import import_module, metadata
-from pathlib import Path
 from typing import Any
 
 #: The two solvers every cross-check has: an averaged model's closed form and the simulation
@@ -81,41 +79,20 @@ class ModelEntry:
         return obj
 
 
-def _source_pyproject() -> Path | None:
-    """vifpk's own pyproject.toml when this package runs from a source checkout."""
-    p = Path(__file__).resolve().parents[2] / "pyproject.toml"
-    if not p.is_file():
-        return None
-    try:
-        raw = tomllib.loads(p.read_text(encoding="utf-8"))
-    except (OSError, tomllib.TOMLDecodeError):
-        return None
-    return p if raw.get("project", {}).get("name") == DISTRIBUTION else None
-
-
 def _group(group: str) -> tuple[tuple[ModelEntry, ...], tuple[str, ...]]:
-    """(entries, conflicts) of one entry-point group: vifpk's own first (in pyproject order
-    from a source checkout, by name from metadata), then other distributions' by name. A name
-    registered twice keeps its first entry; the clash is reported in ``conflicts``."""
+    """(entries, conflicts) of one entry-point group, from the installed metadata only (the
+    same in an editable install and a wheel; pyproject.toml is never read at run time): vifpk's
+    own first, then other distributions', each by name. A name registered twice keeps its
+    first entry; the clash is reported in ``conflicts``."""
     own: list[ModelEntry] = []
     others: list[ModelEntry] = []
-    src = _source_pyproject()
-    if src is not None:
-        raw = tomllib.loads(src.read_text(encoding="utf-8"))
-        table = raw["project"].get("entry-points", {}).get(group, {})
-        own = [ModelEntry(k, v, DISTRIBUTION) for k, v in table.items()]
     for ep in metadata.entry_points(group=group):
         dist = ep.dist.metadata["Name"] if ep.dist is not None else "?"
-        if dist == DISTRIBUTION:
-            if src is None:
-                own.append(ModelEntry(ep.name, ep.value, dist))
-        else:
-            others.append(ModelEntry(ep.name, ep.value, dist))
-    if src is None:
-        own.sort(key=lambda e: e.name)
+        (own if dist == DISTRIBUTION else others).append(ModelEntry(ep.name, ep.value, dist))
     found: dict[str, ModelEntry] = {}
     conflicts = []
-    for e in own + sorted(others, key=lambda e: (e.name, e.distribution)):
+    for e in sorted(own, key=lambda e: e.name) + sorted(others,
+                                                       key=lambda e: (e.name, e.distribution)):
         if e.name in found:
             conflicts.append(f"{e.name!r} from {e.distribution} (kept the one from "
                              f"{found[e.name].distribution})")
@@ -133,7 +110,7 @@ def _entries() -> tuple[tuple[ModelEntry, ...], tuple[str, ...]]:
 @cache
 def workflows() -> tuple[Any, ...]:
     """Every registered workflow (``vifpk.workflows``; vifpk.core.protocols.Workflow), loaded:
-    vifpk's own first, in pyproject order, then other distributions' by name. An entry that
+    vifpk's own first, then other distributions', each by name (``_group``). An entry that
     does not load or is not a Workflow raises PluginError naming it."""
     from .guard import PluginError
     from .protocols import Workflow

@@ -1,15 +1,14 @@
-"""The built-in workflows (issue 27): each a vifpk.core.protocols.WorkflowSpec registered in
-pyproject.toml's ``vifpk.workflows`` entry-point group, from which the command line builds its
-subcommands (cli/app.py) and sweeps take their point functions (sweeps/points.py). A new
-workflow is one module holding its spec plus one entry-point line (docs/plugins.md).
+"""The built-in workflows' command-line options: one argparse builder each, named by the
+workflow's record (``add_arguments``, a vifpk.core.protocols.Ref; the records are
+harness/workflows/specs.py and the ``SPEC`` of check.py, bifurcation.py, figures.py and
+workprecision.py), from which cli/app.py builds the subcommands. (The time domain's are
+cli/timedomain.py.)
 """
 
 from __future__ import annotations
 
 import argparse
 
-from vifpk.harness import testing
-from vifpk.harness.cli import commands, timedomain
 from vifpk.harness.cli.options import (
     _add_mc_options,
     _add_tolerance_options,
@@ -19,11 +18,8 @@ from vifpk.harness.cli.options import (
     add_scene,
     add_set,
 )
-from vifpk.harness.sweeps import points
 
-import vifpk.api as api
 from vifpk.core.defaults import BIFURCATION_MODELS, CHECK_MODELS, FPK_CELLS
-from vifpk.core.protocols import WorkflowSpec
 from vifpk.core.registry import CLOSED_FORM, solver_names
 
 
@@ -133,51 +129,3 @@ def sweep_arguments(p: argparse.ArgumentParser) -> None:
 
 def models_arguments(p: argparse.ArgumentParser) -> None:
     """``vifpk models`` takes no options."""
-
-
-
-SOLVE = WorkflowSpec(
-    "solve", "solve one scene with one solver",
-    add_arguments=solve_arguments, command=commands.cmd_solve, api=api.solve)
-CHECK = WorkflowSpec(
-    "check", "cross-check the averaged models (default: "
-    f"{', '.join(CHECK_MODELS)}; outside the paper's family "
-    "without paper) against the Monte Carlo of the original "
-    "system and write an error report",
-    add_arguments=check_arguments, command=commands.cmd_check,
-    sweep_point=points._check_point, api=api.check, assertion=testing.assert_averaging_error)
-BIFURCATION = WorkflowSpec(
-    "bifurcation", "find the critical mu or r of the P-bifurcation of "
-    "each averaged model and check it by Monte Carlo",
-    add_arguments=bifurcation_arguments, command=commands.cmd_bifurcation,
-    sweep_point=points._bifurcation_point)
-FIGURES = WorkflowSpec(
-    "figures", "redraw the paper's Figures 2-6: two averaged models "
-    "(the paper's and the exact one) against the Monte "
-    "Carlo of the original system",
-    add_arguments=figures_arguments, command=commands.cmd_figures)
-WORKPRECISION = WorkflowSpec(
-    "workprecision", "what accuracy costs in time, for every solver",
-    add_arguments=workprecision_arguments, command=commands.cmd_workprecision)
-SWEEP = WorkflowSpec(
-    "sweep", "run a workflow over a parameter grid (serial, process "
-    "pool or dask) and write sweep.nc and maps",
-    add_arguments=sweep_arguments, command=commands.cmd_sweep, api=api.sweep)
-MODELS = WorkflowSpec(
-    "models", "list the registered averaged models (built-in and "
-    "plugins, docs/plugins.md)",
-    add_arguments=models_arguments, command=commands.cmd_models)
-PASSAGE = WorkflowSpec(
-    "passage", "first passage out of A < Ac: reliability R(t), FPT density and MFPT of each "
-    "averaged model against the original system",
-    add_arguments=timedomain.passage_arguments, command=timedomain.cmd_passage,
-    sweep_point=points._passage_point, api=api.passage, assertion=testing.assert_mfpt_close)
-TRANSIENT = WorkflowSpec(
-    "transient", "the law of the amplitude at given times from a start A0: each averaged model "
-    "against the original system, and the relaxation times",
-    add_arguments=timedomain.transient_arguments, command=timedomain.cmd_transient,
-    sweep_point=points._transient_point, api=api.transient,
-    assertion=testing.assert_relaxation_close)
-AVERAGING = WorkflowSpec(
-    "averaging", "the averaged models' closed forms only (sweeps; no subcommand: `vifpk solve "
-    "--solver averaging` solves one scene)", sweep_point=points._averaging_point)
