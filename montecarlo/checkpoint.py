@@ -21,7 +21,7 @@ from __future__ import annotations
 import hashlib
 import io
 import json
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field, is_dataclass
 from typing import Any
 
 import numpy as np
@@ -36,6 +36,8 @@ def run_key(phys: dict[str, Any], h: float, seed: int, blocks: int, per_block: i
             obs: tuple[str, ...], certificate: bool) -> str:
     """What a run is: sha256 of its physics, step, seed, paths and observables (16 hex)."""
     def plain(v: Any) -> Any:
+        if is_dataclass(v):  # the scene's noise: its kind and parameters
+            return {k: x if isinstance(x, str) else plain(x) for k, x in asdict(v).items()}
         return None if v is None else [float(x) for x in np.ravel(v)] \
             if isinstance(v, np.ndarray) else float(v)
 

@@ -46,7 +46,7 @@ from numba import prange
 
 from ._jit import jit
 from .geometry import amplitude_general, poly_x2
-from .rng import normal
+from .pieces import noise_advance, noise_energy, noise_press, noise_velocity
 
 # columns of the per-block event array (whole numbers: counts; EV_TIME the sampled path-steps,
 # times h is the sampled path-time; EV_STUCK filled by the caller from the per-path stuck_time)
@@ -170,92 +170,107 @@ def velocity_decay(v: float, tau: float, ev) -> float:
     return v + tau * (k1 + 2.0 * k2 + 2.0 * k3 + k4) / 6.0
 
 
-@jit(inline="always")
-def _step(x, v, xi, s0, s1, s2, s3, h, half, c1, c2, w0sq, alpha, f, mu, r, alpha1, khi, dhi,
-          ev, ou_a, ou_s, kick):
-    """One step of one path (the splitting of the module docstring): the new (x, v, xi), the
-    generator state, and what the bookkeeping needs: (impacts and chatter entries of the two
-    drifts, time stuck, k, the velocities between the sub-flows, the xi used, the kinetic
-    energy removed by the two velocity-damping sub-flows)."""
-    press = 0.0
-    if r is not None:
-        if alpha1 is not None:
-            press = -f * xi
-        if mu is not None:
-            press += mu
-    va = v
-    x, v, imp1, ch1 = drift(x, v, half, r, press, h)
-    at_wall = False
-    if r is not None:
-        at_wall = x == 0.0
-    k = c2 * x * x - c1
+# The helpers below take a record field that may be None as an ARGUMENT and are compiled as
+# functions of their own (not inline="always", which would inline them at numba-IR level,
+# before the pruning): numba prunes ``if a is None`` only for a function's arguments; LLVM
+# inlines the compiled helpers afterwards.
+@jit
+def spring_g(x, w0sq, alpha, khi):
+    """g(x) = (w0^2 + alpha x^2) x [+ x^5 (k5 + k7 x^2 + ...) when khi is not None]."""
     g = (w0sq + alpha * x * x) * x
     if khi is not None:
         x2 = x * x
         g += poly_x2(khi, x2) * x2 * x2 * x
+    return g
+
+
+@jit
+def damping_k(x, c1, c2, dhi):
+    """k(x) = c2 x^2 - c1 [+ x^4 (d4 + d6 x^2 + ...) when dhi is not None]."""
+    k = c2 * x * x - c1
     if dhi is not None:
         x2 = x * x
         k += poly_x2(dhi, x2) * x2 * x2
-    dv1 = 0.0
-    dv2 = 0.0
-    if ev is not None:
-        vv = v
-        v = velocity_decay(v, half, ev)
-        dv1 = 0.5 * (vv * vv - v * v)
+    return k
+
+
+@jit
+def wall_press(r, mu, pn):
+    """The net force pressing the mass onto the wall (chatter guard): the noise's plus the
+    friction's; 0 without a wall."""
+    if r is None:
+        return 0.0
+    if mu is not None:
+        return pn + mu
+    return pn
+
+
+@jit
+def resting(r, x):
+    """The mass is on the wall (x == 0 exactly; never without a wall)."""
+    if r is None:
+        return False
+    return x == 0.0
+
+
+@jit
+def decay(v, tau, ev):
+    """(v after the velocity-damping sub-flow, the kinetic energy it removed); (v, 0) without."""
+    if ev is None:
+        return v, 0.0
+    w = velocity_decay(v, tau, ev)
+    return w, 0.5 * (v * v - w * w)
+
+
+@jit
+def wall_loss(r, v_before, impacts, chatter):
+    """impact_loss with a wall, 0 without."""
+    if r is None:
+        return 0.0
+    return impact_loss(v_before, impacts, chatter, r)
+
+
+@jit(inline="always")
+def _step(x, v, xi, s0, s1, s2, s3, h, half, P):
+    """One step of one path (the splitting of the module docstring) with the physics record P
+    (plan.Record): the new (x, v, xi), the generator state, and what the bookkeeping needs:
+    (impacts and chatter entries of the two drifts, time stuck, k, the velocities between the
+    sub-flows, the xi used, the kinetic energy removed by the two velocity-damping sub-flows).
+    The noise's stage B and state update are its kind's pieces (pieces.py)."""
+    press = wall_press(P.r, P.mu, noise_press(P, xi))
+    va = v
+    x, v, imp1, ch1 = drift(x, v, half, P.r, press, h)
+    at_wall = resting(P.r, x)
+    k = damping_k(x, P.c1, P.c2, P.dhi)
+    g = spring_g(x, P.w0sq, P.alpha, P.khi)
+    v, dv1 = decay(v, half, P.ev)
     vb = v
-    if alpha1 is not None:
-        v, stuck = velocity_flow(v, h, -g + f * xi, k, mu, at_wall)
-        vc = v
-        vk = v
-        vd = v
-    else:
-        v, st1 = velocity_flow(v, half, -g, k, mu, at_wall)
-        vc = v
-        z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
-        v += kick * z
-        vk = v
-        v, st2 = velocity_flow(v, half, -g, k, mu, at_wall)
-        vd = v
-        stuck = st1 + st2
+    v, stuck, vc, vk, vd, s0, s1, s2, s3 = noise_velocity(P, v, xi, g, k, P.mu, at_wall,
+                                                          h, half, s0, s1, s2, s3)
+    v, dv2 = decay(v, half, P.ev)
     ve = v
-    if ev is not None:
-        v = velocity_decay(ve, half, ev)
-        dv2 = 0.5 * (ve * ve - v * v)
-        ve = v
-    x, v, imp2, ch2 = drift(x, v, half, r, press, h)
+    x, v, imp2, ch2 = drift(x, v, half, P.r, press, h)
     xi_used = xi
-    if alpha1 is not None:
-        z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
-        xi = ou_a * xi + ou_s * z
+    xi, s0, s1, s2, s3 = noise_advance(P, xi, s0, s1, s2, s3)
     return (x, v, xi, s0, s1, s2, s3,
             (imp1, ch1, imp2, ch2, stuck, k, va, vb, vc, vk, vd, ve, xi_used, dv1, dv2))
 
 
 @jit(parallel=True)
-def run_paths(rng, state, n_steps, step0, n_burn, stride, h,
-              c1, c2, w0sq, alpha, f, D, mu, r, alpha1, khi, dhi, ev,
-              a_lo, a_inv, hist_A, x_lo, x_inv, hist_x, v_lo, v_inv, hist_v, hist_joint,
-              moments, events, stuck_time, energy, spw, windows):
+def run_paths(rng, state, n_steps, step0, n_burn, stride, h, P, bins, out, spw):
     """Advance every path of every block by ``n_steps`` steps (global step indices
-    ``step0 .. step0 + n_steps - 1``). Each path has its own generator state rng[b, p] and its
-    own (x, v, xi) in state[b, p], both updated in place, so a run cut into any number of calls
-    gives bit-identical results, for any thread count (one block per prange iteration:
-    ``_block``). The docstring of ``_block`` says what is accumulated where."""
+    ``step0 .. step0 + n_steps - 1``) with the physics record P (plan.Record; its noise
+    coefficients made for this h). ``bins`` = (a_lo, a_inv, x_lo, x_inv, v_lo, v_inv), ``out``
+    = (hist_A, hist_x, hist_v, hist_joint, moments, events, stuck_time, energy, windows). Each
+    path has its own generator state rng[b, p] and its own (x, v, xi) in state[b, p], both
+    updated in place, so a run cut into any number of calls gives bit-identical results, for
+    any thread count (one block per prange iteration: ``_block``). The docstring of ``_block``
+    says what is accumulated where."""
     n_blocks = state.shape[0]
-    if alpha1 is None:
-        ou_a = 0.0
-        ou_s = 0.0
-    else:
-        ou_a = math.exp(-alpha1 * h)
-        ou_s = math.sqrt(D / alpha1 * (1.0 - ou_a * ou_a))
-    kick = f * math.sqrt(2.0 * D * h)
-    bins = (a_lo, a_inv, x_lo, x_inv, v_lo, v_inv)
     for b in prange(n_blocks):
         # the index as int64: numba types prange's index uint64 in the parallel lowering and
         # int64 in its sequential typing, which compiled _block twice per specialisation
-        _block(np.int64(b), rng, state, n_steps, step0, n_burn, stride, h, c1, c2, w0sq, alpha,
-               f, mu, r, alpha1, khi, dhi, ev, ou_a, ou_s, kick, bins, hist_A, hist_x, hist_v,
-               hist_joint, moments, events, stuck_time, energy, spw, windows)
+        _block(np.int64(b), rng, state, n_steps, step0, n_burn, stride, h, P, bins, out, spw)
 
 
 @jit(inline="always")
@@ -277,9 +292,7 @@ LANES = 4  # paths one thread advances together, step by step in turn (_block)
 
 
 @jit
-def _block(b, rng, state, n_steps, step0, n_burn, stride, h, c1, c2, w0sq, alpha, f, mu, r,
-           alpha1, khi, dhi, ev, ou_a, ou_s, kick, bins, hist_A, hist_x, hist_v, hist_joint,
-           moments, events, stuck_time, energy, spw, windows):
+def _block(b, rng, state, n_steps, step0, n_burn, stride, h, P, bins, out, spw):
     """run_paths for the paths of block b. (A serial function of its own: numba's parallel
     array analysis fails on the nested tuple ``_step`` returns.)
 
@@ -314,6 +327,8 @@ def _block(b, rng, state, n_steps, step0, n_burn, stride, h, c1, c2, w0sq, alpha
     EN_IMPACT the kinetic energy lost at impacts, (1 - r^2) v^2 / 2 each, and v^2 / 2 when
     the chatter guard rests the mass."""
     a_lo, a_inv, x_lo, x_inv, v_lo, v_inv = bins
+    hist_A, hist_x, hist_v, hist_joint, moments, events, stuck_time, energy, windows = out
+    w0sq, alpha, khi = P.w0sq, P.alpha, P.khi
     half = 0.5 * h
     with_energy = energy.shape[2] > 0  # the power balance asked for (an empty array: not)
     n_paths = state.shape[1]
@@ -330,17 +345,13 @@ def _block(b, rng, state, n_steps, step0, n_burn, stride, h, c1, c2, w0sq, alpha
         left = -1  # steps until the next sample (a counter: no integer division per step)
         for n in range(step0, step0 + n_steps):
             x0, v0, xi0, a0, a1, a2, a3, o0 = _step(
-                x0, v0, xi0, a0, a1, a2, a3, h, half, c1, c2, w0sq, alpha, f, mu, r, alpha1,
-                khi, dhi, ev, ou_a, ou_s, kick)
+                x0, v0, xi0, a0, a1, a2, a3, h, half, P)
             x1, v1, xi1, b0, b1, b2, b3, o1 = _step(
-                x1, v1, xi1, b0, b1, b2, b3, h, half, c1, c2, w0sq, alpha, f, mu, r, alpha1,
-                khi, dhi, ev, ou_a, ou_s, kick)
+                x1, v1, xi1, b0, b1, b2, b3, h, half, P)
             x2, v2, xi2, c0, c1_, c2_, c3, o2 = _step(
-                x2, v2, xi2, c0, c1_, c2_, c3, h, half, c1, c2, w0sq, alpha, f, mu, r, alpha1,
-                khi, dhi, ev, ou_a, ou_s, kick)
+                x2, v2, xi2, c0, c1_, c2_, c3, h, half, P)
             x3, v3, xi3, d0, d1, d2, d3, o3 = _step(
-                x3, v3, xi3, d0, d1, d2, d3, h, half, c1, c2, w0sq, alpha, f, mu, r, alpha1,
-                khi, dhi, ev, ou_a, ou_s, kick)
+                x3, v3, xi3, d0, d1, d2, d3, h, half, P)
             if n < n_burn:
                 continue
             # o[0], o[2]: impacts, o[1], o[3]: chatter entries, o[4]: time at rest
@@ -378,24 +389,16 @@ def _block(b, rng, state, n_steps, step0, n_burn, stride, h, c1, c2, w0sq, alpha
                     x, v, o = x3, v3, o3
                 if with_energy:
                     imp1, ch1, imp2, ch2, st, k, va, vb, vc, vk, vd, ve, xi_used, dv1, dv2 = o
-                    if ev is not None:
-                        energy[b, p, EN_DAMP] += dv1
-                        energy[b, p, EN_DAMP] += dv2
-                    if alpha1 is not None:
-                        energy[b, p, EN_INPUT] += f * xi_used * h * 0.5 * (vb + ve)
-                        energy[b, p, EN_DAMP] += k * h * 0.5 * (vb * vb + ve * ve)
-                        if mu is not None:
-                            energy[b, p, EN_FRICTION] += mu * h * 0.5 * (abs(vb) + abs(ve))
-                    else:
-                        energy[b, p, EN_INPUT] += 0.5 * (vk * vk - vc * vc)
-                        energy[b, p, EN_DAMP] += k * half * 0.5 * (vb * vb + vc * vc
-                                                                + vk * vk + vd * vd)
-                        if mu is not None:
-                            energy[b, p, EN_FRICTION] += mu * half * 0.5 * (
-                                abs(vb) + abs(vc) + abs(vk) + abs(vd))
-                    if r is not None:
-                        energy[b, p, EN_IMPACT] += impact_loss(va, imp1, ch1, r)
-                        energy[b, p, EN_IMPACT] += impact_loss(ve, imp2, ch2, r)
+                    # (a switched-off effect adds +0.0: the sums are unchanged, bit for bit)
+                    energy[b, p, EN_DAMP] += dv1
+                    energy[b, p, EN_DAMP] += dv2
+                    e_in, e_damp, e_fric = noise_energy(P, h, half, k, P.mu, vb, vc, vk,
+                                                        vd, ve, xi_used)
+                    energy[b, p, EN_INPUT] += e_in
+                    energy[b, p, EN_DAMP] += e_damp
+                    energy[b, p, EN_FRICTION] += e_fric
+                    energy[b, p, EN_IMPACT] += wall_loss(P.r, va, imp1, ch1)
+                    energy[b, p, EN_IMPACT] += wall_loss(P.r, ve, imp2, ch2)
                 if not sample:
                     continue
                 events[b, EV_SAMPLES] += 1.0

@@ -60,7 +60,7 @@ from vifpk.core.result import BadInput, Result, Status
 from ._jit import jit
 from .geometry import amplitudes, energy, orbit_start, potential
 from .kernels import _step
-from .plan import MIN_AUTO_BURN_IN, SCALE_SAMPLE_EVERY, physics
+from .plan import MIN_AUTO_BURN_IN, SCALE_SAMPLE_EVERY, noise_piece, physics, record
 from .rng import uniform
 from .simulate import (
     CHUNK_SECONDS,
@@ -109,38 +109,40 @@ class PassageSettings:
     max_restarts: int = 100
 
 
+@jit
+def _bridge_hit(bridge, level, E, E1, vc, h, s0, s1, s2, s3):
+    """(fraction of the step at the crossing, or -1: none; generator) by the Brownian-bridge
+    test of the module docstring; never a crossing (and no draw) when ``bridge`` is None."""
+    if bridge is None:
+        return -1.0, s0, s1, s2, s3
+    arg = 2.0 * (level - E) * (level - E1) / (bridge * vc * vc * h)
+    if arg < -math.log(BRIDGE_FLOOR):
+        u, s0, s1, s2, s3 = uniform(s0, s1, s2, s3)
+        if u < math.exp(-arg):
+            return (level - E) / ((level - E) + (level - E1)), s0, s1, s2, s3
+    return -1.0, s0, s1, s2, s3
+
+
 @jit(parallel=True)
-def run_passage(rng, state, init, phase, steps, tries, fpt, count, budget, n_max, n_burn, horizon,
-                h, Ec, a_start, a_burn, max_tries, c1, c2, w0sq, alpha, f, D, mu, r, alpha1,
-                khi, dhi, ev, bridge):
+def run_passage(arrs, count, run, h, P):
     """Advance every unfinished path by at most ``budget`` steps (its state machine: NEW ->
-    [BURN ->] RUN -> CROSSED | CENSORED, or DIVERGED / REFUSED); per-path arrays [b, p]
-    updated in place (``init``: the state at which the path's clock started). ``bridge``:
-    None, or 2 D f^2 (white noise: the bridge correction)."""
-    if alpha1 is None:
-        ou_a = 0.0
-        ou_s = 0.0
-        xi_sd = 0.0
-    else:
-        ou_a = math.exp(-alpha1 * h)
-        ou_s = math.sqrt(D / alpha1 * (1.0 - ou_a * ou_a))
-        xi_sd = math.sqrt(D / alpha1)
-    kick = f * math.sqrt(2.0 * D * h)
-    for b in prange(state.shape[0]):
+    [BURN ->] RUN -> CROSSED | CENSORED, or DIVERGED / REFUSED) with the physics record P
+    (plan.Record for this h); ``arrs`` = (rng, state, init, phase, steps, tries, fpt), per-path
+    arrays [b, p] updated in place (``init``: the state at which the path's clock started);
+    ``run`` = (budget, n_max, n_burn, horizon, Ec, a_start, a_burn, max_tries)."""
+    for b in prange(arrs[1].shape[0]):
         # the index as int64 (one compiled _passage_block, not two: kernels.run_paths)
-        _passage_block(np.int64(b), rng, state, init, phase, steps, tries, fpt, count[b],
-                       budget, n_max, n_burn, horizon, h, Ec, a_start, a_burn, max_tries, c1,
-                       c2, w0sq, alpha, f, mu, r, alpha1, khi, dhi, ev, ou_a, ou_s, kick,
-                       xi_sd, bridge)
+        _passage_block(np.int64(b), arrs, count[b], run, h, P)
 
 
 @jit
-def _passage_block(b, rng, state, init, phase, steps, tries, fpt, n_paths, budget, n_max, n_burn,
-                   horizon, h, Ec, a_start, a_burn, max_tries, c1, c2, w0sq, alpha, f, mu, r,
-                   alpha1, khi, dhi, ev, ou_a, ou_s, kick, xi_sd, bridge):
+def _passage_block(b, arrs, n_paths, run, h, P):
     """run_passage for the paths of block b, one path after the other."""
+    rng, state, init, phase, steps, tries, fpt = arrs
+    budget, n_max, n_burn, horizon, Ec, a_start, a_burn, max_tries = run
+    w0sq, alpha, khi, xi_sd = P.w0sq, P.alpha, P.khi, P.xi_sd
     half = 0.5 * h
-    barrier = r is not None
+    barrier = P.r is not None
     for p in range(n_paths):
         ph = phase[b, p]
         if ph >= CROSSED:
@@ -168,22 +170,18 @@ def _passage_block(b, rng, state, init, phase, steps, tries, fpt, n_paths, budge
             hit = -1.0
             i = 0
             while i < k:
-                x, v, xi, s0, s1, s2, s3, o = _step(
-                    x, v, xi, s0, s1, s2, s3, h, half, c1, c2, w0sq, alpha, f, mu, r, alpha1,
-                    khi, dhi, ev, ou_a, ou_s, kick)
+                x, v, xi, s0, s1, s2, s3, o = _step(x, v, xi, s0, s1, s2, s3, h, half, P)
                 E1 = energy(x, v, w0sq, alpha, khi)
                 i += 1
                 if E1 >= level:
                     hit = (level - E) / (E1 - E)
                     break
-                if bridge is not None:
-                    vc = o[8]  # the velocity at the kick
-                    arg = 2.0 * (level - E) * (level - E1) / (bridge * vc * vc * h)
-                    if arg < -math.log(BRIDGE_FLOOR):
-                        u, s0, s1, s2, s3 = uniform(s0, s1, s2, s3)
-                        if u < math.exp(-arg):
-                            hit = (level - E) / ((level - E) + (level - E1))
-                            break
+                # o[8]: the velocity at the kick
+                hb, s0, s1, s2, s3 = _bridge_hit(P.bridge, level, E, E1, o[8], h, s0, s1, s2,
+                                                 s3)
+                if hb >= 0.0:
+                    hit = hb
+                    break
                 E = E1
             if not (math.isfinite(x) and math.isfinite(v)):
                 ph = DIVERGED
@@ -285,7 +283,7 @@ def sample_starts(system: Any, noise: Any, *, amplitude: float, n: int, seed: in
     phys = physics(system, noise)
     rng = block_seeds(seed, 1, n)[0]
     out = np.empty((n, 3))
-    xi_sd = math.sqrt(phys["D"] / phys["alpha1"]) if phys["alpha1"] is not None else 0.0
+    xi_sd = noise_piece(phys, "start_sd") or 0.0
     _starts_loop(rng, out, float(amplitude), phys["w0sq"], phys["alpha"], phys["khi"],
                  phys["r"] is not None, xi_sd)
     return out
@@ -328,9 +326,7 @@ def first_passage(system: Any, noise: Any, settings: PassageSettings, *, thresho
     per = int(count.max())
     threads = st.threads or numba.config.NUMBA_NUM_THREADS
     numba.set_num_threads(threads)
-    bridge = 2.0 * phys["D"] * phys["f"] ** 2 if phys["alpha1"] is None else None
-    if bridge == 0.0:
-        bridge = None  # no noise: E is C^1
+    P = record(phys, h)  # bridge: None, or 2 D f^2 (white noise; 0 -> None: E is C^1)
 
     def arrays(blocks: int, per_block: int, seed: int) -> dict[str, np.ndarray]:
         return {"rng": block_seeds(seed, blocks, per_block),
@@ -342,12 +338,10 @@ def first_passage(system: Any, noise: Any, settings: PassageSettings, *, thresho
                 "fpt": np.zeros((blocks, per_block))}
 
     def call(a: dict[str, np.ndarray], cnt: np.ndarray, budget: int) -> None:
-        run_passage(a["rng"], a["state"], a["init"], a["phase"], a["steps"], a["tries"],
-                    a["fpt"], cnt, budget, n_max, n_burn, float(st.horizon), h, Ec,
-                    float(0.0 if stationary else start), float(a_burn), int(st.max_restarts),
-                    phys["c1"], phys["c2"], phys["w0sq"], phys["alpha"], phys["f"], phys["D"],
-                    phys["mu"], phys["r"], phys["alpha1"], phys["khi"], phys["dhi"],
-                    phys["ev"], bridge)
+        arrs = (a["rng"], a["state"], a["init"], a["phase"], a["steps"], a["tries"], a["fpt"])
+        run = (budget, n_max, n_burn, float(st.horizon), Ec, float(0.0 if stationary else start),
+               float(a_burn), int(st.max_restarts))
+        run_passage(arrs, cnt, run, h, P)
 
     relax = None
     cause = _growth(system)
@@ -413,7 +407,7 @@ def first_passage(system: Any, noise: Any, settings: PassageSettings, *, thresho
         "steps": path_steps,
         "steps_per_second": path_steps / run_s if run_s > 0 else math.nan,
         "effects": effects(system, noise),
-        "crossing": _crossing_words(bridge is not None),
+        "crossing": _crossing_words(P.bridge is not None),
         "start_law": _start_words(stationary, a_burn, n_burn * h, st.max_restarts),
         "status": Status.SIMULATED.record(),
     }

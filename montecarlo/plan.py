@@ -22,7 +22,9 @@ from typing import Any
 import numpy as np
 
 from vifpk.core.registry import NOISE_KINDS, one_of
+from vifpk.physics import noise as noise_kinds
 
+from .pieces import BASE_FIELDS, SOLVER, make_record
 from .tuning import auto_dt
 
 WINDOWS = 16  # at least 16 sampled windows (the certificate's draws along each path)
@@ -60,9 +62,11 @@ def _laws(system: Any) -> tuple[tuple[float, ...], tuple[float, ...], tuple[floa
 
 
 def physics(system: Any, noise: Any) -> dict[str, Any]:
-    """The kernel's physics arguments from (duck-typed) scene.system and scene.noise; a
-    switched-off effect is None (pruned at compile time). An unknown noise kind raises."""
+    """The physics of (duck-typed) scene.system and scene.noise, on the Python side; a
+    switched-off effect is None. ``record(phys, h)`` makes the kernels' record of it. An unknown
+    noise kind, or one without Monte Carlo pieces (vifpk.physics.noise), raises in one line."""
     one_of("noise kind", noise.kind, NOISE_KINDS)
+    noise_kinds.piece(noise.kind, SOLVER, "record")  # NoPiece: one line naming kind and solver
     k, d, e = _laws(system)
     return {
         "c1": -d[0], "c2": d[1], "w0sq": k[0], "alpha": k[1],
@@ -72,8 +76,25 @@ def physics(system: Any, noise: Any) -> dict[str, Any]:
         "f": float(system.f), "D": float(noise.D),
         "mu": float(system.mu) if system.mu > 0 else None,
         "r": float(system.r) if getattr(system, "barrier", True) else None,
-        "alpha1": float(noise.alpha1) if noise.kind == "ou" else None,
+        "noise": noise,
     }
+
+
+def noise_piece(phys: dict[str, Any], name: str) -> Any:
+    """The scene's noise kind's Monte Carlo piece ``name`` applied to (noise, f) where it takes
+    them (start_sd: noise only)."""
+    fn = noise_kinds.piece(phys["noise"].kind, SOLVER, name)
+    return fn(phys["noise"]) if name == "start_sd" else fn(phys["noise"], phys["f"])
+
+
+def record(phys: dict[str, Any], h: float) -> Any:
+    """The kernels' one physics record for step h (pieces.BASE_FIELDS, then the noise kind's
+    coefficients from its module): a flat named tuple whose class is the noise kind's."""
+    base = {k: phys[k] for k in ("c1", "c2", "w0sq", "alpha", "f", "mu", "r", "khi", "dhi",
+                                 "ev")}
+    base["bridge"] = noise_piece(phys, "bridge") or None  # 0 (no noise): E is C^1
+    base["xi_sd"] = noise_piece(phys, "start_sd") or 0.0
+    return make_record(phys["noise"], tuple(base[k] for k in BASE_FIELDS), h)
 
 
 def step_size(dt: float | str, target: float, phys: dict[str, Any], sample_every: float,

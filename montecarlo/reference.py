@@ -3,7 +3,9 @@
 A reference for speed (benchmarks/bench_montecarlo.py: the ratio numba / NumPy is measured
 in one run) and for correctness (tests/test_montecarlo.py checks that both give the same
 statistics). Same physics, same rules (impacts, chatter guard, stick-slip); NumPy's own
-random numbers, so results agree in distribution, not bit for bit.
+random numbers, so results agree in distribution, not bit for bit. It is an independent
+check: it does not use the noise kinds' compiled pieces (vifpk.physics.noise), but its own
+NumPy version of each kind it knows (``_NOISES``); another kind raises in one line.
 """
 
 from __future__ import annotations
@@ -66,22 +68,61 @@ def _drift(x, v, tau, r, press, h):
     return x_new, v_new, int(hit.sum()), int(rest.sum())
 
 
+class _OU:
+    """xi' = -alpha1 xi + W: xi held over B(h), updated exactly after the step."""
+
+    def __init__(self, noise: Any, f: float, h: float, paths: int, rng: Any) -> None:
+        a1, D = float(noise.alpha1), float(noise.D)
+        self.f, self.rng = f, rng
+        self.xi = math.sqrt(D / a1) * rng.standard_normal(paths)
+        self.a = math.exp(-a1 * h)
+        self.s = math.sqrt(D / a1 * (1 - self.a * self.a))
+
+    def press(self) -> np.ndarray:
+        return -self.f * self.xi
+
+    def velocity(self, v, g, k, mu, at_wall, h):
+        return _velocity_flow(v, h, -g + self.f * self.xi, k, mu, at_wall)
+
+    def advance(self) -> None:
+        self.xi = self.a * self.xi + self.s * self.rng.standard_normal(self.xi.shape)
+
+
+class _White:
+    """xi = W: B(h/2), the kick f sqrt(2 D h) N, B(h/2)."""
+
+    def __init__(self, noise: Any, f: float, h: float, paths: int, rng: Any) -> None:
+        self.kick, self.rng, self.paths = f * math.sqrt(2 * float(noise.D) * h), rng, paths
+
+    def press(self) -> np.ndarray:
+        return np.zeros(self.paths)
+
+    def velocity(self, v, g, k, mu, at_wall, h):
+        v, st1 = _velocity_flow(v, 0.5 * h, -g, k, mu, at_wall)
+        v = v + self.kick * self.rng.standard_normal(self.paths)
+        v, st2 = _velocity_flow(v, 0.5 * h, -g, k, mu, at_wall)
+        return v, st1 + st2
+
+    def advance(self) -> None:
+        pass
+
+
+_NOISES = {"ou": _OU, "white": _White}
+
+
 def simulate_numpy(phys: dict[str, Any], *, paths: int, steps: int, burn: int, stride: int,
                    h: float, edges_A: np.ndarray, seed: int = 0) -> dict[str, Any]:
     """Histogram of A (counts), impacts and stuck time, for ``paths`` paths of ``steps``."""
     rng = np.random.default_rng(seed)
-    c1, c2, w0sq, alpha, f, D = (phys[k] for k in ("c1", "c2", "w0sq", "alpha", "f", "D"))
-    mu, r, alpha1 = phys["mu"], phys["r"], phys["alpha1"]
+    c1, c2, w0sq, alpha, f = (phys[k] for k in ("c1", "c2", "w0sq", "alpha", "f"))
+    mu, r, kind = phys["mu"], phys["r"], phys["noise"].kind
+    if kind not in _NOISES:
+        raise ValueError(f"noise kind {kind!r} has no NumPy reference (montecarlo.reference)")
     x = 0.1 * rng.standard_normal(paths)
     if r is not None:
         x = np.abs(x)
     v = 0.1 * rng.standard_normal(paths)
-    xi = np.zeros(paths)
-    if alpha1 is not None:
-        xi = math.sqrt(D / alpha1) * rng.standard_normal(paths)
-        ou_a = math.exp(-alpha1 * h)
-        ou_s = math.sqrt(D / alpha1 * (1 - ou_a * ou_a))
-    kick = f * math.sqrt(2 * D * h)
+    noise = _NOISES[kind](phys["noise"], f, h, paths, rng)
     half = 0.5 * h
     counts = np.zeros(edges_A.size - 1)
     v2_sum = 0.0
@@ -91,24 +132,16 @@ def simulate_numpy(phys: dict[str, Any], *, paths: int, steps: int, burn: int, s
     for n in range(steps):
         press = np.zeros(paths)
         if r is not None:
-            if alpha1 is not None:
-                press = -f * xi
+            press = noise.press()
             if mu is not None:
                 press = press + mu
         x, v, i1, _ = _drift(x, v, half, r, press, h)
         at_wall = (x == 0.0) if r is not None else np.zeros(paths, dtype=bool)
         k = c2 * x * x - c1
         g = (w0sq + alpha * x * x) * x
-        if alpha1 is not None:
-            v, st = _velocity_flow(v, h, -g + f * xi, k, mu, at_wall)
-        else:
-            v, st1 = _velocity_flow(v, half, -g, k, mu, at_wall)
-            v = v + kick * rng.standard_normal(paths)
-            v, st2 = _velocity_flow(v, half, -g, k, mu, at_wall)
-            st = st1 + st2
+        v, st = noise.velocity(v, g, k, mu, at_wall, h)
         x, v, i2, _ = _drift(x, v, half, r, press, h)
-        if alpha1 is not None:
-            xi = ou_a * xi + ou_s * rng.standard_normal(paths)
+        noise.advance()
         if n >= burn:
             impacts += i1 + i2
             stuck_time += float(st.sum())

@@ -50,6 +50,8 @@ from .plan import (
     SCALE_PER_BLOCK,
     SCALE_SAMPLE_EVERY,
     SCALE_SAMPLES,
+    noise_piece,
+    record,
     sampling_plan,
     step_size,
 )
@@ -142,7 +144,7 @@ def _potential(x: Any, phys: dict[str, Any]) -> Any:
 def effects(system: Any, noise: Any) -> dict[str, bool | str]:
     p = _params(system, noise)
     return {"friction": p["mu"] is not None, "barrier": p["r"] is not None,
-            "noise": "ou" if p["alpha1"] is not None else "white"}
+            "noise": p["noise"].kind}
 
 
 # --------------------------------------------------------------------------------------------
@@ -180,15 +182,13 @@ def _kernel(arr: _Arrays, phys: dict[str, Any], h: float, n_steps: int, step0: i
     def given(a: Any, empty: np.ndarray) -> np.ndarray:
         return empty if a is None else a
 
-    K.run_paths(arr.rng, arr.state, n_steps, step0, n_burn, stride, h,
-                phys["c1"], phys["c2"], phys["w0sq"], phys["alpha"], phys["f"], phys["D"],
-                phys["mu"], phys["r"], phys["alpha1"], phys["khi"], phys["dhi"], phys["ev"],
-                ea[0], 1.0 / (ea[1] - ea[0]), given(hi["A"], none1), ex[0],
-                1.0 / (ex[1] - ex[0]), given(hi["x"], none1), ev[0], 1.0 / (ev[1] - ev[0]),
-                given(hi["v"], none1), given(hi["joint"], none2),
-                given(arr.moments, per_path), arr.events, arr.stuck,
-                given(arr.energy, per_path), spw,
-                given(windows, per_path))
+    bins = (ea[0], 1.0 / (ea[1] - ea[0]), ex[0], 1.0 / (ex[1] - ex[0]), ev[0],
+            1.0 / (ev[1] - ev[0]))
+    out = (given(hi["A"], none1), given(hi["x"], none1), given(hi["v"], none1),
+           given(hi["joint"], none2), given(arr.moments, per_path), arr.events, arr.stuck,
+           given(arr.energy, per_path), given(windows, per_path))
+    K.run_paths(arr.rng, arr.state, n_steps, step0, n_burn, stride, h, record(phys, h), bins,
+                out, spw)
     arr.events[:, K.EV_STUCK] = arr.stuck.sum(axis=1)  # per path first: order-independent
 
 
@@ -288,8 +288,9 @@ def _starts(amplitudes: np.ndarray, phys: dict[str, Any], gen: np.random.Generat
     if phys["r"] is not None:
         x = np.abs(x)
     xi = np.zeros_like(x)
-    if phys["alpha1"] is not None:
-        xi = gen.standard_normal(x.shape) * math.sqrt(phys["D"] / phys["alpha1"])
+    sd = noise_piece(phys, "start_sd")  # None: the noise kind has no state
+    if sd is not None:
+        xi = gen.standard_normal(x.shape) * sd
     return np.stack([x, v, xi], axis=-1)
 
 
@@ -764,8 +765,9 @@ def _energy(en: np.ndarray, sim_time: np.ndarray, phys: dict[str, Any]) -> dict[
            "friction": _mean_se(rate[:, K.EN_FRICTION]),
            "impacts": _mean_se(rate[:, K.EN_IMPACT]), "losses": _mean_se(losses),
            "residual": _mean_se(rate[:, K.EN_INPUT] - losses)}
-    if phys["alpha1"] is None:
-        out["input_exact"] = phys["f"] ** 2 * phys["D"]  # white noise: f^2 D (Ito)
+    exact = noise_piece(phys, "input_power")  # white noise: f^2 D (Ito); else None
+    if exact is not None:
+        out["input_exact"] = exact
     return out
 
 

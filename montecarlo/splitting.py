@@ -53,7 +53,7 @@ from vifpk.core.result import BadInput, Result, Status
 from . import splitting_kernels as SK
 from .averaged_sde import sde_tables
 from .geometry import potential
-from .plan import physics
+from .plan import physics, record
 
 KEY_START, KEY_CLONE, KEY_PICK, KEY_DIRECT = 0, 1, 2, 3  # spawn_key roots of the streams
 
@@ -460,9 +460,7 @@ class _Original:
         self.phys = physics(system, noise)
         self.h = float(dt)
         self.n_burn = int(round(burn_in / self.h))
-        ph = self.phys
-        self.args = (ph["c1"], ph["c2"], ph["w0sq"], ph["alpha"], ph["f"], ph["D"], ph["mu"],
-                     ph["r"], ph["alpha1"], ph["khi"], ph["dhi"], ph["ev"])
+        self.rec = record(self.phys, self.h)
 
     def U(self, A: float) -> float:
         ph = self.phys
@@ -475,23 +473,22 @@ class _Original:
     def starts(self, A: float, n: int, seed: int, key: int) -> np.ndarray:
         ph = self.phys
         out = np.zeros((n, 5))
-        sd = math.sqrt(ph["D"] / ph["alpha1"]) if ph["alpha1"] is not None else 0.0
         SK.orbit_starts(float(A), out, _words(seed, (KEY_START + 100, key), n), ph["w0sq"],
-                        ph["alpha"], ph["khi"], ph["r"] is not None, sd)
+                        ph["alpha"], ph["khi"], ph["r"] is not None, self.rec.xi_sd)
         return out
 
     def advance(self, q_lo: float, q_hi: float, M: int, t_max: float) -> Callable[..., None]:
         def run(recs, rows, start, rng, maxlev, outcome) -> None:
-            SK.advance_orig(recs, rows, start, rng, maxlev, outcome, q_lo, q_hi, M, t_max,
-                            self.h, *self.args)
+            SK.advance_orig(recs, rows, start, rng, maxlev, outcome, (q_lo, q_hi, M, t_max),
+                            self.h, self.rec)
         return run
 
     def cycles(self, starts: np.ndarray, rng: np.ndarray, n_cycles: int, q0: float, q1: float,
                qc: float, t_max: float) -> tuple[np.ndarray, np.ndarray]:
         entries = np.zeros((starts.shape[0], n_cycles, self.width))
         summary = np.zeros((starts.shape[0], 7))
-        SK.cycles_orig(starts, rng, n_cycles, q0, q1, qc, t_max, self.n_burn, self.h,
-                       *self.args, entries, summary)
+        SK.cycles_orig(starts, rng, (n_cycles, q0, q1, qc, t_max, self.n_burn), self.h,
+                       self.rec, entries, summary)
         return entries, summary
 
 

@@ -86,6 +86,39 @@ def _sde_move(Z, s0, s1, s2, s3, h, sq, a_tab, b_tab, inv_d, last, A_lo, A_hi, l
     return Z, 0, s0, s1, s2, s3
 
 
+@jit(inline="always")
+def _cycle_success(tc, in_cycle, t_cycle, k, total, succ, summary, p):
+    """The threshold reached at time tc: the cycle in progress ends with a success, or the
+    warm-up ends at the threshold (summary[p, 0:2]). Returns (k, total, succ)."""
+    if in_cycle:
+        return k + 1, total + (tc - t_cycle), succ + 1
+    summary[p, 0] = tc
+    summary[p, 1] = 1.0
+    return k, total, succ
+
+
+@jit(inline="always")
+def _cycle_start(t, in_cycle, t_cycle, k, total, n_cycles, summary, p):
+    """A cycle start at time t (the first step at q >= q1 after a visit to q <= q0): ends the
+    cycle in progress, or the warm-up (summary[p, 0]). Returns (k, total, done: n_cycles
+    complete)."""
+    if in_cycle:
+        k += 1
+        total += t - t_cycle
+        if k >= n_cycles:
+            return k, total, True
+    else:
+        summary[p, 0] = t
+    return k, total, False
+
+
+@jit(inline="always")
+def _cycle_summary(summary, p, k, total, succ):
+    summary[p, 2] = k
+    summary[p, 3] = total
+    summary[p, 4] = succ
+
+
 @jit(parallel=True)
 def advance_sde(recs, rows, start, rng, maxlev, outcome, q_lo, q_hi, M, t_max,
                 h, a_tab, b_tab, inv_d):
@@ -159,68 +192,48 @@ def cycles_sde(starts, rng, n_cycles, q0, q1, q_hi, t_max, h, a_tab, b_tab, inv_
                                                last, A_lo, A_hi, not armed)
             t += h
             if hit == 1:
-                if in_cycle:
-                    k += 1
-                    total += t - t_cycle
-                    succ += 1
-                else:
-                    summary[p, 0] = t
-                    summary[p, 1] = 1.0
+                k, total, succ = _cycle_success(t, in_cycle, t_cycle, k, total, succ, summary, p)
                 break
             if hit == -1:
                 armed = True
             if armed and Z >= q1:
-                if in_cycle:
-                    k += 1
-                    total += t - t_cycle
-                    if k >= n_cycles:
-                        break
-                else:
-                    summary[p, 0] = t
-                    in_cycle = True
+                k, total, done = _cycle_start(t, in_cycle, t_cycle, k, total, n_cycles, summary,
+                                              p)
+                if done:
+                    break
+                in_cycle = True
                 if k < entries.shape[1]:
                     entries[p, k, 0] = Z
                     entries[p, k, 1] = 0.0
                 t_cycle = t
                 armed = False
-        summary[p, 2] = k
-        summary[p, 3] = total
-        summary[p, 4] = succ
+        _cycle_summary(summary, p, k, total, succ)
 
 
 @jit(inline="always")
-def _orig_move(x, v, xi, rest, s0, s1, s2, s3, h, half, c1, c2, w0sq, alpha, f, mu, r, alpha1,
-               khi, dhi, ev, ou_a, ou_s, kick):
-    x, v, xi, s0, s1, s2, s3, o = _step(x, v, xi, s0, s1, s2, s3, h, half, c1, c2, w0sq, alpha,
-                                         f, mu, r, alpha1, khi, dhi, ev, ou_a, ou_s, kick)
+def _orig_move(x, v, xi, rest, s0, s1, s2, s3, h, half, P):
+    x, v, xi, s0, s1, s2, s3, o = _step(x, v, xi, s0, s1, s2, s3, h, half, P)
     return x, v, xi, rest + o[4], s0, s1, s2, s3
 
 
 @jit(parallel=True)
-def advance_orig(recs, rows, start, rng, maxlev, outcome, q_lo, q_hi, M, t_max, h,
-                 c1, c2, w0sq, alpha, f, D, mu, r, alpha1, khi, dhi, ev):
-    """advance_sde for the original system (state row (x, v, xi, t, time at rest)). The path
-    itself is ``_advance_orig`` (serial: numba's parallel array analysis fails on the nested
-    tuple ``_step`` returns, as in kernels._block)."""
-    if alpha1 is None:
-        ou_a = 0.0
-        ou_s = 0.0
-    else:
-        ou_a = math.exp(-alpha1 * h)
-        ou_s = math.sqrt(D / alpha1 * (1.0 - ou_a * ou_a))
-    kick = f * math.sqrt(2.0 * D * h)
+def advance_orig(recs, rows, start, rng, maxlev, outcome, levels, h, P):
+    """advance_sde for the original system (state row (x, v, xi, t, time at rest)), with the
+    physics record P (plan.Record for this h) and ``levels`` = (q_lo, q_hi, M, t_max). The
+    path itself is ``_advance_orig`` (serial: numba's parallel array analysis fails on the
+    nested tuple ``_step`` returns, as in kernels._block)."""
     for j in prange(rows.size):
         row = rows[j]
         lev, out = _advance_orig(recs, row, start[j], rng[j, 0], rng[j, 1], rng[j, 2],
-                                 rng[j, 3], q_lo, q_hi, M, t_max, h, c1, c2, w0sq, alpha, f,
-                                 mu, r, alpha1, khi, dhi, ev, ou_a, ou_s, kick)
+                                 rng[j, 3], levels, h, P)
         maxlev[row] = lev
         outcome[row] = out
 
 
 @jit
-def _advance_orig(recs, row, st, s0, s1, s2, s3, q_lo, q_hi, M, t_max, h, c1, c2, w0sq, alpha,
-                  f, mu, r, alpha1, khi, dhi, ev, ou_a, ou_s, kick):
+def _advance_orig(recs, row, st, s0, s1, s2, s3, levels, h, P):
+    q_lo, q_hi, M, t_max = levels
+    w0sq, alpha, khi = P.w0sq, P.alpha, P.khi
     half = 0.5 * h
     inv_dq = M / (q_hi - q_lo)
     x, v, xi = recs[row, st, 0], recs[row, st, 1], recs[row, st, 2]
@@ -233,9 +246,7 @@ def _advance_orig(recs, row, st, s0, s1, s2, s3, q_lo, q_hi, M, t_max, h, c1, c2
             recs[row, lev, c] = recs[row, st, c]
     out = OUT_TIMEOUT
     while t < t_max:
-        x, v, xi, rest, s0, s1, s2, s3 = _orig_move(
-            x, v, xi, rest, s0, s1, s2, s3, h, half, c1, c2, w0sq, alpha, f, mu, r, alpha1,
-            khi, dhi, ev, ou_a, ou_s, kick)
+        x, v, xi, rest, s0, s1, s2, s3 = _orig_move(x, v, xi, rest, s0, s1, s2, s3, h, half, P)
         t += h
         q = energy(x, v, w0sq, alpha, khi)
         if q <= q_lo:
@@ -256,9 +267,9 @@ def _advance_orig(recs, row, st, s0, s1, s2, s3, q_lo, q_hi, M, t_max, h, c1, c2
 
 
 @jit(parallel=True)
-def cycles_orig(starts, rng, n_cycles, q0, q1, q_hi, t_max, n_burn, h, c1, c2, w0sq, alpha, f,
-                D, mu, r, alpha1, khi, dhi, ev, entries, summary):
-    """cycles_sde for the original system: starts[p] = (x, v, xi, 0, 0), entries[p, k] the
+def cycles_orig(starts, rng, cyc, h, P, entries, summary):
+    """cycles_sde for the original system with the physics record P, ``cyc`` = (n_cycles, q0,
+    q1, q_hi, t_max, n_burn): starts[p] = (x, v, xi, 0, 0), entries[p, k] the
     state row at the start of cycle k (its time and time at rest set to 0). A success's time
     is interpolated linearly in the energy inside its step. (The path: ``_cycles_orig``.)
     n_burn > 0: first n_burn steps of free simulation, begun again from starts[p] (the stream
@@ -266,31 +277,22 @@ def cycles_orig(starts, rng, n_cycles, q0, q1, q_hi, t_max, n_burn, h, c1, c2, w
     = 2); the clock starts after it: the start law is then the law at q < q_hi after a long
     run that stayed below, i.e. the stationary law restricted below the threshold when n_burn
     is several relaxation times. summary[p, 6] counts the restarts."""
-    if alpha1 is None:
-        ou_a = 0.0
-        ou_s = 0.0
-    else:
-        ou_a = math.exp(-alpha1 * h)
-        ou_s = math.sqrt(D / alpha1 * (1.0 - ou_a * ou_a))
-    kick = f * math.sqrt(2.0 * D * h)
     for p in prange(starts.shape[0]):
-        _cycles_orig(p, starts, rng[p, 0], rng[p, 1], rng[p, 2], rng[p, 3], n_cycles, q0, q1,
-                     q_hi, t_max, n_burn, h, c1, c2, w0sq, alpha, f, mu, r, alpha1, khi, dhi, ev,
-                     ou_a, ou_s, kick, entries, summary)
+        _cycles_orig(p, starts, rng[p, 0], rng[p, 1], rng[p, 2], rng[p, 3], cyc, h, P, entries,
+                     summary)
 
 
 @jit
-def _cycles_orig(p, starts, s0, s1, s2, s3, n_cycles, q0, q1, q_hi, t_max, n_burn, h, c1, c2,
-                 w0sq, alpha, f, mu, r, alpha1, khi, dhi, ev, ou_a, ou_s, kick, entries, summary):
+def _cycles_orig(p, starts, s0, s1, s2, s3, cyc, h, P, entries, summary):
+    n_cycles, q0, q1, q_hi, t_max, n_burn = cyc
+    w0sq, alpha, khi = P.w0sq, P.alpha, P.khi
     half = 0.5 * h
     x, v, xi = starts[p, 0], starts[p, 1], starts[p, 2]
     rest = 0.0
     n = 0
     restarts = 0
     while n < n_burn:
-        x, v, xi, rest, s0, s1, s2, s3 = _orig_move(
-            x, v, xi, rest, s0, s1, s2, s3, h, half, c1, c2, w0sq, alpha, f, mu, r, alpha1,
-            khi, dhi, ev, ou_a, ou_s, kick)
+        x, v, xi, rest, s0, s1, s2, s3 = _orig_move(x, v, xi, rest, s0, s1, s2, s3, h, half, P)
         n += 1
         if energy(x, v, w0sq, alpha, khi) >= q_hi:
             restarts += 1
@@ -313,32 +315,20 @@ def _cycles_orig(p, starts, s0, s1, s2, s3, n_cycles, q0, q1, q_hi, t_max, n_bur
             summary[p, 5] = 1.0
             break
         q_old = q
-        x, v, xi, rest, s0, s1, s2, s3 = _orig_move(
-            x, v, xi, rest, s0, s1, s2, s3, h, half, c1, c2, w0sq, alpha, f, mu, r, alpha1,
-            khi, dhi, ev, ou_a, ou_s, kick)
+        x, v, xi, rest, s0, s1, s2, s3 = _orig_move(x, v, xi, rest, s0, s1, s2, s3, h, half, P)
         t += h
         q = energy(x, v, w0sq, alpha, khi)
         if q >= q_hi:
             tc = t - h * (q - q_hi) / (q - q_old) if q > q_old else t
-            if in_cycle:
-                k += 1
-                total += tc - t_cycle
-                succ += 1
-            else:
-                summary[p, 0] = tc
-                summary[p, 1] = 1.0
+            k, total, succ = _cycle_success(tc, in_cycle, t_cycle, k, total, succ, summary, p)
             break
         if q <= q0:
             armed = True
         if armed and q >= q1:
-            if in_cycle:
-                k += 1
-                total += t - t_cycle
-                if k >= n_cycles:
-                    break
-            else:
-                summary[p, 0] = t
-                in_cycle = True
+            k, total, done = _cycle_start(t, in_cycle, t_cycle, k, total, n_cycles, summary, p)
+            if done:
+                break
+            in_cycle = True
             if k < entries.shape[1]:
                 entries[p, k, 0] = x
                 entries[p, k, 1] = v
@@ -347,9 +337,7 @@ def _cycles_orig(p, starts, s0, s1, s2, s3, n_cycles, q0, q1, q_hi, t_max, n_bur
                 entries[p, k, 4] = 0.0
             t_cycle = t
             armed = False
-    summary[p, 2] = k
-    summary[p, 3] = total
-    summary[p, 4] = succ
+    _cycle_summary(summary, p, k, total, succ)
 
 
 @jit

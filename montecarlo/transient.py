@@ -30,7 +30,7 @@ from vifpk.core.result import BadInput, Result, Status
 
 from .geometry import amplitudes
 from .passage import PassageSettings, _starts_loop, check_settings, layout
-from .plan import physics
+from .plan import noise_piece, physics
 from .simulate import _DUMMY, _arrays, _growth, _progress, _Stepper, block_seeds, effects
 
 EDGE_KEYS = {"A": "edges_A", "x1": "edges_x", "x2": "edges_v"}
@@ -78,7 +78,7 @@ def snapshots(system: Any, noise: Any, settings: PassageSettings, *, start: floa
     t0 = time.perf_counter()
     rng = block_seeds(st.seed, st.blocks, per)
     state = np.empty((st.blocks, per, 3))
-    xi_sd = math.sqrt(phys["D"] / phys["alpha1"]) if phys["alpha1"] is not None else 0.0
+    xi_sd = noise_piece(phys, "start_sd") or 0.0
     flat_rng = rng.reshape(-1, 4)  # a view: the starts advance each path's own stream
     _starts_loop(flat_rng, state.reshape(-1, 3), float(start), phys["w0sq"], phys["alpha"],
                  phys["khi"], phys["r"] is not None, xi_sd)

@@ -29,6 +29,7 @@ SOLVERS = ("averaging", "fpk", "montecarlo")
 DOOR = Path("harness") / "door"
 MAX_LINES = 500  # issue 27: "no module over ~500 lines except the numba kernel"
 CORE = "vifpk.core"
+PHYSICS = "vifpk.physics"  # issue 37: the physics every solver reads, on the core only
 
 
 def parsed(path: Path) -> ast.Module:
@@ -89,6 +90,8 @@ def imported_packages(path: Path) -> set[str]:
             found.add(parts[1])
         elif name == CORE or name.startswith(CORE + "."):
             found.add(CORE)
+        elif name == PHYSICS or name.startswith(PHYSICS + "."):
+            found.add(PHYSICS)
         else:
             found.add("vifpk")
     return found
@@ -129,11 +132,23 @@ def test_the_door_knows_every_solver():
 
 @pytest.mark.parametrize("package", SOLVERS)
 def test_solvers_import_neither_the_harness_nor_each_other(package: str):
-    """Of ours, a solver imports only itself and the shared vocabulary ``vifpk.core``."""
-    bad = {str(p.relative_to(ROOT)): sorted(imported_packages(p) - {package, CORE})
+    """Of ours, a solver imports only itself, the shared vocabulary ``vifpk.core`` and the
+    physics ``vifpk.physics``."""
+    bad = {str(p.relative_to(ROOT)): sorted(imported_packages(p) - {package, CORE, PHYSICS})
            for p in modules(package)}
     bad = {k: v for k, v in bad.items() if v}
     assert not bad, bad
+
+
+def test_the_physics_imports_only_the_core_and_no_numba():
+    """vifpk.physics sits on the core alone (docs/architecture.md), plain Python: the Monte
+    Carlo compiles its pieces with its own jit."""
+    paths = modules("vifpk/physics")
+    bad = {str(p.relative_to(ROOT)): sorted(imported_packages(p) - {CORE, PHYSICS})
+           for p in paths}
+    bad = {k: v for k, v in bad.items() if v}
+    assert not bad, bad
+    assert not [p for p in paths if "numba" in imported_modules(p)]
 
 
 def test_the_core_imports_nothing_above_it():

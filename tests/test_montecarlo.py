@@ -208,6 +208,7 @@ def _kernel_run(base, per, cuts, seed=5):
     """The kernel alone (montecarlo.kernels.run_paths) on 2 blocks of ``per`` paths, started at
     the same per-path states and generator words whatever ``per``, the steps cut into calls
     at ``cuts``: (state, moments, energy, windows, stuck time) per path."""
+    from vifpk.montecarlo.plan import record
     from vifpk.montecarlo.simulate import _params, block_seeds
 
     phys = _params(base.system, base.noise)
@@ -222,12 +223,10 @@ def _kernel_run(base, per, cuts, seed=5):
     hists = [np.zeros((blocks, 20)) for _ in range(3)]
     edges = [0, *cuts, 600]
     for a, b in zip(edges[:-1], edges[1:], strict=True):
-        K.run_paths(rng, state, b - a, a, n_burn, stride, h, phys["c1"], phys["c2"],
-                    phys["w0sq"], phys["alpha"], phys["f"], phys["D"], phys["mu"], phys["r"],
-                    phys["alpha1"], phys["khi"], phys["dhi"], phys["ev"], 0.0, 5.0, hists[0],
-                    -2.0, 5.0, hists[1], -2.0, 5.0, hists[2], np.zeros((blocks, 0, 0)), mom,
-                    events, stuck, en,
-                    spw, win)
+        K.run_paths(rng, state, b - a, a, n_burn, stride, h, record(phys, h),
+                    (0.0, 5.0, -2.0, 5.0, -2.0, 5.0),
+                    (hists[0], hists[1], hists[2], np.zeros((blocks, 0, 0)), mom, events, stuck,
+                     en, win), spw)
     return state, mom, en, win, stuck, events
 
 

@@ -1,0 +1,90 @@
+"""Ornstein-Uhlenbeck ("real") noise: xi' = -alpha1 xi + W, E[W(t) W(t+s)] = 2 D delta(s).
+
+Stationary law N(0, D / alpha1). Monte Carlo (montecarlo/kernels.py): xi is held over the
+velocity stage, B(h; F = -g + f xi) in one piece, and updated exactly after the step,
+xi <- a xi + sqrt(D / alpha1 (1 - a^2)) N, a = e^{-alpha1 h} (C(h/2) C(h/2) of consecutive
+steps merged: xi lives at the middle of each step).
+
+Averaged models: two-sided spectral density S(w) = (1/pi) int_0^inf R(t) cos(w t) dt
+= D / (pi (w^2 + alpha1^2)) (Liu et al., Symmetry 2019, eq. 18), with the rational identity
+w^2 S(w) = c - a2 S(w), c = D / pi, a2 = alpha1^2, that lets a harmonic sum of w^2 S be split
+into a Parseval sum and a fast-decaying remainder (averaging/exact.py).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, NamedTuple
+
+import numpy as np
+
+KIND = "ou"
+
+
+class MCRecord(NamedTuple):
+    ou_a: float  # e^{-alpha1 h}
+    ou_s: float  # sqrt(D / alpha1 (1 - a^2))
+
+
+def mc_record(noise: Any, f: float, h: float) -> MCRecord:
+    a = math.exp(-float(noise.alpha1) * h)
+    return MCRecord(a, math.sqrt(float(noise.D) / float(noise.alpha1) * (1.0 - a * a)))
+
+
+def mc_start_sd(noise: Any) -> float:
+    return math.sqrt(float(noise.D) / float(noise.alpha1))
+
+
+def mc_bridge(noise: Any, f: float) -> None:
+    """None: the energy is C^1 in time between impacts (no bridge correction)."""
+    return None
+
+
+def mc_input_power(noise: Any, f: float) -> None:
+    """None: no exact mean input power in general (it depends on the response)."""
+    return None
+
+
+def mc_press(rec, xi):
+    return -rec.f * xi
+
+
+def mc_velocity(flow: Any, normal: Any) -> Any:
+    """B(h) with the force -g + f xi held (one exact sub-flow: no random number)."""
+    def stage(rec, v, xi, g, k, mu, at_wall, h, half, s0, s1, s2, s3):
+        v, stuck = flow(v, h, -g + rec.f * xi, k, mu, at_wall)
+        return v, stuck, v, v, v, s0, s1, s2, s3
+    return stage
+
+
+def mc_advance(normal: Any) -> Any:
+    """xi <- a xi + s N (exact)."""
+    def advance(rec, xi, s0, s1, s2, s3):
+        z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
+        return rec.ou_a * xi + rec.ou_s * z, s0, s1, s2, s3
+    return advance
+
+
+def mc_energy(rec, h, half, k, mu, vb, vc, vk, vd, ve, xi):
+    """Trapezoid over B(h): input f xi v, damping k v^2, friction mu |v|."""
+    fric = 0.0
+    if mu is not None:
+        fric = mu * h * 0.5 * (abs(vb) + abs(ve))
+    return rec.f * xi * h * 0.5 * (vb + ve), k * h * 0.5 * (vb * vb + ve * ve), fric
+
+
+# ------------------------------------------------------------------ averaged models
+def avg_spectral_density(omega: Any, *, D: float, alpha1: float) -> np.ndarray:
+    """S(w) = D / (pi (w^2 + alpha1^2)), elementwise."""
+    omega = np.asarray(omega, dtype=float)
+    return D / (math.pi * (omega**2 + alpha1**2))
+
+
+def avg_rational_parts(*, D: float, alpha1: float) -> tuple[float, float]:
+    """(c, a2) = (D / pi, alpha1^2): w^2 S(w) = c - a2 S(w) for every w."""
+    return D / math.pi, alpha1**2
+
+
+def avg_correlation_rate(*, D: float, alpha1: float) -> float:
+    """1 / (correlation time) = alpha1: R(t) = (D / alpha1) exp(-alpha1 |t|)."""
+    return alpha1
