@@ -45,6 +45,8 @@ from .geometry import (
     restoring_k,
     restoring_slope_k,
 )
+from .noise import Spectrum
+from .walls import is_paper_wall, walls_of
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -98,7 +100,7 @@ def q_frame_density(model: CompoundedModel, A: Array, *, nodes: int = 8) -> Arra
     Q = potential_k(A, k)
     As = amplitude_of_energy_k(Q[:, None] * fac[None, :], k)
     et = ExactModel.energy_terms(model, As)
-    m_s = ((et["damping"] + et["friction"]) / fac) @ w
+    m_s = ((et["damping"] + et["friction"] + et["parametric"]) / fac) @ w
     s2 = (et["sigma2"] / fac**2) @ w
     tau = (0.5 * et["T"]) @ w
     q = 2.0 * (m_s - lam * Q / tau) / s2
@@ -267,9 +269,29 @@ class CorrectedModel(CompoundedModel):
     name: str = "corrected"
     fast: bool = False
 
+    @staticmethod
+    def applies(scene: Any) -> str | None:
+        """None unless a wall meets a correlated (OU) noise with walls other than the paper's
+        or with parametric noise: the energy at the wall (section 10.3) is derived for one
+        wall at 0 and the external noise only (for white noise it vanishes and the model is
+        the compounded one on any walls, parametric noise included)."""
+        walls = walls_of(scene.system)
+        if not (walls and Spectrum.from_scene(scene).rational):
+            return None
+        if not is_paper_wall(walls):
+            return ("the wall offset of correlated noise (docs/averaging.md 10.3) is derived "
+                    "for one lower wall at x = 0 with Newton's law only")
+        if scene.parametric.on:
+            return ("the wall offset of correlated noise (docs/averaging.md 10.3) is derived "
+                    "without parametric noise")
+        return None
+
     @classmethod
     def from_scene(cls, scene: Any, *, noise: str = "sgn", theta_nodes: int | None = None,
                    harmonics: int | None = None, fast: bool = False) -> CorrectedModel:
+        problem = cls.applies(scene)
+        if problem is not None:
+            raise ValueError(f"model 'corrected' does not apply: {problem}")
         base = CompoundedModel.from_scene(scene, noise=noise, theta_nodes=theta_nodes,
                                           harmonics=harmonics)
         fields = {k: v for k, v in base.__dict__.items() if k not in ("name",)}
@@ -277,7 +299,8 @@ class CorrectedModel(CompoundedModel):
 
     @property
     def correlated(self) -> bool:
-        return self.spectrum.kind == "ou"
+        """Coloured noise with the rational (OU) spectrum the wall table is derived for."""
+        return self.spectrum.rational
 
     @property
     def observes(self) -> bool:
@@ -321,7 +344,8 @@ class CorrectedModel(CompoundedModel):
         A = np.asarray(A, dtype=float)
         if not self.observes:
             return np.zeros_like(A)
-        return np.sqrt(self.sigma2_energy(np.maximum(A, 1e-12)) / (2.0 * self.spectrum.alpha1))
+        return np.sqrt(self.sigma2_external(np.maximum(A, 1e-12))
+                       / (2.0 * self.spectrum.alpha1))
 
     def observation_matrix(self, A_src: Array, edges_dst: Array) -> Array:
         """M[i, j] = P(H in cell i of edges_dst (amplitudes) | slow energy at A_src[j]): the

@@ -24,7 +24,8 @@ the microcanonical measure T(E) dE. Hence, with no derivative::
 
     p(E) = C T(E) exp( int_0^E 2 m_d / sigma_E^2 dE' )
 
-S(w) comes from averaging.noise (its one home). For the OU spectrum, whose identity
+S(w) comes from averaging.noise, which reads the kind's module (vifpk/physics/noise/).
+For the OU spectrum, whose identity
 w^2 S(w) = c - a2 S(w) (c = D / pi, a2 = alpha1^2) is ``Spectrum.rational_parts``, the series
 is summed with Parseval, sum_{n>=1} Y_n^2 = (<Y^2> - Y_0^2) / 2, so that the truncated
 remainder decays as n^-6:
@@ -35,6 +36,13 @@ White noise (S constant): by Parseval sum_n n^2 Omega^2 Y_n^2 = <v^2>/2, so
 sigma_E^2 = 2 pi f^2 S <v^2> = 2 D f^2 <v^2> whatever s is.
 The amplitude form follows by Ito's rule with A = U^{-1}(E), dA/dE = 1/g(A):
 m_A = m_E / g - g' sigma_E^2 / (2 g^3), sigma_A^2 = sigma_E^2 / g^2.
+
+Walls other than the paper's (issue 37): the orbit of energy E truncated at the walls it
+reaches, one impact per wall per period (averaging/truncated.py, averaging/walls.py;
+docs/averaging.md section 11). Parametric white noises on the stiffness and the damping
+(Stratonovich): their Ito drift and diffusion on the orbit, with the part of the drift that is
+not (1/(2T)) d(T sigma_E^2)/dE kept in m_d as "parametric" (vifpk/physics/noise/parametric.py,
+averaging/parametric.py; docs/averaging.md section 12).
 """
 
 from __future__ import annotations
@@ -46,6 +54,7 @@ import numpy as np
 
 from vifpk.core.registry import IMPACT_LAWS, one_of
 
+from . import parametric, truncated
 from .geometry import (
     Array,
     amplitudes,
@@ -57,6 +66,7 @@ from .geometry import (
     time_of_theta_k,
 )
 from .noise import Spectrum
+from .walls import WallSpec, is_paper_wall, loss_rate, reached, span, walls_of
 
 # IMPACT_LAWS (vifpk.core.registry): a new law there and in ExactModel.energy_terms
 #: relative size of a negative sigma_E^2 that is rounding (the two terms' cancellation): on
@@ -74,7 +84,15 @@ class ExactModel:
     The system's laws as coefficient tuples (issue 21): ``restoring`` k = (k1, k3, ...) for
     g(x) = k1 x + k3 x^3 + ...; ``damping`` d = (d0, d2, ...) for the force
     (d0 + d2 x^2 + ...) x'; ``velocity_damping`` e = (e2, e4, ...) for (e2 x'^2 + ...) x'.
-    The paper's c1, c2, omega0, alpha are d0 = -c1, d2 = c2, k1 = omega0^2, k3 = alpha."""
+    The paper's c1, c2, omega0, alpha are d0 = -c1, d2 = c2, k1 = omega0^2, k3 = alpha.
+
+    Walls: ``barrier`` with ``r`` is the paper's wall (a lower wall at 0, Newton's law), done
+    in the transformed coordinate y (x = |y|); any other walls are ``walls``
+    (averaging.walls.WallSpec), done on the truncated orbit (averaging/truncated.py,
+    docs/averaging.md "Walls anywhere"); the two are never given together.
+
+    Parametric white noises (Stratonovich; vifpk/physics/noise/parametric.py, docs/averaging.md
+    section 12): ``D_k`` on the restoring force, ``D_c`` on the damping force d(x) x'."""
 
     restoring: tuple[float, ...]
     damping: tuple[float, ...]
@@ -84,6 +102,9 @@ class ExactModel:
     f: float
     barrier: bool
     spectrum: Spectrum
+    walls: tuple[WallSpec, ...] = ()
+    D_k: float = 0.0
+    D_c: float = 0.0
     noise: str = "sgn"
     impact: str = "exact"
     theta_nodes: int = 64
@@ -93,6 +114,8 @@ class ExactModel:
     def __post_init__(self) -> None:
         one_of("noise", self.noise, NOISE_FORMS)
         one_of("impact", self.impact, IMPACT_LAWS)
+        if self.walls and self.barrier:
+            raise ValueError("ExactModel: give the paper's wall (barrier, r) or walls, not both")
 
     @classmethod
     def from_scene(cls, scene: Any, *, noise: str = "sgn", impact: str = "exact",
@@ -101,10 +124,15 @@ class ExactModel:
         one_of("impact", impact, IMPACT_LAWS)
         s = scene.system
         st = getattr(scene, "averaging", None)
+        walls = walls_of(s)
+        paper = is_paper_wall(walls)
+        par = scene.parametric  # the [parametric] table (issue 37)
         return cls(restoring=tuple(s.restoring_law), damping=tuple(s.damping_law),
-                   velocity_damping=tuple(s.velocity_law), mu=s.mu, r=s.r, f=s.f,
-                   barrier=s.barrier, spectrum=Spectrum.from_scene(scene),
-                   noise=noise if s.barrier else "additive", impact=impact,
+                   velocity_damping=tuple(s.velocity_law), mu=s.mu,
+                   r=walls[0].r if paper else 1.0, f=s.f, barrier=paper,
+                   walls=() if paper else walls, spectrum=Spectrum.from_scene(scene),
+                   D_k=float(par.stiffness), D_c=float(par.damping),
+                   noise=noise if paper else "additive", impact=impact,
                    theta_nodes=theta_nodes or getattr(st, "theta_nodes", 64),
                    harmonics=harmonics or getattr(st, "harmonics", 24))
 
@@ -131,6 +159,34 @@ class ExactModel:
 
     # ------------------------------------------------------------------ orbit averages
     def orbit(self, A: Array) -> dict[str, Array]:
+        """Period and time averages along the orbit of amplitude A (any shape): the free orbit
+        (:meth:`free_orbit`), truncated by ``walls`` where A reaches one (truncated.orbit;
+        the keys of the free orbit, the same numbers where no wall is reached)."""
+        A = np.asarray(A, dtype=float)
+        o = self.free_orbit(A)
+        hit = self.reached(A)
+        if not np.any(hit):
+            return o
+        a, b = span(self.walls)
+        t = truncated.orbit(np.where(hit, A, 1.0), self.restoring, a, b,
+                            n_damping=len(self.damping),
+                            n_velocity=len(self.velocity_damping),
+                            nodes=2 * self.theta_nodes)
+        for key in ("T", "v2", "x2v2", "y2", "absv", "E"):
+            o[key] = np.where(hit, t[key], o[key])
+        o["x2jv2"] = [np.where(hit, u, f) for u, f in zip(t["x2jv2"], o["x2jv2"], strict=True)]
+        o["v2jv2"] = [np.where(hit, u, f) for u, f in zip(t["v2jv2"], o["v2jv2"], strict=True)]
+        return o
+
+    def reached(self, A: Array) -> Array:
+        """Whether the orbit of amplitude A reaches one of ``walls`` (False without them)."""
+        A = np.asarray(A, dtype=float)
+        hit = np.zeros(A.shape, dtype=bool)
+        for w in self.walls:
+            hit |= reached(A, w)
+        return hit
+
+    def free_orbit(self, A: Array) -> dict[str, Array]:
         """Period and time averages along the exact orbit of amplitude A (any shape).
 
         ``x2jv2`` [j] = <x^{2j} v^2> for each damping term d_{2j}, ``v2jv2`` [j] =
@@ -200,8 +256,26 @@ class ExactModel:
         Y0 = base.sum(axis=-1) if sgn else np.zeros_like(A)
         return Y0, n.astype(float), Yn
 
+    @property
+    def parametric(self) -> bool:
+        """Whether a parametric noise is on (D_k or D_c nonzero)."""
+        return bool(self.D_k or self.D_c)
+
+    def parametric_terms(self, A: Array) -> tuple[Array, Array]:
+        """(drift beyond the symmetric part, sigma_E^2) of the parametric noises
+        (averaging.parametric.terms; zeros when they are off)."""
+        return parametric.terms(self, A)
+
     def sigma2_energy(self, A: Array, orbit: dict[str, Array] | None = None) -> Array:
-        """sigma_E^2(E(A)) of the averaged energy equation.
+        """sigma_E^2(E(A)): the external noise's (:meth:`sigma2_external`) plus the
+        parametric noises' 2 D_k <g^2 v^2> + 2 D_c <d^2 v^4> when they are on."""
+        s2 = self.sigma2_external(A, orbit)
+        if self.parametric:
+            s2 = s2 + self.parametric_terms(A)[1]
+        return s2
+
+    def sigma2_external(self, A: Array, orbit: dict[str, Array] | None = None) -> Array:
+        """sigma_E^2(E(A)) of the averaged energy equation from the external noise f xi.
 
         White noise: 2 pi f^2 S <v^2>. OU noise: the harmonic sum 4 pi f^2 sum_n u_n^2 Y_n^2
         S(u_n), u_n = n Omega, is taken in one of two exact forms, both from the identity
@@ -220,15 +294,30 @@ class ExactModel:
         than the quarter-orbit quadrature resolves): ArithmeticError naming A, never a clamp."""
         A = np.asarray(A, dtype=float)
         o = self.orbit(A) if orbit is None else orbit
+        S = self.spectrum
+        if S.flat:
+            return 2.0 * np.pi * self.f**2 * S.level() * o["v2"]
+        hit = self.reached(A)
+        if not np.any(hit):
+            return self._sigma2_free(A, o)
+        free = self._sigma2_free(A, self.free_orbit(A))
+        return np.where(hit, self._sigma2_truncated(np.where(hit, A, 1.0)), free)
+
+    def _sigma2_truncated(self, A: Array) -> Array:
+        """sigma_E^2 of a rational (OU) spectrum on the truncated orbit (truncated.sigma2)."""
+        a, b = span(self.walls)
+        return truncated.sigma2(A, self.restoring, a, b, f=self.f, spectrum=self.spectrum,
+                                count=2 * self.harmonics, nodes=2 * self.theta_nodes)
+
+    def _sigma2_free(self, A: Array, o: dict[str, Array]) -> Array:
+        """sigma_E^2 for a rational (OU) spectrum on the free orbit (or the paper's wall)."""
         f2 = self.f**2
         S = self.spectrum
-        if S.kind == "white":
-            return 2.0 * np.pi * f2 * S(0.0) * o["v2"]
         c, a2 = S.rational_parts()  # raises for a kind without it: no silent fallback
         rest_point = o["v2"] == 0.0  # A = 0 (k1 = 0: T = inf there): no motion, no noise power
         if np.any(rest_point):  # the sums at a stand-in amplitude, then 0 there
             A = np.where(rest_point, 1.0, A)
-            o = self.orbit(A)
+            o = self.free_orbit(A)
         Y0, n, Yn = self.harmonics_of_Y(A, o["T"])
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             Omega = 2 * np.pi / o["T"]
@@ -315,7 +404,9 @@ class ExactModel:
         A = np.asarray(A, dtype=float)
         o = self.orbit(A)
         E, T = o["E"], o["T"]
-        if not self.barrier:
+        if self.walls:
+            loss = self.wall_losses(A, E, T)
+        elif not self.barrier:
             loss = np.zeros_like(A)
         elif self.impact == "exact":
             loss = -(2.0 / T) * (1.0 - self.r**2) * E
@@ -325,14 +416,21 @@ class ExactModel:
             loss = -(2.0 / T) * (-2.0 * np.log(self.r)) * E
         else:
             one_of("impact", self.impact, IMPACT_LAWS)  # raises: a law without a branch
+        wz, s2p = self.parametric_terms(A)
         return {
             "damping": self.damping_rate(o),
             "impact": loss,
             "friction": -self.mu * o["absv"],
-            "sigma2": self.sigma2_energy(A, o),
+            "parametric": wz,
+            "sigma2": self.sigma2_external(A, o) + s2p if self.parametric
+            else self.sigma2_external(A, o),
             "T": T,
             "E": E,
         }
+
+    def wall_losses(self, A: Array, E: Array, T: Array) -> Array:
+        """The impact loss rate of ``walls`` (averaging.walls.loss_rate)."""
+        return loss_rate(self.walls, A, E, T, self.restoring, self.impact)
 
     # ------------------------------------------------------------------ amplitude form
     def terms(self, A: Array) -> dict[str, Array]:
@@ -357,6 +455,7 @@ class ExactModel:
             "damping": et["damping"] / g,
             "impact": et["impact"] / g,
             "friction": et["friction"] / g,
+            "parametric": et["parametric"] / g,
             "noise": m_noise_E / g - gp * s2E / (2.0 * g**3),
             "sigma2": s2E / g**2,
         }
@@ -364,7 +463,7 @@ class ExactModel:
     @amplitudes
     def drift(self, A: Array) -> Array:
         t = self.terms(A)
-        return t["damping"] + t["impact"] + t["friction"] + t["noise"]
+        return t["damping"] + t["impact"] + t["friction"] + t["parametric"] + t["noise"]
 
     @amplitudes
     def diffusion(self, A: Array) -> Array:
@@ -380,7 +479,7 @@ class ExactModel:
         A = np.asarray(A, dtype=float)
         et = self.energy_terms(A)
         g = restoring_k(A, self.restoring)
-        md = et["damping"] + et["impact"] + et["friction"]
+        md = et["damping"] + et["impact"] + et["friction"] + et["parametric"]
         with np.errstate(divide="ignore", invalid="ignore"):
             q = 2.0 * md * g / et["sigma2"]
             log_pre = np.log(et["T"]) + np.log(g)

@@ -23,6 +23,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from vifpk.physics import spring
+
 Array = NDArray[np.float64]
 
 
@@ -45,27 +47,23 @@ def amplitudes(method: Any) -> Any:
 
 
 def potential(x: ArrayLike, omega0: float, alpha: float) -> Array:
-    """U(x) = omega0^2 x^2 / 2 + alpha x^4 / 4."""
-    x = np.asarray(x, dtype=float)
-    return 0.5 * omega0**2 * x**2 + 0.25 * alpha * x**4
+    """U(x) = omega0^2 x^2 / 2 + alpha x^4 / 4 (vifpk.physics.spring.potential)."""
+    return spring.potential(np.asarray(x, dtype=float), (omega0**2, alpha))
 
 
 def restoring(x: ArrayLike, omega0: float, alpha: float) -> Array:
-    """g(x) = U'(x) = omega0^2 x + alpha x^3."""
-    x = np.asarray(x, dtype=float)
-    return omega0**2 * x + alpha * x**3
+    """g(x) = U'(x) = omega0^2 x + alpha x^3 (vifpk.physics.spring.restoring)."""
+    return spring.restoring(np.asarray(x, dtype=float), (omega0**2, alpha))
 
 
 def restoring_slope(x: ArrayLike, omega0: float, alpha: float) -> Array:
-    """g'(x) = omega0^2 + 3 alpha x^2."""
-    x = np.asarray(x, dtype=float)
-    return omega0**2 + 3.0 * alpha * x**2
+    """g'(x) = omega0^2 + 3 alpha x^2 (vifpk.physics.spring.restoring_slope)."""
+    return spring.restoring_slope(np.asarray(x, dtype=float), (omega0**2, alpha))
 
 
 def amplitude_of_energy(E: ArrayLike, omega0: float, alpha: float) -> Array:
-    """A = U^{-1}(E) >= 0, in the cancellation-free form A^2 = 4E / (w0^2 + sqrt(w0^4 + 4 a E))."""
-    E = np.maximum(np.asarray(E, dtype=float), 0.0)
-    return np.sqrt(4.0 * E / (omega0**2 + np.sqrt(omega0**4 + 4.0 * alpha * E)))
+    """A = U^{-1}(E) >= 0 (vifpk.physics.spring.amplitude_of_energy)."""
+    return spring.amplitude_of_energy(E, (omega0**2, alpha))
 
 
 def w1_eta(A: ArrayLike, omega0: float, alpha: float) -> tuple[Array, Array]:
@@ -143,42 +141,18 @@ def _k13(k: tuple[float, ...]) -> tuple[float, float]:
 
 
 def potential_k(x: ArrayLike, k: tuple[float, ...]) -> Array:
-    """U(x) = sum_j k_{2j-1} x^{2j} / (2j)."""
-    x = np.asarray(x, dtype=float)
-    if _duffing(k):
-        k1, k3 = _k13(k)
-        return 0.5 * k1 * x**2 + 0.25 * k3 * x**4
-    x2 = x * x
-    out = np.zeros_like(x2)
-    for j in range(len(k), 0, -1):  # Horner in x^2: U = x^2 (k1/2 + x^2 (k3/4 + ...))
-        out = out * x2 + k[j - 1] / (2 * j)
-    return out * x2
+    """U(x) = sum_j k_{2j-1} x^{2j} / (2j) (vifpk.physics.spring.potential)."""
+    return spring.potential(np.asarray(x, dtype=float), k)
 
 
 def restoring_k(x: ArrayLike, k: tuple[float, ...]) -> Array:
-    """g(x) = U'(x) = sum_j k_{2j-1} x^{2j-1}."""
-    x = np.asarray(x, dtype=float)
-    if _duffing(k):
-        k1, k3 = _k13(k)
-        return k1 * x + k3 * x**3
-    x2 = x * x
-    out = np.zeros_like(x2)
-    for j in range(len(k), 0, -1):
-        out = out * x2 + k[j - 1]
-    return out * x
+    """g(x) = U'(x) = sum_j k_{2j-1} x^{2j-1} (vifpk.physics.spring.restoring)."""
+    return spring.restoring(np.asarray(x, dtype=float), k)
 
 
 def restoring_slope_k(x: ArrayLike, k: tuple[float, ...]) -> Array:
-    """g'(x) = sum_j (2j - 1) k_{2j-1} x^{2j-2}."""
-    x = np.asarray(x, dtype=float)
-    if _duffing(k):
-        k1, k3 = _k13(k)
-        return k1 + 3.0 * k3 * x**2
-    x2 = x * x
-    out = np.zeros_like(x2)
-    for j in range(len(k), 0, -1):
-        out = out * x2 + (2 * j - 1) * k[j - 1]
-    return out
+    """g'(x) = sum_j (2j - 1) k_{2j-1} x^{2j-2} (vifpk.physics.spring.restoring_slope)."""
+    return spring.restoring_slope(np.asarray(x, dtype=float), k)
 
 
 def nu_k(A: ArrayLike, theta: ArrayLike, k: tuple[float, ...]) -> Array:
@@ -205,36 +179,8 @@ def nu_k(A: ArrayLike, theta: ArrayLike, k: tuple[float, ...]) -> Array:
 
 
 def amplitude_of_energy_k(E: ArrayLike, k: tuple[float, ...]) -> Array:
-    """A = U^{-1}(E) >= 0. Duffing: the closed form above. Otherwise U is increasing on
-    A >= 0 (scene check), so the root is bracketed and found by bisection to the last bit,
-    polished by two safeguarded Newton steps (stay inside the bracket)."""
-    E = np.maximum(np.asarray(E, dtype=float), 0.0)
-    if _duffing(k):
-        k1, k3 = _k13(k)
-        if k1 > 0.0:
-            return np.sqrt(4.0 * E / (k1 + np.sqrt(k1 * k1 + 4.0 * k3 * E)))
-        return np.sqrt(2.0 * np.sqrt(E / k3))  # pure cubic: U = k3 A^4 / 4
-    lo = np.zeros_like(E)
-    hi = np.ones_like(E)
-    for _ in range(2100):  # doubling: U(hi) >= E (U grows without bound)
-        short = potential_k(hi, k) < E
-        if not short.any():
-            break
-        hi = np.where(short, 2.0 * hi, hi)
-    for _ in range(64):
-        mid = 0.5 * (lo + hi)
-        below = potential_k(mid, k) < E
-        lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
-        if np.all(hi - lo <= 4e-16 * hi):
-            break
-    a = 0.5 * (lo + hi)
-    for _ in range(2):
-        g = restoring_k(a, k)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            step = (potential_k(a, k) - E) / g
-        new = a - np.where(g > 0, step, 0.0)
-        a = np.where((new >= lo) & (new <= hi), new, a)
-    return np.where(E > 0, a, 0.0)
+    """A = U^{-1}(E) >= 0 (vifpk.physics.spring.amplitude_of_energy)."""
+    return spring.amplitude_of_energy(E, k)
 
 
 def time_of_theta_k(A: ArrayLike, theta: ArrayLike, k: tuple[float, ...],

@@ -36,6 +36,7 @@ from vifpk.core.registry import one_of
 
 from .geometry import Array, amplitudes, w1_eta
 from .noise import Spectrum
+from .walls import is_paper_wall, walls_of
 
 B6_COEFFICIENTS = {"printed": 3.0 / 64.0, "taylor": 1.0 / 64.0}
 HARMONICS = np.array([1.0, 3.0, 5.0, 7.0])
@@ -80,7 +81,16 @@ class PaperModel:
         -c1 + c2 x^2, no velocity damping: System.paper_family_problem), else why not
         (the averaged-model protocol, vifpk.core.protocols)."""
         s = scene.system
-        return s.paper_family_problem() if hasattr(s, "paper_family_problem") else None
+        problem = s.paper_family_problem() if hasattr(s, "paper_family_problem") else None
+        if problem is not None:
+            return problem
+        walls = walls_of(s)
+        if walls and not is_paper_wall(walls):
+            return ("walls other than one lower wall at x = 0 with Newton's law are outside "
+                    "the paper's family")
+        if scene.parametric.on:
+            return "parametric noise is outside the paper's family"
+        return None
 
     @classmethod
     def from_scene(cls, scene: Any, *, b6: str = "printed") -> PaperModel:
@@ -94,8 +104,10 @@ class PaperModel:
         c2 = s.c2 if s.c2 is not None else (d[1] if len(d) > 1 else 0.0)
         omega0 = s.omega0 if s.omega0 is not None else float(np.sqrt(k[0]))
         alpha = s.alpha if s.alpha is not None else (k[1] if len(k) > 1 else 0.0)
-        return cls(c1=c1, c2=c2, omega0=omega0, alpha=alpha, mu=s.mu, r=s.r, f=s.f,
-                   barrier=s.barrier, spectrum=Spectrum.from_scene(scene), b6=b6)
+        walls = walls_of(s)
+        return cls(c1=c1, c2=c2, omega0=omega0, alpha=alpha, mu=s.mu,
+                   r=walls[0].r if walls else 1.0, f=s.f, barrier=bool(walls),
+                   spectrum=Spectrum.from_scene(scene), b6=b6)
 
     # ------------------------------------------------------------------ series
     def b(self, A: Array) -> Array:

@@ -15,12 +15,15 @@ marginals are independent computations that a test can compare.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from .geometry import Array, amplitude_of_energy_k, potential_k
+from vifpk.physics.spring import amplitude_of_energy, potential
+
+from .geometry import Array
 
 
 @dataclass(frozen=True)
@@ -38,8 +41,14 @@ class PhaseDensities:
 def phase_densities(A: Array, log_h: Array, log_T: Array, *,
                     restoring: tuple[float, ...] | None = None, omega0: float | None = None,
                     alpha: float | None = None, barrier: bool, points: int = 201,
-                    nodes: int = 128) -> PhaseDensities:
+                    nodes: int = 128, lower: float = -math.inf, upper: float = math.inf
+                    ) -> PhaseDensities:
     """Map h(A) = log p(y, y') (given on the A grid, with log T(A)) to phase space.
+
+    ``barrier``: the paper's wall (x = |y|, folded); otherwise walls at ``lower`` <= 0 and
+    ``upper`` >= 0 (issue 37): h is then log p(x, x') itself (T the truncated orbit's period,
+    p(x, x') = p_E / T on the region the orbits fill), which lives on [lower, upper]; p(x2)
+    integrates the two sides x > 0 and x < 0 separately (each cut at its wall).
 
     The spring: ``restoring`` = (k1, k3, k5, ...), or the paper's ``omega0``, ``alpha``."""
     if restoring is None:
@@ -48,27 +57,23 @@ def phase_densities(A: Array, log_h: Array, log_T: Array, *,
         restoring = (omega0**2, alpha)
     k = tuple(restoring)
 
-    def potential(x: Array, *_: float) -> Array:
-        return potential_k(x, k)
-
-    def amplitude_of_energy(E: Array, *_: float) -> Array:
-        return amplitude_of_energy_k(E, k)
-
     A = np.asarray(A, dtype=float)
     spline = CubicSpline(A, log_h)
     lo, hi = float(A[0]), float(A[-1])
-    E_lo, E_hi = float(potential(lo, omega0, alpha)), float(potential(hi, omega0, alpha))
+    E_lo = float(potential(np.asarray(lo, dtype=float), k))
+    E_hi = float(potential(np.asarray(hi, dtype=float), k))
 
     def dens(x: Array, v: Array) -> Array:
-        a = amplitude_of_energy(0.5 * v**2 + potential(x, omega0, alpha), omega0, alpha)
+        a = amplitude_of_energy(0.5 * v**2 + potential(x, k), k)
         inside = (a >= lo) & (a <= hi)
         return np.where(inside, np.exp(spline(np.clip(a, lo, hi))), 0.0)
 
     fold = 2.0 if barrier else 1.0
     gx, gw = np.polynomial.legendre.leggauss(nodes)
     # p(x1): integrate over v >= 0 where E in [E_lo, E_hi]
-    x1 = np.linspace(0.0 if barrier else -hi, hi, points)
-    Ux = potential(x1, omega0, alpha)
+    walls = not barrier and (lower > -hi or upper < hi)
+    x1 = np.linspace(0.0 if barrier else max(lower, -hi), min(upper, hi), points)
+    Ux = potential(x1, k)
     v_lo = np.sqrt(2.0 * np.maximum(E_lo - Ux, 0.0))
     v_hi = np.sqrt(2.0 * np.maximum(E_hi - Ux, 0.0))
     vm, vh = 0.5 * (v_hi + v_lo), 0.5 * (v_hi - v_lo)
@@ -78,15 +83,23 @@ def phase_densities(A: Array, log_h: Array, log_T: Array, *,
     vmax = float(np.sqrt(2.0 * E_hi))
     x2 = np.linspace(-vmax, vmax, points)
     K = 0.5 * x2**2
-    x_lo = amplitude_of_energy(np.maximum(E_lo - K, 0.0), omega0, alpha)
-    x_hi = amplitude_of_energy(np.maximum(E_hi - K, 0.0), omega0, alpha)
+    x_lo = amplitude_of_energy(np.maximum(E_lo - K, 0.0), k)
+    x_hi = amplitude_of_energy(np.maximum(E_hi - K, 0.0), k)
     xm, xh = 0.5 * (x_hi + x_lo), 0.5 * (x_hi - x_lo)
     x = xm[:, None] + xh[:, None] * gx[None, :]
-    p_x2 = 2.0 * xh * (dens(x, x2[:, None]) @ gw)
+    if walls:  # each side cut at its wall: |x| in [x_lo, min(x_hi, wall)]
+        p_x2 = np.zeros_like(x2)
+        for sign, end in ((1.0, upper), (-1.0, -lower)):
+            top = np.minimum(x_hi, end)
+            xm, xh = 0.5 * (top + x_lo), 0.5 * np.maximum(top - x_lo, 0.0)
+            x = xm[:, None] + xh[:, None] * gx[None, :]
+            p_x2 = p_x2 + xh * (dens(sign * x, x2[:, None]) @ gw)
+    else:
+        p_x2 = 2.0 * xh * (dens(x, x2[:, None]) @ gw)
     joint = fold * dens(x1[:, None], x2[None, :])
     # p(E) = p(y, y') T(E) = p_A / g on the energy grid E_k = U(A_k): exact pointwise; its
     # trapezoid mass differs from 1 by the quadrature error on this uneven grid (~1e-5)
-    E = potential(A, omega0, alpha)
+    E = potential(A, k)
     p_E = np.exp(log_h + log_T)
     # no linear spring (k1 = 0): T = inf at A = 0, where p_E ~ T has an integrable
     # singularity; the E record starts at the first grid point with a finite period

@@ -26,6 +26,7 @@ from vifpk.core.scene import no_noise
 from .corrected import observed_density, observed_log_h
 from .phase import phase_densities
 from .stationary import NoStationaryDensity, amplitude_density, describe
+from .walls import phase_walls
 
 
 class NoClosedForm(ValueError):
@@ -69,7 +70,7 @@ def solve(scene: Any, *, model: Any = "paper", tail_mass: bool = True, **options
     t1 = time.perf_counter()
     log_T = np.log(m.period(A_obs))
     ph = phase_densities(A_obs, log_h, log_T, restoring=tuple(sys_.restoring_law),
-                         barrier=sys_.barrier, points=settings.phase_points)
+                         **phase_walls(sys_), points=settings.phase_points)
     t2 = time.perf_counter()
     data = {
         "A": {"x": A_obs, "p": p_obs},

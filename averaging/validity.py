@@ -12,7 +12,13 @@ amplitude (docs/report.md, "Warnings", gives the curves behind the thresholds th
     correlation  sigma_E^2 / (alpha1 E^2)  ... per correlation time 1/alpha1 of the noise: the
                                            small parameter of the O(D / alpha1) terms (the wall
                                            offset, the fast fluctuation) (OU noise only)
-    lambda    -ln r^2                      the jump of ln E at an impact (0 without a wall)
+    lambda    -ln r^2                      the jump of ln E at an impact (0 without a wall;
+                                           with walls other than the paper's, the largest
+                                           -ln r^2 of them: the jump of ln K, K the kinetic
+                                           energy at the wall, below v_yield)
+
+``wall`` is None where ``corrected`` does not apply (walls other than the paper's under OU
+noise: its offset is derived for the paper's wall only).
 """
 
 from __future__ import annotations
@@ -43,13 +49,16 @@ def validity(scene: Any) -> dict[str, Any]:
     A = bulk_amplitudes(amp.A, amp.p)
     et = ex.energy_terms(A)
     T, E = et["T"], et["E"]
-    cm = CorrectedModel.from_scene(scene)
+    corrected = CorrectedModel.applies(scene) is None
+    cm = CorrectedModel.from_scene(scene) if corrected else None
+    lam = (float(cm.lam) if cm is not None and cm.barrier
+           else max((-2.0 * float(np.log(w.r)) for w in ex.walls), default=0.0))
     out: dict[str, Any] = {"quantiles": list(QUANTILES), "amplitudes": A.tolist(),
-                           "lambda": float(cm.lam) + 0.0}  # no -0.0 for r = 1
-    out["band"] = ((ex.spectrum.alpha1 * T / (2 * np.pi)).tolist()
-                   if ex.spectrum.kind == "ou" else None)
-    out["wall"] = (cm.wall_offset(A) / E).tolist()
+                           "lambda": lam + 0.0}  # no -0.0 for r = 1
+    rate = ex.spectrum.correlation_rate()  # None: a noise without correlation time
+    out["band"] = (rate * T / (2 * np.pi)).tolist() if rate is not None else None
+    out["wall"] = (cm.wall_offset(A) / E).tolist() if cm is not None else None
     out["noise"] = (et["sigma2"] * T / E**2).tolist()
-    out["correlation"] = ((et["sigma2"] / (ex.spectrum.alpha1 * E**2)).tolist()
-                          if ex.spectrum.kind == "ou" else None)
+    out["correlation"] = ((et["sigma2"] / (rate * E**2)).tolist()
+                          if rate is not None else None)
     return out

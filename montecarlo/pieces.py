@@ -48,14 +48,14 @@ _LAWS: dict[type, tuple[str | None, str | None]] = {}  # record class -> (lower,
 def record_class(kind: str, lower: str | None = None, upper: str | None = None) -> type:
     """The record class of a noise kind and the walls' impact laws (None: no wall):
     BASE_FIELDS + the kind's MCRecord fields (a module global ``Record_<kind>_<lower>_<upper>``,
-    so numba's cache can name it). NoPiece for a kind without Monte Carlo pieces, NoLaw for
-    a law without a module."""
+    so numba's cache can name it). NoPiece for a kind without Monte Carlo pieces, ValueError for
+    a law without a module (ValueError)."""
     key = (kind, lower, upper)
     if key not in _CLASSES:
         fields = noise_kinds.piece(kind, SOLVER, "MCRecord")._fields
         for name in (lower, upper):
             if name is not None:
-                impact.law(name)
+                impact.module(name, solver=SOLVER)
         cls = namedtuple(f"Record_{kind}_{lower}_{upper}",  # noqa: PYI024
                          BASE_FIELDS + tuple(fields))
         cls.__module__ = __name__
@@ -157,7 +157,7 @@ _LAW_FNS: dict[str, Any] = {}
 def _law_fns(name: str) -> Any:
     """The law's restitution e(|v|), compiled once."""
     if name not in _LAW_FNS:
-        _LAW_FNS[name] = jit(impact.law(name).restitution)
+        _LAW_FNS[name] = jit(impact.module(name, solver=SOLVER).restitution)
     return _LAW_FNS[name]
 
 

@@ -160,8 +160,8 @@ def test_solver_options_that_do_not_apply_exit_2(no_computation, capsys, args, s
 @pytest.mark.parametrize(("call", "says"), [
     (lambda v: v.run(42), "workflow 42"),
     (lambda v: v.run("nope", "paper-base"), "workflow 'nope'"),
-    (lambda v: v.run("models"), "allowed: solve, check"),
-    (lambda v: v.run("figures"), "allowed: solve, check"),
+    (lambda v: v.run("models"), "allowed: check, passage, solve"),
+    (lambda v: v.run("figures"), "allowed: check, passage, solve"),
     (lambda v: v.run(["check"]), "workflow ['check']"),
     (lambda v: v.run("solve", "paper-base", "nope-solver"), "--solver 'nope-solver'"),
     (lambda v: v.run("solve", "paper-base", "fpk", paths=64), "paths"),

@@ -323,13 +323,14 @@ def phase_solution(scene: Any, res: Any, period: Any) -> tuple[dict[str, Any], d
     with p(y, y') = p_A / (g T); ``period`` gives T(A). Returns (data, raw masses)."""
     from vifpk.averaging.geometry import restoring_k
     from vifpk.averaging.phase import phase_densities
+    from vifpk.averaging.walls import phase_walls
 
     s = scene.system
     k = tuple(s.restoring_law)
     A, p = res.data["A_cells"]["x"], res.data["A_cells"]["p"]
     log_T = np.log(period(A))
     log_h = np.log(np.maximum(p, 1e-300)) - np.log(restoring_k(A, k)) - log_T
-    ph = phase_densities(A, log_h, log_T, restoring=k, barrier=s.barrier,
+    ph = phase_densities(A, log_h, log_T, restoring=k, **phase_walls(s),
                          points=scene.averaging.phase_points)
     data = {"A": res.data["A"], "E": {"x": ph.E, "p": ph.p_E}, "x1": {"x": ph.x1, "p": ph.p_x1},
             "x2": {"x": ph.x2, "p": ph.p_x2},

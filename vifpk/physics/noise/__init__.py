@@ -22,6 +22,13 @@ A kind's module declares, for the Monte Carlo (solver "montecarlo"), names prefi
 - ``mc_energy(rec, h, half, k, mu, vb, vc, vk, vd, ve, xi)``: (work of the noise, damping loss,
   friction loss) over the stage B.
 
+For the averaged models (solver "averaging"), names prefixed ``avg_`` (averaging/noise.py):
+``avg_spectral_density(omega, D=, alpha1=)`` (two-sided S(w)); either ``avg_flat_level`` (a
+white spectrum: S the same at every w) or ``avg_rational_parts`` (c, a2 with
+w^2 S = c - a2 S, the OU identity); ``avg_correlation_rate`` (1 / correlation time), if any.
+The parametric white noises (``parametric.py``) are no kind of the excitation: the averaged
+models import that module directly.
+
 ``piece(kind, solver, name)`` returns one of them or raises ``NoPiece`` in one line.
 """
 
@@ -33,7 +40,7 @@ from typing import Any
 
 from vifpk.core.registry import NOISE_KINDS
 
-SOLVER_PREFIX = {"montecarlo": "mc_"}
+SOLVER_PREFIX = {"montecarlo": "mc_", "averaging": "avg_"}
 
 
 class NoPiece(ValueError):
@@ -56,10 +63,10 @@ def piece(kind: str, solver: str, name: str) -> Any:
     try:
         got = getattr(module(kind), attr, None)
     except NoPiece as e:
-        raise NoPiece(f"{e}: the {solver} solver cannot simulate it") from None
+        raise NoPiece(f"{e}: the {solver} solver cannot take it") from None
     if got is None:
         raise NoPiece(f"noise kind {kind!r} has no {solver} piece {attr!r}: the {solver} "
-                      "solver cannot simulate it")
+                      "solver cannot take it")
     return got
 
 

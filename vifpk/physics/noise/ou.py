@@ -4,12 +4,19 @@ Stationary law N(0, D / alpha1). Monte Carlo (montecarlo/kernels.py): xi is held
 velocity stage, B(h; F = -g + f xi) in one piece, and updated exactly after the step,
 xi <- a xi + sqrt(D / alpha1 (1 - a^2)) N, a = e^{-alpha1 h} (C(h/2) C(h/2) of consecutive
 steps merged: xi lives at the middle of each step).
+
+Averaged models: two-sided spectral density S(w) = (1/pi) int_0^inf R(t) cos(w t) dt
+= D / (pi (w^2 + alpha1^2)) (Liu et al., Symmetry 2019, eq. 18), with the rational identity
+w^2 S(w) = c - a2 S(w), c = D / pi, a2 = alpha1^2, that lets a harmonic sum of w^2 S be split
+into a Parseval sum and a fast-decaying remainder (averaging/exact.py).
 """
 
 from __future__ import annotations
 
 import math
 from typing import Any, NamedTuple
+
+import numpy as np
 
 KIND = "ou"
 
@@ -64,3 +71,20 @@ def mc_energy(rec, h, half, k, mu, vb, vc, vk, vd, ve, xi):
     if mu is not None:
         fric = mu * h * 0.5 * (abs(vb) + abs(ve))
     return rec.f * xi * h * 0.5 * (vb + ve), k * h * 0.5 * (vb * vb + ve * ve), fric
+
+
+# ------------------------------------------------------------------ averaged models
+def avg_spectral_density(omega: Any, *, D: float, alpha1: float) -> np.ndarray:
+    """S(w) = D / (pi (w^2 + alpha1^2)), elementwise."""
+    omega = np.asarray(omega, dtype=float)
+    return D / (math.pi * (omega**2 + alpha1**2))
+
+
+def avg_rational_parts(*, D: float, alpha1: float) -> tuple[float, float]:
+    """(c, a2) = (D / pi, alpha1^2): w^2 S(w) = c - a2 S(w) for every w."""
+    return D / math.pi, alpha1**2
+
+
+def avg_correlation_rate(*, D: float, alpha1: float) -> float:
+    """1 / (correlation time) = alpha1: R(t) = (D / alpha1) exp(-alpha1 |t|)."""
+    return alpha1

@@ -2,12 +2,19 @@
 
 Monte Carlo (montecarlo/kernels.py): the velocity stage is B(h/2), the kick
 v += f sqrt(2 D h) N, B(h/2) (Strang). The kick's mean power is exactly f^2 D.
+
+Averaged models: the flat two-sided spectral density S(w) = D / pi for every w, so a harmonic
+sum of |G_n|^2 S over an orbit is S times Parseval's sum (averaging/exact.py:
+sigma_E^2 = 2 pi f^2 S <v^2> = 2 D f^2 <v^2>). No rational split (w^2 S grows without bound):
+no ``avg_rational_parts``; no correlation time: no ``avg_correlation_rate``.
 """
 
 from __future__ import annotations
 
 import math
 from typing import Any, NamedTuple
+
+import numpy as np
 
 KIND = "white"
 
@@ -67,3 +74,14 @@ def mc_energy(rec, h, half, k, mu, vb, vc, vk, vd, ve, xi):
         fric = mu * half * 0.5 * (abs(vb) + abs(vc) + abs(vk) + abs(vd))
     return (0.5 * (vk * vk - vc * vc), k * half * 0.5 * (vb * vb + vc * vc + vk * vk + vd * vd),
             fric)
+
+
+# ------------------------------------------------------------------ averaged models
+def avg_flat_level(*, D: float, alpha1: float) -> float:
+    """S(w) = D / pi, the same at every frequency (``alpha1`` unused)."""
+    return D / math.pi
+
+
+def avg_spectral_density(omega: Any, *, D: float, alpha1: float) -> np.ndarray:
+    """S(w) = D / pi, elementwise."""
+    return np.full_like(np.asarray(omega, dtype=float), avg_flat_level(D=D, alpha1=alpha1))

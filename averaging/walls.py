@@ -1,0 +1,108 @@
+"""The walls as the averaged models see them (issue 37): position, restitution law, losses.
+
+A lower wall at a <= 0 (x >= a) and/or an upper wall at b >= 0 (x <= b), each with its own
+impact law (vifpk/physics/impact/: e(v), and the energy an impact at speed v takes,
+(1 - e(v)^2) v^2 / 2). On the orbit of energy E (amplitude A, U(A) = E) a wall at ``at`` is
+reached when A > |at|, and is then hit once per period T(E) of the truncated orbit at the
+impact speed v = sqrt(2 (E - U(at))) (docs/averaging.md, "Walls anywhere").
+
+The paper's wall (one lower wall at 0 with Newton's law) keeps its own path in the models
+(the transformed coordinate y, x = |y|: averaging/exact.py), bit for bit as before.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from vifpk.core.registry import IMPACT_LAWS, one_of
+from vifpk.physics import impact, spring
+
+SOLVER = "averaging"
+
+
+@dataclass(frozen=True, kw_only=True)
+class WallSpec:
+    """One wall: ``side`` "lower" (x >= at, at <= 0) or "upper" (x <= at, at >= 0),
+    restitution ``r``, impact ``law`` (vifpk.physics.impact) and its ``v_yield``."""
+
+    side: str
+    at: float
+    r: float
+    law: str = "newton"
+    v_yield: float = math.inf
+
+    def __post_init__(self) -> None:
+        impact.module(self.law, solver=SOLVER)  # a law without a module: one line, now
+
+    def energy_loss(self, v: Any) -> Any:
+        """(1 - e(v)^2) v^2 / 2 at impact speed v (the law's ``energy_loss``)."""
+        return impact.module(self.law, solver=SOLVER).energy_loss(v, self.r, self.v_yield)
+
+    def restitution(self, v: Any) -> Any:
+        """e(v) (the law's ``restitution``)."""
+        return impact.module(self.law, solver=SOLVER).restitution(v, self.r, self.v_yield)
+
+
+def walls_of(system: Any) -> tuple[WallSpec, ...]:
+    """The scene's walls, lower first (``system.walls``, vifpk.core.scene: the wall tables of
+    issue 37, or the paper's ``barrier`` with ``r``); a Newton wall's v_yield is inf."""
+    return tuple(WallSpec(side=w.side, at=float(w.at), r=float(w.r), law=w.law,
+                          v_yield=float(w.v_yield) if w.v_yield is not None else math.inf)
+                 for w in system.walls)
+
+
+def is_paper_wall(walls: tuple[WallSpec, ...]) -> bool:
+    """One lower wall at x = 0 whose law has a constant restitution (Newton's): the paper's
+    system."""
+    return (len(walls) == 1 and walls[0].side == "lower" and walls[0].at == 0.0
+            and impact.module(walls[0].law, solver=SOLVER).CONSTANT_RESTITUTION)
+
+
+def phase_walls(system: Any) -> dict[str, Any]:
+    """The keywords of averaging.phase.phase_densities for a scene's system: ``barrier`` (the
+    paper's wall: the folded coordinate x = |y|), ``lower`` and ``upper`` (any other walls;
+    -inf / +inf for none)."""
+    walls = walls_of(system)
+    paper = is_paper_wall(walls)
+    lower, upper = span(() if paper else walls)
+    return {"barrier": paper, "lower": lower, "upper": upper}
+
+
+def span(walls: tuple[WallSpec, ...]) -> tuple[float, float]:
+    """(a, b): the lower wall's position (-inf without one) and the upper's (+inf)."""
+    lo = [w.at for w in walls if w.side == "lower"]
+    hi = [w.at for w in walls if w.side == "upper"]
+    return (lo[0] if lo else -math.inf), (hi[0] if hi else math.inf)
+
+
+def reached(A: np.ndarray, wall: WallSpec) -> np.ndarray:
+    """Whether the free orbit of amplitude A reaches the wall (A > |at|)."""
+    return A > abs(wall.at)
+
+
+def loss_rate(walls: tuple[WallSpec, ...], A: np.ndarray, E: np.ndarray, T: np.ndarray,
+              k: tuple[float, ...], treatment: str) -> np.ndarray:
+    """-(1/T) sum over the walls reached of the energy one impact takes at the impact speed
+    v = sqrt(2 K), K = E - U(at) (each reached wall is hit once per period T of the truncated
+    orbit), in the exact model's ``treatment`` (vifpk.core.registry.IMPACT_LAWS): "exact" the
+    law's (1 - e(v)^2) K; "transformed" 2 (1 - e(v)) K; "compounded" -ln(e(v)^2) K (the
+    continuous limit of K -> e^2 K at each impact). A wall at 0 alone with Newton's law gives
+    the paper's (2/T_y)(1 - r^2) E (T_y = 2 T: two impacts per period of y)."""
+    loss = np.zeros_like(A)
+    for w in walls:
+        K = np.maximum(E - spring.potential(w.at, k), 0.0)
+        v = np.sqrt(2.0 * K)
+        if treatment == "exact":
+            per = w.energy_loss(v)
+        elif treatment == "transformed":
+            per = 2.0 * (1.0 - w.restitution(v)) * K
+        elif treatment == "compounded":
+            per = -np.log(w.restitution(v) ** 2) * K
+        else:
+            one_of("impact", treatment, IMPACT_LAWS)  # raises: a treatment without a branch
+        loss = loss - np.where(reached(A, w), per / T, 0.0)
+    return loss
