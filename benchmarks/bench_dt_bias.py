@@ -88,7 +88,7 @@ def measure(name: str) -> dict:
     a_hi = float(ea[-1])
     vmax = math.sqrt(2 * sum(c * a_hi ** (2 * i + 2) / (2 * i + 2)
                               for i, c in enumerate(_spring(phys))))
-    edges = {"edges_A": ea, "edges_x": np.linspace(0.0 if phys["r"] is not None else -a_hi,
+    edges = {"edges_A": ea, "edges_x": np.linspace(0.0 if phys["lower"] is not None else -a_hi,
                                                    a_hi, ea.size),
              "edges_v": np.linspace(-vmax, vmax, ea.size)}
     runs = {H_REF: [first] + [run(sc, H_REF, s, edges) for s in SEEDS[1:]]}

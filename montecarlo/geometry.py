@@ -152,16 +152,21 @@ def orbit_point(A, w0sq, alpha, khi, s0, s1, s2, s3):
 
 
 @jit
-def orbit_start(A, w0sq, alpha, khi, barrier, xi_sd, s0, s1, s2, s3):
+def orbit_start(A, w0sq, alpha, khi, fold, lo, up, xi_sd, s0, s1, s2, s3):
     """(x, v, xi, generator state): a start on the conservative orbit of amplitude A at a
-    phase uniform IN TIME (``orbit_point``), folded onto x >= 0 with the barrier (the elastic
-    impacting orbit of amplitude A is the fold of the free one: x = |y|, v = y' sgn(y), the
-    same time spent at each |y|), and xi from the stationary OU law N(0, D / alpha1)
-    (``xi_sd`` = sqrt(D / alpha1); 0 for white noise: no normal is drawn)."""
+    phase uniform IN TIME (``orbit_point``), on the elastic impacting orbit when walls keep x
+    in [lo, up] (lo = -inf, up = inf without): with ``fold`` (one wall at 0) folded onto
+    x >= 0 (that orbit is the fold of the free one: x = |y|, v = y' sgn(y), the same time
+    spent at each |y|), else the free orbit's points outside [lo, up] rejected (the elastic
+    orbit truncated at the walls spends the free orbit's time at each x inside: the free law
+    conditioned on [lo, up]); and xi from the noise state's stationary law (``xi_sd``; 0: no
+    normal is drawn)."""
     y, yp, s0, s1, s2, s3 = orbit_point(A, w0sq, alpha, khi, s0, s1, s2, s3)
-    if barrier and y < 0.0:
+    if fold and y < 0.0:
         y = -y
         yp = -yp
+    while y < lo or y > up:  # lo <= 0 <= up: the orbit passes inside, so this ends
+        y, yp, s0, s1, s2, s3 = orbit_point(A, w0sq, alpha, khi, s0, s1, s2, s3)
     xi = 0.0
     if xi_sd > 0.0:
         z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)

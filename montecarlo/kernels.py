@@ -3,17 +3,25 @@
     x'' + (c2 x^2 - c1) x' + w0^2 x + alpha x^3 + mu sgn(x') = f xi(t),   x > 0
     x'(+) = -r x'(-) at x = 0;   xi' = -alpha1 xi + W (OU)  or  xi = W (white), E[W W] = 2 D delta
 
+and its generalisation (issue 37): walls anywhere, a lower wall at x = a <= 0 and/or an upper
+wall at x = b >= 0, each with its impact law x'(+) = -e(|x'(-)|) x'(-) (vifpk/physics/impact/:
+Newton's e = r, Johnson's elastic-plastic e(v)); the noise kind's stage and state update are
+its own pieces (vifpk/physics/noise/, compiled by montecarlo/pieces.py). Every kernel takes one
+physics record (pieces.record); the walls' laws and the noise kind are its class.
+
 One step of size h is the Strang splitting (weak order 2 on the smooth sub-system)::
 
     OU:    A(h/2)  B(h; xi)                     A(h/2)  C(h)
     white: A(h/2)  B(h/2)  kick f sqrt(2 D h) N  B(h/2)  A(h/2)
 
-- A(tau), drift: x += v tau. With the barrier the root of x = 0 inside the sub-step is exact
-  (x is linear there): v -> -r v and the rest of the sub-step is completed.
-  Chatter guard: if the rebound speed r|v| is below P h, with P > 0 the net force pressing
-  the mass back onto the wall (f xi at the wall, plus friction mu against the rebound),
-  the next flight is shorter than one step: the mass comes to rest at x = 0, v = 0. It
-  leaves when the net force pulls it away by more than mu (the rule of B at the wall).
+- A(tau), drift: x += v tau. With a wall the root of x = a (or b) inside the sub-step is
+  exact (x is linear there): v -> -e v and the rest of the sub-step is completed (pieces.py:
+  ``wall_drift``, ``reflect``; one impact per drift sub-step).
+  Chatter guard: if the rebound speed e|v| is below P h, with P > 0 the net force pressing
+  the mass back onto the wall (the spring's g(a) and the noise force held at the wall, plus
+  friction mu against the rebound), the next flight is shorter than one step: the mass comes
+  to rest on the wall, v = 0. It leaves when the net force pulls it away by more than mu (the
+  rule of B at the wall).
 - B(tau), velocity: x and xi frozen, v' = F - k v - mu sgn(v) with F = -g(x) + f xi,
   k = c2 x^2 - c1. Linear in v between sign changes, so solved exactly:
   v(t) = v e^{-kt} + (F - mu s) t phi(kt), phi(z) = (1 - e^{-z}) / z. A zero crossing at
@@ -46,7 +54,15 @@ from numba import prange
 
 from ._jit import jit
 from .geometry import amplitude_general, poly_x2
-from .pieces import noise_advance, noise_energy, noise_press, noise_velocity
+from .pieces import (
+    noise_advance,
+    noise_energy,
+    noise_press,
+    noise_velocity,
+    wall_drift,
+    wall_side,
+)
+from .rng import normal
 
 # columns of the per-block event array (whole numbers: counts; EV_TIME the sampled path-steps,
 # times h is the sampled path-time; EV_STUCK filled by the caller from the per-path stuck_time)
@@ -84,15 +100,16 @@ def exp_phi(z: float) -> tuple[float, float]:
 
 
 @jit
-def holds(F: float, mu: float, at_wall: bool) -> bool:
-    """Static friction (and the wall) hold a mass at rest under the net force F."""
-    if at_wall:
-        return F <= mu
+def holds(F: float, mu: float, at_wall: int) -> bool:
+    """Static friction (and the wall) hold a mass at rest under the net force F; ``at_wall``
+    1 on the lower wall (held while F <= mu), -1 on the upper (while -F <= mu), 0 off."""
+    if at_wall != 0:
+        return at_wall * F <= mu
     return abs(F) <= mu
 
 
 @jit
-def velocity_flow(v: float, tau: float, F: float, k: float, mu, at_wall: bool):
+def velocity_flow(v: float, tau: float, F: float, k: float, mu, at_wall: int):
     """Exact v after tau under v' = F - k v - mu sgn(v) (x, xi frozen); (v, time stuck)."""
     if mu is None:
         e, phi = exp_phi(k * tau)
@@ -124,32 +141,6 @@ def velocity_flow(v: float, tau: float, F: float, k: float, mu, at_wall: bool):
     s2 = 1.0 if F > 0.0 else -1.0
     e, phi = exp_phi(k * rest)
     return (F - mu * s2) * rest * phi, 0.0
-
-
-@jit
-def drift(x: float, v: float, tau: float, r, press: float, h: float):
-    """x += v tau with the barrier; returns (x, v, impacts, chatter entries)."""
-    xn = x + v * tau
-    if r is None:
-        return xn, v, 0, 0
-    if xn >= 0.0:
-        return xn, v, 0, 0
-    t_hit = -x / v
-    w = -r * v
-    if press > 0.0 and w < press * h:
-        return 0.0, 0.0, 1, 1
-    return w * (tau - t_hit), w, 1, 0
-
-
-@jit(inline="always")
-def impact_loss(v_before: float, impacts: int, chatter: int, r: float) -> float:
-    """Kinetic energy lost in one drift sub-flow: (1 - r^2) v^2 / 2 at an impact, all of
-    v^2 / 2 when the chatter guard rests the mass (the limit of the Zeno sequence)."""
-    if impacts == 0:
-        return 0.0
-    if chatter:
-        return 0.5 * v_before * v_before
-    return 0.5 * (1.0 - r * r) * v_before * v_before
 
 
 @jit
@@ -195,22 +186,52 @@ def damping_k(x, c1, c2, dhi):
 
 
 @jit
-def wall_press(r, mu, pn):
-    """The net force pressing the mass onto the wall (chatter guard): the noise's plus the
-    friction's; 0 without a wall."""
-    if r is None:
+def wall_press(at, g_at, sign, mu, pn):
+    """The net force pressing the mass onto the wall at ``at`` (the chatter guard's P):
+    sign (pn + g(at)) with pn the noise piece's (minus the noise force held), sign 1 for the
+    lower wall, -1 for the upper, plus the friction against the rebound; 0 without the wall."""
+    if at is None:
         return 0.0
     if mu is not None:
-        return pn + mu
-    return pn
+        return sign * (pn + g_at) + mu
+    return sign * (pn + g_at)
+
+
+#: declared weak order of the scheme with parametric noise, no wall and no friction (measured
+#: in tests/test_parametric_mc.py on a linear oscillator's stationary second moments): the
+#: step is a symmetric (Strang) composition of exactly solved sub-flows, A(h/2) P(h/2) B..
+#: P'(h/2) A(h/2), P' the parts of P in the reverse order.
+WEAK_ORDER_PARAMETRIC = 2
 
 
 @jit
-def resting(r, x):
-    """The mass is on the wall (x == 0 exactly; never without a wall)."""
-    if r is None:
-        return False
-    return x == 0.0
+def parametric(v, g, k, pk, pc, s0, s1, s2, s3):
+    """The parametric sub-flow P(h/2) (x frozen): the Stratonovich SDE dv = -g(x) sqrt(2 D_k)
+    o dW_k - k(x) v sqrt(2 D_c) o dW_c over h/2, its two parts solved exactly in turn: the
+    damping noise's flow, linear in v, v e^{-k sqrt(2 D_c h/2) N'} (pc = sqrt(D_c h)), then
+    the spring noise's, additive while x is frozen, v - g sqrt(2 D_k h/2) N (pk = sqrt(D_k
+    h)). Returns (v, the change of v^2/2: the work of the parametric noises, generator)."""
+    w = v
+    if pc is not None:
+        z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
+        w = w * math.exp(-k * pc * z)
+    if pk is not None:
+        z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
+        w = w - g * pk * z
+    return w, 0.5 * (w * w - v * v), s0, s1, s2, s3
+
+
+@jit
+def parametric_back(v, g, k, pk, pc, s0, s1, s2, s3):
+    """P(h/2) with its two parts in the reverse order (the step stays symmetric)."""
+    w = v
+    if pk is not None:
+        z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
+        w = w - g * pk * z
+    if pc is not None:
+        z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
+        w = w * math.exp(-k * pc * z)
+    return w, 0.5 * (w * w - v * v), s0, s1, s2, s3
 
 
 @jit
@@ -222,14 +243,6 @@ def decay(v, tau, ev):
     return w, 0.5 * (v * v - w * w)
 
 
-@jit
-def wall_loss(r, v_before, impacts, chatter):
-    """impact_loss with a wall, 0 without."""
-    if r is None:
-        return 0.0
-    return impact_loss(v_before, impacts, chatter, r)
-
-
 @jit(inline="always")
 def _step(x, v, xi, s0, s1, s2, s3, h, half, P):
     """One step of one path (the splitting of the module docstring) with the physics record P
@@ -237,23 +250,28 @@ def _step(x, v, xi, s0, s1, s2, s3, h, half, P):
     (impacts and chatter entries of the two drifts, time stuck, k, the velocities between the
     sub-flows, the xi used, the kinetic energy removed by the two velocity-damping sub-flows).
     The noise's stage B and state update are its kind's pieces (pieces.py)."""
-    press = wall_press(P.r, P.mu, noise_press(P, xi))
+    pn = noise_press(P, xi)
+    p_lo = wall_press(P.lo, P.lo_g, 1.0, P.mu, pn)
+    p_up = wall_press(P.up, P.up_g, -1.0, P.mu, pn)
     va = v
-    x, v, imp1, ch1 = drift(x, v, half, P.r, press, h)
-    at_wall = resting(P.r, x)
+    x, v, imp1, ch1, loss1 = wall_drift(P, x, v, half, p_lo, p_up, h)
+    at_wall = wall_side(P, x)
     k = damping_k(x, P.c1, P.c2, P.dhi)
     g = spring_g(x, P.w0sq, P.alpha, P.khi)
     v, dv1 = decay(v, half, P.ev)
+    v, wp1, s0, s1, s2, s3 = parametric(v, g, k, P.pk, P.pc, s0, s1, s2, s3)
     vb = v
     v, stuck, vc, vk, vd, s0, s1, s2, s3 = noise_velocity(P, v, xi, g, k, P.mu, at_wall,
                                                           h, half, s0, s1, s2, s3)
+    v, wp2, s0, s1, s2, s3 = parametric_back(v, g, k, P.pk, P.pc, s0, s1, s2, s3)
     v, dv2 = decay(v, half, P.ev)
     ve = v
-    x, v, imp2, ch2 = drift(x, v, half, P.r, press, h)
+    x, v, imp2, ch2, loss2 = wall_drift(P, x, v, half, p_lo, p_up, h)
     xi_used = xi
     xi, s0, s1, s2, s3 = noise_advance(P, xi, s0, s1, s2, s3)
     return (x, v, xi, s0, s1, s2, s3,
-            (imp1, ch1, imp2, ch2, stuck, k, va, vb, vc, vk, vd, ve, xi_used, dv1, dv2))
+            (imp1, ch1, imp2, ch2, stuck, k, va, vb, vc, vk, vd, ve, xi_used, dv1, dv2, loss1,
+             loss2, wp1 + wp2))
 
 
 @jit(parallel=True)
@@ -388,17 +406,19 @@ def _block(b, rng, state, n_steps, step0, n_burn, stride, h, P, bins, out, spw):
                 else:
                     x, v, o = x3, v3, o3
                 if with_energy:
-                    imp1, ch1, imp2, ch2, st, k, va, vb, vc, vk, vd, ve, xi_used, dv1, dv2 = o
+                    (imp1, ch1, imp2, ch2, st, k, va, vb, vc, vk, vd, ve, xi_used, dv1, dv2,
+                     loss1, loss2, wpar) = o
                     # (a switched-off effect adds +0.0: the sums are unchanged, bit for bit)
                     energy[b, p, EN_DAMP] += dv1
                     energy[b, p, EN_DAMP] += dv2
                     e_in, e_damp, e_fric = noise_energy(P, h, half, k, P.mu, vb, vc, vk,
                                                         vd, ve, xi_used)
                     energy[b, p, EN_INPUT] += e_in
+                    energy[b, p, EN_INPUT] += wpar  # the parametric noises' work (0: off)
                     energy[b, p, EN_DAMP] += e_damp
                     energy[b, p, EN_FRICTION] += e_fric
-                    energy[b, p, EN_IMPACT] += wall_loss(P.r, va, imp1, ch1)
-                    energy[b, p, EN_IMPACT] += wall_loss(P.r, ve, imp2, ch2)
+                    energy[b, p, EN_IMPACT] += loss1  # each wall's loss by its own law
+                    energy[b, p, EN_IMPACT] += loss2
                 if not sample:
                     continue
                 events[b, EV_SAMPLES] += 1.0

@@ -60,7 +60,16 @@ from vifpk.core.result import BadInput, Result, Status
 from ._jit import jit
 from .geometry import amplitudes, energy, orbit_start, potential
 from .kernels import _step
-from .plan import MIN_AUTO_BURN_IN, SCALE_SAMPLE_EVERY, noise_piece, physics, record
+from .pieces import record
+from .plan import (
+    MIN_AUTO_BURN_IN,
+    SCALE_SAMPLE_EVERY,
+    bounds,
+    fold,
+    noise_piece,
+    physics,
+    refuse_parametric,
+)
 from .rng import uniform
 from .simulate import (
     CHUNK_SECONDS,
@@ -142,7 +151,6 @@ def _passage_block(b, arrs, n_paths, run, h, P):
     budget, n_max, n_burn, horizon, Ec, a_start, a_burn, max_tries = run
     w0sq, alpha, khi, xi_sd = P.w0sq, P.alpha, P.khi, P.xi_sd
     half = 0.5 * h
-    barrier = P.r is not None
     for p in range(n_paths):
         ph = phase[b, p]
         if ph >= CROSSED:
@@ -154,8 +162,8 @@ def _passage_block(b, arrs, n_paths, run, h, P):
         while left > 0:
             if ph == NEW:
                 amp = a_burn if n_burn > 0 else a_start
-                x, v, xi, s0, s1, s2, s3 = orbit_start(amp, w0sq, alpha, khi, barrier, xi_sd,
-                                                       s0, s1, s2, s3)
+                x, v, xi, s0, s1, s2, s3 = orbit_start(amp, w0sq, alpha, khi, P.fold, P.x_lo,
+                                                       P.x_hi, xi_sd, s0, s1, s2, s3)
                 n = 0
                 ph = BURN if n_burn > 0 else RUN
                 if ph == RUN:
@@ -285,21 +293,23 @@ def sample_starts(system: Any, noise: Any, *, amplitude: float, n: int, seed: in
     out = np.empty((n, 3))
     xi_sd = noise_piece(phys, "start_sd") or 0.0
     _starts_loop(rng, out, float(amplitude), phys["w0sq"], phys["alpha"], phys["khi"],
-                 phys["r"] is not None, xi_sd)
+                 (fold(phys), *bounds(phys)), xi_sd)
     return out
 
 
 @jit
-def _starts_loop(rng, out, A, w0sq, alpha, khi, barrier, xi_sd):
+def _starts_loop(rng, out, A, w0sq, alpha, khi, walls, xi_sd):
+    """out[i] = orbit_start(A, ...) with path i's generator words; walls = (fold, lo, up)."""
+    fold_, lo, up = walls
     for i in range(out.shape[0]):
-        x, v, xi, s0, s1, s2, s3 = orbit_start(A, w0sq, alpha, khi, barrier, xi_sd,
+        x, v, xi, s0, s1, s2, s3 = orbit_start(A, w0sq, alpha, khi, fold_, lo, up, xi_sd,
                                                rng[i, 0], rng[i, 1], rng[i, 2], rng[i, 3])
         out[i, 0], out[i, 1], out[i, 2] = x, v, xi
         rng[i, 0], rng[i, 1], rng[i, 2], rng[i, 3] = s0, s1, s2, s3
 
 
 def first_passage(system: Any, noise: Any, settings: PassageSettings, *, threshold: float,
-                  start: float | str) -> Result:
+                  start: float | str, parametric: Any = None) -> Result:
     """First passage of the energy through U(threshold) (see the module docstring).
 
     data["fpt"] = {"time": float64[paths] (the horizon where censored), "censored":
@@ -308,6 +318,7 @@ def first_passage(system: Any, noise: Any, settings: PassageSettings, *, thresho
     Raises BadInput (one line) on settings or a start it cannot use, SimulationDiverged on a
     non-finite state, StartRejected when "stationary" cannot place a path below Ac."""
     st = settings
+    refuse_parametric(parametric, "Monte Carlo first passage")
     check_settings(st)
     _check_threshold(threshold, start)
     phys = physics(system, noise)

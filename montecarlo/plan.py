@@ -22,10 +22,13 @@ from typing import Any
 import numpy as np
 
 from vifpk.core.registry import NOISE_KINDS, one_of
+from vifpk.core.result import BadInput
+from vifpk.core.walls import Wall
 from vifpk.physics import noise as noise_kinds
 
-from .pieces import BASE_FIELDS, SOLVER, make_record
 from .tuning import auto_dt
+
+SOLVER = "montecarlo"  # the solver's name in vifpk.physics' registries
 
 WINDOWS = 16  # at least 16 sampled windows (the certificate's draws along each path)
 SCALE_BLOCKS, SCALE_PER_BLOCK = 8, 4
@@ -61,10 +64,11 @@ def _laws(system: Any) -> tuple[tuple[float, ...], tuple[float, ...], tuple[floa
     return trim(k, 2), trim(d, 2), trim(e, 0)
 
 
-def physics(system: Any, noise: Any) -> dict[str, Any]:
-    """The physics of (duck-typed) scene.system and scene.noise, on the Python side; a
-    switched-off effect is None. ``record(phys, h)`` makes the kernels' record of it. An unknown
-    noise kind, or one without Monte Carlo pieces (vifpk.physics.noise), raises in one line."""
+def physics(system: Any, noise: Any, parametric: Any = None) -> dict[str, Any]:
+    """The physics of (duck-typed) scene.system, scene.noise and scene.parametric (None: off),
+    on the Python side; a switched-off effect is None (a parametric intensity 0 too).
+    ``pieces.record(phys, h)`` makes the kernels' record of it. An unknown noise kind, or one
+    without Monte Carlo pieces (vifpk.physics.noise), raises in one line."""
     one_of("noise kind", noise.kind, NOISE_KINDS)
     noise_kinds.piece(noise.kind, SOLVER, "record")  # NoPiece: one line naming kind and solver
     k, d, e = _laws(system)
@@ -75,9 +79,47 @@ def physics(system: Any, noise: Any) -> dict[str, Any]:
         "ev": np.array(e) if e else None,
         "f": float(system.f), "D": float(noise.D),
         "mu": float(system.mu) if system.mu > 0 else None,
-        "r": float(system.r) if getattr(system, "barrier", True) else None,
+        **dict(zip(("lower", "upper"), walls(system), strict=True)),
         "noise": noise,
+        # Stratonovich parametric white noises: D_k on the spring, D_c on the damping
+        "D_k": float(parametric.stiffness) or None if parametric is not None else None,
+        "D_c": float(parametric.damping) or None if parametric is not None else None,
     }
+
+
+def refuse_parametric(parametric: Any, solver: str) -> None:
+    """One line (BadInput) when ``solver`` is given a parametric noise it does not handle."""
+    if parametric is not None and (parametric.stiffness > 0 or parametric.damping > 0):
+        raise BadInput(f"parametric noise (parametric.stiffness, parametric.damping): the "
+                       f"{solver} does not handle it (its crossing correction assumes an "
+                       "additive noise); allowed there: 0")
+
+
+def walls(system: Any) -> tuple[Wall | None, Wall | None]:
+    """(lower, upper) walls of (duck-typed) scene.system: its ``walls`` (vifpk.core.walls.Wall,
+    lower first), or for a system without them the old spelling: a lower wall at 0 with
+    Newton's law and restitution ``r`` when ``barrier`` (default true)."""
+    ws = getattr(system, "walls", None)
+    if ws is None:
+        ws = (Wall(side="lower", at=0.0, r=float(system.r)),) \
+            if getattr(system, "barrier", True) else ()
+    out: dict[str, Wall | None] = {"lower": None, "upper": None}
+    for w in ws:
+        out[w.side] = w
+    return out["lower"], out["upper"]
+
+
+def bounds(phys: dict[str, Any]) -> tuple[float, float]:
+    """[a, b]: where the walls keep x (-inf, inf without)."""
+    lo, up = phys["lower"], phys["upper"]
+    return (float(lo.at) if lo is not None else -math.inf,
+            float(up.at) if up is not None else math.inf)
+
+
+def fold(phys: dict[str, Any]) -> bool:
+    """Orbit starts fold y -> |y| (exact when one wall keeps x >= 0: the elastic impacting
+    orbit is the fold of the free one); otherwise they reject points outside the walls."""
+    return phys["lower"] is not None and phys["lower"].at == 0.0 and phys["upper"] is None
 
 
 def noise_piece(phys: dict[str, Any], name: str) -> Any:
@@ -85,16 +127,6 @@ def noise_piece(phys: dict[str, Any], name: str) -> Any:
     them (start_sd: noise only)."""
     fn = noise_kinds.piece(phys["noise"].kind, SOLVER, name)
     return fn(phys["noise"]) if name == "start_sd" else fn(phys["noise"], phys["f"])
-
-
-def record(phys: dict[str, Any], h: float) -> Any:
-    """The kernels' one physics record for step h (pieces.BASE_FIELDS, then the noise kind's
-    coefficients from its module): a flat named tuple whose class is the noise kind's."""
-    base = {k: phys[k] for k in ("c1", "c2", "w0sq", "alpha", "f", "mu", "r", "khi", "dhi",
-                                 "ev")}
-    base["bridge"] = noise_piece(phys, "bridge") or None  # 0 (no noise): E is C^1
-    base["xi_sd"] = noise_piece(phys, "start_sd") or 0.0
-    return make_record(phys["noise"], tuple(base[k] for k in BASE_FIELDS), h)
 
 
 def step_size(dt: float | str, target: float, phys: dict[str, Any], sample_every: float,
@@ -160,7 +192,7 @@ def plan(system: Any, noise: Any, mc: Any) -> Plan:
     half of ``time``, so ``path_steps`` counts half of it; a burn-in "auto" counts at its
     minimum, MIN_AUTO_BURN_IN."""
     target = float(mc.floor) if mc.floor else 0.0
-    h = step_size(mc.dt, target, physics(system, noise), mc.sample_every)
+    h = step_size(mc.dt, target, physics(system, noise), mc.sample_every)  # (no parametric)
     stride, spw, n_win = sampling_plan(mc.time, mc.sample_every, h, target)
     interval = stride * h
 

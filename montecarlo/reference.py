@@ -5,7 +5,9 @@ in one run) and for correctness (tests/test_montecarlo.py checks that both give 
 statistics). Same physics, same rules (impacts, chatter guard, stick-slip); NumPy's own
 random numbers, so results agree in distribution, not bit for bit. It is an independent
 check: it does not use the noise kinds' compiled pieces (vifpk.physics.noise), but its own
-NumPy version of each kind it knows (``_NOISES``); another kind raises in one line.
+NumPy version of each kind it knows (``_NOISES``); another kind raises in one line. Likewise
+its reflection (``_drift``) is its own copy of the paper's wall (x = 0, Newton's law), an
+independent check of montecarlo/pieces.py's ``reflect``; other walls raise.
 """
 
 from __future__ import annotations
@@ -115,9 +117,13 @@ def simulate_numpy(phys: dict[str, Any], *, paths: int, steps: int, burn: int, s
     """Histogram of A (counts), impacts and stuck time, for ``paths`` paths of ``steps``."""
     rng = np.random.default_rng(seed)
     c1, c2, w0sq, alpha, f = (phys[k] for k in ("c1", "c2", "w0sq", "alpha", "f"))
-    mu, r, kind = phys["mu"], phys["r"], phys["noise"].kind
+    mu, kind, lo = phys["mu"], phys["noise"].kind, phys["lower"]
     if kind not in _NOISES:
         raise ValueError(f"noise kind {kind!r} has no NumPy reference (montecarlo.reference)")
+    if phys["upper"] is not None or (lo is not None and (lo.at != 0.0 or lo.law != "newton")):
+        raise ValueError("walls other than one at x = 0 with Newton's law have no NumPy "
+                         "reference (montecarlo.reference)")
+    r = lo.r if lo is not None else None
     x = 0.1 * rng.standard_normal(paths)
     if r is not None:
         x = np.abs(x)

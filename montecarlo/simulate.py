@@ -39,6 +39,7 @@ from vifpk.core.scene import energy_balance
 from . import kernels as K
 from .certificate import certificate
 from .checkpoint import Checkpoint, run_key
+from .pieces import record
 from .plan import (
     MIN_AUTO_BURN_IN,
     RELAX_MAX_TIME,
@@ -50,8 +51,9 @@ from .plan import (
     SCALE_PER_BLOCK,
     SCALE_SAMPLE_EVERY,
     SCALE_SAMPLES,
+    bounds,
+    fold,
     noise_piece,
-    record,
     sampling_plan,
     step_size,
 )
@@ -143,7 +145,7 @@ def _potential(x: Any, phys: dict[str, Any]) -> Any:
 
 def effects(system: Any, noise: Any) -> dict[str, bool | str]:
     p = _params(system, noise)
-    return {"friction": p["mu"] is not None, "barrier": p["r"] is not None,
+    return {"friction": p["mu"] is not None, "barrier": p["lower"] is not None,
             "noise": p["noise"].kind}
 
 
@@ -285,8 +287,9 @@ def _starts(amplitudes: np.ndarray, phys: dict[str, Any], gen: np.random.Generat
     th = gen.uniform(0.0, 2 * math.pi, amplitudes.shape)
     x = amplitudes * np.cos(th)
     v = -np.sign(np.sin(th)) * np.sqrt(np.maximum(2 * (U(amplitudes) - U(x)), 0.0))
-    if phys["r"] is not None:
+    if fold(phys):
         x = np.abs(x)
+    x = np.clip(x, *bounds(phys))  # other walls: a pilot's start inside them (burnt in)
     xi = np.zeros_like(x)
     sd = noise_piece(phys, "start_sd")  # None: the noise kind has no state
     if sd is not None:
@@ -375,8 +378,10 @@ def _floor_A(arr: _Arrays) -> float:
                     np.diff(e))["L1_floor"]
 
 
-def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> Result:
-    """Monte Carlo of the original system for (duck-typed) scene.system and scene.noise.
+def simulate(system: Any, noise: Any, settings: Settings, *, parametric: Any = None,
+             **overrides: Any) -> Result:
+    """Monte Carlo of the original system for (duck-typed) scene.system, scene.noise and
+    scene.parametric (``parametric``: None, or its stiffness and damping intensities).
 
     Raises ValueError on settings it cannot use (a ``resume`` checkpoint of another run among
     them), SimulationDiverged when the run blows up and BudgetExhausted when a target floor's
@@ -394,7 +399,7 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
     target = float(st.floor) if st.floor else 0.0
     if target > 0 and "A" not in obs:
         obs = ("A", *obs)
-    phys = _params(system, noise)
+    phys = _params(system, noise, parametric)
     h = ck.h if ck is not None else step_size(st.dt, target, phys, st.sample_every)
     if not (math.isfinite(h) and h > 0 and st.paths >= st.blocks >= 2):
         raise ValueError("need dt > 0 and paths >= blocks >= 2")
@@ -453,8 +458,9 @@ def simulate(system: Any, noise: Any, settings: Settings, **overrides: Any) -> R
                     raise _diverged(h, f"the pilot reached amplitude {a_hi:.3g}, whose energy "
                                     "overflows double precision", step.cause)
                 edges = {"edges_A": np.linspace(0.0, a_hi, st.bins + 1),
-                         "edges_x": np.linspace(0.0 if phys["r"] is not None else -a_hi, a_hi,
-                                                st.bins + 1),
+                         # x1 lives on [a, b] (the walls), within the pilot's reach
+                         "edges_x": np.linspace(max(-a_hi, bounds(phys)[0]),
+                                                min(a_hi, bounds(phys)[1]), st.bins + 1),
                          "edges_v": np.linspace(-vmax, vmax, st.bins + 1)}
             relax = None
             if st.burn_in == "auto":
@@ -747,7 +753,8 @@ def _events(events: np.ndarray, sim_time: np.ndarray, samples: np.ndarray, h: fl
         "chatter_cutoff": {
             "rule": "after an impact the mass rests on the wall when its rebound speed r|v| is "
                     "below P dt, P = mu - f xi > 0 the net force pressing it back (the next "
-                    "flight would be shorter than one step)",
+                    "flight would be shorter than one step; at a wall at x = a != 0 the "
+                    "spring's force -g(a) counts too, and r is the law's e(|v|))",
             "dt": h,
             "note": "in chattering motion the impact rate depends on this cut-off"},
         "outside_fraction": {k: float(events[:, c].sum() / samples.sum()) for k, c in

@@ -53,7 +53,8 @@ from vifpk.core.result import BadInput, Result, Status
 from . import splitting_kernels as SK
 from .averaged_sde import sde_tables
 from .geometry import potential
-from .plan import physics, record
+from .pieces import record
+from .plan import bounds, fold, physics, refuse_parametric
 
 KEY_START, KEY_CLONE, KEY_PICK, KEY_DIRECT = 0, 1, 2, 3  # spawn_key roots of the streams
 
@@ -474,7 +475,7 @@ class _Original:
         ph = self.phys
         out = np.zeros((n, 5))
         SK.orbit_starts(float(A), out, _words(seed, (KEY_START + 100, key), n), ph["w0sq"],
-                        ph["alpha"], ph["khi"], ph["r"] is not None, self.rec.xi_sd)
+                        ph["alpha"], ph["khi"], (fold(ph), *bounds(ph)), self.rec.xi_sd)
         return out
 
     def advance(self, q_lo: float, q_hi: float, M: int, t_max: float) -> Callable[..., None]:
@@ -494,7 +495,7 @@ class _Original:
 
 def passage_splitting(system: Any, noise: Any, settings: SplittingSettings, *,
                       threshold: float, start: float | str, low: float, entry: float,
-                      burn_in: float = 0.0) -> Result:
+                      burn_in: float = 0.0, parametric: Any = None) -> Result:
     """MFPT of the ORIGINAL system from a start at amplitude ``start`` (energy U(start), phase
     uniform in time on that conservative orbit, xi from its stationary law), or "stationary"
     (the stationary law restricted below the threshold: ``burn_in`` > 0 time units of free
@@ -505,6 +506,7 @@ def passage_splitting(system: Any, noise: Any, settings: SplittingSettings, *,
     numbers for any thread count (every path and every clone has its own stream).
     data["mfpt"] = info["mfpt"] = {"value", "stderr", "ci", "level", "replicas",
     "mean_cycle", "mean_warm_up", "warm_up_hits", "p": {...}} (time units)."""
+    refuse_parametric(parametric, "Monte Carlo splitting")
     stationary = start == "stationary"
     if stationary and not burn_in > 0:
         raise ValueError("start 'stationary' needs burn_in > 0 (time units)")

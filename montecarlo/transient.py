@@ -30,7 +30,7 @@ from vifpk.core.result import BadInput, Result, Status
 
 from .geometry import amplitudes
 from .passage import PassageSettings, _starts_loop, check_settings, layout
-from .plan import noise_piece, physics
+from .plan import bounds, fold, noise_piece, physics
 from .simulate import _DUMMY, _arrays, _growth, _progress, _Stepper, block_seeds, effects
 
 EDGE_KEYS = {"A": "edges_A", "x1": "edges_x", "x2": "edges_v"}
@@ -50,7 +50,7 @@ def _edges(edges: dict[str, Any]) -> dict[str, np.ndarray]:
 
 
 def snapshots(system: Any, noise: Any, settings: PassageSettings, *, start: float,
-              times: Sequence[float], edges: dict[str, Any]) -> Result:
+              times: Sequence[float], edges: dict[str, Any], parametric: Any = None) -> Result:
     """data["snapshots"] = {"t": float[n], "A" | "x1" | "x2": {"edges", "x" (centres),
     "p": float[n, bins], "err": float[n, bins]}} (x2 also "atom_weight", "atom_err":
     float[n]); settings.horizon is not used (the last time is the end)."""
@@ -63,7 +63,7 @@ def snapshots(system: Any, noise: Any, settings: PassageSettings, *, start: floa
             and np.all(t_req >= 0) and np.all(np.diff(t_req) > 0)):
         raise BadInput("times must be finite, >= 0 and increasing")
     ed = _edges(edges)
-    phys = physics(system, noise)
+    phys = physics(system, noise, parametric)
     h = float(st.dt)
     marks = np.round(t_req / h).astype(np.int64)
     if np.any(np.abs(marks * h - t_req) > 1e-9 * t_req) \
@@ -81,7 +81,7 @@ def snapshots(system: Any, noise: Any, settings: PassageSettings, *, start: floa
     xi_sd = noise_piece(phys, "start_sd") or 0.0
     flat_rng = rng.reshape(-1, 4)  # a view: the starts advance each path's own stream
     _starts_loop(flat_rng, state.reshape(-1, 3), float(start), phys["w0sq"], phys["alpha"],
-                 phys["khi"], phys["r"] is not None, xi_sd)
+                 phys["khi"], (fold(phys), *bounds(phys)), xi_sd)
     arr = _arrays(rng, state, _DUMMY, ())
     never = np.iinfo(np.int64).max // 2  # a burn-in never reached: nothing is sampled
     bar = _progress(st.progress, total=float(st.blocks * per * max(marks[-1], 1)),

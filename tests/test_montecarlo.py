@@ -104,23 +104,34 @@ def test_stick_slip_rules():
     # at the wall the wall holds any pressing force; only a pull > mu frees the mass
     assert K.velocity_flow(0.0, 0.05, -5.0, 0.0, mu, True) == (0.0, 0.05)
     assert K.velocity_flow(0.0, 0.05, 0.5, 0.0, mu, True)[0] > 0
+    # on the upper wall (at_wall = -1) the mirror image: a push up is held, a pull down frees
+    assert K.velocity_flow(0.0, 0.05, 5.0, 0.0, mu, -1) == (0.0, 0.05)
+    assert K.velocity_flow(0.0, 0.05, -0.5, 0.0, mu, -1)[0] < 0
 
 
 def test_impact_energy_loss_is_one_minus_r_squared():
+    from vifpk.montecarlo.pieces import reflect
+
     for r in (1.0, 0.96, 0.5):
-        x0, v0, tau = 0.01, -1.0, 0.05
-        x, v, imp, chatter = K.drift(x0, v0, tau, r, 0.0, tau)
-        assert imp == 1 and chatter == 0
-        # at the wall U(0) = 0: E = v^2/2 before and after
-        assert 0.5 * v * v == pytest.approx(r * r * 0.5 * v0 * v0, rel=1e-14)
-        assert x == pytest.approx(r * abs(v0) * (tau - x0 / abs(v0)), rel=1e-14)
+        for at, x0, v0 in ((0.0, 0.01, -1.0), (-0.3, -0.29, -1.0), (0.4, 0.39, 1.0)):
+            tau = 0.05
+            x, v, imp, chatter, loss = reflect(x0, v0, tau, at, r, 0.0, tau)
+            assert imp == 1 and chatter == 0
+            # E = v^2/2 + U(at) before and after: the kinetic energy lost is (1 - r^2) v^2 / 2
+            assert 0.5 * v * v == pytest.approx(r * r * 0.5 * v0 * v0, rel=1e-14)
+            assert loss == pytest.approx(0.5 * v0 * v0 - 0.5 * v * v, rel=1e-12, abs=1e-15)
+            assert x == pytest.approx(at - r * v0 * (tau - (at - x0) / v0), rel=1e-14)
 
 
 def test_chatter_guard_rests_the_mass():
-    x, v, imp, chatter = K.drift(1e-7, -1e-4, 0.005, 0.5, 1.0, 0.01)
-    assert (x, v, imp, chatter) == (0.0, 0.0, 1, 1)
-    x, v, imp, chatter = K.drift(1e-7, -1e-4, 0.005, 0.5, -1.0, 0.01)  # pulled away: bounce
+    from vifpk.montecarlo.pieces import reflect
+
+    x, v, imp, chatter, loss = reflect(1e-7, -1e-4, 0.005, 0.0, 0.5, 1.0, 0.01)
+    assert (x, v, imp, chatter) == (0.0, 0.0, 1, 1) and loss == 0.5 * 1e-8
+    x, v, imp, chatter, _ = reflect(1e-7, -1e-4, 0.005, 0.0, 0.5, -1.0, 0.01)  # pulled away
     assert chatter == 0 and v > 0
+    x, v, imp, chatter, _ = reflect(0.7 - 1e-7, 1e-4, 0.005, 0.7, 0.5, 1.0, 0.01)  # upper wall
+    assert (x, v, imp, chatter) == (0.7, 0.0, 1, 1)
 
 
 # ------------------------------------------------------------------------------- exact densities
@@ -208,7 +219,7 @@ def _kernel_run(base, per, cuts, seed=5):
     """The kernel alone (montecarlo.kernels.run_paths) on 2 blocks of ``per`` paths, started at
     the same per-path states and generator words whatever ``per``, the steps cut into calls
     at ``cuts``: (state, moments, energy, windows, stuck time) per path."""
-    from vifpk.montecarlo.plan import record
+    from vifpk.montecarlo.pieces import record
     from vifpk.montecarlo.simulate import _params, block_seeds
 
     phys = _params(base.system, base.noise)

@@ -272,16 +272,17 @@ def test_switched_off_effects_reach_the_kernel_as_none(base):
                   threshold=1.05, start=1.0)
     from vifpk.montecarlo.pieces import record_class
 
-    names = ("mu", "r", "khi", "dhi", "ev", "bridge")
+    names = ("mu", "lo", "up", "khi", "dhi", "ev", "bridge")
     # the last argument is the physics record (plan.record): its fields' numba types
     sigs = [{n: str(t) for n, t in zip(sig[-1].instance_class._fields, sig[-1].types,
                                        strict=True)}
             for sig in P.run_passage.signatures]
-    want = {"mu": "float64", "r": "float64", "khi": "none", "dhi": "none", "ev": "none",
-            "bridge": "none"}
+    want = {"mu": "float64", "lo": "float64", "up": "none", "khi": "none", "dhi": "none",
+            "ev": "none", "bridge": "none"}
     assert any({n: s[n] for n in names} == want for s in sigs), sigs
-    # the record is the OU kind's: its pieces are the ones compiled
-    assert any(sig[-1].instance_class is record_class("ou") for sig in P.run_passage.signatures)
+    # the record is the OU kind's with one Newton wall: their pieces are the ones compiled
+    assert any(sig[-1].instance_class is record_class("ou", "newton", None)
+               for sig in P.run_passage.signatures)
 
 
 def test_paths_not_a_multiple_of_blocks_finish(base):

@@ -363,7 +363,8 @@ def montecarlo_solution(scene: Any, *, progress: bool = True, run: MonteCarloRun
     keep = run is not None and run.keep_state
     if keep:
         settings = dataclasses.replace(settings, resume=run.resume, keep_state=True)
-    res = montecarlo.simulate(scene.system, scene.noise, settings)
+    res = montecarlo.simulate(scene.system, scene.noise, settings,
+                              parametric=getattr(scene, "parametric", None))
     info = dict(res.info)
     if keep:
         run.state = info.pop("checkpoint").to_bytes()

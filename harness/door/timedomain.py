@@ -79,7 +79,7 @@ def passage_montecarlo(scene: Any, *, threshold: float, start: float | str, hori
                            seed=seed, threads=threads, burn_in=burn_in, burn_start=burn_start,
                            progress=progress)
     return montecarlo.first_passage(scene.system, scene.noise, st, threshold=threshold,
-                                    start=start)
+                                    start=start, parametric=getattr(scene, "parametric", None))
 
 
 def _start_amplitudes(start: Any, paths: int, seed: int) -> Any:
@@ -151,7 +151,8 @@ def transient_montecarlo(scene: Any, *, start: float, times: Any, edges: dict[st
     t_end = float(np.max(times)) if np.size(times) else 1.0
     st = _passage_settings(scene, paths=paths, horizon=max(t_end, 1e-300), dt=dt,
                            blocks=blocks, seed=seed, threads=threads, progress=progress)
-    return snapshots(scene.system, scene.noise, st, start=start, times=times, edges=edges)
+    return snapshots(scene.system, scene.noise, st, start=start, times=times, edges=edges,
+                     parametric=getattr(scene, "parametric", None))
 
 
 @boundary
@@ -249,7 +250,8 @@ def passage_splitting(scene: Any, *, threshold: float, start: float | str,
                           threads=int(st.threads))
     res = split(scene.system, scene.noise, s, threshold=float(threshold),
                 start="stationary" if stationary else float(start), low=chosen["low"],
-                entry=chosen["entry"], burn_in=burn.get("burn_in", 0.0))
+                entry=chosen["entry"], burn_in=burn.get("burn_in", 0.0),
+                parametric=getattr(scene, "parametric", None))
     info = dict(res.info)
     info["levels_source"] = chosen["source"]
     if burn:

@@ -1,30 +1,27 @@
-"""An elastic-plastic impact law (Johnson, Contact Mechanics, 1985, sec. 11.4): below the yield
-speed the restitution is r, above it falls as v^(-1/4),
+"""Elastic-plastic impact (Johnson, Contact Mechanics, Cambridge 1985, sec. 11.4): above the
+yield speed the coefficient of restitution falls as v^(-1/4),
 
-    e(v) = r                         for |v| <= v_yield,
-    e(v) = r (v_yield / |v|)^(1/4)   above.
+    e(v) = r                          for |v| <= v_yield,
+    e(v) = r (v_yield / |v|)^(1/4)    above.
 
-r = 1 is elastic below yield; v_yield -> inf is Newton's law. Energy an impact at speed v
-takes: (1 - e(v)^2) v^2 / 2. Plain arithmetic on floats or numpy arrays (numba compiles it).
+With r = 1 it is elastic below yield; v_yield -> infinity is Newton's law.
 """
 
 from __future__ import annotations
 
-from typing import Any
+import math
 
-import numpy as np
-
-#: e depends on the impact speed above v_yield
-CONSTANT_RESTITUTION = False
+NAME = "johnson"
 
 
-def restitution(v: Any, r: float, v_yield: float) -> Any:
-    """e(v) = r min(1, (v_yield / |v|)^(1/4)) (r at v = 0)."""
-    q = v_yield / np.maximum(np.abs(v), 1e-300)  # no division by 0 (numba's default model)
-    return r * np.minimum(1.0, np.sqrt(np.sqrt(q)))
+def restitution(speed, r, v_yield):
+    """e(|v|) of the module docstring."""
+    if speed <= v_yield:
+        return r
+    return r * math.sqrt(math.sqrt(v_yield / speed))
 
 
-def energy_loss(v: Any, r: float, v_yield: float) -> Any:
-    """(1 - e(v)^2) v^2 / 2: the kinetic energy lost in one impact at speed v."""
-    e = restitution(v, r, v_yield)
-    return (1.0 - e * e) * (0.5 * v * v)
+def energy_loss(speed, r, v_yield):
+    """(1 - e^2) v^2 / 2."""
+    e = r if speed <= v_yield else r * math.sqrt(math.sqrt(v_yield / speed))  # restitution
+    return 0.5 * (1.0 - e * e) * speed * speed
