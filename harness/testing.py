@@ -252,6 +252,21 @@ def assert_averaging_error(scene: Any, model: Any, *, below: float, observable: 
 
 
 # ------------------------------------------------------------------------- time domain
+def _rtol(rtol: Any) -> float:
+    """A relative tolerance: a finite number >= 0 (BadInput, a usage error, not a failed
+    assertion: issue 39, A31, A32, A34)."""
+    import math
+    import numbers
+
+    from vifpk.harness.request.errors import InputError
+
+    if isinstance(rtol, bool) or not isinstance(rtol, numbers.Real):
+        raise InputError(f"rtol {rtol!r}: not a number; allowed: a finite number >= 0")
+    if not (math.isfinite(rtol) and rtol >= 0):
+        raise InputError(f"rtol {float(rtol):g}: out of range; allowed: a finite number >= 0")
+    return float(rtol)
+
+
 def _reproduce_passage(sc: Scene, model: str, threshold: float, start: Any,
                        paths: int, horizon: float) -> str:
     st = "stationary" if start == "stationary" else repr(float(start))
@@ -269,15 +284,16 @@ def assert_mfpt_close(scene: Any, model: Any, threshold: float, *, rtol: float,
     1% of its paths, restricted means over [0, horizon] are compared (harness/workflows/passage.py).
     Returns the model's metrics (``mfpt_error``, ``R_sup``, ...); the failure message gives
     both MFPTs, the error bar, the Monte Carlo's settings and the command that reproduces it."""
-    from vifpk.harness.cli.timedomain import passage_values
     from vifpk.harness.door.solvers import model_label
-    from vifpk.harness.workflows.passage import passage
+    from vifpk.harness.request.timedomain import passage_request, with_quadratures
+    from vifpk.harness.workflows.passage import run
 
-    sc = _scene(scene)
-    passage_values(sc, threshold=threshold, start=start, horizon=horizon)
+    rtol = _rtol(rtol)
+    req = passage_request(_scene(scene), threshold=threshold, start=start, models=(model,),
+                          horizon=horizon, paths=paths, sde=False, method="direct")
+    threshold, start, sc = req.threshold, req.start, req.scene
     name = model_label(model)
-    res = passage(sc, threshold=threshold, start=start, models=(model,), paths=paths,
-                  horizon=horizon, sde=False, quiet=True)
+    res = run(with_quadratures(req), quiet=True)
     if name not in res.metrics["models"]:
         raise ValueError(f"model {name}: {res.metrics.get('models_absent', {}).get(name, '')}")
     e = res.metrics["models"][name]
@@ -297,20 +313,23 @@ def assert_mfpt_close(scene: Any, model: Any, threshold: float, *, rtol: float,
     return e
 
 
-def assert_relaxation_close(scene: Any, model: Any, *, start: float, times: Any, rtol: float
-                            ) -> dict[str, Any]:
+def assert_relaxation_close(scene: Any, model: Any, *, start: float, times: Any, rtol: float,
+                            paths: int | None = None) -> dict[str, Any]:
     """Assert that the relaxation time the model's FPK predicts (1 / its slowest decay rate) is
     within ``rtol`` of the one fitted on the original system's mean amplitude (harness/
-    transient.py), noise-aware: |tau_model / tau_MC - 1| <= rtol + 2 x its error bar."""
-    from vifpk.harness.cli.timedomain import transient_values
+    transient.py), noise-aware: |tau_model / tau_MC - 1| <= rtol + 2 x its error bar.
+    ``times``: at least three (the fit has two parameters); ``paths``: the Monte Carlo's
+    (default: the scene's montecarlo.paths). Usage errors (rtol, times, start) are BadInput,
+    raised before any Monte Carlo."""
     from vifpk.harness.door.solvers import model_label
-    from vifpk.harness.workflows.transient import transient
+    from vifpk.harness.request.timedomain import transient_request
+    from vifpk.harness.workflows.transient import run
 
-    sc = _scene(scene)
-    transient_values(sc, start=start, times=times)
+    rtol = _rtol(rtol)
+    req = transient_request(_scene(scene), start=start, times=times, models=(model,),
+                            paths=paths, sde=False)
     name = model_label(model)
-    res = transient(sc, start=start, times=tuple(float(t) for t in times), models=(model,),
-                    sde=False, quiet=True)
+    res = run(req, quiet=True)
     meas = res.metrics["relaxation"]["original_system"]
     if meas is None:
         raise AssertionError(f"no relaxation time measured on the original system from the "

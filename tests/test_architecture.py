@@ -43,12 +43,20 @@ def _parse(text: str, filename: str) -> ast.Module:
     return ast.parse(text, filename=filename)
 
 
-def imported_modules(path: Path) -> set[str]:
-    """Dotted names of the modules a module imports (absolute imports; relative ones stay in
-    their own package)."""
-    tree = parsed(path)
+def nodes(path: Path) -> tuple[ast.AST, ...]:
+    """Every node of a source file's tree (``ast.walk``), listed once a session per text."""
+    return _nodes(path.read_text(encoding="utf-8"), str(path))
+
+
+@cache
+def _nodes(text: str, filename: str) -> tuple[ast.AST, ...]:
+    return tuple(ast.walk(_parse(text, filename)))
+
+
+@cache
+def _imported(text: str, filename: str) -> frozenset[str]:
     found: set[str] = set()
-    for node in ast.walk(tree):
+    for node in _nodes(text, filename):
         if isinstance(node, ast.Import):
             found.update(a.name for a in node.names)
         elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
@@ -59,7 +67,13 @@ def imported_modules(path: Path) -> set[str]:
               and node.func.attr == "import_module" and node.args
               and isinstance(node.args[0], ast.Constant) and isinstance(node.args[0].value, str)):
             found.add(node.args[0].value)
-    return found
+    return frozenset(found)
+
+
+def imported_modules(path: Path) -> set[str]:
+    """Dotted names of the modules a module imports (absolute imports; relative ones stay in
+    their own package)."""
+    return set(_imported(path.read_text(encoding="utf-8"), str(path)))
 
 
 def imported_packages(path: Path) -> set[str]:
@@ -261,8 +275,7 @@ def test_the_door_imports_no_harness_module():
     run.py and validate.py imported each other; the cost guard's words now wrap the door from
     the request layer)."""
     for path in modules(str(DOOR)):
-        tree = parsed(path)
-        relative = [n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and n.level]
+        relative = [n.module for n in nodes(path) if isinstance(n, ast.ImportFrom) and n.level]
         assert not relative, (path, relative)
         outside = {m for m in imported_modules(path)
                    if m.startswith("vifpk.harness") and not m.startswith("vifpk.harness.door")}
@@ -330,12 +343,11 @@ def test_harness_imports_are_absolute_and_resolve(path: Path):
     """Every harness import of ours is written vifpk.harness.<layer>.<module> and names a
     module that exists (a relative import inside a function survived the move to layers and
     failed only when a slow test reached it: the fresh-clone CI's three failures at 49a2b7c)."""
-    tree = parsed(path)
-    relative = [n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and n.level]
+    relative = [n.module for n in nodes(path) if isinstance(n, ast.ImportFrom) and n.level]
     assert not relative, relative
     mods = set(_harness_modules())
     packages = {m.rsplit(".", 1)[0] for m in mods} | {"vifpk.harness"}
-    for node in ast.walk(tree):
+    for node in nodes(path):
         if isinstance(node, ast.ImportFrom) and node.module and \
                 node.module.startswith("vifpk.harness"):
             assert node.module in mods or node.module in packages, node.module

@@ -141,26 +141,62 @@ def test_budget_spent_before_the_first_window_exits_3_with_one_line(monkeypatch,
     assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
 
 
+def _raising_in(module: str, exc: BaseException):
+    """A function whose code runs as part of ``module`` (its globals' __name__), raising
+    ``exc`` there: the boundary tells a solver's own frame from the harness's by that name."""
+    namespace = {"__name__": module, "exc": exc}
+    exec("def failing(*a, **k):\n    raise exc\n", namespace)  # noqa: S102 - test double
+    return namespace["failing"]
+
+
 @pytest.mark.parametrize("exc, line", [
-    (ValueError("no sample was taken: time must be at least sample_every"),
-     "vifpk: no sample was taken: time must be at least sample_every"),
     (FloatingPointError("overflow encountered in exp"),
      "vifpk: numerical failure: overflow encountered in exp; the scene's magnitudes or the "
-     "step are most likely too extreme")])
+     "step are most likely too extreme"),
+    (ValueError("drift or diffusion is not finite on the table"),
+     "vifpk: drift or diffusion is not finite on the table")])
 def test_a_solver_failure_is_mapped_at_the_door_one_line_exit_3(monkeypatch, capsys, exc, line):
-    """A solver that cannot go on (a ValueError or an ArithmeticError raised inside a solver
-    package) leaves the door as SolverFailure: one line, exit 3 (issue 27: mapped at the solver
-    boundary only)."""
+    """A solver's numerical failure (an ArithmeticError, or a non-finite value a solver reports
+    from its own code) leaves the door as SolverFailure: one line, exit 3 (issue 27: mapped at
+    the solver boundary only; issue 38: only numerical failures)."""
     import vifpk.averaging
 
-    def failing(*a, **k):
-        raise exc
-
-    monkeypatch.setattr(vifpk.averaging, "solve", failing)
+    monkeypatch.setattr(vifpk.averaging, "solve", _raising_in("vifpk.averaging.solve", exc))
     code = main(["solve", BASE, "--solver", "averaging"])
     err = capsys.readouterr().err
     assert code == 3, err
     assert err.strip() == line
+
+
+@pytest.mark.parametrize("module, exc", [
+    # a numpy shape error made inside a solver's code by arguments it should not have had
+    ("vifpk.averaging.solve", ValueError("operands could not be broadcast together with "
+                                         "shapes (3,) (4,)")),
+    # a solver's argument check reached: the request layer should have refused it first
+    ("vifpk.averaging.solve", ValueError("no sample was taken: time must be at least "
+                                         "sample_every")),
+    # a non-finite wording raised by harness code, not a solver's: still a bug
+    ("vifpk.harness.workflows.check", ValueError("drift or diffusion is not finite"))])
+def test_a_callers_mistake_through_a_door_call_is_an_internal_error(monkeypatch, capsys,
+                                                                     module, exc):
+    """Issue 38: door/boundary.py turned every ValueError inside a door call into "the solver
+    could not produce a result" (exit 3). A caller's mistake through a door call is an internal
+    error: in process the ValueError itself (not SolverFailure), on the command line exit 1
+    with the traceback under --debug."""
+    import vifpk.averaging
+    from vifpk.harness.door.solvers import SolverFailure, run_solver
+
+    from vifpk.core.scene import load_scene
+
+    monkeypatch.setattr(vifpk.averaging, "solve", _raising_in(module, exc))
+    with pytest.raises(ValueError) as raised:
+        run_solver(load_scene(BASE), "averaging")
+    assert not isinstance(raised.value, SolverFailure) and raised.value is exc
+    code = main(["--debug", "solve", BASE, "--solver", "averaging"])
+    err = capsys.readouterr().err
+    assert code == 1, err
+    assert "Traceback" in err
+    assert err.strip().splitlines()[-1].startswith(f"vifpk: internal error: ValueError: {exc}")
 
 
 def test_a_value_error_outside_the_solvers_is_an_internal_error(monkeypatch, capsys):

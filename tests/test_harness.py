@@ -90,11 +90,35 @@ class _Collect(HTMLParser):
             self.imgs.append(dict(attrs)["src"])
 
 
-def test_check_end_to_end(tmp_path: Path, capsys, canned_check):
-    """`vifpk check` from the command line to the report folder, on the canned tiny check."""
+def test_check_end_to_end(tmp_path: Path, capsys, canned_check, monkeypatch):
+    """`vifpk check` from the command line to the report folder, on the canned tiny check.
+
+    Issue 38: the command line dropped every RuntimeWarning of a run that ended finite. Three
+    overflows and one invalid division raised during the (canned) check's computation are
+    counted in metrics.json ``runtime_warnings``, and none is printed."""
+    import warnings
+
+    import vifpk.harness.workflows.check as check
+
+    canned = check.cross_check
+
+    def noisy(scene, **kw):
+        with np.errstate(over="warn"):
+            for _ in range(3):
+                np.exp(np.array([1000.0]))
+        warnings.warn("invalid value encountered in divide", RuntimeWarning, stacklevel=1)
+        return canned(scene, **kw)
+
+    monkeypatch.setattr(check, "cross_check", noisy)
     out = tmp_path / "rep"
     assert main(["check", TINY, "--out", str(out), "--quiet"]) == 0
-    printed = capsys.readouterr().out
+    printed, err = capsys.readouterr()
+    assert "overflow" not in printed + err
+    got = json.loads((out / "metrics.json").read_text())["runtime_warnings"]
+    assert [(w["category"], w["message"], w["count"]) for w in got] == [
+        ("RuntimeWarning", "overflow encountered in exp", 3),
+        ("RuntimeWarning", "invalid value encountered in divide", 1)], got
+    assert all(w["where"].startswith("tests/test_harness.py:") for w in got), got
     assert "paper model: " in printed and "exact model: " in printed and "L1(A) =" in printed
     for name in ("report.html", "report.md", "metrics.json", "arrays.npz",
                  "figures/densities.png", "figures/decomposition.png"):
@@ -294,3 +318,51 @@ def test_cli_passage_method_splitting_writes_the_mfpt(tmp_path):
     assert "reached" in met["splitting"]["target"]
     assert set(met["models"]) >= {"exact"} and "mfpt_error" in met["models"]["exact"]
     assert (out / "report.md").exists()
+
+
+
+def test_runtime_warnings_key_says_whether_they_were_recorded(canned_check):
+    """metrics.json has ``runtime_warnings`` when the run's warnings were recorded (an empty
+    list: none raised), no key when they were not (a report written from the Python API),
+    and it comes before ``timings`` and ``provenance`` (the machine-dependent tail)."""
+    from vifpk.harness.outputs.report import metrics_document
+    from vifpk.harness.outputs.runwarnings import RunWarnings
+
+    tally = RunWarnings()
+    with tally.recording():
+        pass
+    assert tally.records() == [] and tally.first() == ""
+    assert "runtime_warnings" not in metrics_document(canned_check, {})
+    doc = metrics_document(canned_check, {}, tally.records())
+    assert doc["runtime_warnings"] == [] and list(doc)[-3:] == ["runtime_warnings", "timings",
+                                                                 "provenance"]
+
+
+def test_drawing_changes_no_matplotlib_state_and_closes_on_every_path(monkeypatch):
+    """Issue 38: vifpk/core/io.py called matplotlib.use("Agg") on every plot (a notebook
+    user's backend switched by a library call) and left a figure open when savefig raised.
+    Figures are drawn on their own Agg canvas: matplotlib.use is never called, pyplot never
+    imported by it (tests/test_layers.py scans for both); png_bytes closes a (pyplot) figure
+    even when savefig raises."""
+    import matplotlib
+
+    from vifpk.core.io import figures, png_bytes
+
+    def refuse(*a, **k):
+        raise AssertionError("matplotlib.use called")
+
+    monkeypatch.setattr(matplotlib, "use", refuse)
+    fig, ax = figures().subplots(1, 2, figsize=(2, 1))
+    ax[0].plot([0, 1], [0, 1])
+    assert png_bytes(fig, text={"vifpk run id": "x"}).startswith(b"\x89PNG")
+    import matplotlib.pyplot as plt
+
+    opened = plt.figure()
+
+    def broken(*a, **k):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(opened, "savefig", broken)
+    with pytest.raises(OSError, match="disk full"):
+        png_bytes(opened)
+    assert opened.number not in plt.get_fignums()

@@ -26,7 +26,7 @@ from functools import cache
 from pathlib import Path
 
 from tests.conftest import ROOT
-from tests.test_architecture import imported_modules, parsed
+from tests.test_architecture import imported_modules, nodes
 
 #: package -> its layer (lowest 0); a module belongs to the longest package prefix of its name.
 LAYERS: dict[str, int] = {
@@ -47,6 +47,9 @@ TOP_FORBIDDEN = {
     ("vifpk.harness.sweeps", "vifpk.harness.cli"),
     ("vifpk.harness.cli", "vifpk.api"),
     ("vifpk.harness.cli", "vifpk.harness.testing"),
+    ("vifpk.api", "vifpk.harness.testing"),
+    ("vifpk.harness.testing", "vifpk.api"),
+    ("vifpk.harness.pytest_plugin", "vifpk.api"),
 }
 #: Edges still waiting for their owner's change, each with the reason. Only shrinks: an entry
 #: that no longer occurs fails test_pending_edges_still_exist (delete it then).
@@ -156,10 +159,10 @@ def _private_uses(path: Path) -> list[str]:
     of ours) in ``path``, where vifpk.x is outside the package of ``path``."""
     me = module_name(path)
     home = me.rsplit(".", 1)[0] if path.name != "__init__.py" else me
-    tree = parsed(path)
+    everything = nodes(path)
     out = []
     aliases: dict[str, str] = {}
-    for node in ast.walk(tree):
+    for node in everything:
         if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module and \
                 node.module.startswith("vifpk"):
             for a in node.names:
@@ -172,7 +175,7 @@ def _private_uses(path: Path) -> list[str]:
             for a in node.names:
                 if a.name.startswith("vifpk"):
                     aliases[a.asname or a.name] = a.name
-    for node in ast.walk(tree):
+    for node in everything:
         if isinstance(node, ast.Attribute) and node.attr.startswith("_") and \
                 not node.attr.startswith("__"):
             base = node.value
@@ -232,3 +235,32 @@ def test_no_context_variable_in_the_harness():
              if "ContextVar" in p.read_text(encoding="utf-8") or
              "contextvars" in p.read_text(encoding="utf-8")]
     assert not found, found
+
+
+def test_no_library_module_switches_matplotlib_state():
+    """No module of ours calls ``matplotlib.use`` or imports ``matplotlib.pyplot`` (global
+    state: the backend, the figure registry); figures are drawn on their own Agg canvas
+    (vifpk/core/io.py: figures), issue 38."""
+    bad = []
+    for p in sources():
+        for node in nodes(p):
+            if isinstance(node, ast.Attribute) and node.attr == "use" and \
+                    isinstance(node.value, ast.Name) and node.value.id == "matplotlib":
+                bad.append(f"{p.relative_to(ROOT)}:{node.lineno} matplotlib.use")
+        if "matplotlib.pyplot" in imported_modules(p):
+            bad.append(f"{p.relative_to(ROOT)} imports matplotlib.pyplot")
+    assert not bad, bad
+
+
+def test_no_blanket_suppress():
+    """No ``contextlib.suppress(Exception)`` (or BaseException) anywhere of ours: it hid a
+    second parser of the sweep file and plugin code run during validation (issue 38)."""
+    bad = []
+    for p in sources():
+        for node in nodes(p):
+            if isinstance(node, ast.Call) and getattr(node.func, "attr", getattr(
+                    node.func, "id", None)) == "suppress" and any(
+                    isinstance(a, ast.Name) and a.id in ("Exception", "BaseException")
+                    for a in node.args):
+                bad.append(f"{p.relative_to(ROOT)}:{node.lineno}")
+    assert not bad, bad

@@ -145,6 +145,8 @@ def test_passage_command_writes_a_report_with_the_contract_keys(doubles, tmp_pat
     assert run_id in (out / "report.md").read_text()
     assert run_id in (out / "report.html").read_text()
     assert str(np.load(out / "passage.npz")["run_id"]) == run_id
+    assert (out / "reliability.csv").read_text().startswith("curve,t,R,se,lower,upper\n")
+    assert (out / "fpt_density.csv").read_text().startswith("curve,t_lo,t_hi,density,err\n")
     # a second run replaces its own kind of folder; a check report folder is refused
     code, cap = _cli(["passage", str(TINY), "--threshold", "2", "--start", "0.5", "--model",
                       "exact", "--out", str(out), "--quiet", "--paths", "256", "--json"], capsys)
@@ -211,7 +213,7 @@ def test_passage_sweep_over_threshold_gives_mfpt_per_model_and_original(doubles,
     ('workflow = "passage"\n[vary]\n"system.mu" = [0.001, 0.002]\n',
      "[passage] threshold: missing"),
     ('workflow = "passage"\n[passage]\nthreshold = 1.0\nstart = 1.5\n'
-     '[vary]\n"system.mu" = [0.001]\n', "passage.start = 1.5: allowed: 0 <= A0 < threshold"),
+     '[vary]\n"system.mu" = [0.001]\n', "--start 1.5: at or above the threshold Ac = 1"),
     ('workflow = "check"\n[vary]\n"passage.threshold" = [1.0]\n',
      "only for workflow = 'passage'"),
     ('workflow = "transient"\n[transient]\nstart = 1.0\ntimes = [5, 2]\n'

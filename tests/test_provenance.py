@@ -33,14 +33,14 @@ def test_scene_file_finds_shipped_scenes_where_load_scene_does(tmp_path, monkeyp
     """Issue 19 bug 3: a shipped scene's file is found where ``load_scene`` reads it (package
     data ``vifpk.scenes``, e.g. in a wheel install), not in a ``scenes/`` beside the
     package. Here the shipped scenes are moved to a folder only the loader knows."""
-    import vifpk.core.scene as scene_mod
+    import vifpk.core.shipped as shipped_mod
     from vifpk.core.scene import load_scene
 
     (tmp_path / "hard").mkdir()
     body = b"name = 'only-here'\n"
     (tmp_path / "only-here.toml").write_bytes(body)
     (tmp_path / "hard" / "deep.toml").write_bytes(body)
-    monkeypatch.setattr(scene_mod, "shipped_scenes", lambda: tmp_path)
+    monkeypatch.setattr(shipped_mod, "shipped_scenes", lambda: tmp_path)  # where it lives
     monkeypatch.chdir(tmp_path / "hard")  # no only-here.toml in the working directory
     for name in ("only-here", "hard/deep"):
         assert load_scene(name).name == "only-here"

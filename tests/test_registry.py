@@ -159,3 +159,27 @@ def test_the_plugin_model_in_harness_testing_and_bifurcation(plugin_path: Path):
     finally:
         sys.path.remove(str(plugin_path))
         registry.refresh()
+
+
+def test_finding_a_plugins_source_runs_none_of_its_code(tmp_path, monkeypatch):
+    """Issue 38: input validation named each plugin's source with importlib.util.find_spec
+    under suppress(Exception), and find_spec("pkg.mod") imports pkg: a plugin's code ran
+    during validation, unguarded. Its file is found without importing anything."""
+    import sys
+    from types import SimpleNamespace
+
+    from vifpk.harness.request import validate
+
+    pkg = tmp_path / "vifpk_sidefx_pkg"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("raise RuntimeError('plugin code ran')\n")
+    (pkg / "model.py").write_text("def build(scene, **o):\n    return None\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    entry = registry.ModelEntry("sidefx", "vifpk_sidefx_pkg.model:build", "tests")
+    monkeypatch.setattr(registry, "models", lambda: (*registry._entries()[0], entry))
+    found = validate.run_inputs(SimpleNamespace())
+    assert ("the source of model plugin 'sidefx'", (pkg / "model.py").resolve()) in found
+    assert "vifpk_sidefx_pkg" not in sys.modules
+    gone = registry.ModelEntry("gone", "vifpk_no_such_pkg.model:build", "tests")
+    monkeypatch.setattr(registry, "models", lambda: (*registry._entries()[0], gone))
+    assert not [w for w, _ in validate.run_inputs(SimpleNamespace()) if "'gone'" in w]

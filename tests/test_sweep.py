@@ -284,9 +284,9 @@ def test_the_grid_map_boundary_is_the_cell_edges_between_verdicts():
     import numpy as np
     from vifpk.harness.sweeps.maps import _edges, _verdict_boundary
 
-    from vifpk.core.io import pyplot
+    from vifpk.core.io import figures
 
-    plt = pyplot()
+    plt = figures()
 
     inside = np.zeros((3, 3), bool)
     inside[1, 1] = True

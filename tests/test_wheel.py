@@ -108,6 +108,20 @@ def test_the_wheel_installs_one_name_vifpk(installed):
     assert res.returncode == 0 and "exact" in res.stdout, res.stderr
 
 
+def test_the_wheel_lists_the_subcommands_in_the_editable_order(installed):
+    """Issue 38: the registry read vifpk's own entries from pyproject.toml in a source
+    checkout (pyproject order) and from metadata in a wheel (by name), so ``vifpk --help``
+    listed the subcommands in two orders. Now both read the metadata, and the help follows
+    harness/cli/app.py's ORDER: the wheel's help equals the one of the tests' install."""
+    from vifpk.harness.cli.app import build_parser
+
+    here = list(build_parser()._subparsers._group_actions[0].choices)
+    res = run(installed, installed["vifpk"], "--help")
+    assert res.returncode == 0, res.stderr
+    line = next(x for x in res.stdout.splitlines() if x.strip().startswith("{"))
+    assert line.strip().strip("{}").split(",") == here, (line, here)
+
+
 def test_the_venv_sees_the_packages_of_the_interpreter_running_the_tests(installed):
     """Issue 19 bug 4: numba, py-pde, ... come from the interpreter running the tests (a
     virtualenv, as the README tells users to work), not from the base interpreter behind it."""

@@ -133,14 +133,11 @@ def sweep(path: str | Path, out: str | Path, *, executor: str = "serial",
 TIME_OPTIONS = ("paths", "dt", "seed")  # the Monte Carlo options of passage and transient
 
 
-def _time_request(source: Any, models: Any, options: dict[str, Any], what: str
-                  ) -> tuple[Any, tuple[Any, ...]]:
-    """The concrete scene (``set`` overrides and the Monte Carlo options by flag name applied
-    and checked as the command checks them) and the models (default: the check models; names
-    must be registered, objects with the averaged-model protocol pass as they are)."""
-    from vifpk.core.defaults import CHECK_MODELS
+def _time_scene(source: Any, options: dict[str, Any], what: str) -> Any:
+    """The concrete scene: ``set`` overrides and the Monte Carlo options by flag name applied
+    and checked as the command checks them."""
     from vifpk.harness.request import validate
-    from vifpk.harness.request.prepare import concrete, model_names, with_mc_options
+    from vifpk.harness.request.prepare import concrete, with_mc_options
 
     overrides = _overrides(options)
     unknown = sorted(set(options) - set(TIME_OPTIONS))
@@ -149,33 +146,49 @@ def _time_request(source: Any, models: Any, options: dict[str, Any], what: str
                                   f"{', '.join(TIME_OPTIONS)}, set")
     if options.get("dt") == "auto":
         raise validate.InputError(f"dt 'auto': does not apply to {what}; give a number")
-    sc = with_mc_options(concrete(source, overrides), options, mc=True)
-    if models is None:
-        return sc, CHECK_MODELS
-    if isinstance(models, str):
-        model_names(models)  # refused: one line
-    named = [m for m in models if isinstance(m, str)]
-    model_names(named)
-    return sc, tuple(models)
+    return with_mc_options(concrete(source, overrides), options, mc=True)
 
 
 def passage(source: Scene | str | Path, *, threshold: float, start: float | str = "stationary",
             models: Any = None, horizon: float | None = None, sde: bool = True,
-            out: str | Path | None = None, quiet: bool = True, **options: Any) -> Any:
+            at: Any = None, method: str = "direct", particles: int | None = None,
+            groups: int | None = None, out: str | Path | None = None, quiet: bool = True,
+            **options: Any) -> Any:
     """First passage out of A < ``threshold`` (``vifpk passage``): a ``PassageResult`` with
-    ``metrics`` (metrics.json's: ``mfpt``, ``models``, ``R``, ``plan``, ...), ``verdicts``,
-    ``recommendation``, ``warnings``; with ``out``, the report folder is written there.
-    ``models``: registered names or objects with the averaged-model protocol (default: the
-    check models that apply). ``options``: ``paths``, ``dt``, ``seed`` and ``set``, as the
-    command's flags. The inputs are checked as the command checks them (BadInput, one line);
-    no cost guard."""
-    from vifpk.harness.cli.timedomain import passage_values
-    from vifpk.harness.workflows.passage import passage as run_passage
+    ``metrics`` (metrics.json's: ``mfpt``, ``models``, ``R``, ``plan``, ``at``, ...),
+    ``verdicts``, ``recommendation``, ``warnings``; with ``out``, the report folder is written
+    there (checked before any work, as ``--out`` is). ``models``: registered names or objects
+    with the averaged-model protocol (default: the check models that apply). ``at``: a
+    mission time T or a list of them (``--at``). ``method``: "direct" (default) or
+    "splitting" (the MFPT only, at thresholds direct simulation cannot reach: a
+    ``SplittingResult`` with ``metrics``, ``verdicts``, ``recommendation``; ``particles`` and
+    ``groups`` its settings; ``horizon``, ``paths`` and ``at`` do not apply). ``options``:
+    ``paths``, ``dt``, ``seed`` and ``set``, as the command's flags. The inputs are checked as
+    the command checks them, by the same request (harness/request/timedomain.py: BadInput,
+    one line); no cost guard, hence no "auto"."""
+    from vifpk.harness.request.timedomain import output, passage_request, with_quadratures
 
-    sc, chosen = _time_request(source, models, options, "passage")
-    passage_values(sc, threshold=threshold, start=start, horizon=horizon)
-    res = run_passage(sc, threshold=threshold, start=start, models=chosen,
-                      paths=options.get("paths"), horizon=horizon, sde=sde, quiet=quiet)
+    out = output(out)
+    req = passage_request(_time_scene(source, options, "passage"), threshold=threshold,
+                          start=start, models=models, horizon=horizon,
+                          paths=options.get("paths"), sde=sde, method=method, at=at,
+                          particles=particles, groups=groups,
+                          methods=("direct", "splitting"))
+    req = with_quadratures(req)
+    if req.method == "splitting":
+        from vifpk.harness.workflows import rarepassage
+
+        res = rarepassage.run(req, reason="asked for: method='splitting'")
+        if out is not None:
+            from vifpk.core import provenance
+
+            rarepassage.write_report(res, out, provenance.collect(
+                scene_path=provenance.scene_file(req.scene.source) if req.scene.source
+                else None))
+        return res
+    from vifpk.harness.workflows.passage import run
+
+    res = run(req, quiet=quiet)
     if out is not None:
         from vifpk.harness.outputs.timereport import write_time_report
 
@@ -189,14 +202,14 @@ def transient(source: Scene | str | Path, *, start: float, times: Any, models: A
     """The law of the amplitude at ``times`` from a start at amplitude ``start`` (``vifpk
     transient``): a ``TransientResult`` with ``metrics`` (per-snapshot L1 and KS with error
     bars and floors, ``relaxation``), ``verdicts``, ``warnings``; with ``out``, the report.
-    ``models`` and ``options`` as for :func:`passage`."""
-    from vifpk.harness.cli.timedomain import transient_values
-    from vifpk.harness.workflows.transient import transient as run_transient
+    ``models`` and ``options`` as for :func:`passage`; at least three ``times``."""
+    from vifpk.harness.request.timedomain import output, transient_request
+    from vifpk.harness.workflows.transient import run
 
-    sc, chosen = _time_request(source, models, options, "transient")
-    transient_values(sc, start=start, times=times)
-    res = run_transient(sc, start=start, times=tuple(float(t) for t in times),
-                        models=chosen, paths=options.get("paths"), sde=sde, quiet=quiet)
+    out = output(out)
+    req = transient_request(_time_scene(source, options, "transient"), start=start,
+                            times=times, models=models, paths=options.get("paths"), sde=sde)
+    res = run(req, quiet=quiet)
     if out is not None:
         from vifpk.harness.outputs.timereport import write_time_report
 

@@ -14,7 +14,6 @@ import os
 import sys
 import traceback
 from collections.abc import Sequence
-from typing import Any
 
 from vifpk.harness.cli.options import (
     EXIT_BAD_INPUT,
@@ -55,24 +54,16 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def _first_warning(caught: list[Any]) -> str:
-    """' (numpy: overflow encountered in multiply, averaging/paper.py:165)' or ''."""
-    if not caught:
-        return ""
-    w = caught[0]
-    where = "/".join(str(w.filename).split("/")[-2:])
-    return f" (numpy: {w.message}, {where}:{w.lineno})"
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     """The ``vifpk`` command. Exit codes: 0, 1 internal error (a bug), 2 bad input, 3 a solver
     could not produce a result (SolverFailure, mapped at the door), 130 Ctrl-C.
 
-    numpy RuntimeWarnings are caught (never printed): a run that then fails names the first
-    one in its one-line message; a run whose results are finite drops them."""
-    import warnings
-
+    numpy RuntimeWarnings are caught (never printed) and counted (harness/outputs/runwarnings.py,
+    handed to the command as ``args.run_warnings``): a run that then fails names the first one
+    in its one-line message; a run that writes metrics.json stores them there
+    (``runtime_warnings``)."""
     from vifpk.harness.outputs import signals
+    from vifpk.harness.outputs.runwarnings import RunWarnings
 
     try:
         parser = build_parser()
@@ -95,10 +86,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     signals.reset()
     if from_command_line:
         signals.install()
-    caught: list[Any] = []
+    tally = args.run_warnings = RunWarnings()
     try:
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", RuntimeWarning)
+        with tally.recording():
             code = int(args.func(args))
             sys.stdout.flush()  # a closed pipe shows here, not at exit
             return code
@@ -108,7 +98,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (SolverFailure, PluginError) as exc:  # PluginError: names the plugin and its file
         if debug:
             traceback.print_exception(exc)
-        print(f"vifpk: {exc}{_first_warning(caught)}", file=sys.stderr)
+        print(f"vifpk: {exc}{tally.first()}", file=sys.stderr)
         return EXIT_SOLVER
     except MemoryError:
         print("vifpk: out of memory: a grid, histogram or sample size is too large for this "
@@ -136,7 +126,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         where = "/".join(tb.filename.split("/")[-2:])
         text = str(exc).splitlines()[0][:300] if str(exc) else ""
         print(f"vifpk: internal error: {type(exc).__name__}: {text} ({where}:{tb.lineno})"
-              f"{_first_warning(caught)}; please report it (vifpk --debug ... shows the "
+              f"{tally.first()}; please report it (vifpk --debug ... shows the "
               "traceback)", file=sys.stderr)
         return EXIT_INTERNAL
 

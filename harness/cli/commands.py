@@ -131,7 +131,7 @@ def cmd_check(args: argparse.Namespace) -> int:
         with cost.guarded_run(scene, args.yes) as run:
             result = cross_check(scene, quiet=args.quiet, models=models, tolerance=tol,
                                  run=run)
-        files = write_report(result, out, prov=prov)
+        files = write_report(result, out, prov=prov, runtime_warnings=_recorded(args))
     for v in result.verdicts:
         print(v)
     for v in result.tolerance_lines:
@@ -325,8 +325,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     from vifpk.core.provenance import folder_name
 
     validate.output_folder(args.out, "--out")
-    validate.outputs_apart_from_inputs(args, replaced=False, names=store.SWEEP_FILES)
     sweep = sweeps_spec.load_sweep(args.sweep)
+    validate.outputs_apart_from_inputs(args, replaced=False, names=store.SWEEP_FILES,
+                                       extra=sweeps_spec.inputs(sweep))
     spec = executors.parse_executor(args.executor)
     executors.require_output_libraries(
         surface=bool(sweep.adaptive and sweep.adaptive.get("method") == "band"))
@@ -375,3 +376,10 @@ def cmd_models(args: argparse.Namespace) -> int:
             print(f"warning: model {e.name!r} (from {e.distribution}) cannot be loaded: its "
                   f"module {module!r} is not installed", file=sys.stderr)
     return 0
+
+
+def _recorded(args: argparse.Namespace) -> list[dict[str, Any]] | None:
+    """The run's RuntimeWarnings so far (cli/app.py records them; None when the command was
+    called without it, e.g. directly in a test)."""
+    tally = getattr(args, "run_warnings", None)
+    return tally.records() if tally is not None else None

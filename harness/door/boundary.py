@@ -27,26 +27,54 @@ SOLVER_PACKAGES = ("vifpk.averaging", "vifpk.fpk", "vifpk.montecarlo")
 
 def solver_failure(exc: BaseException) -> SolverFailure | None:
     """The SolverFailure an exception raised inside a solver call stands for, or None when it
-    is not a solver's failure (issue 27: exceptions are mapped here, at the solver boundary,
-    and nowhere else; the command line maps SolverFailure to exit 3 and lets anything else
-    reach its internal-error branch).
+    is not a solver's numerical failure (issue 38: exceptions are mapped here, at the solver
+    boundary, and nowhere else; the command line maps SolverFailure to exit 3 and lets
+    anything else reach its internal-error branch: exit 1, the traceback under ``--debug``).
 
-    Mapped: ArithmeticError (overflow, division by zero, numpy errors under ``np.errstate``,
-    the FPK's CoefficientError), a ValueError that is neither bad input nor an unknown name (a
-    run that could not go on, e.g. "no sample was taken"), and a RuntimeError raised by a
-    solver package. Not mapped: BadInput (exit 2), UnknownName (a caller's bug: unknown kinds
-    raise), PluginError (names the plugin), SolverFailure itself, and every other exception
-    (a bug: TypeError, KeyError, ...)."""
+    Mapped, a solver's numerical failure only:
+
+    - ArithmeticError: FloatingPointError (numpy errors under ``np.errstate``), overflow,
+      division by zero, the FPK's CoefficientError;
+    - a RuntimeError of a solver package's own type (FPKFailure, NoStationaryDensity,
+      SimulationDiverged, BudgetExhausted, StartRejected, ...);
+    - a non-finite result a solver reports as a plain ValueError raised in its own code whose
+      message says a value is not finite (montecarlo/averaged_sde.py "drift or diffusion is
+      not finite on the table", fpk/passage.py "no positive finite mass"): those solvers have
+      no exception type of their own for it yet.
+
+    Not mapped: BadInput (exit 2), UnknownName, PluginError (names the plugin), SolverFailure
+    itself, and every other exception, any other ValueError included: a numpy shape error,
+    a solver's argument check reached with arguments the request layer should have refused,
+    a bug (it used to read "the solver could not produce a result", exit 3)."""
     if isinstance(exc, (SolverFailure, BadInput, UnknownName, PluginError)):
         return None
     if isinstance(exc, ArithmeticError):
         return SolverFailure(f"numerical failure: {exc}; the scene's magnitudes or the step are "
                              "most likely too extreme")
-    if isinstance(exc, ValueError):
-        return SolverFailure(str(exc))
     if isinstance(exc, RuntimeError) and type(exc).__module__.startswith(SOLVER_PACKAGES):
         return SolverFailure(str(exc))
+    if type(exc) is ValueError and _raised_in_a_solver(exc) and _says_not_finite(str(exc)):
+        return SolverFailure(str(exc))
     return None
+
+
+#: What a solver's plain ValueError says when a value it computed is not finite.
+NOT_FINITE = ("not finite", "no positive finite mass")
+
+
+def _says_not_finite(text: str) -> bool:
+    return any(s in text for s in NOT_FINITE)
+
+
+def _raised_in_a_solver(exc: BaseException) -> bool:
+    """Whether the innermost Python frame of ``exc``'s traceback is a solver package's code
+    (its own ``raise``, or a numpy call made there)."""
+    tb = exc.__traceback__
+    if tb is None:
+        return False
+    while tb.tb_next is not None:
+        tb = tb.tb_next
+    return str(tb.tb_frame.f_globals.get("__name__", "")).startswith(SOLVER_PACKAGES)
 
 
 @contextmanager

@@ -22,6 +22,7 @@ from vifpk.harness.door.solvers import (
     model_label,
     model_period,
     phase_solution,
+    solver_failure,
 )
 
 from vifpk.core.defaults import FPK_CELLS
@@ -101,15 +102,14 @@ def _sde_run(scene: Any, model: Any, top: float, dt: float | None, blocks: int |
              seed: int | None) -> tuple[Any, float, int, int, dict[str, Any]]:
     """(model, dt, blocks, seed, info): unset dt is the SDE's own rule (tau / STEPS_PER_TAU,
     montecarlo.sde_time.auto_dt, tau on [0, top]: wide, or a wall there shortens tau; the
-    scene's dt when tau is not finite)."""
+    scene's step by time_step when tau is not finite: the one rule of the time domain)."""
     from vifpk.montecarlo.sde_time import auto_dt
 
     m = averaged_model(scene, model)
     mc = scene.montecarlo
     extra: dict[str, Any] = {"model": model_label(model), "dt_mode": "fixed"}
     if dt is None:
-        fallback = mc.dt if mc.dt != "auto" else 0.01
-        dt, tau = auto_dt(m.drift, m.diffusion, top, fallback)
+        dt, tau = auto_dt(m.drift, m.diffusion, top, time_step(scene))
         extra.update(dt_mode="auto", relaxation_time=tau)
     return m, float(dt), blocks or mc.blocks, mc.seed if seed is None else seed, extra
 
@@ -130,9 +130,9 @@ def passage_sde(scene: Any, model: Any, *, threshold: float, start: Any, horizon
                                 start=_start_amplitudes(start, paths, seed), paths=paths,
                                 blocks=blocks, dt=dt, horizon=horizon, seed=seed,
                                 progress=progress)
-    except ValueError as exc:  # coefficients not finite on the table
-        if isinstance(exc, BadInput):
-            raise
+    except ValueError as exc:  # coefficients not finite on the table: a numerical failure
+        if isinstance(exc, BadInput) or solver_failure(exc) is None:
+            raise  # any other ValueError is not the solver's failure (boundary.py)
         raise SolverFailure(f"averaged SDE of {model_label(model)}: {exc}") from None
     res.info.update(extra)
     return res
@@ -170,9 +170,9 @@ def transient_sde(scene: Any, model: Any, *, start: Any, times: Any, edges_A: An
         res = sde_snapshots(m.drift, m.diffusion, start=_start_amplitudes(start, paths, seed),
                             times=times, edges_A=edges_A, paths=paths, blocks=blocks, dt=dt,
                             seed=seed, progress=progress)
-    except ValueError as exc:
-        if isinstance(exc, BadInput):
-            raise
+    except ValueError as exc:  # coefficients not finite on the table: a numerical failure
+        if isinstance(exc, BadInput) or solver_failure(exc) is None:
+            raise  # any other ValueError is not the solver's failure (boundary.py)
         raise SolverFailure(f"averaged SDE of {model_label(model)}: {exc}") from None
     res.info.update(extra)
     return res
@@ -243,6 +243,7 @@ def passage_splitting(scene: Any, *, threshold: float, start: float | str,
         chosen = {"low": low if low is not None else auto["low"],
                   "entry": entry if entry is not None else auto["entry"],
                   "source": auto["source"]}
+    _splitting_levels_ok(chosen, threshold, start)
     st = _passage_settings(scene, paths=1, horizon=1.0, dt=dt, seed=seed, threads=threads)
     s = SplittingSettings(groups=groups, particles=particles, kill=kill, levels=levels,
                           dt=float(st.dt), seed=int(st.seed), cycles=cycles, paths=paths,
@@ -259,6 +260,26 @@ def passage_splitting(scene: Any, *, threshold: float, start: float | str,
     return Result(data=res.data, info=info)
 
 
+def _splitting_levels_ok(chosen: dict[str, Any], threshold: float, start: float | str) -> None:
+    """0 < low < entry < threshold and, from an amplitude, 0 < start < entry: a caller's
+    mistake is BadInput (one line naming the levels), not a numerical failure (issue 39, A25,
+    A29); montecarlo.splitting checks the same and raises ValueError."""
+    low, entry = chosen["low"], chosen["entry"]
+    for name, v in (("low", low), ("entry", entry)):
+        if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+            raise BadInput(f"passage_splitting {name} = {v!r}: not a finite amplitude; "
+                           "allowed: 0 < low < entry < threshold")
+    how = "given" if chosen["source"] == "given" else f"from {chosen['source']}"
+    if not 0.0 < low < entry < float(threshold):
+        raise BadInput(f"passage_splitting low = {low:g}, entry = {entry:g} ({how}): allowed: "
+                       f"0 < low < entry < threshold = {float(threshold):g}")
+    if start != "stationary" and not 0.0 < float(start) < entry:
+        raise BadInput(f"passage_splitting start {float(start):g}: not below the entry level "
+                       f"{entry:g} ({how}); allowed: 0 < start < entry (give low below and entry "
+                       "above the start, or simulate directly, --method direct: a threshold "
+                       "this near the start is within its reach)")
+
+
 # ------------------------------------------------ time domain (issue 30): averaged models' FPK
 def _averaged_coefficients(scene: Any, model: Any) -> Any:
     if no_noise(scene.system):
@@ -269,7 +290,7 @@ def _averaged_coefficients(scene: Any, model: Any) -> Any:
 @boundary
 def passage_averaged(scene: Any, model: Any, *, threshold: float, start: float | str,
                      cells: int = FPK_CELLS, times: Any = None, t_end: float | None = None,
-                     intervals: int = 16) -> Result:
+                     intervals: int = 16, quadrature: dict[str, Any] | None = None) -> Result:
     """First passage of an averaged model's amplitude through ``threshold`` (p = 0 there,
     zero flux at A = 0), from an amplitude or "stationary" (the model's own stationary p(A)
     restricted to A < threshold, normalised there).
@@ -278,13 +299,15 @@ def passage_averaged(scene: Any, model: Any, *, threshold: float, start: float |
     cells), data["mfpt_curve"] = {"A", "T"} (T(A0) for every start on the quadrature's grid);
     info["mfpt"] (the Pontryagin quadrature, fpk.mfpt), info["mfpt_error"] (its two-grid
     estimate), info["mfpt_integral"] (int R dt of the time-stepped FPK), info["decay_rate"].
+    ``quadrature``: fpk.mfpt's record for this model, threshold and start when already
+    computed (mfpt_averaged, to price the run): used as is, not computed again.
     A threshold or start out of range raises BadInput; a numerical failure SolverFailure."""
     from vifpk import fpk
 
     m = _averaged_coefficients(scene, model)
     try:
-        q = fpk.mfpt(m.drift, m.diffusion, threshold=threshold, start=start,
-                     intervals=intervals)
+        q = quadrature if quadrature is not None else fpk.mfpt(
+            m.drift, m.diffusion, threshold=threshold, start=start, intervals=intervals)
         r = fpk.reliability(m.drift, m.diffusion, threshold=threshold, start=start,
                             cells=cells, times=times, t_end=t_end)
     except ValueError as exc:

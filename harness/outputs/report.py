@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 from vifpk.harness.outputs import outdir
+from vifpk.harness.outputs.runwarnings import KEY
 from vifpk.harness.workflows.check import OBSERVABLES, CheckResult
 from vifpk.harness.workflows.verdict import INDISTINGUISHABLE_FACTOR, LARGE_L1, SMALL_L1
 
@@ -41,9 +42,9 @@ def _figure_densities(res: CheckResult, text: dict[str, str] | None = None) -> b
     closed form (solid line), its FPK (open circles), the Monte Carlo of its averaged SDE
     (dashed steps), in one colour per model; the Monte Carlo of the original system in black
     with +/- 2 s.e. bars. One legend for all panels."""
-    from vifpk.core.io import pyplot
+    from vifpk.core.io import figures
 
-    plt = pyplot()
+    plt = figures()
 
     sol = res.solutions
     fig, axes = plt.subplots(1, 3, figsize=(13, 4.4))
@@ -85,9 +86,9 @@ def _figure_decomposition(res: CheckResult, text: dict[str, str] | None = None) 
     """Bars: the L1 distance of each part of the decomposition, with +/- 1 s.e. error bars
     (black, capped). Grey hatched boxes: the Monte Carlo noise floor, from the bottom of the
     axis up to the floor (a bar inside its box is noise)."""
-    from vifpk.core.io import pyplot
+    from vifpk.core.io import figures
 
-    plt = pyplot()
+    plt = figures()
     from matplotlib.patches import Rectangle
 
     models = tuple(res.metrics["models"])
@@ -445,9 +446,12 @@ def write_figures(folder: Path, pngs: dict[str, bytes]) -> dict[str, str]:
 
 
 def write_report(res: CheckResult, out_dir: str | Path, *,
-                 prov: dict[str, Any] | None = None) -> dict[str, Path]:
+                 prov: dict[str, Any] | None = None,
+                 runtime_warnings: list[dict[str, Any]] | None = None) -> dict[str, Path]:
     """Write the report folder out_dir as a unit (harness/outputs/outdir.py), every file stamped
-    with the run's provenance ``prov`` (default: :func:`provenance.collect` for this process)."""
+    with the run's provenance ``prov`` (default: :func:`provenance.collect` for this process).
+    ``runtime_warnings``: the run's counted RuntimeWarnings (harness/outputs/runwarnings.py),
+    stored in metrics.json; None: not recorded, no key."""
     if prov is None:
         prov = provenance.collect(scene_path=provenance.scene_file(res.scene.source)
                                   if res.scene.source else None)
@@ -463,17 +467,22 @@ def write_report(res: CheckResult, out_dir: str | Path, *,
         (tmp / "report.md").write_text(render_markdown(res, figs), encoding="utf-8")
         (tmp / "report.html").write_text(render_html(res, pngs), encoding="utf-8")
         np.savez_compressed(tmp / "arrays.npz", run_id=np.array(run_id), **arrays(res))
-        (tmp / "metrics.json").write_text(dumps(metrics_document(res, prov)), encoding="utf-8")
+        (tmp / "metrics.json").write_text(dumps(metrics_document(res, prov, runtime_warnings)),
+                                          encoding="utf-8")
 
     out = outdir.write_folder(out_dir, fill, run_id=run_id, allowed=REPORT_FILES)
     return {k: out / k for k in ("report.html", "report.md", "metrics.json", "arrays.npz")}
 
 
-def metrics_document(res: CheckResult, prov: dict[str, Any]) -> dict[str, Any]:
-    """metrics.json: the results (a function of scene, settings and seed only), then
-    ``timings`` and ``provenance``, the only two keys that differ between identical runs."""
+def metrics_document(res: CheckResult, prov: dict[str, Any],
+                     runtime_warnings: list[dict[str, Any]] | None = None) -> dict[str, Any]:
+    """metrics.json: the results (a function of scene, settings and seed only), the run's
+    counted RuntimeWarnings when recorded (``runtime_warnings``), then ``timings`` and
+    ``provenance``, the only two keys that differ between identical runs."""
     doc = {k: v for k, v in res.metrics.items() if k != "timings"}
     doc["scene"] = res.scene.to_dict()
+    if runtime_warnings is not None:
+        doc[KEY] = runtime_warnings
     doc["timings"] = res.metrics.get("timings", {})
     doc["provenance"] = prov
     return doc

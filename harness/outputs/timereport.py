@@ -23,7 +23,8 @@ from vifpk.core import provenance
 from vifpk.core.io import dumps, png_bytes, pyplot
 
 #: the files of a time-domain report; arrays-<workflow>.npz tells its kind (outdir.KINDS)
-PASSAGE_FILES = ("report.html", "report.md", "metrics.json", "passage.npz", "figures")
+PASSAGE_FILES = ("report.html", "report.md", "metrics.json", "passage.npz", "reliability.csv",
+                 "fpt_density.csv", "figures")
 TRANSIENT_FILES = ("report.html", "report.md", "metrics.json", "transient.npz", "figures")
 
 
@@ -158,6 +159,60 @@ def _arrays(res: Any) -> dict[str, np.ndarray]:
     for name, sol in res.solutions.items():
         walk(name.replace(":", "_"), sol.data)
     return out
+
+
+# ------------------------------------------------------------------------ passage CSV
+RELIABILITY_COLUMNS = ("curve", "t", "R", "se", "lower", "upper")
+DENSITY_COLUMNS = ("curve", "t_lo", "t_hi", "density", "err")
+
+
+def _rows(columns: tuple[str, ...], rows: list[tuple[Any, ...]]) -> str:
+    def cell(v: Any) -> str:
+        return "" if v is None else (v if isinstance(v, str) else repr(float(v)))
+
+    return "\n".join([",".join(columns), *(",".join(cell(v) for v in r) for r in rows)]) + "\n"
+
+
+def passage_csv(res: Any) -> dict[str, str]:
+    """reliability.csv and fpt_density.csv (docs/passage.md): R(t) of the original system
+    (Kaplan-Meier steps with Greenwood's se and the 95% Hall-Wellner band), of each model's
+    FPK and averaged SDE; the FPT density of the original system (KM mass per bin / width with
+    its standard error, survival.fpt_bins) and of each model's FPK on the same bins
+    (-(R(b) - R(a)) / (b - a))."""
+    from vifpk.harness.workflows import survival
+
+    def fpt(name: str) -> tuple[np.ndarray, np.ndarray]:
+        f = res.solutions[name].data["fpt"]
+        return np.asarray(f["time"], float), np.asarray(f["censored"], bool)
+
+    rel: list[tuple[Any, ...]] = []
+    t_mc, cens = fpt("mc:original")
+    curves = [("original_system", t_mc, cens)] + [
+        (f"sde:{m}", *fpt(f"sde:{m}")) for m in res.models if f"sde:{m}" in res.solutions]
+    for name, t, c in curves:
+        km = survival.kaplan_meier(t, c)
+        rel += [(name, *row) for row in zip(km["t"], km["R"], km["se"], km["lower"],
+                                            km["upper"], strict=True)]
+    for m in res.models:
+        r = res.solutions[f"fpk:{m}"].data["R"]
+        rel += [(m, t, R, None, None, None) for t, R in zip(r["t"], r["R"], strict=True)]
+    dens: list[tuple[Any, ...]] = []
+    try:
+        edges, q, sd = survival.fpt_bins(t_mc, cens)
+    except ValueError:  # no path passed: no histogram (the header alone)
+        edges = None
+    if edges is not None:
+        w = np.diff(edges)
+        dens += [("original_system", a, b, qi / wi, si / wi)
+                 for a, b, qi, si, wi in zip(edges[:-1], edges[1:], q, sd, w, strict=True)]
+        for m in res.models:
+            r = res.solutions[f"fpk:{m}"].data["R"]
+            qm = -np.diff(np.interp(edges, np.asarray(r["t"], float),
+                                    np.asarray(r["R"], float)))
+            dens += [(m, a, b, qi / wi, None)
+                     for a, b, qi, wi in zip(edges[:-1], edges[1:], qm, w, strict=True)]
+    return {"reliability.csv": _rows(RELIABILITY_COLUMNS, rel),
+            "fpt_density.csv": _rows(DENSITY_COLUMNS, dens)}
 
 
 # --------------------------------------------------------------------------- transient
@@ -350,6 +405,9 @@ def write_time_report(res: Any, out_dir: str | Path, *, prov: dict[str, Any] | N
                                          encoding="utf-8")
         np.savez_compressed(tmp / f"{kind}.npz", run_id=np.array(run_id),
                             **_arrays(res))
+        if kind == "passage":
+            for name, text in passage_csv(res).items():
+                (tmp / name).write_text(text, encoding="utf-8")
         (tmp / "metrics.json").write_text(dumps(metrics_document(res, prov)), encoding="utf-8")
 
     out = outdir.write_folder(out_dir, fill, run_id=run_id, allowed=files)

@@ -397,15 +397,14 @@ def output_folder(path: str | None, option: str, *, replaced: bool = False) -> N
     _probe(_nearest_existing(p), option, p)
 
 
-def run_inputs(args: Any) -> list[tuple[str, Path]]:
-    """(what, resolved path) of every file a command reads: its scene or sweep file (a shipped
-    one too: in a source checkout it is a file of the repository), the sweep's base scene, and
-    the source of every registered model plugin."""
-    import importlib.util
-    import tomllib
-
+def run_inputs(args: Any, extra: Iterable[tuple[str, Path]] = ()) -> list[tuple[str, Path]]:
+    """(what, resolved path) of every file a command reads: its scene file (a shipped one too:
+    in a source checkout it is a file of the repository), ``extra`` (a sweep's files, as the
+    sweep loader resolved them: harness.sweeps.spec.inputs), and the source of every
+    registered model plugin that can be found without importing it."""
     from vifpk.core import registry
-    from vifpk.core.scene import find_scene, shipped_scenes
+    from vifpk.core.guard import source_of
+    from vifpk.core.scene import find_scene
 
     found: list[tuple[str, Path]] = []
 
@@ -417,32 +416,24 @@ def run_inputs(args: Any) -> list[tuple[str, Path]]:
     if isinstance(scene, str):
         with contextlib.suppress(OSError, ValueError):
             add("the scene file", find_scene(scene))
-    sweep = getattr(args, "sweep", None)
-    if isinstance(sweep, str):
-        sp: Any = Path(sweep)
-        with contextlib.suppress(Exception):  # a bad sweep file is the sweep loader's to name
-            if not sp.is_file():
-                sp = shipped_scenes() / "sweeps" / f"{sweep}.toml"
-            add("the sweep file", sp)
-            base = tomllib.loads(Path(sp).read_text(encoding="utf-8")).get("scene")
-            if isinstance(base, str):
-                beside = Path(sp).parent / (base if base.endswith(".toml") else f"{base}.toml")
-                add("the sweep's scene file", beside if beside.is_file() else find_scene(base))
+    for what, p in extra:
+        add(what, p)
     for entry in registry.models():
         if entry.distribution == registry.DISTRIBUTION:
             continue
-        with contextlib.suppress(Exception):  # a plugin that cannot even be found: no file
-            spec = importlib.util.find_spec(entry.value.split(":")[0].strip())
-            if spec is not None and spec.origin:
-                add(f"the source of model plugin {entry.name!r}", Path(spec.origin))
+        src = source_of(entry.value.split(":")[0].strip())  # no plugin code runs (guard.py)
+        if src is not None:
+            add(f"the source of model plugin {entry.name!r}", Path(src))
     return found
 
 
-def outputs_apart_from_inputs(args: Any, *, replaced: bool, names: Iterable[str] = ()) -> None:
+def outputs_apart_from_inputs(args: Any, *, replaced: bool, names: Iterable[str] = (),
+                              extra: Iterable[tuple[str, Path]] = ()) -> None:
     """No output overwrites what the run reads: ``--json`` is not an input file; an ``--out``
     folder the run replaces as a unit (``replaced``) holds no input; one it writes into holds
-    no input under one of the ``names`` it writes. One line, exit 2, before any work."""
-    inputs = run_inputs(args)
+    no input under one of the ``names`` it writes. ``extra``: more files the run reads (see
+    :func:`run_inputs`). One line, exit 2, before any work."""
+    inputs = run_inputs(args, extra)
     json_out = getattr(args, "json", None)
     if isinstance(json_out, str):
         target = Path(json_out).expanduser().resolve()

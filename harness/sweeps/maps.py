@@ -87,9 +87,9 @@ def _no_values(ax: Any) -> None:
 
 def _map_figure(ds: Any, var: str, title: str, *, contour: bool) -> str:
     """Colour maps of ``var`` (dims: two parameters and model), models side by side."""
-    from vifpk.core.io import pyplot
+    from vifpk.core.io import figures
 
-    plt = pyplot()
+    plt = figures()
     from matplotlib.patches import Rectangle
 
     px, py = [d for d in ds[var].dims if d != "model"]
@@ -141,14 +141,13 @@ def _scattered_map_figure(ds: Any, var: str, title: str) -> str:
     linearly on the Delaunay triangulation of the points (in range-scaled coordinates, as the
     points were chosen: harness/sweeps/adaptive.py), the contour L1 = 2 x noise floor (white), and
     the points (white circles: within the noise; black dots: outside; red crosses: failed)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     from matplotlib.colors import LogNorm, Normalize
     from matplotlib.tri import Triangulation
     from scipy.spatial import Delaunay
 
+    from vifpk.core.io import figures
+
+    plt = figures()
     px, py = json.loads(ds.attrs["varied"])
     x, xl = _axis(ds, px)
     y, yl = _axis(ds, py)
@@ -194,9 +193,9 @@ def _scattered_map_figure(ds: Any, var: str, title: str) -> str:
 
 
 def _curve_figure(ds: Any, var: str, err: str | None, title: str) -> str:
-    from vifpk.core.io import pyplot
+    from vifpk.core.io import figures
 
-    plt = pyplot()
+    plt = figures()
 
     dims = [d for d in ds[var].dims if d != "model"]
     fig, ax = plt.subplots(figsize=(6, 3.8), constrained_layout=True)
@@ -224,9 +223,9 @@ def _curve_figure(ds: Any, var: str, err: str | None, title: str) -> str:
 
 
 def _bifurcation_figure(ds: Any) -> str:
-    from vifpk.core.io import pyplot
+    from vifpk.core.io import figures
 
-    plt = pyplot()
+    plt = figures()
 
     dims = [d for d in ds["critical"].dims if d != "model"]
     fig, ax = plt.subplots(figsize=(6.4, 4.2), constrained_layout=True)
@@ -386,9 +385,9 @@ def time_figures(ds: Any) -> list[tuple[str, str]]:
                          "relaxation time (time units, log scale)"))
     if var not in ds or orig not in ds:
         return []
-    from vifpk.core.io import pyplot
+    from vifpk.core.io import figures
 
-    plt = pyplot()
+    plt = figures()
     x, xl = _axis(ds, params[0]) if params[0] in ds.coords else (
         np.arange(ds.sizes["point"]), "point")
     fig, ax = plt.subplots(figsize=(6.4, 4.2), constrained_layout=True)

@@ -74,6 +74,8 @@ class Sweep:
     tolerance_question: tuple[str, str, float] = ("L1", "A", TOLERANCE_CONFIDENCE)
     #: check sweeps whose file gives a tolerance: fit the error surface (sweeps/surface.py)
     surface: bool = False
+    #: the file the base scene was read from (None: not a file on disk)
+    base_file: str | None = None
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -184,7 +186,7 @@ def _validate_point(scene: Scene, workflow: str, bifurcation: Mapping[str, Any],
         if workflow in ("passage", "transient"):
             from vifpk.harness.sweeps import timesweep
 
-            timesweep.check_point(workflow, bifurcation)
+            timesweep.check_point(workflow, bifurcation, scene)  # the request's checks
         if workflow in ("check", "passage", "transient") or (workflow == "bifurcation"
                                                              and bifurcation.get("mc")):
             # with a fixed step the checks depend on [montecarlo] and omega0 only: once each

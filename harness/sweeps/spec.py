@@ -189,20 +189,33 @@ def _values(where: str, spec: Any) -> tuple[float, ...]:
     return vals
 
 
-def _resolve_scene(name: Any, sweep_path: Any) -> Scene:
-    """The sweep's base scene: a path (relative to the sweep file) must exist; a bare name
-    is a scene file ``NAME.toml`` beside the sweep file, else the shipped scene of that name."""
+def _resolve_scene(name: Any, sweep_path: Any) -> tuple[Scene, Path | None]:
+    """The sweep's base scene and the file it was read from (None: not a file on disk): a path
+    (relative to the sweep file) must exist; a bare name is a scene file ``NAME.toml`` beside
+    the sweep file, else the shipped scene of that name."""
+    from vifpk.core.provenance import scene_file
     from vifpk.core.scene import shipped_name
 
     if not isinstance(name, str) or not name:
         raise SweepError(f"{sweep_path.name}: scene must be a shipped scene name or a path")
     if isinstance(sweep_path, Path):  # a sweep file on disk: paths relative to it
         if not shipped_name(name):
-            return load_scene(sweep_path.parent / Path(name).expanduser())
+            path = sweep_path.parent / Path(name).expanduser()
+            return load_scene(path), path
         beside = sweep_path.parent / f"{name}.toml"
         if beside.is_file():
-            return load_scene(beside)
-    return load_scene(name)
+            return load_scene(beside), beside
+    return load_scene(name), scene_file(name)
+
+
+def inputs(sweep: Sweep) -> list[tuple[str, Path]]:
+    """(what, path) of the files a sweep reads: the sweep file and its base scene's file, as
+    load_sweep resolved them (for harness.request.validate.outputs_apart_from_inputs: no
+    second reading of the sweep file)."""
+    out = [("the sweep file", Path(sweep.path))]
+    if sweep.base_file is not None:
+        out.append(("the sweep's scene file", Path(sweep.base_file)))
+    return [(what, p.resolve()) for what, p in out if p.is_file()]
 
 
 def load_sweep(path: str | Path) -> Sweep:
@@ -235,7 +248,7 @@ def load_sweep(path: str | Path) -> Sweep:
     if "scene" not in raw:
         raise SweepError(f"{src}: scene: missing (a shipped scene name or a path)")
     try:
-        base = _resolve_scene(raw["scene"], p)
+        base, base_file = _resolve_scene(raw["scene"], p)
     except SweepError:
         raise
     except SceneError as exc:
@@ -397,6 +410,7 @@ def load_sweep(path: str | Path) -> Sweep:
               for i, params in enumerate(combos)]
     return Sweep(path=str(p), text=text, name=name, workflow=workflow, mode=mode, seed=seed,
                  vary=tuple(vary), fixed=fixed, bifurcation=bif, base=base,
+                 base_file=None if base_file is None else str(base_file),
                  points=tuple(points), adaptive=adaptive, models=models,
                  tolerance=tol.value,
                  tolerance_question=(tol.metric, tol.observable, tol.confidence),

@@ -162,7 +162,7 @@ def surface_figure(ds: Any, *, axis: Any = None) -> str | None:
 
     from matplotlib.colors import LogNorm
 
-    from vifpk.core.io import png_bytes, pyplot
+    from vifpk.core.io import figures, png_bytes
 
     if "surface_error" not in ds:
         return None
@@ -172,7 +172,7 @@ def surface_figure(ds: Any, *, axis: Any = None) -> str | None:
     tol = float(ds.attrs["tolerance"])
     models = [m for m in ds["model"].values if str(m) in meta["models"]]
     lo, hi = meta["band"]
-    plt = pyplot()
+    plt = figures()
     fig, axs = plt.subplots(1, len(models), figsize=(4.6 * len(models) + 1, 4), squeeze=False,
                             constrained_layout=True)
     gx, xl = axis(names[0], ds[GRID_PREFIX + names[0]].values)

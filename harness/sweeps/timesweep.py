@@ -7,6 +7,8 @@
     start = "stationary"         # or an amplitude A0 < Ac (default "stationary")
     horizon = 5000.0             # optional; default 8 x the largest model MFPT
     sde = false                  # optional: also the averaged SDEs' Monte Carlo (default off)
+    method = "direct"            # or "splitting": the MFPT only, at thresholds direct
+                                 # simulation cannot reach (no horizon; particles, groups)
 
     workflow = "transient"
     [transient]
@@ -27,7 +29,7 @@ from typing import Any
 #: workflow parameters that a sweep may vary or fix in its table, by workflow
 TIME_PARAMS = {"passage.threshold": "passage", "passage.start": "passage",
                "transient.start": "transient"}
-KEYS = {"passage": ("threshold", "start", "horizon", "sde"),
+KEYS = {"passage": ("threshold", "start", "horizon", "sde", "method", "particles", "groups"),
         "transient": ("start", "times", "sde")}
 POINT_SECONDS = 3600.0  # a point's Monte Carlo is refused above an hour at the fastest rate
 
@@ -76,14 +78,19 @@ def options(src: str, raw: Mapping[str, Any], workflow: str, vary: Mapping[str, 
             raise SweepError(f"{src}: [passage] start = {st!r}: an amplitude or 'stationary'")
         if "horizon" in opts and not (_finite(opts["horizon"]) and opts["horizon"] > 0):
             raise SweepError(f"{src}: [passage] horizon = {opts['horizon']!r}: a time > 0")
+        method = opts.get("method", "direct")  # not set by default: fingerprints kept
+        if method not in ("direct", "splitting"):
+            raise SweepError(f"{src}: [passage] method = {method!r}: allowed: 'direct', "
+                             "'splitting'")
     else:
         if "start" not in opts and "transient.start" not in vary:
             raise SweepError(f"{src}: [transient] start: missing (an amplitude)")
         t = opts.get("times")
-        if (not isinstance(t, list) or not t or not all(_finite(x) and x > 0 for x in t)
+        if (not isinstance(t, list) or len(t) < 3 or not all(_finite(x) and x > 0 for x in t)
                 or any(b <= a for a, b in zip(t, t[1:], strict=False))):
-            raise SweepError(f"{src}: [transient] times = {t!r}: a list of times > 0 in "
-                             "increasing order")
+            raise SweepError(f"{src}: [transient] times = {t!r}: a list of at least 3 "
+                             "times > 0 in increasing order (the relaxation fit has two "
+                             "parameters)")
         opts["times"] = [float(x) for x in t]
     sde = opts.setdefault("sde", False)
     if not isinstance(sde, bool):
@@ -105,18 +112,29 @@ def point_options(opts: Mapping[str, Any], params: tuple[tuple[str, float], ...]
     return out
 
 
-def check_point(workflow: str, opts: Mapping[str, Any]) -> None:
-    """The point's options as the command checks them (InputError, one line)."""
-    from vifpk.harness.request.validate import InputError
+def check_point(workflow: str, opts: Mapping[str, Any], scene: Any) -> None:
+    """The point's options as the command checks them: the same request, the same one line
+    (harness/request/timedomain.py; InputError). A scene that is a numerical dead end (no
+    noise) is left to the point's run, which says so."""
+    from vifpk.harness.door.solvers import SolverFailure
+
+    try:
+        request(workflow, opts, scene, None)
+    except SolverFailure:
+        pass
+
+
+def request(workflow: str, opts: Mapping[str, Any], scene: Any, models: Any) -> Any:
+    """The point's PassageRequest or TransientRequest (harness/request/timedomain.py)."""
+    from vifpk.harness.request.timedomain import passage_request, transient_request
 
     if workflow == "passage":
-        ac, st = opts["threshold"], opts["start"]
-        if not (_finite(ac) and ac > 0):
-            raise InputError(f"passage.threshold = {ac!r}: allowed: an amplitude > 0")
-        if st != "stationary" and not 0 <= st < ac:
-            raise InputError(f"passage.start = {st:g}: allowed: 0 <= A0 < threshold = {ac:g}")
-    elif not (_finite(opts["start"]) and opts["start"] > 0):
-        raise InputError(f"transient.start = {opts['start']!r}: allowed: an amplitude > 0")
+        return passage_request(scene, threshold=opts["threshold"], start=opts["start"],
+                               models=models, horizon=opts.get("horizon"), sde=opts["sde"],
+                               method=opts.get("method", "direct"),
+                               particles=opts.get("particles"), groups=opts.get("groups"))
+    return transient_request(scene, start=opts["start"], times=opts["times"], models=models,
+                             sde=opts["sde"])
 
 
 def _price(p: dict[str, Any], runs: int) -> None:
@@ -132,15 +150,15 @@ def _price(p: dict[str, Any], runs: int) -> None:
 
 
 def passage_point(job: Any) -> dict[str, Any]:
-    from vifpk.harness.workflows.passage import passage
-
-    from vifpk.core.defaults import CHECK_MODELS
+    from vifpk.harness.request.timedomain import with_quadratures
+    from vifpk.harness.workflows.passage import run
 
     o = point_options(job.bifurcation, job.params)
-    models = job.models if job.models is not None else CHECK_MODELS
-    res = passage(job.scene, threshold=o["threshold"], start=o["start"], models=models,
-                  horizon=o.get("horizon"), sde=o["sde"], quiet=True,
-                  price=lambda p: _price(p, 1 + (len(models) if o["sde"] else 0)))
+    req = with_quadratures(request("passage", o, job.scene, job.models))
+    if req.method == "splitting":
+        return _splitting_point(req)
+    res = run(req, quiet=True,
+              price=lambda p: _price(p, 1 + (len(req.models) if o["sde"] else 0)))
     mc = res.metrics["mfpt"]["original_system"]
     out: dict[str, Any] = {"models": {}}
     for m in res.models:
@@ -157,15 +175,30 @@ def passage_point(job: Any) -> dict[str, Any]:
     return out
 
 
-def transient_point(job: Any) -> dict[str, Any]:
-    from vifpk.harness.workflows.transient import transient
+def _splitting_point(req: Any) -> dict[str, Any]:
+    """A passage point by splitting (harness/workflows/rarepassage.py): the same record as a
+    direct point's, with the R(t) distances not measured (NaN) and nothing censored."""
+    from vifpk.harness.workflows import rarepassage
 
-    from vifpk.core.defaults import CHECK_MODELS
+    res = rarepassage.run(req, reason="asked for: [passage] method = 'splitting'")
+    met = res.metrics
+    out: dict[str, Any] = {"models": {
+        m: {"mfpt": e["mfpt"], "mfpt_error": e["mfpt_error"]["value"],
+            "mfpt_error_err": e["mfpt_error"]["err"], "R_sup": math.nan,
+            "R_sup_floor": math.nan, "verdict_class": e["verdict_class"]}
+        for m, e in met["models"].items()}}
+    o = met["mfpt"]["original_system"]
+    out.update(mfpt_original=o["value"], mfpt_original_err=o["stderr"], censored_fraction=0.0,
+               recommended_model=met["recommended_model"], warnings=res.warnings,
+               verdicts=res.verdicts)
+    return out
+
+
+def transient_point(job: Any) -> dict[str, Any]:
+    from vifpk.harness.workflows.transient import run
 
     o = point_options(job.bifurcation, job.params)
-    res = transient(job.scene, start=o["start"], times=tuple(o["times"]),
-                    models=job.models if job.models is not None else CHECK_MODELS,
-                    sde=o["sde"], quiet=True)
+    res = run(request("transient", o, job.scene, job.models), quiet=True)
     meas = res.metrics["relaxation"]["original_system"]
     out: dict[str, Any] = {"models": {}}
     for m in res.models:

@@ -57,9 +57,9 @@ def _run_variant(scene: Scene, joint: bool) -> dict[str, Any]:
 
 
 def _plot_pdfs(fig_no: int, scene: Scene, runs: list[dict[str, Any]], path: Path) -> None:
-    from vifpk.core.io import pyplot
+    from vifpk.core.io import figures
 
-    plt = pyplot()
+    plt = figures()
 
     sw = scene.sweep
     fig, axes = plt.subplots(1, 3, figsize=(13, 4.6))
@@ -85,14 +85,16 @@ def _plot_pdfs(fig_no: int, scene: Scene, runs: list[dict[str, Any]], path: Path
     fig.suptitle(f"{_title(fig_no, scene)}: {styles}, markers = Monte Carlo of the original "
                  "system (±2 s.e.)", fontsize=9)
     fig.tight_layout(rect=(0, 0.16, 1, 1))
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    try:
+        fig.savefig(path, dpi=110)
+    finally:
+        plt.close(fig)
 
 
 def _plot_joint(fig_no: int, scene: Scene, runs: list[dict[str, Any]], path: Path) -> None:
-    from vifpk.core.io import pyplot
+    from vifpk.core.io import figures
 
-    plt = pyplot()
+    plt = figures()
 
     sw = scene.sweep
     n = len(runs)
@@ -132,8 +134,10 @@ def _plot_joint(fig_no: int, scene: Scene, runs: list[dict[str, Any]], path: Pat
     fig.legend(handles, labels, loc="outside lower center", ncol=3, fontsize=8, frameon=False)
     fig.suptitle(f"{_title(fig_no, scene)}: joint PDF p(x1, x2) and its section at x1 = 0",
                  fontsize=10)
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    try:
+        fig.savefig(path, dpi=100)
+    finally:
+        plt.close(fig)
 
 
 def _title(fig_no: int, scene: Scene) -> str:

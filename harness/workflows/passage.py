@@ -28,6 +28,7 @@ INDISTINGUISHABLE_FACTOR error bars of zero "indistinguishable", |e| < MFPT_SMAL
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -145,12 +146,24 @@ def run_seconds(p: dict[str, Any], runs: int, speed: float, cores: int) -> float
 
 
 # ------------------------------------------------------------------------------- workflow
+def run(req: Any, *, quiet: bool = True, price: Any = None) -> PassageResult:
+    """The workflow on a checked request (harness.request.timedomain.PassageRequest): every
+    front end builds one and calls this."""
+    return passage(req.scene, threshold=req.threshold, start=req.start, models=req.models,
+                   paths=req.paths, horizon=req.horizon, sde=req.sde, quiet=quiet,
+                   price=price, quadratures=req.quadratures, at=req.at)
+
+
 def passage(scene: Any, *, threshold: float, start: float | str = "stationary",
             models: tuple[str, ...] = CHECK_MODELS, paths: int | None = None,
             horizon: float | None = None, sde: bool = True, quiet: bool = True,
-            price: Any = None) -> PassageResult:
+            price: Any = None, quadratures: Mapping[str, Any] | None = None,
+            at: tuple[float, ...] = ()) -> PassageResult:
     """The first-passage cross-check (module docstring). ``price(plan)`` is called with the
-    Monte Carlo plan before any Monte Carlo and may raise (the CLI's cost guard)."""
+    Monte Carlo plan before any Monte Carlo and may raise (the CLI's cost guard).
+    ``quadratures``: {model label: fpk.mfpt's record} already computed to price the run
+    (request.timedomain.with_quadratures), reused. ``at``: mission times T whose R(T) is
+    reported for every model and the original system (metrics["at"])."""
     from vifpk.harness.workflows import survival
 
     named, models, absent = applicable(scene, models)
@@ -159,7 +172,8 @@ def passage(scene: Any, *, threshold: float, start: float | str = "stationary",
     mfpt: dict[str, Any] = {}
     for m in models:
         stages(f"reliability of the {m} model (FPK + quadrature)")
-        r = timedomain.passage_averaged(scene, named[m], threshold=threshold, start=start)
+        r = timedomain.passage_averaged(scene, named[m], threshold=threshold, start=start,
+                                        quadrature=(quadratures or {}).get(m))
         sol[f"fpk:{m}"] = r
         mfpt[m] = _model_mfpt(r)
     relax, inside = None, 1.0
@@ -190,6 +204,11 @@ def passage(scene: Any, *, threshold: float, start: float | str = "stationary",
     orig = {"value": float(rmean["value"]), "stderr": float(rmean["stderr"]),
             "paths": int(t_mc.size), "censored": int(np.sum(cens)),
             "restricted": bool(rmean.get("restricted", frac > 0)), "horizon": p["horizon"]}
+    unmeasured = not_measured(t_mc, cens, threshold, p["horizon"], p["dt"],
+                              float(rmean["stderr"]))
+    if unmeasured:
+        orig["not_an_estimate"] = unmeasured
+        warnings.append(f"NOT AN ESTIMATE: {unmeasured}")
     entries: dict[str, Any] = {}
     for m in models:
         r = sol[f"fpk:{m}"]
@@ -210,6 +229,8 @@ def passage(scene: Any, *, threshold: float, start: float | str = "stationary",
                     f"{abs(e['sde']['z']):.1f} standard errors from the {m} model's "
                     f"quadrature {mfpt[m]['value']:.4g}: the two routes of one model disagree "
                     "(time step of the SDE, or the FPK grid)")
+        if unmeasured:
+            e["not_an_estimate"] = unmeasured
         entries[m] = e
     stages("metrics")
     for e in entries.values():
@@ -231,6 +252,9 @@ def passage(scene: Any, *, threshold: float, start: float | str = "stationary",
         "timings": {"wall_seconds": float(sum(stages.seconds.values())),
                     "stages": stages.seconds},
     }
+    if at:
+        metrics["at"] = survival.mission(km, {m: sol[f"fpk:{m}"] for m in models}, at,
+                                         p["horizon"])
     if absent:
         metrics["models_absent"] = dict(absent)
     return PassageResult(scene=scene, threshold=float(threshold), start=start, models=models,
@@ -345,13 +369,17 @@ def _sde_check(survival: Any, s: Any, r: Any, mf: dict[str, Any], horizon: float
     frac = float(np.mean(cs)) if cs.size else 0.0
     target = restricted_model_mean(r, horizon) if frac > CENSORED_WARN else mf["value"]
     se = float(rm["stderr"])
-    z = (float(rm["value"]) - target) / se if se > 0 else math.inf
+    unmeasured = bool(cs.size == 0 or np.all(cs) or not se > 0)  # nothing to sample-check
+    z = (float(rm["value"]) - target) / se if se > 0 else math.nan
     sup = survival.sup_distance(np.asarray(r.data["R"]["t"], float),
                                 np.asarray(r.data["R"]["R"], float), km)
     return {"mfpt": {"value": float(rm["value"]), "stderr": se, "paths": int(ts.size),
                      "censored": int(np.sum(cs))},
             "z": z, "R_sup_vs_fpk": _keep(sup, "value", "floor", "inside_band"),
-            "sampling_ok": bool(abs(z) <= SAMPLING_Z)}
+            "sampling_ok": bool(unmeasured or abs(z) <= SAMPLING_Z),
+            **({"not_an_estimate": "every path of the averaged SDE censored, or no spread in "
+                                   "its passage times: no sampling check"}
+               if unmeasured else {})}
 
 
 def _thin(t: np.ndarray, *ys: np.ndarray) -> dict[str, list[float]]:
@@ -389,6 +417,8 @@ def _error_used(e: dict[str, Any]) -> dict[str, float]:
 
 def verdict_class(e: dict[str, Any], censored_fraction: float = 0.0) -> tuple[str, str]:
     """(class, cause) of one model's relative MFPT error (module docstring)."""
+    if e.get("not_an_estimate"):
+        return "not an estimate", e["not_an_estimate"]
     err = _error_used(e)
     v, bar = float(err["value"]), float(err["err"])
     if not (math.isfinite(v) and math.isfinite(bar)):
@@ -403,6 +433,8 @@ def verdict_class(e: dict[str, Any], censored_fraction: float = 0.0) -> tuple[st
 
 def verdict(model: str, e: dict[str, Any]) -> str:
     """One line: class, relative MFPT error with its error bar, sup|dR| against its floor."""
+    if e["verdict_class"] == "not an estimate":
+        return f"{model} model: NOT AN ESTIMATE -- {e['verdict_cause']}"
     err = _error_used(e)
     what = "restricted MFPT" if "mfpt_error_restricted" in e else "MFPT"
     s = e["R_sup"]
@@ -426,6 +458,11 @@ def recommend(entries: dict[str, Any]) -> tuple[str, str]:
     cand = {m: e for m, e in entries.items() if m in RECOMMENDABLE or m not in CHECK_MODELS}
     if not cand:
         return "none", head + "none -- no recommendable model was checked"
+    why = next((e["verdict_cause"] for e in cand.values()
+                if e["verdict_class"] == "not an estimate"), "")
+    cand = {m: e for m, e in cand.items() if e["verdict_class"] != "not an estimate"}
+    if not cand:
+        return "none", head + f"none -- NOT AN ESTIMATE: {why}"
     best = min(cand, key=lambda m: abs(_error_used(cand[m])["value"]))
     desc = ", ".join(f"{m} {100 * _error_used(cand[m])['value']:+.1f}%" for m in cand)
     cls = cand[best]["verdict_class"]
@@ -433,3 +470,24 @@ def recommend(entries: dict[str, Any]) -> tuple[str, str]:
         return "none", (head + f"none -- the best model, {best}, misses the MFPT by "
                         f"{100 * _error_used(cand[best])['value']:+.1f}% ({desc})")
     return best, head + f"{best} -- nearest MFPT to the original system's ({desc})"
+
+
+def not_measured(t_mc: np.ndarray, cens: np.ndarray, threshold: float, horizon: float,
+                 dt: float, stderr: float) -> str:
+    """Why the original system's MFPT is not a measurement ("" when it is): no path passed
+    within the horizon (every one censored: the restricted mean is the horizon itself), or
+    every passage came within the first time step (the MFPT is below the step's resolution and
+    its spread is zero), or the estimate has no error bar at all."""
+    done = t_mc[~cens]
+    if done.size == 0:
+        return (f"no path of the original system passed Ac = {threshold:g} within the horizon "
+                f"{horizon:.4g} ({cens.size} of {cens.size} censored): its MFPT is not "
+                "measured; raise --horizon")
+    if float(np.max(done)) <= dt * (1.0 + 1e-9):
+        return (f"every passing path of the original system crossed Ac = {threshold:g} within "
+                f"the first time step (dt = {dt:g}): its MFPT is below the step's resolution; "
+                "start further below Ac, or give a smaller --dt")
+    if not (math.isfinite(stderr) and stderr > 0):
+        return "the original system's MFPT has no error bar (no spread in its passage times)"
+    return ""
+

@@ -208,6 +208,23 @@ def fpt_density_l1(t_model: Any, R_model: Any, time: Any, censored: Any, *,
     harness.workflows.compare), sd_i = sqrt(q_i (1 - q_i) / n_i), n_i = Y(a_i) / R_KM(a_i) (= n
     without censoring before the bin; an approximation under random censoring); ``err``: the spread
     of the L1 under a parametric bootstrap q + sd N(0, 1) (``draws`` draws, ``seed``)."""
+    edges, q, sd = fpt_bins(time, censored, edges)
+    tm, Rm = np.asarray(t_model, dtype=float), np.asarray(R_model, dtype=float)
+    qm = -np.diff(np.interp(edges, tm, Rm))
+    value = float(np.sum(np.abs(qm - q)))
+    rng = np.random.default_rng(seed)
+    boot = np.abs(qm[None, :] - q[None, :] - sd[None, :] * rng.standard_normal((draws, q.size)))
+    return {"value": value, "floor": float(math.sqrt(2 / math.pi) * np.sum(sd)),
+            "err": float(boot.sum(axis=1).std(ddof=1)), "edges": edges, "q_model": qm,
+            "q": q, "sd": sd}
+
+
+def fpt_bins(time: Any, censored: Any, edges: Any = None
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(edges, q, sd): the Monte Carlo's FPT mass per bin, q_i = R_KM(a_i) - R_KM(b_i), and its
+    standard error sd_i = sqrt(q_i (1 - q_i) / n_i), n_i = Y(a_i) / R_KM(a_i)
+    (:func:`fpt_density_l1` explains both and the default edges). ValueError when no path
+    passed and no edges are given."""
     t_all, cen = _arrays(time, censored)
     km = kaplan_meier(t_all, cen)
     ev = t_all[~cen]
@@ -219,17 +236,57 @@ def fpt_density_l1(t_model: Any, R_model: Any, time: Any, censored: Any, *,
     edges = np.asarray(edges, dtype=float)
     Rk = _km_value(km, edges)
     q = Rk[:-1] - Rk[1:]
-    tm, Rm = np.asarray(t_model, dtype=float), np.asarray(R_model, dtype=float)
-    qm = -np.diff(np.interp(edges, tm, Rm))
     y = t_all.size - np.searchsorted(np.sort(t_all), edges[:-1], side="left")
     k_before = np.searchsorted(km["t"], edges[:-1], side="left") - 1  # R(a-)
     r_before = np.where(k_before >= 0, km["R"][np.maximum(k_before, 0)], 1.0)
     with np.errstate(divide="ignore", invalid="ignore"):
         n_eff = np.where(r_before > 0, y / np.maximum(r_before, 1e-300), 0.0)
         sd = np.where(n_eff > 0, np.sqrt(np.clip(q * (1 - q), 0, None) / n_eff), 0.0)
-    value = float(np.sum(np.abs(qm - q)))
-    rng = np.random.default_rng(seed)
-    boot = np.abs(qm[None, :] - q[None, :] - sd[None, :] * rng.standard_normal((draws, q.size)))
-    return {"value": value, "floor": float(math.sqrt(2 / math.pi) * np.sum(sd)),
-            "err": float(boot.sum(axis=1).std(ddof=1)), "edges": edges, "q_model": qm,
-            "q": q, "sd": sd}
+    return edges, q, sd
+
+
+def reliability_at(km: dict[str, Any], when: float, horizon: float) -> dict[str, Any]:
+    """R_KM(T) at a mission time T with its Greenwood standard error, the pointwise 95%
+    interval R +/- 1.96 se clipped to [0, 1] (the normal approximation of Greenwood's formula)
+    and the simultaneous Hall-Wellner band at T (wider: it holds on the whole curve at once).
+    Beyond the censoring horizon the Monte Carlo did not observe R: value None, and why."""
+    if when > horizon:
+        return {"T": float(when), "value": None,
+                "why": f"T = {when:g} is beyond the Monte Carlo's horizon {horizon:.4g}: R(T) "
+                       "was not observed (raise --horizon)"}
+    k = max(int(np.searchsorted(km["t"], float(when), side="right")) - 1, 0)
+    r, se = float(km["R"][k]), float(km["se"][k])
+    z = 1.959963984540054  # the standard normal's 97.5% quantile
+    return {"T": float(when), "value": r, "se": se,
+            "ci": [max(r - z * se, 0.0), min(r + z * se, 1.0)],
+            "band": [float(km["lower"][k]), float(km["upper"][k])], "at_risk": float(
+                km["at_risk"][k])}
+
+
+def model_reliability_at(t: Any, R: Any, when: float, decay_rate: float) -> float:
+    """R_M(T) of a model's reliability curve: linear interpolation on its own times; beyond
+    its last time R_M decays at its slowest rate (exp(-lambda (T - t_last)), as the FPK's own
+    int R dt assumes)."""
+    t, R = np.asarray(t, float), np.asarray(R, float)
+    if when <= t[-1]:
+        return float(np.interp(when, t, R))
+    if math.isfinite(decay_rate) and decay_rate > 0:
+        return float(R[-1] * math.exp(-decay_rate * (when - t[-1])))
+    return float(R[-1])
+
+
+def mission(km: dict[str, Any], fpks: dict[str, Any], at: Any, horizon: float
+            ) -> list[dict[str, Any]]:
+    """R(T) at each mission time T: the original system's Kaplan-Meier value with its
+    Greenwood error, pointwise 95% interval and simultaneous band (:func:`reliability_at`),
+    and every model's R_M(T) from its FPK result (data["R"], info["decay_rate"]:
+    :func:`model_reliability_at`)."""
+    out = []
+    for T in at:
+        row: dict[str, Any] = {"T": float(T),
+                               "original_system": reliability_at(km, T, horizon)}
+        for m, r in fpks.items():
+            row[m] = model_reliability_at(r.data["R"]["t"], r.data["R"]["R"], T,
+                                          float(r.info.get("decay_rate", math.nan)))
+        out.append(row)
+    return out

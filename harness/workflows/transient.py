@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 from vifpk.harness.door import solvers, timedomain
+from vifpk.harness.request.timedomain import MIN_FIT_TIMES  # the fit's fewest times (3)
 from vifpk.harness.workflows.check import _Stages, sde_seed
 from vifpk.harness.workflows.compare import compare
 from vifpk.harness.workflows.passage import applicable, plain_info
@@ -35,7 +36,6 @@ from vifpk.core.defaults import CHECK_MODELS
 
 EDGE_MARGIN = 1.1  # histogram edges 10% beyond the farthest amplitude any model reaches
 TAIL = 1e-8  # a model "reaches" A while p(A, t) > TAIL x its peak at some snapshot
-MIN_FIT_TIMES = 3  # the two-parameter fit needs at least three snapshot times
 
 
 @dataclass(frozen=True)
@@ -78,6 +78,12 @@ def snapshot_edges(scene: Any, fpks: dict[str, Any], start: float, bins: int
             "edges_v": np.linspace(-v, v, bins + 1)}
 
 
+def run(req: Any, *, quiet: bool = True, price: Any = None) -> TransientResult:
+    """The workflow on a checked request (harness.request.timedomain.TransientRequest)."""
+    return transient(req.scene, start=req.start, times=req.times, models=req.models,
+                     paths=req.paths, sde=req.sde, quiet=quiet, price=price)
+
+
 def transient(scene: Any, *, start: float, times: tuple[float, ...],
               models: tuple[str, ...] = CHECK_MODELS, paths: int | None = None,
               sde: bool = True, quiet: bool = True, price: Any = None) -> TransientResult:
@@ -109,6 +115,11 @@ def transient(scene: Any, *, start: float, times: tuple[float, ...],
     entries: dict[str, Any] = {}
     warnings: list[str] = []
     measured = fit_relaxation(times, [mean_of(h) for h in hists], start)
+    if measured is not None and not measured["err"] > 0:  # no error bar: not a measurement
+        measured = None
+        warnings.append("the original system's relaxation time has no error bar (its snapshot "
+                        "means have none: each law sits in one or two bins of the shared "
+                        "grid): NOT AN ESTIMATE, not reported")
     # a snapshot law narrower than a few bins of the shared grid has an L1 of ~0 whatever the
     # models say (all its mass in one or two bins): not a measurement
     occupied = [int(np.count_nonzero(np.asarray(h["p"]) > 0)) for h in hists]
@@ -140,7 +151,7 @@ def transient(scene: Any, *, start: float, times: tuple[float, ...],
                       "relaxation": {"predicted": pred,
                                      "fitted": fitted["value"] if fitted else None,
                                      "error": _tau_error(fitted, measured)}}
-    if measured is None:
+    if measured is None and not any("no error bar" in w for w in warnings):
         warnings.append(f"no relaxation time measured on the original system: the fit of its "
                         f"mean amplitude needs at least {MIN_FIT_TIMES} snapshot times that "
                         "resolve the decay (give times around the models' relaxation times)")
@@ -259,15 +270,26 @@ def _tau_error(fitted: dict[str, Any] | None, measured: dict[str, Any] | None
 
 
 def transient_verdict(model: str, e: dict[str, Any], measured: dict[str, Any] | None) -> str:
+    """One line: the worst snapshot's class with its L1 and KS (none when no snapshot is an
+    estimate: a law in fewer than MIN_RESOLVED_BINS bins has an L1 of ~0 whatever the model
+    says), the relaxation time predicted, fitted and measured."""
     w = next(r for r in e["snapshots"] if r["t"] == e["worst_time"])["fpk"]
     rel = e["relaxation"]
-    line = (f"{model} model: {e['verdict_class'].upper()} at worst (t = {e['worst_time']:g}: "
-            f"L1(A) = {w['L1']:.3f} +/- {w.get('L1_err', 0):.3f}, floor "
-            f"{w.get('L1_floor', 0):.3f}, KS {w['ks']:.3f}); relaxation time predicted "
-            f"{rel['predicted']:.4g}")
+    if all(r["class"] == "not an estimate" for r in e["snapshots"]):
+        line = (f"{model} model: NOT AN ESTIMATE at every time (the original system's law "
+                f"occupies fewer than {MIN_RESOLVED_BINS} bins of the shared grid at each: no "
+                "distance is measured); relaxation time predicted "
+                f"{rel['predicted']:.4g}")
+    else:
+        line = (f"{model} model: {e['verdict_class'].upper()} at worst (t = "
+                f"{e['worst_time']:g}: L1(A) = {w['L1']:.3f} +/- {w.get('L1_err', 0):.3f}, "
+                f"floor {w.get('L1_floor', 0):.3f}, KS {w['ks']:.3f}); relaxation time "
+                f"predicted {rel['predicted']:.4g}")
     if rel["fitted"] is not None:
         line += f" (its mean amplitude decays with tau = {rel['fitted']:.4g})"
-    if measured is not None:
+    if measured is None:
+        line += "; not measured on the original system (its fit failed: see the warnings)"
+    else:
         line += f", measured on the original system {measured['value']:.4g} +/- " \
                 f"{measured['err']:.2g}"
         if rel["error"] is not None:

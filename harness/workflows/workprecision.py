@@ -297,9 +297,9 @@ def seconds_to_reach(solvers: dict[str, list[dict[str, Any]]]) -> dict[str, dict
 
 
 def plot(data: dict[str, Any], path: Any) -> None:
-    from vifpk.core.io import pyplot
+    from vifpk.core.io import figures
 
-    plt = pyplot()
+    plt = figures()
 
     fig, ax = plt.subplots(figsize=(8, 5.5))
     floors = []
@@ -320,8 +320,10 @@ def plot(data: dict[str, Any], path: Any) -> None:
     ax.set_title("Work-precision: " + str(data["scene"]["name"]))
     ax.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    try:
+        fig.savefig(path, dpi=110)
+    finally:
+        plt.close(fig)
 
 
 def table_markdown(data: dict[str, Any]) -> str:

@@ -56,14 +56,46 @@ def describe(exc: BaseException, source: str | None) -> str:
 
 
 def source_of(module: str) -> str | None:
-    """The file of a plugin's module, without importing it (None when it cannot be found)."""
-    import importlib.util
+    """The file of a plugin's module, found without importing it or its parent packages (None
+    when it cannot be found). ``importlib.util.find_spec("pkg.mod")`` imports ``pkg``, so a
+    plugin's code ran during input validation, outside the plugin guard (issue 38); here each
+    level is looked up by the import system's finders (``sys.meta_path``) in the locations its
+    parent's spec names, and no module is executed. A finder that cannot answer (ImportError)
+    means no file to name."""
+    import sys
 
-    try:
-        spec = importlib.util.find_spec(module)
-    except Exception:  # noqa: BLE001 - a parent package that fails: no file to name
-        return None
+    spec = None
+    locations = None
+    parts = module.split(".")
+    for i in range(len(parts)):
+        name = ".".join(parts[:i + 1])
+        loaded = sys.modules.get(name)
+        spec = getattr(loaded, "__spec__", None) if loaded is not None else None
+        if spec is None:
+            spec = _find(name, locations)
+        if spec is None:
+            return None
+        locations = spec.submodule_search_locations
+        if locations is None and i < len(parts) - 1:
+            return None  # a module, not a package, where a package was named
     return str(Path(spec.origin).resolve()) if spec is not None and spec.origin else None
+
+
+def _find(name: str, locations: Any) -> Any:
+    """The spec the first meta-path finder gives for ``name`` (None: none has it)."""
+    import sys
+
+    for finder in sys.meta_path:
+        find = getattr(finder, "find_spec", None)
+        if find is None:
+            continue
+        try:
+            spec = find(name, locations, None)
+        except ImportError:
+            return None
+        if spec is not None:
+            return spec
+    return None
 
 
 class GuardedModel:

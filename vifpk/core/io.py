@@ -7,8 +7,9 @@ single-file output goes through :func:`atomic_path` (bytes and text through
 :func:`write_atomic`); whole folders (the check report) are written as a unit by
 :mod:`harness.outputs.outdir`.
 
-Figures: :func:`pyplot` selects the non-interactive Agg backend (the one place that does) and
-:func:`png_bytes` renders a figure with its PNG text metadata (matplotlib's ``metadata=``).
+Figures: :func:`figures` makes figures on their own Agg canvas without pyplot (no backend
+switched, no global figure registry) and :func:`png_bytes` renders a figure with its PNG text
+metadata (matplotlib's ``metadata=``), closing it on every path.
 """
 
 from __future__ import annotations
@@ -89,20 +90,62 @@ def write_json(path: str | Path, obj: Any) -> Path:
     return write_atomic(path, dumps(obj))
 
 
-def pyplot() -> Any:
-    """``matplotlib.pyplot`` on the non-interactive Agg backend (vifpk draws to files only)."""
-    import matplotlib
+class Figures:
+    """New matplotlib figures without pyplot: a ``matplotlib.figure.Figure`` on its own Agg
+    canvas, so drawing to files changes no global state (no ``matplotlib.use``, no backend
+    switched under a notebook user, no figure registered with pyplot that an exception could
+    leave open: an unreferenced figure is freed like any object). The three pyplot names the
+    harness draws with, with pyplot's signatures."""
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    @staticmethod
+    def subplots(nrows: int = 1, ncols: int = 1, *, sharex: bool | str = False,
+                 sharey: bool | str = False, squeeze: bool = True,
+                 subplot_kw: dict[str, Any] | None = None,
+                 gridspec_kw: dict[str, Any] | None = None, **fig_kw: Any) -> tuple[Any, Any]:
+        """(figure, axes) as ``pyplot.subplots`` returns them."""
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
 
-    return plt
+        fig = Figure(**fig_kw)
+        FigureCanvasAgg(fig)
+        axes = fig.subplots(nrows, ncols, sharex=sharex, sharey=sharey, squeeze=squeeze,
+                            subplot_kw=subplot_kw, gridspec_kw=gridspec_kw)
+        return fig, axes
+
+    @staticmethod
+    def get_cmap(name: str) -> Any:
+        import matplotlib
+
+        return matplotlib.colormaps[name]
+
+    @staticmethod
+    def close(fig: Any) -> None:
+        """Release ``fig``: a pyplot figure (one a caller made with pyplot) is closed there;
+        ours are left as they are (no registry holds them: freed once unreferenced)."""
+        import sys
+
+        plt = sys.modules.get("matplotlib.pyplot")  # never imported here
+        if plt is not None and getattr(fig.canvas, "manager", None) is not None:
+            plt.close(fig)
+
+
+def figures() -> Figures:
+    """The figure factory the harness draws with (:class:`Figures`)."""
+    return Figures()
+
+
+#: The old name (every caller used ``plt = pyplot(); plt.subplots(...)``): the same factory,
+#: not matplotlib.pyplot.
+pyplot = figures
 
 
 def png_bytes(fig: Any, *, text: dict[str, str] | None = None, **savefig: Any) -> bytes:
-    """The figure as PNG bytes, closed; ``text``: PNG text chunks (e.g. the run id of the
-    report it belongs to), written by matplotlib's ``savefig(metadata=...)``."""
+    """The figure as PNG bytes, closed on every path (also when ``savefig`` raises); ``text``:
+    PNG text chunks (e.g. the run id of the report it belongs to), written by matplotlib's
+    ``savefig(metadata=...)``."""
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", metadata=text, **savefig)
-    pyplot().close(fig)
+    try:
+        fig.savefig(buf, format="png", metadata=text, **savefig)
+    finally:
+        Figures.close(fig)
     return buf.getvalue()
