@@ -36,15 +36,25 @@ class WallSpec:
     v_yield: float = math.inf
 
     def __post_init__(self) -> None:
-        impact.module(self.law, solver=SOLVER)  # a law without a module: one line, now
+        self.module()  # a law without a module: one line, now
 
-    def energy_loss(self, v: Any) -> Any:
-        """(1 - e(v)^2) v^2 / 2 at impact speed v (the law's ``energy_loss``)."""
-        return impact.module(self.law, solver=SOLVER).energy_loss(v, self.r, self.v_yield)
+    def module(self) -> Any:
+        """The law's module (vifpk.physics.impact.law); NoLaw naming law and solver."""
+        try:
+            return impact.law(self.law)
+        except impact.NoLaw as e:
+            raise impact.NoLaw(f"{e}: the {SOLVER} solver cannot take it") from None
 
-    def restitution(self, v: Any) -> Any:
-        """e(v) (the law's ``restitution``)."""
-        return impact.module(self.law, solver=SOLVER).restitution(v, self.r, self.v_yield)
+    def energy_loss(self, v: Any) -> np.ndarray:
+        """(1 - e(v)^2) v^2 / 2 at impact speeds v, elementwise (the law's scalar
+        ``energy_loss``, the Monte Carlo's own, over the array)."""
+        f = np.vectorize(self.module().energy_loss, otypes=[float])
+        return f(v, self.r, self.v_yield)
+
+    def restitution(self, v: Any) -> np.ndarray:
+        """e(v) at impact speeds v, elementwise (the law's scalar ``restitution``)."""
+        f = np.vectorize(self.module().restitution, otypes=[float])
+        return f(v, self.r, self.v_yield)
 
 
 def walls_of(system: Any) -> tuple[WallSpec, ...]:
@@ -56,10 +66,10 @@ def walls_of(system: Any) -> tuple[WallSpec, ...]:
 
 
 def is_paper_wall(walls: tuple[WallSpec, ...]) -> bool:
-    """One lower wall at x = 0 whose law has a constant restitution (Newton's): the paper's
-    system."""
+    """One lower wall at x = 0 with a constant restitution (no yield speed: v_yield = inf,
+    Newton's law): the paper's system."""
     return (len(walls) == 1 and walls[0].side == "lower" and walls[0].at == 0.0
-            and impact.module(walls[0].law, solver=SOLVER).CONSTANT_RESTITUTION)
+            and walls[0].v_yield == math.inf)
 
 
 def phase_walls(system: Any) -> dict[str, Any]:

@@ -6,14 +6,29 @@ from __future__ import annotations
 import importlib
 from types import ModuleType
 
-#: law name -> module (vifpk.core.registry.IMPACT_LAW_NAMES)
-MODULES = {"newton": "vifpk.physics.impact.newton", "johnson": "vifpk.physics.impact.johnson"}
+from vifpk.core.registry import IMPACT_LAW_NAMES
+
+#: law name -> its module: one module a registered law (vifpk.core.registry.IMPACT_LAW_NAMES)
+MODULES = {name: f"vifpk.physics.impact.{name}" for name in IMPACT_LAW_NAMES}
+
+
+class NoLaw(ValueError):
+    """An impact law without a module. One line."""
 
 
 def module(law: str, *, solver: str) -> ModuleType:
-    """The module of impact law ``law``; ValueError naming law and solver if there is none."""
+    """The module of impact law ``law``; NoLaw naming law and solver if there is none."""
     name = MODULES.get(law)
     if name is None:
-        raise ValueError(f"impact law {law!r} is not available in the {solver} solver "
-                         f"(laws with a module: {', '.join(sorted(MODULES))})")
+        raise NoLaw(f"impact law {law!r} is not available in the {solver} solver "
+                    f"(laws with a module: {', '.join(sorted(MODULES))})")
     return importlib.import_module(name)
+
+
+def law(name: str) -> ModuleType:
+    """The module of impact law ``name``; NoLaw if there is none (the caller names itself)."""
+    found = MODULES.get(name)
+    if found is None:
+        raise NoLaw(f"impact law {name!r} has no module (laws with a module: "
+                    f"{', '.join(sorted(MODULES))})")
+    return importlib.import_module(found)
