@@ -146,7 +146,7 @@ def test_loss_per_impact_is_the_laws(treatment):
 
 
 def test_an_unknown_impact_law_is_refused_in_one_line():
-    with pytest.raises(ValueError, match="impact law 'plastic' is not registered .*: the "
+    with pytest.raises(ValueError, match="impact law 'plastic' has no module .*: the "
                                          "averaging solver cannot take it"):
         WallSpec(side="upper", at=1.0, r=0.9, law="plastic")
 
