@@ -227,7 +227,6 @@ def cmd_figures(args: argparse.Namespace) -> int:
         for scene in scenes:
             validate.scene_magnitudes(scene)
             validate.stationary_density(scene)
-            request.physics_supported(scene)
             validate.montecarlo_settings(scene, options)
             cost.refuse_oversized(scene)
         cost.refuse_costly(lambda sp: sum(cost.montecarlo_seconds(sc, speed=sp)

@@ -151,23 +151,7 @@ def concrete(source: Scene | str | Path, overrides: Sequence[str] = (),
         where = scene.source or scene.name
         raise SceneError(f"{where}: {sw.path} varies over [{vals}]; choose one value "
                          f"with --set {sw.path}=VALUE")
-    physics_supported(scene)
     return scene
-
-
-def physics_supported(scene: Scene) -> None:
-    """The physics every solver covers today: walls other than the paper's and parametric
-    noise (the scene keys of issue 37) are refused in one line until the solvers take them."""
-    where = scene.source or scene.name
-    walls = scene.system.walls_problem()
-    if walls is not None:
-        raise validate.InputError(f"{where}: {walls}: not supported by the solvers yet; "
-                                  "allowed: one wall at x = 0 (system.r, system.barrier) or "
-                                  "none")
-    if scene.parametric.on:
-        raise validate.InputError(f"{where}: parametric noise (parametric.stiffness, "
-                                  "parametric.damping): not supported by the solvers yet; "
-                                  "allowed: 0")
 
 
 def with_mc_options(scene: Scene, options: Mapping[str, Any], *, mc: bool) -> Scene:

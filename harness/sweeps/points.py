@@ -177,12 +177,11 @@ def _validate_point(scene: Scene, workflow: str, bifurcation: Mapping[str, Any],
                     params: tuple[tuple[str, float], ...]) -> None:
     """A point's scene checked as `vifpk check` / `solve` check theirs before any work
     (magnitudes; the Monte Carlo settings where the workflow simulates)."""
-    from vifpk.harness.request import prepare, validate
+    from vifpk.harness.request import validate
 
     try:
         validate.scene_magnitudes(scene)
         validate.stationary_density(scene)
-        prepare.physics_supported(scene)
         if workflow in ("passage", "transient"):
             from vifpk.harness.sweeps import timesweep
 
