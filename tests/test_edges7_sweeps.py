@@ -71,3 +71,16 @@ def test_x02_the_cli_refuses_a_band_sweep_without_the_extra(tmp_path, monkeypatc
     assert code == 2, err
     assert "scikit-learn" in err and len(err.strip().splitlines()) == 1
     assert not out.exists()
+
+
+def test_a_sweep_varies_wall_keys_and_parametric_noise(tmp_path):
+    """Issue 37: "system.upper_wall.r" and "parametric.stiffness" are sweep keys; a wall table's
+    unknown sub-key is refused in one line naming the allowed ones."""
+    sweep = load_sweep(ROOT / "scenes" / "sweeps" / "bilateral-r-Dk.toml")
+    assert [name for name, _ in sweep.vary] == ["system.upper_wall.r", "parametric.stiffness"]
+    bad = tmp_path / "bad.toml"
+    bad.write_text('scene = "systems/bilateral-duffing"\nworkflow = "check"\n[vary]\n'
+                   '"system.upper_wall.rr" = [0.9, 0.95]\n')
+    with pytest.raises(SweepError, match=r"unknown key; allowed: system.upper_wall.at, "
+                                         r"system.upper_wall.r"):
+        load_sweep(bad)

@@ -64,7 +64,16 @@ from vifpk.harness.sweeps.points import (
 )
 
 from vifpk.core.defaults import CHECK_MODELS, TOLERANCE
-from vifpk.core.scene import INDEXED, MAX_TERMS, SECTIONS, Scene, SceneError, load_scene
+from vifpk.core.scene import (
+    INDEXED,
+    MAX_TERMS,
+    SECTIONS,
+    WALL_TABLES,
+    Scene,
+    SceneError,
+    load_scene,
+)
+from vifpk.core.walls import WALL_KEYS
 
 MODES = ("product", "zip", "adaptive")
 
@@ -126,6 +135,12 @@ def _field_of(where: str, path: str) -> Any:
         raise SweepError(f"{where} {path!r}: unknown key; use section.key with a section in "
                          f"{sorted(SECTIONS)}")
     known = {f.name: f for f in fields(SECTIONS[section])}
+    table, dot, sub = key.partition(".")
+    if section == "system" and dot and table in WALL_TABLES:  # system.lower_wall.r, ...
+        if sub not in WALL_KEYS:
+            raise SweepError(f"{where} {path!r}: unknown key; allowed: "
+                             + ", ".join(f"system.{table}.{k}" for k in WALL_KEYS))
+        return _WallKey() if sub == "law" else _Coefficient()
     m = INDEXED.fullmatch(key) if section == "system" else None
     if m and m.group(1) in known and known[m.group(1)].type.startswith("tuple"):
         if int(m.group(2)) >= MAX_TERMS:
@@ -146,6 +161,12 @@ class _Coefficient:
     """Stands for the field of one coefficient of a law ("system.restoring[2]")."""
 
     type = "float"
+
+
+class _WallKey:
+    """Stands for a wall's impact law ("system.lower_wall.law"): a name."""
+
+    type = "str"
 
 
 def _number(v: Any) -> bool:

@@ -31,14 +31,16 @@ def shipped_name(text: str) -> bool:
 
 
 def shipped_names() -> list[str]:
-    """The names of the shipped scenes (``hard/...`` included; sweeps excluded)."""
+    """The names of the shipped scenes (``hard/...`` and ``systems/...`` included; sweeps
+    excluded)."""
     root = shipped_scenes()
     out = []
     for entry in sorted(root.iterdir(), key=lambda e: e.name):
         if entry.is_file() and entry.name.endswith(".toml"):
             out.append(entry.name[:-5])
-        elif entry.is_dir() and entry.name == "hard":
-            out += [f"hard/{e.name[:-5]}" for e in sorted(entry.iterdir(), key=lambda e: e.name)
+        elif entry.is_dir() and entry.name in ("hard", "systems"):
+            out += [f"{entry.name}/{e.name[:-5]}"
+                    for e in sorted(entry.iterdir(), key=lambda e: e.name)
                     if e.name.endswith(".toml")]
     return out
 

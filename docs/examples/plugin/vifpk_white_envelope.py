@@ -45,6 +45,11 @@ class WhiteNoiseEnvelope:
             return f"white-envelope covers damping (d0 + d2 x^2) x' only, not damping = {d}"
         if any(e):
             return "white-envelope has no velocity-dependent damping (velocity_damping)"
+        walls = s.walls_problem()  # vifpk.core.system.System: None for the paper's wall
+        if walls is not None:
+            return f"white-envelope covers the paper's wall only, not {walls}"
+        if scene.parametric.on:
+            return "white-envelope has no parametric noise (parametric.stiffness, .damping)"
         return None
 
     def __init__(self, scene):
