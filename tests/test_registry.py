@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import subprocess
 import sys
 import tomllib
@@ -67,8 +68,9 @@ def test_a_registered_factory_that_cannot_load_is_named(monkeypatch, base):
 
 def test_one_of_is_the_one_wording():
     assert registry.one_of("noise kind", "ou", registry.NOISE_KINDS) == "ou"
-    with pytest.raises(ValueError, match=r"noise kind must be one of \('ou', 'white'\), "
-                                         "not 'pink'"):
+    # the registered kinds as the registry holds them (a third kind must not edit this test)
+    with pytest.raises(ValueError, match=re.escape(
+            f"noise kind must be one of {tuple(registry.NOISE_KINDS)}, not 'pink'")):
         registry.one_of("noise kind", "pink", registry.NOISE_KINDS)
 
 

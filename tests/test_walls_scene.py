@@ -50,7 +50,7 @@ def test_set_a_wall_key_on_the_paper_scene_converts_its_wall():
     ({"lower_wall": {"at": -0.1, "law": "hertz"}}, "impact law must be one of"),
     ({"lower_wall": {"at": -0.1, "law": "johnson"}}, "needs a yield speed"),
     ({"lower_wall": {"at": -0.1, "law": "johnson", "v_yield": -1}}, "allowed: > 0"),
-    ({"lower_wall": {"at": -0.1, "v_yield": 1}}, "johnson\" only"),
+    ({"lower_wall": {"at": -0.1, "v_yield": 1}}, "v_yield applies to law = \"johnson\""),
     ({"lower_wall": {"r": 0.9}}, "at is missing"),
     ({"lower_wall": {"at": -0.1, "rr": 0.9}}, "unknown key"),
     ({"lower_wall": {"at": float("nan")}}, "finite number"),

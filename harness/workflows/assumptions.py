@@ -18,6 +18,7 @@ from vifpk.harness.door.solvers import (
 
 from vifpk.core.guard import PluginError
 from vifpk.core.result import WarningRecord
+from vifpk.physics import noise as noise_kinds
 
 #: The kinds of warning check writes (WarningRecord.kind): code acts on the kind (the
 #: sweep's flags, advisory or not), people read the text.
@@ -83,7 +84,10 @@ def assumption_warnings(scene: Any, closed: dict[str, Any], mc_info: dict[str, A
             f"{rate * T:.2f} of itself per period (mostly {main}), so the energy is not "
             "nearly conserved over one cycle, which averaging assumes"))
     band = (val or {}).get("band")
-    if n.kind == "ou" and band is not None and min(band) < BAND_MIN:
+    # a kind with a correlation time (its module declares avg_correlation_rate: OU, ...), not
+    # a kind named "ou": a third coloured kind is warned about too
+    coloured = n.kind in noise_kinds.kinds_with("averaging", "correlation_rate")
+    if coloured and band is not None and min(band) < BAND_MIN:
         lo, hi = min(band), max(band)
         out.append(WarningRecord(
             "narrow_band",
@@ -91,10 +95,11 @@ def assumption_warnings(scene: Any, closed: dict[str, Any], mc_info: dict[str, A
             "the oscillation frequency over the bulk of p(E) (10%-90% energies), below "
             f"{BAND_MIN:g}; the noise is not wide-band against the oscillation, which the "
             "Stratonovich-Khasminskii limit requires"))
-    elif n.kind == "ou" and band is None and n.alpha1 < BAND_MIN * w:
+    elif coloured and band is None and (corr_rate := float(noise_kinds.piece(
+            n.kind, "averaging", "correlation_rate")(D=n.D, alpha1=n.alpha1))) < BAND_MIN * w:
         out.append(WarningRecord(
             "narrow_band",
-            f"narrow-band noise: bandwidth alpha1 = {n.alpha1:g} is below {BAND_MIN:g} x "
+            f"narrow-band noise: bandwidth alpha1 = {corr_rate:g} is below {BAND_MIN:g} x "
             f"the oscillation frequency ({w:.3g}) at the mean amplitude; the noise is not "
             "wide-band against the oscillation, which the Stratonovich-Khasminskii limit "
             "requires"))

@@ -6,6 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from .registry import IMPACT_LAW_PARAMS
 from .system import _trim
 
 
@@ -55,12 +56,12 @@ def energy_balance(system: Any, parametric: Any = None) -> EnergyBalance:
 
     Walls on both sides (issue 37) hold x in [a, b]: x stays bounded while x' ~ A^{n+1}, so
     every damping term ~ A^{2n+2}, the period ~ A^{-(n+1)} and the impacts (1 - e^2) H / T ~
-    A^{3n+3}. A "johnson" wall loses (1 - e^2) -> 1 of the energy at high impact speed even
-    with r = 1. Parametric noises (``parametric``: the scene's section) feed energy that
-    grows with the amplitude (D_k <g(x)^2>, D_c <d(x)^2 x'^2>); they are counted as gains of
-    their degree that never decide alone: at or above the top loss they make a ``tie`` (the
-    averaged model decides), since a multiplicative noise also spreads the law without
-    making its mean energy grow.
+    A^{3n+3}. A wall whose law takes a speed (registry.IMPACT_LAW_PARAMS: "johnson") loses
+    (1 - e^2) -> 1 of the energy at high impact speed even with r = 1. Parametric noises
+    (``parametric``: the scene's section) feed energy that grows with the amplitude
+    (D_k <g(x)^2>, D_c <d(x)^2 x'^2>); they are counted as gains of their degree that never
+    decide alone: at or above the top loss they make a ``tie`` (the averaged model decides),
+    since a multiplicative noise also spreads the law without making its mean energy grow.
     """
     k = _trim(tuple(system.restoring_law))
     n = max(len(k) - 1, 0)
@@ -83,7 +84,7 @@ def energy_balance(system: Any, parametric: Any = None) -> EnergyBalance:
     if system.mu > 0:
         terms.append(("system.mu", n + 1, 1))
     for w in walls:
-        if w.r < 1.0 or w.law == "johnson":
+        if w.r < 1.0 or "v_yield" in IMPACT_LAW_PARAMS.get(w.law, ()):
             name = "system.r" if getattr(system, "r", None) is not None else (
                 f"system.{w.side}_wall")
             terms.append((name, (3 * n + 3) if bounded else 3 * n + 2, 1))

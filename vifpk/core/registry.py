@@ -36,9 +36,14 @@ NOISE_KINDS = ("ou", "white")
 #: The exact averaged model's treatments of the impact term (averaging/exact.py,
 #: ``energy_terms``): not physical laws (those are IMPACT_LAW_NAMES).
 IMPACT_LAWS = ("exact", "transformed", "compounded")
-#: Physical impact laws a wall can have (vifpk.core.walls): Newton's constant restitution,
-#: and Johnson's elastic-plastic restitution that falls as v^(-1/4) above a yield speed.
-IMPACT_LAW_NAMES = ("newton", "johnson")
+#: Physical impact laws a wall can have (vifpk.core.walls; each its module
+#: vifpk/physics/impact/<name>.py) and the wall parameters each takes beyond r: Newton's
+#: constant restitution, and Johnson's elastic-plastic restitution that falls as v^(-1/4)
+#: above a yield speed. A law that takes ``v_yield`` must have e(v) -> 0 as |v| -> inf: its
+#: impacts remove energy at large amplitude even with r = 1 (vifpk.core.energy counts them a
+#: loss, vifpk.core.walls requires the parameter), read from here, not from the law's name.
+IMPACT_LAW_PARAMS: dict[str, tuple[str, ...]] = {"newton": (), "johnson": ("v_yield",)}
+IMPACT_LAW_NAMES = tuple(IMPACT_LAW_PARAMS)
 
 MODEL_GROUP = "vifpk.models"
 WORKFLOW_GROUP = "vifpk.workflows"

@@ -7,7 +7,7 @@ x = b >= 0 (x <= b), each with its own impact law::
     at = -0.3
     r = 0.9               # 0 < r <= 1
     law = "newton"        # IMPACT_LAW_NAMES
-    v_yield = 0.5         # "johnson" only
+    v_yield = 0.5         # the laws that take it (registry.IMPACT_LAW_PARAMS): "johnson"
 
 The impact laws (their physics lives in ``vifpk.physics``; here only their names and
 parameters):
@@ -40,7 +40,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from .registry import IMPACT_LAW_NAMES
+from .registry import IMPACT_LAW_NAMES, IMPACT_LAW_PARAMS
 from .result import BadInput
 
 #: the sides a wall can be on, and the sign its position must have
@@ -51,8 +51,8 @@ WALL_KEYS = ("at", "r", "law", "v_yield")
 @dataclass(frozen=True, kw_only=True)
 class Wall:
     """One rigid wall: ``side`` "lower" (the motion keeps x >= at) or "upper" (x <= at), its
-    position ``at``, restitution ``r`` and impact ``law`` (``v_yield``: the yield speed of
-    the "johnson" law, None for "newton")."""
+    position ``at``, restitution ``r`` and impact ``law`` (``v_yield``: the speed parameter
+    of a law that takes one, registry.IMPACT_LAW_PARAMS; None for "newton")."""
 
     side: str
     at: float
@@ -100,15 +100,16 @@ def wall_from_table(where: str, side: str, table: Any) -> Wall:
         raise BadInput(f"{where}.law = {law!r}: impact law must be one of "
                        f"{IMPACT_LAW_NAMES}")
     v_yield = table.get("v_yield")
-    if law == "johnson":
+    if "v_yield" in IMPACT_LAW_PARAMS[law]:
         if v_yield is None:
-            raise BadInput(f"{where}.v_yield is missing: the johnson law needs a yield speed "
-                           "> 0")
+            raise BadInput(f"{where}.v_yield is missing: the {law} law needs a yield "
+                           "speed > 0")
         v_yield = _number(f"{where}.v_yield", v_yield, "> 0")
         if v_yield <= 0.0:
             raise BadInput(f"{where}.v_yield = {v_yield:g} is out of range; allowed: > 0")
     elif v_yield is not None:
-        raise BadInput(f"{where}.v_yield applies to law = \"johnson\" only, not {law!r}")
+        takes = " | ".join(f'"{n}"' for n, p in IMPACT_LAW_PARAMS.items() if "v_yield" in p)
+        raise BadInput(f"{where}.v_yield applies to law = {takes} only, not {law!r}")
     return Wall(side=side, at=at, r=r, law=law, v_yield=v_yield)
 
 

@@ -1,5 +1,6 @@
-"""Impact laws, one module each (``law = "newton" | "johnson"`` of a wall): the restitution
-e(v) at impact speed v and the kinetic energy an impact takes, (1 - e(v)^2) v^2 / 2."""
+"""Impact laws, one module each (a wall's ``law``: the names and the parameters each takes are
+vifpk.core.registry.IMPACT_LAW_PARAMS): the restitution e(v) at impact speed v and the kinetic
+energy an impact takes, (1 - e(v)^2) v^2 / 2."""
 
 from __future__ import annotations
 
