@@ -60,7 +60,6 @@ def _passage_settings(scene: Any, *, paths: int, horizon: float, **given: Any) -
     return montecarlo.PassageSettings(paths=paths, horizon=horizon, **kw)
 
 
-@boundary
 def passage_refusal(scene: Any) -> None:
     """The original system's first passage (direct and splitting) asked before any work: a
     physics its Monte Carlo does not handle is refused in its own one line (BadInput;
@@ -70,6 +69,7 @@ def passage_refusal(scene: Any) -> None:
     refuse_parametric(getattr(scene, "parametric", None), "Monte Carlo first passage")
 
 
+@boundary
 def passage_montecarlo(scene: Any, *, threshold: float, start: float | str, horizon: float,
                        paths: int, dt: float | None = None, blocks: int | None = None,
                        seed: int | None = None, threads: int | None = None,
