@@ -37,7 +37,7 @@ import numpy as np
 from numba import prange
 
 from vifpk.core.defaults import BURN_FACTOR, FPK_CELLS
-from vifpk.core.result import Result, Status
+from vifpk.core.result import Resolved, Result, Status
 
 from ._jit import jit
 from .geometry import amplitude_general, orbit_point, potential
@@ -351,4 +351,7 @@ def simulate_sde(drift: Callable[[np.ndarray], np.ndarray],
             data[name] = {"x": 0.5 * (e[1:] + e[:-1]), "p": dd["p"], "edges": e,
                           "err": dd["err"], "p_blocks": dd["blocks"]}
             info["L1_floor"][name] = dd["L1_floor"]
-    return Result(data=data, info=info)
+    cfg = info["settings"]
+    return Result(data=data, info=info, resolved=Resolved(
+        dt=cfg["dt"], burn_in=cfg["burn_in"], time=cfg["time"], paths=cfg["paths"],
+        blocks=cfg["blocks"], sample_every=cfg["sample_every"]))

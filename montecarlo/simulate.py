@@ -33,7 +33,7 @@ import numba
 import numpy as np
 
 from vifpk.core.defaults import BURN_FACTOR
-from vifpk.core.result import CostRefused, Result, Status
+from vifpk.core.result import CostRefused, Resolved, Result, Status
 from vifpk.core.scene import energy_balance
 
 from . import kernels as K
@@ -683,7 +683,10 @@ def simulate(system: Any, noise: Any, settings: Settings, *, parametric: Any = N
             hist=dict(arr.hist), windows=windows, run_to=run_to, n_burn=n_burn, stride=stride,
             spw=spw, h=h, steps=steps, relax=relax)
     info["status"] = Status.SIMULATED.record()
-    return Result(data=data, info=info)
+    cfg = info["settings"]
+    return Result(data=data, info=info, resolved=Resolved(
+        dt=cfg["dt"], burn_in=cfg["burn_in"], time=cfg["time"], paths=cfg["paths"],
+        blocks=cfg["blocks"], sample_every=cfg["sample_every"]))
 
 
 def _copy(a: np.ndarray | None) -> np.ndarray | None:

@@ -302,7 +302,7 @@ def _phase_result(scene: Any, m: Any, model: Any, res: Any) -> Result:
         for key in ("A", "A_cells"):
             x, p = observed_density(m, res.data[key]["x"], res.data[key]["p"])
             obs[key] = {"x": x, "p": p}
-        res = Result(data=dict(res.data, **obs), info=res.info)
+        res = res._replace(data=dict(res.data, **obs))
     period, period_from = model_period(scene, m)
     data, raw_mass = phase_solution(scene, res, period)
     info = dict(res.info)
@@ -314,7 +314,7 @@ def _phase_result(scene: Any, m: Any, model: Any, res: Any) -> Result:
                        "std": float(np.sqrt(max(np.trapezoid((xa - mean) ** 2 * pa, xa), 0)))}
     info["diagnostics"] = dict(info.get("diagnostics", {}),
                                phase_mass_before_normalisation=raw_mass)
-    return Result(data=data, info=info)
+    return res._replace(data=data, info=info)
 
 
 @boundary
@@ -371,7 +371,7 @@ def montecarlo_solution(scene: Any, *, progress: bool = True, run: MonteCarloRun
     mom = info.get("moments", {}).get("A", {}).get("mean")
     if mom is not None:
         info["summary"] = {"mean": mom["value"], "mean_err": mom["err"]}
-    return Result(data=res.data, info=info)
+    return res._replace(info=info)
 
 
 @boundary

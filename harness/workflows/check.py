@@ -52,7 +52,7 @@ from vifpk.harness.workflows.verdict import (
 from vifpk.core import registry
 from vifpk.core.defaults import CHECK_MODELS, DENSITY_OBSERVABLES, FPK_CELLS
 from vifpk.core.protocols import Ref, WorkflowSpec
-from vifpk.core.result import WarningRecord
+from vifpk.core.result import Resolved, WarningRecord
 
 OBSERVABLES = DENSITY_OBSERVABLES
 
@@ -192,7 +192,7 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
         mc = montecarlo_solution(replace(run_scene, observables=replace(
             run_scene.observables, A=True, x1=True, x2=True, events=True, moments=True)),
             progress=not quiet, run=run)
-        st = mc.info["settings"]
+        st = mc.resolved  # typed: what the run resolved (step, burn-in, sampled time, ...)
         bad = _evidence(mc.info.get("convergence", {}), {})
         spent = time.perf_counter() - t_mc
         # extend (twice the burn-in and the sampled time) while the certificate says the run
@@ -203,7 +203,7 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
         stages.total += 1
         mcs = run_scene.montecarlo
         run_scene = replace(run_scene, montecarlo=replace(
-            mcs, time=2 * st["time"], burn_in=2 * st["burn_in"], dt=st["dt"], floor=0.0))
+            mcs, time=2 * st.time, burn_in=2 * st.burn_in, dt=st.dt, floor=0.0))
     sol["mc:original"] = mc
     edges = mc_edges_of(mc)
     sde_extensions = {}
@@ -298,7 +298,7 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
 
 
 def _sde_run(scene: Any, model: str, closed: Any, edges: dict[str, np.ndarray],
-             st: dict[str, Any], burn_in: Any, budget: float, stages: _Stages
+             st: Resolved, burn_in: Any, budget: float, stages: _Stages
              ) -> tuple[Any, int]:
     """The Monte Carlo of ``model``'s averaged SDE on the original system's edges and sample
     plan (its own step, from its relaxation time: montecarlo.averaged_sde), seeded by
@@ -306,22 +306,22 @@ def _sde_run(scene: Any, model: str, closed: Any, edges: dict[str, np.ndarray],
     SAMPLING_FACTOR x its floor, at most 3 times and while the budget allows a run of twice
     the cost. Returns (result, extensions): a function of the scene and this model alone."""
     t0 = time.perf_counter()
-    ext, time_ = 0, st["time"]
+    ext, time_ = 0, st.time
     while True:
         stages(f"Monte Carlo of the {model} averaged SDE"
                + (f" (extended x{2 ** ext})" if ext else ""))
         res = averaged_sde_solution(
             scene, model, edges=edges, seed=sde_seed(scene.montecarlo.seed, model), phase=True,
-            paths=st["paths"], blocks=st["blocks"], dt="auto", time=time_, burn_in=burn_in,
-            sample_every=st["sample_every"])
+            paths=st.paths, blocks=st.blocks, dt="auto", time=time_, burn_in=burn_in,
+            sample_every=st.sample_every)
         spent = time.perf_counter() - t0
         if (_sampling_ok(compare(closed.data["A"], res.data["A"])) or ext >= 3
                 or spent * 3 > budget - spent):
             return res, ext
         ext += 1
         stages.total += 1
-        time_ = 2 * res.info["settings"]["time"]
-        burn_in = 2 * res.info["settings"]["burn_in"]
+        time_ = 2 * res.resolved.time
+        burn_in = 2 * res.resolved.burn_in
 
 
 def output_problems(result: CheckResult) -> list[str]:

@@ -32,11 +32,28 @@ class CostRefused(BadInput):
         self.numbers = numbers
 
 
+@dataclass(frozen=True, kw_only=True)
+class Resolved:
+    """What a simulation resolved from its settings (issue 38): the step ``dt`` ("auto" made a
+    number), the ``burn_in`` ("auto" made a time), the sampled ``time``, ``paths``, ``blocks``
+    and ``sample_every`` it ran with. A workflow that continues or repeats a run reads these
+    typed fields, never a setting out of ``info`` (which keeps them for the JSON record)."""
+
+    dt: float
+    burn_in: float
+    time: float
+    paths: int
+    blocks: int
+    sample_every: float
+
+
 class Result(NamedTuple):
-    """A solver's output: densities by observable, and what the run did (``info``)."""
+    """A solver's output: densities by observable, what the run did (``info``), and for a
+    simulation what it resolved (``resolved``: typed; None for a closed form or a grid)."""
 
     data: dict[str, dict[str, Any]]
     info: dict[str, Any]
+    resolved: Resolved | None = None
 
 
 class Status(Enum):
