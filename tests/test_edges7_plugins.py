@@ -150,3 +150,62 @@ def test_w13_w14_a_sweep_point_out_of_protocol_is_named_and_flagged(hello, capsy
             if "key" in json.loads(p.read_text())]
     assert len(recs) == 2 and all(r["status"] == "failed" for r in recs), recs
     assert all("workflow 'hello'" in r["message"] and says in r["message"] for r in recs), recs
+
+
+# ------------------------------------------------------------ G05-G09: a model plugin
+MODEL = '''
+import numpy as np
+
+
+class Model:
+    """dA = (-0.1 A + 0.005 / A) dt + 0.1 dB: p(A) ~ A exp(-10 A^2) (test_edges5's GOOD)."""
+
+    def __init__(self, scene):
+        self.scene = scene
+
+    def drift(self, A):
+        {drift}
+        return {sign}0.1 * A + 0.005 / A
+
+    def diffusion(self, A):
+        return {sigma2} + 0 * A
+
+
+def build(scene, **options):
+    {build}
+    return Model(scene)
+'''
+
+
+def _model(tmp_path, monkeypatch, *, drift="pass", sign="-", sigma2="0.01", build="pass"):
+    from tests.test_edges5 import _plugin
+
+    return _plugin(tmp_path / "plug", monkeypatch,
+                   MODEL.format(drift=drift, sign=sign, sigma2=sigma2, build=build))
+
+
+def test_g05_a_model_plugin_that_prints_leaves_the_standard_output_to_vifpk(
+        tmp_path, monkeypatch, capfd):
+    """What the plugin prints (on import, in its factory, in drift) goes to the standard
+    error; the standard output holds vifpk's own lines alone (a pipe reading them, e.g. the
+    summary or ``--json`` to a pipe, is not corrupted). capfd: the file descriptors."""
+    _model(tmp_path, monkeypatch, drift="print('drift called')",
+           build="print('building')")
+    monkeypatch.chdir(tmp_path)
+    assert _main(["solve", "paper-base", "--model", "mine"]) == 0
+    out, err = capfd.readouterr()
+    assert out.strip() and "drift called" not in out and "building" not in out, out
+    assert "drift called" in err and "building" in err
+
+
+@pytest.mark.parametrize(("kw", "says"), [
+    ({"sign": "+"}, "no stationary law"),
+    ({"sigma2": "0.0"}, "diffusion(A) is zero"),
+])
+def test_g08_g09_a_model_without_a_stationary_law_is_the_plugin_s_failure(
+        tmp_path, monkeypatch, capsys, kw, says):
+    src = _model(tmp_path, monkeypatch, **kw)
+    monkeypatch.chdir(tmp_path)
+    assert _main(["solve", "paper-base", "--model", "mine"]) == 3
+    line = _one_line(capsys)
+    assert f"model plugin 'mine' (from edge-plugin, {src})" in line and says in line, line

@@ -247,10 +247,13 @@ def _import_entry(entry: ModelEntry, label: str, name: str | None = None, *,
     becomes (a model's entry point to a module not installed); else, for another
     distribution's entry, whatever importing it raises (or a sys.exit) is a PluginError
     "<label>: importing it raised ..." naming its file; vifpk's own raise as they are."""
-    from .guard import PluginError, describe, source_of
+    from .guard import PluginError, describe, plugin_stdout, source_of
 
     try:
-        return entry.load()
+        if entry.builtin:
+            return entry.load()
+        with plugin_stdout():
+            return entry.load()
     except (KeyboardInterrupt, GeneratorExit):
         raise
     except BaseException as exc:  # noqa: BLE001 - the plugin's own failure, named
@@ -268,7 +271,7 @@ def build_model(scene: Any, name: str, **options: Any) -> Any:
     the entry point. A plugin's model (another distribution's) comes guarded
     (vifpk.core.guard): what its factory or methods raise or return out of protocol is a
     PluginError naming the plugin and its file."""
-    from .guard import PluginError, describe, guard, source_of
+    from .guard import PluginError, describe, guard, plugin_stdout, source_of
     from .result import BadInput
 
     entry = model_entry(name)
@@ -277,7 +280,8 @@ def build_model(scene: Any, name: str, **options: Any) -> Any:
         return factory(scene, **options)
     label = _plugin_label(entry)
     try:
-        model = factory(scene, **options)
+        with plugin_stdout():
+            model = factory(scene, **options)
     except (KeyboardInterrupt, GeneratorExit, BadInput):
         raise
     except BaseException as exc:  # noqa: BLE001 - the plugin's own failure, named
@@ -300,7 +304,7 @@ def model_applies(name: str, scene: Any) -> str | None:
     """None when the registered model ``name`` applies to ``scene``, else its one-line reason
     (the model's own ``applies``; vifpk.core.protocols). A plugin's ``applies`` that raises
     is a PluginError naming it."""
-    from .guard import PluginError, describe, source_of
+    from .guard import PluginError, describe, plugin_stdout, source_of
 
     entry = model_entry(name)
     try:
@@ -313,7 +317,8 @@ def model_applies(name: str, scene: Any) -> str | None:
     if entry.builtin:
         return fn(scene)
     try:
-        why = fn(scene)
+        with plugin_stdout():
+            why = fn(scene)
     except (KeyboardInterrupt, GeneratorExit):
         raise
     except BaseException as exc:  # noqa: BLE001 - the plugin's own failure, named
