@@ -57,8 +57,8 @@ def test_the_monte_carlo_takes_the_scene_s_default_observables():
 def test_transient_metrics_json_holds_the_run_s_runtime_warnings(monkeypatch, tmp_path, capsys):
     """The command's counted RuntimeWarnings (harness/outputs/runwarnings.py, as `vifpk check`
     stores them) reach the time-domain report's metrics.json: the workflow is replaced by one
-    that warns (numpy's nanmean of no number) and returns a result, the writer by one that keeps what it is
-    given; metrics_document puts them before ``timings``."""
+    that warns (numpy's nanmean of no number) and returns a result, the writer by one that
+    keeps what it is given; metrics_document puts them before ``timings``."""
     import warnings
     from types import SimpleNamespace
 
