@@ -35,6 +35,7 @@ import numpy as np
 from vifpk.core.defaults import BURN_FACTOR
 from vifpk.core.result import CostRefused, Resolved, Result, Status
 from vifpk.core.scene import energy_balance
+from vifpk.core.sections import Observables
 
 from . import kernels as K
 from .certificate import certificate
@@ -109,7 +110,7 @@ class Settings:
     threads: int
     floor: float
     budget: float
-    observables: tuple[str, ...] = ("A", "x1", "x2", "joint", "moments", "events")
+    observables: tuple[str, ...] = Observables().names()  # the scene's one default (issue 38)
     progress: bool = True
     certificate: bool = True
     dt_check: bool = True

@@ -13,7 +13,8 @@ import argparse
 import os
 import sys
 import traceback
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from typing import Any
 
 from vifpk.harness.cli.options import (
     EXIT_BAD_INPUT,
@@ -25,7 +26,7 @@ from vifpk.harness.door.solvers import SolverFailure
 from vifpk.harness.request import validate
 
 from vifpk.core import registry
-from vifpk.core.guard import PluginError
+from vifpk.core.guard import PluginError, describe, source_of
 from vifpk.core.result import BadInput
 
 #: The order ``vifpk --help`` lists vifpk's own subcommands in (the registry gives them by
@@ -46,12 +47,56 @@ def build_parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
     rank = {name: i for i, name in enumerate(ORDER)}
     listed = sorted(registry.workflows(), key=lambda w: rank.get(w.name, len(ORDER)))
+    broken = registry.workflow_failures()
     for w in listed:  # the vifpk.workflows entry points, vifpk's own in ORDER (stable sort)
-        if w.command is not None:
-            sp = sub.add_parser(w.name, help=w.summary)
+        if w.command is None:
+            continue
+        sp = sub.add_parser(w.name, help=w.summary)
+        entry = registry.workflow_entry(w.name)
+        if entry is None or entry.builtin:
             w.add_arguments(sp)
             sp.set_defaults(func=w.command)
+            continue
+        label = f"workflow {w.name!r} ({entry.value}, from {entry.distribution})"
+        source = source_of(entry.value.partition(":")[0])
+        try:  # another distribution's options must not break vifpk's commands (W04, W05)
+            w.add_arguments(sp)
+        except (KeyboardInterrupt, GeneratorExit):
+            raise
+        except BaseException as exc:  # noqa: BLE001 - the plugin's, named as such
+            broken[w.name] = f"{label}: its add_arguments {describe(exc, source)}"
+            continue
+        sp.set_defaults(func=_plugin_command(w.command, label, source))
+    for name in broken:
+        if name not in sub.choices:
+            sub.add_parser(name, help="(a plugin that does not load; vifpk NAME says why)")
+    p.set_defaults(broken_workflows=broken)
     return p
+
+
+def _plugin_command(fn: Callable[[Any], Any], label: str, source: str | None
+                    ) -> Callable[[Any], int]:
+    """Another distribution's workflow command, its failures named as its own (issue 39,
+    W06-W09): what it raises (but BadInput, a door's SolverFailure or PluginError, an OSError
+    of a write, Ctrl-C) is a PluginError naming it; it must return an exit code, a whole
+    number 0-255 (``sys.exit(256)`` would exit 0), or call ``sys.exit`` with one."""
+
+    def run(args: Any) -> int:
+        try:
+            code = fn(args)
+        except (KeyboardInterrupt, GeneratorExit, BadInput, SolverFailure, PluginError,
+                MemoryError, OSError):
+            raise
+        except SystemExit as exc:
+            code = 0 if exc.code is None else exc.code
+        except BaseException as exc:  # noqa: BLE001 - the plugin's, named as such
+            raise PluginError(f"{label}: its command {describe(exc, source)}") from exc
+        if isinstance(code, bool) or not isinstance(code, int) or not 0 <= code <= 255:
+            raise PluginError(f"{label}: its command returned {code!r}; it must return an "
+                              "exit code, a whole number 0-255")
+        return code
+
+    return run
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -75,6 +120,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not argv:  # `vifpk` alone: the usage and the commands, exit 2
         parser.print_help(sys.stderr)
         return EXIT_BAD_INPUT
+    broken = parser.get_default("broken_workflows") or {}
+    command = next((a for a in argv if not a.startswith("-")), None)
+    if command in broken:  # a plugin workflow that did not load, asked for: one line, exit 3
+        print(f"vifpk: {broken[command]}", file=sys.stderr)
+        return EXIT_SOLVER
     args = parser.parse_args(argv)
     debug = bool(getattr(args, "debug", False) or os.environ.get("VIFPK_TRACEBACK"))
     args.argv = ["vifpk", *(sys.argv[1:] if argv is None else argv)]

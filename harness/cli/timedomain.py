@@ -193,11 +193,18 @@ def cmd_passage(args: argparse.Namespace) -> int:
             with cost.guarded_run(scene, args.yes):
                 res = run(req, quiet=args.quiet, price=price)
             _finite(res.metrics)
-            files = write_time_report(res, out, prov=prov)
+            files = write_time_report(res, out, prov=prov, runtime_warnings=_recorded(args))
     except _Splitting as why:  # raised by the guard before any Monte Carlo or file
         return _splitting(args, req, out, prov, str(why))
     _print(res, files, args.json)
     return 0
+
+
+def _recorded(args: argparse.Namespace) -> list[dict[str, Any]] | None:
+    """The run's RuntimeWarnings so far (cli/app.py counts them; None when the command was
+    called without it, e.g. directly in a test): metrics.json's ``runtime_warnings``."""
+    tally = getattr(args, "run_warnings", None)
+    return tally.records() if tally is not None else None
 
 
 class _Splitting(Exception):
@@ -254,7 +261,7 @@ def cmd_transient(args: argparse.Namespace) -> int:
         with cost.guarded_run(scene, args.yes):
             res = run(req, quiet=args.quiet)
         _finite(res.metrics)
-        files = write_time_report(res, out, prov=prov)
+        files = write_time_report(res, out, prov=prov, runtime_warnings=_recorded(args))
     _print(res, files, args.json)
     return 0
 

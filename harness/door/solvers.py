@@ -11,6 +11,8 @@ the one place exceptions are mapped.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
@@ -23,7 +25,7 @@ from vifpk.harness.door.boundary import (  # noqa: F401 - SolverFailure: callers
 
 from vifpk.core import registry
 from vifpk.core.defaults import FPK_CELLS, REFERENCE_CELLS
-from vifpk.core.guard import PluginError
+from vifpk.core.guard import GuardedModel, PluginError
 from vifpk.core.registry import CLOSED_FORM, one_of
 from vifpk.core.result import Result, Status
 from vifpk.core.scene import no_noise
@@ -80,7 +82,8 @@ def closed_form(scene: Any, *, model: Any, tail_mass: bool = True, **options: An
 
     m = averaged_model(scene, model, **options)
     if averaging.has_closed_form(m):
-        res = averaging.solve(scene, model=m, tail_mass=tail_mass)
+        with _blamed(m):
+            res = averaging.solve(scene, model=m, tail_mass=tail_mass)
         res.info.update(model=model_label(model), closed_form=True)
         return res
     res = fpk_solution(scene, model=m, cells=REFERENCE_CELLS, method="direct")
@@ -135,9 +138,10 @@ def amplitude_density(scene: Any, model: Any, **options: Any) -> Any:
     from vifpk import averaging
 
     m = averaged_model(scene, model, **options)
-    if averaging.has_closed_form(m):
-        return density(m, points=scene.averaging.points, tail=scene.averaging.tail)
-    res = fpk_stationary(m.drift, m.diffusion, cells=REFERENCE_CELLS, method="direct")
+    with _blamed(m):
+        if averaging.has_closed_form(m):
+            return density(m, points=scene.averaging.points, tail=scene.averaging.tail)
+        res = fpk_stationary(m.drift, m.diffusion, cells=REFERENCE_CELLS, method="direct")
     A, p = res.data["A_cells"]["x"], res.data["A_cells"]["p"]
     s = scene.system
     T, _ = model_period(scene, m)
@@ -210,8 +214,9 @@ def fpk_solution(scene: Any, *, model: Any, cells: int, method: str = "stepping"
 
     _require_noise(scene)
     m = averaged_model(scene, model, **options)
-    return _phase_result(scene, m, model, fpk.stationary(m.drift, m.diffusion, cells=cells,
-                                                         method=method))
+    with _blamed(m):
+        out = fpk.stationary(m.drift, m.diffusion, cells=cells, method=method)
+    return _phase_result(scene, m, model, out)
 
 
 @boundary
@@ -225,10 +230,30 @@ def model_solution(scene: Any, *, model: Any, solver: str, cells: int, **options
     spec, entry = registry.solver(solver)
     m = averaged_model(scene, model, **options)
     if entry.builtin:
-        out = spec.stationary(m.drift, m.diffusion, cells=cells)
+        with _blamed(m):
+            out = spec.stationary(m.drift, m.diffusion, cells=cells)
     else:
         out = _plugin_stationary(spec, entry, m, cells)
     return _phase_result(scene, m, model, _as_result(out, entry))
+
+
+@contextmanager
+def _blamed(m: Any) -> Iterator[None]:
+    """A solver's failure on a plugin model's drift and diffusion (GuardedModel) is named as
+    the plugin's (issue 39, G08: a drift with no stationary law, e.g. m(A) > 0 for large A,
+    read "the stationary density does not decay up to A = 10000" with no plugin named): a
+    PluginError naming it, the solver's reason kept. vifpk's own models are not touched."""
+    if not isinstance(m, GuardedModel):
+        yield
+        return
+    try:
+        yield
+    except Exception as exc:
+        mapped = solver_failure(exc)
+        if mapped is None:
+            raise
+        raise PluginError(f"{m.plugin_label}: no stationary law was found for its drift and "
+                          f"diffusion ({mapped})", m.plugin_name) from exc
 
 
 def _require_noise(scene: Any) -> None:

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 from vifpk.harness.outputs import outdir
 from vifpk.harness.outputs.report import MODEL_COLORS, write_figures
+from vifpk.harness.outputs.runwarnings import KEY
 
 from vifpk.core import provenance
 from vifpk.core.io import dumps, png_bytes, pyplot
@@ -357,19 +358,26 @@ def _html(title: str, res: Any, pngs: dict[str, bytes], head: list[str],
     return "\n".join(parts)
 
 
-def metrics_document(res: Any, prov: dict[str, Any]) -> dict[str, Any]:
-    """metrics.json: the results (a function of scene, options and seed only), then
-    ``timings`` and ``provenance``, the only keys that differ between identical runs."""
+def metrics_document(res: Any, prov: dict[str, Any],
+                     runtime_warnings: list[dict[str, Any]] | None = None) -> dict[str, Any]:
+    """metrics.json: the results (a function of scene, options and seed only), the run's
+    counted RuntimeWarnings when recorded (``runtime_warnings``, harness/outputs/runwarnings.py,
+    as `vifpk check` stores them), then ``timings`` and ``provenance``, the only keys that
+    differ between identical runs."""
     doc = {k: v for k, v in res.metrics.items() if k != "timings"}
     doc["scene"] = res.scene.to_dict()
+    if runtime_warnings is not None:
+        doc[KEY] = runtime_warnings
     doc["timings"] = res.metrics.get("timings", {})
     doc["provenance"] = prov
     return doc
 
 
-def write_time_report(res: Any, out_dir: str | Path, *, prov: dict[str, Any] | None = None
+def write_time_report(res: Any, out_dir: str | Path, *, prov: dict[str, Any] | None = None,
+                      runtime_warnings: list[dict[str, Any]] | None = None
                       ) -> dict[str, Path]:
-    """Write the report folder of a PassageResult or a TransientResult as a unit."""
+    """Write the report folder of a PassageResult or a TransientResult as a unit;
+    ``runtime_warnings``: the run's counted RuntimeWarnings, stored in metrics.json."""
     if prov is None:
         prov = provenance.collect(scene_path=provenance.scene_file(res.scene.source)
                                   if res.scene.source else None)
@@ -408,7 +416,8 @@ def write_time_report(res: Any, out_dir: str | Path, *, prov: dict[str, Any] | N
         if kind == "passage":
             for name, text in passage_csv(res).items():
                 (tmp / name).write_text(text, encoding="utf-8")
-        (tmp / "metrics.json").write_text(dumps(metrics_document(res, prov)), encoding="utf-8")
+        doc = metrics_document(res, prov, runtime_warnings)
+        (tmp / "metrics.json").write_text(dumps(doc), encoding="utf-8")
 
     out = outdir.write_folder(out_dir, fill, run_id=run_id, allowed=files)
     return {k: out / k for k in ("report.html", "report.md", "metrics.json", f"{kind}.npz")}

@@ -14,6 +14,10 @@ from vifpk.core.result import BadInput
 
 METRICS = ("L1", "ks", "w1", "hellinger")
 OBSERVABLES = DENSITY_OBSERVABLES
+#: the largest value each distance between two densities can take (harness/workflows/compare.py):
+#: L1 = int |p - q| <= 2, KS = max |F - G| <= 1, Hellinger = sqrt(1 - int sqrt(p q)) <= 1;
+#: W1 is unbounded. A tolerance at or above the maximum holds for any pair (issue 39, K05).
+METRIC_MAXIMUM = {"L1": 2.0, "ks": 1.0, "hellinger": 1.0}
 
 
 class ToleranceError(BadInput):
@@ -37,6 +41,12 @@ class Tolerance:
         if self.metric not in METRICS:
             raise ToleranceError(f"--tolerance-metric must be one of {METRICS}, "
                                  f"not {self.metric!r}")
+        top = METRIC_MAXIMUM.get(self.metric)
+        if top is not None and self.value >= top:
+            raise ToleranceError(f"--tolerance must be > 0 and < {top:g} for "
+                                 f"--tolerance-metric {self.metric} (which is at most {top:g}: "
+                                 f"a tolerance of {top:g} or more holds for any two densities), "
+                                 f"not {self.value!r}")
         if self.observable not in OBSERVABLES:
             raise ToleranceError(f"--tolerance-observable must be one of {OBSERVABLES}, "
                                  f"not {self.observable!r}")

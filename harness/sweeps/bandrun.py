@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from vifpk.harness.sweeps.errors import OverTime, _duration, check_rate
+from vifpk.harness.sweeps.errors import OverTime, SweepError, _duration, check_rate
 from vifpk.harness.sweeps.executors import ExecutorSpec, Runner, require_output_libraries
 from vifpk.harness.sweeps.points import Point, Sweep
 from vifpk.harness.sweeps.store import (
@@ -55,6 +55,9 @@ def run_band(sweep: Sweep, out: str | Path, *, executor: ExecutorSpec, quiet: bo
 
     require_output_libraries()
     out = Path(out)
+    conflict = resume_conflict(out, sweep.tolerance)
+    if conflict:
+        raise SweepError(conflict)
     ad = sweep.adaptive
     n_budget, size, model = ad["points"], ad["batch"], ad["model"]
     runner = Runner(executor)
@@ -70,7 +73,7 @@ def run_band(sweep: Sweep, out: str | Path, *, executor: ExecutorSpec, quiet: bo
     actions: list[tuple[tuple[float, ...], str | None]] = [
         (u, None) for u in initial_design(len(sweep.vary), n_budget)]
     batch_no = 0
-    signals.set_message(lambda: _kept_message(out, skipped, computed, 0))
+    signals.set_message(lambda: _kept_message(out, skipped, computed, None))
     try:
         while actions:
             jobs, reused = [], []
@@ -81,12 +84,15 @@ def run_band(sweep: Sweep, out: str | Path, *, executor: ExecutorSpec, quiet: bo
                 else:
                     jobs.append(job)
             skipped += len(reused)
+            for note in st.notes:
+                _log(quiet, note)
+            st.notes.clear()
             for rec in reused:
                 st.take(rec)
             if jobs:
                 (out / "points").mkdir(parents=True, exist_ok=True)
                 for rec in runner.completed(jobs):
-                    _store(out, rec, write_json)
+                    _store(out, rec, write_json, sweep.tolerance)
                     computed.append(f"{rec['key']}:{rec.get('stage', 0)}")
                     if rec["status"] == "failed":
                         failed.append(rec["key"])
@@ -112,26 +118,106 @@ def run_band(sweep: Sweep, out: str | Path, *, executor: ExecutorSpec, quiet: bo
     finally:
         signals.forget(handle)
         runner.close()
+    over = overspent(st.spent, st.unit_cost, n_budget)
+    if over:
+        _log(quiet, over)
     done = replace(sweep, points=tuple(st.points[k] for k in st.order))
     files = write_results(done, out, executor=str(executor), report=report,
                           provenance=provenance, stages=dict(st.stage))
-    return SweepRun(total=len(st.order), computed=tuple(computed), skipped=skipped,
+    keys, skipped = point_counts(st.order, computed)
+    return SweepRun(total=len(st.order), computed=keys, skipped=skipped,
                     failed=tuple(dict.fromkeys(failed)), seconds=time.perf_counter() - t0,
                     files=files)
 
 
-def _store(out: Path, rec: dict[str, Any], write_json: Any) -> None:
-    """The record, and its Monte Carlo's checkpoint as the point's only state file."""
+def point_counts(order: list[str], computed: list[str]) -> tuple[tuple[str, ...], int]:
+    """(the points this run computed, the points done before), in points: a point counts as
+    computed when any of its runs ("KEY:STAGE") was, else as done before, so the two add up to
+    the points (issue 39: runs were counted, "11 points: 6 computed, 7 done before")."""
+    keys = tuple(dict.fromkeys(c.rpartition(":")[0] for c in computed))
+    return keys, len(order) - len(keys)
+
+
+def _store(out: Path, rec: dict[str, Any], write_json: Any, tolerance: float | None = None
+           ) -> None:
+    """The record, and its Monte Carlo's checkpoint as the point's only state file. The record
+    keeps the checkpoint's sha256 (``state_sha256``: a resume uses only the file it names,
+    B46-B49) and the sweep's tolerance (``tolerance``: a resume asking another refuses, B50).
+    A write that fails (a full disk) is an OSError naming the file (B39: it read "cannot write
+    the standard output")."""
+    import hashlib
+
     from vifpk.core.io import atomic_path
 
     stage = int(rec.get("stage", 0))
     state = (rec.get("result") or {}).pop("state", None)
-    if state is not None:
-        with atomic_path(out / "points" / state_name(rec["key"], stage)) as tmp:
-            Path(tmp).write_bytes(state)
-    write_json(out / "points" / record_name(rec["key"], stage), rec)
+    if tolerance is not None:
+        rec["tolerance"] = tolerance
+    target = out / "points" / state_name(rec["key"], stage)
+    try:
+        if state is not None:
+            rec["state_sha256"] = hashlib.sha256(state).hexdigest()
+            with atomic_path(target) as tmp:
+                Path(tmp).write_bytes(state)
+        target = out / "points" / record_name(rec["key"], stage)
+        write_json(target, rec)
+    except OSError as exc:
+        if exc.filename is None:
+            raise OSError(exc.errno, exc.strerror or str(exc), str(target)) from exc
+        raise
     if state is not None and stage > 0:
         (out / "points" / state_name(rec["key"], stage - 1)).unlink(missing_ok=True)
+
+
+def _usable_state(path: Path, rec: dict[str, Any] | None) -> bytes | None:
+    """The checkpoint a point's next extension continues from, or None when it cannot be used:
+    missing (deleted, or removed when a later stage was stored and that stage's record is now
+    unreadable), unreadable, or not the file the record names (``state_sha256``: truncated,
+    or another run's). A record written before the hash was kept: any readable .npz archive."""
+    import hashlib
+    import io
+    import zipfile
+
+    try:
+        data = path.read_bytes()
+    except OSError:
+        return None
+    want = (rec or {}).get("state_sha256")
+    if want is not None:
+        return data if hashlib.sha256(data).hexdigest() == want else None
+    try:
+        with zipfile.ZipFile(io.BytesIO(data)) as z:
+            return data if z.testzip() is None and "meta.npy" in z.namelist() else None
+    except (zipfile.BadZipFile, OSError, ValueError):
+        return None
+
+
+def resume_conflict(out: Path, tolerance: float) -> str | None:
+    """One line when ``out``/points holds band records computed for another tolerance (issue
+    39, B50: a resume with a changed tolerance continued silently in the same folder)."""
+    from vifpk.harness.sweeps.store import load_record
+
+    for p in sorted((out / "points").glob("*.json")) if (out / "points").is_dir() else ():
+        rec = load_record(p)
+        old = rec.get("tolerance") if isinstance(rec, dict) else None
+        if isinstance(old, int | float) and old != tolerance:
+            return (f"--out {out}: its points were computed for tolerance = {old:g}, this sweep "
+                    f"asks tolerance = {tolerance:g}; a band sweep's choices depend on it: "
+                    "give another --out, or delete that folder to start afresh")
+    return None
+
+
+def overspent(spent: float, unit_cost: float | None, n_points: int) -> str | None:
+    """The line saying the Monte Carlo ended above its budget, and by how much (B43). The
+    rule: a batch starts only while the spent path-steps are below N x unit_cost, and takes
+    only actions whose predicted cost (a new point: the lattice's median; an extension: its
+    previous run's sampled steps) fits in what is left, so the budget is exceeded only by the
+    last batch's runs costing more than predicted."""
+    if unit_cost is None or spent <= n_points * unit_cost:
+        return None
+    return (f"the Monte Carlo spent {spent / unit_cost:.1f} of the budget's {n_points} points "
+            f"({100 * (spent / (n_points * unit_cost) - 1):.0f}% over): the last batch's runs "
+            "cost more than predicted (docs/maps.md, the band sweep's budget)")
 
 
 class _State:
@@ -151,6 +237,7 @@ class _State:
         self.surface: Any = None
         self.kernel: Any = None
         self.failed_extension: set[str] = set()
+        self.notes: list[str] = []  # what a resume found and did instead (prepare)
 
     # -- one action -> a reusable record or a job
     def prepare(self, unit: tuple[float, ...], key: str | None, batch: int, out: Path
@@ -180,7 +267,11 @@ class _State:
             return rec, None
         if stage > 0:
             path = out / "points" / state_name(pt.key, stage - 1)
-            state = path.read_bytes()
+            state = _usable_state(path, self.recs[key])
+            if state is None:  # B46-B49: the extension's target floor, reached afresh
+                self.notes.append(f"{pt.label()}: extension {stage}: the checkpoint "
+                                  f"{path.name} is missing, unreadable or not this point's; "
+                                  "its Monte Carlo runs afresh to the extension's floor")
         job = replace(_job(sweep, replace(pt, scene=scene)), fingerprint=fp, keep_state=True,
                       state=state, stage=stage, sde=pt.sde and stage == 0)
         return None, job
@@ -273,6 +364,9 @@ class _State:
                 cands.append(Candidate(unit=self.units[k], key=k, noise_sd=float(tau[k]),
                                        cost=float(res["mc_sampled_steps"])))
         left = self.budget(n_points) - self.spent
+        cands = [c for c in cands if c.cost <= left]  # B43: no run predicted to overrun
+        if not cands:
+            return []
         picked = choose(self.surface, cands, size, new_noise_sd=self.new_err, budget=left)
         return [(c.unit, c.key) for c in picked]
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import numbers
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -406,6 +407,50 @@ WORKFLOW_FUNCTIONS: dict[str, Callable[[Job], dict[str, Any]]] = {}
 def sweep_functions() -> dict[str, Callable[[Job], dict[str, Any]]]:
     """The sweepable workflows (module comment above), in registration order."""
     if not WORKFLOW_FUNCTIONS:
-        WORKFLOW_FUNCTIONS.update({w.name: resolved(w.sweep_point) for w in registry.workflows()
-                                   if w.sweep_point is not None})
+        for w in registry.workflows():
+            if w.sweep_point is None:
+                continue
+            entry = registry.workflow_entry(w.name)
+            fn = resolved(w.sweep_point)
+            WORKFLOW_FUNCTIONS[w.name] = (fn if entry is None or entry.builtin else
+                                          _checked_point(fn, entry))
     return WORKFLOW_FUNCTIONS
+
+
+def _checked_point(fn: Callable[[Job], Any], entry: Any) -> Callable[[Job], dict[str, Any]]:
+    """Another distribution's ``sweep_point``, its record checked (issue 39, W13/W14): a dict
+    of text keys whose values are text, booleans, None, finite numbers, or lists and dicts of
+    them; anything else (a list, a NaN) is a PluginError naming the plugin, so the point is
+    recorded failed and the sweep exits 3. What it raises is named the same way."""
+    from vifpk.core.guard import PluginError, describe, source_of
+
+    label = f"workflow {entry.name!r} ({entry.value}, from {entry.distribution})"
+    source = source_of(entry.value.partition(":")[0])
+
+    def bad(value: Any) -> bool:
+        if isinstance(value, dict):
+            return any(not isinstance(k, str) or bad(v) for k, v in value.items())
+        if isinstance(value, list | tuple):
+            return any(bad(v) for v in value)
+        if value is None or isinstance(value, str | bool):
+            return False
+        return not (isinstance(value, numbers.Real) and math.isfinite(value))
+
+    def run(job: Job) -> dict[str, Any]:
+        try:
+            out = fn(job)
+        except (KeyboardInterrupt, GeneratorExit, BadInput, PluginError):
+            raise
+        except BaseException as exc:  # noqa: BLE001 - the plugin's, named as such
+            raise PluginError(f"{label}: its sweep_point {describe(exc, source)}") from exc
+        if not isinstance(out, dict):
+            raise PluginError(f"{label}: its sweep_point returned {type(out).__name__}; it "
+                              "must return a dict (the point's record)")
+        for k, v in out.items():
+            if not isinstance(k, str) or bad(v):
+                raise PluginError(f"{label}: its sweep_point returned {k!s} = {v!r}; a "
+                                  "record holds text keys and text, booleans or finite "
+                                  "numbers (or lists and dicts of them)")
+        return out
+
+    return run

@@ -190,10 +190,17 @@ def _clear_temporaries(out: Path) -> None:
                 p.unlink(missing_ok=True)
 
 
-def _kept_message(out: Path, done: int, computed: list[str], todo: int) -> str:
+def _kept_message(out: Path, done: int, computed: list[str], todo: int | None) -> str:
+    """The Ctrl-C line. ``todo``: the points this run had to compute; None for a band sweep,
+    whose records are runs (a point's extensions too) and whose rest is not a count of points
+    until the budget is spent (issue 39: it read "compute the other -7")."""
     n = done + len(computed)
     if n == 0:
         return "vifpk: interrupted; no point had finished, nothing was kept"
+    if todo is None:
+        return (f"vifpk: interrupted; {n} finished Monte Carlo run{'s' if n != 1 else ''} "
+                f"({len(computed)} from this run) kept in {out / 'points'}; no sweep.nc "
+                "written; run the same command again to continue (the kept runs are reused)")
     rest = todo - len(computed)
     return (f"vifpk: interrupted; {n} finished point{'s' if n != 1 else ''} "
             f"({len(computed)} from this run) kept in {out / 'points'}; no sweep.nc written; "

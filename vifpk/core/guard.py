@@ -20,6 +20,8 @@ vifpk's own models are not wrapped (their numbers stay bit for bit what the solv
 
 from __future__ import annotations
 
+import contextlib
+import sys
 import traceback
 from pathlib import Path
 from typing import Any
@@ -34,6 +36,14 @@ class PluginError(RuntimeError):
     def __init__(self, message: str, model: str | None = None) -> None:
         super().__init__(message)
         self.model = model
+
+
+def plugin_stdout() -> contextlib.AbstractContextManager[Any]:
+    """While a plugin's code runs, what it prints goes to the standard error (issue 39, G05: a
+    model that prints must not corrupt ``--json -`` on the standard output). Python-level
+    writes only (``print``, ``sys.stdout``); a C extension writing to file descriptor 1
+    directly is not caught."""
+    return contextlib.redirect_stdout(sys.stderr)
 
 
 def _where(exc: BaseException, source: str | None) -> str:
@@ -117,6 +127,16 @@ class GuardedModel:
     def __repr__(self) -> str:
         return f"GuardedModel({self._model!r})"
 
+    @property
+    def plugin_label(self) -> str:
+        """'model plugin NAME (from DIST, FILE)': how messages name the plugin."""
+        return self._label
+
+    @property
+    def plugin_name(self) -> str | None:
+        """The plugin's registered name (PluginError.model)."""
+        return self._name
+
     def _fail(self, what: str) -> PluginError:
         return PluginError(f"{self._label}: {what}", self._name)
 
@@ -125,7 +145,8 @@ class GuardedModel:
         given = A.view()
         given.flags.writeable = False  # a plugin writing into A would change vifpk's grid
         try:
-            out = fn(given)
+            with plugin_stdout():
+                out = fn(given)
         except (KeyboardInterrupt, GeneratorExit):
             raise
         except BaseException as exc:  # noqa: BLE001 - the plugin's, named as such
@@ -141,6 +162,10 @@ class GuardedModel:
         values = self._values(name, out, A)
         self._finite(name, values, A)
         positive = A > 0
+        if name == "diffusion" and np.any(values[positive] == 0):
+            at = A[positive][values[positive] == 0][0]
+            raise self._fail(f"diffusion(A) is zero at A = {at:.4g}; sigma^2(A) must be > 0 "
+                             "for A > 0 (the stationary law divides by it; issue 39, G09)")
         if name == "diffusion" and np.any(values[positive] < 0):
             at = A[positive][values[positive] < 0][0]
             raise self._fail(f"diffusion(A) is negative at A = {at:.4g} "

@@ -71,12 +71,20 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
 
 
 def write_atomic(path: str | Path, data: bytes | str) -> Path:
-    """Write ``data`` to ``path`` atomically (:func:`atomic_path`), synced to disk first."""
+    """Write ``data`` to ``path`` atomically (:func:`atomic_path`), synced to disk first. A
+    write that fails (a full disk: ENOSPC from write or fsync, which name no file) raises an
+    OSError naming ``path`` (issue 39, B39: a sweep folder on a full disk was reported as
+    "cannot write the standard output")."""
     raw = data.encode("utf-8") if isinstance(data, str) else data
-    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
-        fh.write(raw)
-        fh.flush()
-        os.fsync(fh.fileno())
+    try:
+        with atomic_path(path) as tmp, open(tmp, "wb") as fh:
+            fh.write(raw)
+            fh.flush()
+            os.fsync(fh.fileno())
+    except OSError as exc:
+        if exc.filename is None:
+            raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from exc
+        raise
     return Path(path)
 
 

@@ -113,26 +113,54 @@ def _entries() -> tuple[tuple[ModelEntry, ...], tuple[str, ...]]:
 
 
 @cache
-def workflows() -> tuple[Any, ...]:
-    """Every registered workflow (``vifpk.workflows``; vifpk.core.protocols.Workflow), loaded:
-    vifpk's own first, then other distributions', each by name (``_group``). An entry that
-    does not load or is not a Workflow raises PluginError naming it."""
-    from .guard import PluginError
+def _workflow_load() -> tuple[tuple[tuple[Any, ModelEntry], ...], dict[str, str]]:
+    """(loaded, failures): every registered workflow (``vifpk.workflows``) loaded with its
+    entry, and, for another distribution's that does not load or is not a Workflow of its
+    name, the one-line message naming it (issue 39, W01/W02: a broken plugin must not block
+    vifpk's own commands). vifpk's own that does not load raises PluginError (a bug)."""
+    from .guard import PluginError, describe, source_of
     from .protocols import Workflow
 
-    out = []
+    loaded, failures = [], {}
     for e in _group(WORKFLOW_GROUP)[0]:
         module, _, attr = e.value.partition(":")
+        label = f"workflow {e.name!r} ({e.value}, from {e.distribution})"
         try:
             obj = getattr(import_module(module), attr)
-        except Exception as exc:  # noqa: BLE001 - one line naming the plugin
-            raise PluginError(f"workflow {e.name!r} ({e.value}, from {e.distribution}) did not "
-                              f"load: {type(exc).__name__}: {exc}") from exc
+        except (KeyboardInterrupt, GeneratorExit):
+            raise
+        except BaseException as exc:  # noqa: BLE001 - one line naming the plugin
+            text = f"{label} did not load: {describe(exc, source_of(module))}"
+            if e.builtin:
+                raise PluginError(text) from exc
+            failures[e.name] = text
+            continue
         if not isinstance(obj, Workflow) or obj.name != e.name:
-            raise PluginError(f"workflow {e.name!r} ({e.value}, from {e.distribution}) is not "
-                              "a vifpk.core.protocols.Workflow of that name")
-        out.append(obj)
-    return tuple(out)
+            text = f"{label} is not a vifpk.core.protocols.Workflow of that name"
+            if e.builtin:
+                raise PluginError(text)
+            failures[e.name] = text
+            continue
+        loaded.append((obj, e))
+    return tuple(loaded), failures
+
+
+def workflows() -> tuple[Any, ...]:
+    """Every registered workflow that loads (``vifpk.workflows``; vifpk.core.protocols.Workflow):
+    vifpk's own first, then other distributions', each by name (``_group``). Another
+    distribution's entry that does not load is left out and named by
+    :func:`workflow_failures`; vifpk's own that does not load raises PluginError."""
+    return tuple(w for w, _ in _workflow_load()[0])
+
+
+def workflow_entry(name: str) -> ModelEntry | None:
+    """The registry entry of the loaded workflow ``name`` (None when there is none)."""
+    return next((e for w, e in _workflow_load()[0] if w.name == name), None)
+
+
+def workflow_failures() -> dict[str, str]:
+    """Another distribution's workflows that did not load: name -> one line naming it."""
+    return dict(_workflow_load()[1])
 
 
 def workflow(name: str) -> Any:
@@ -224,10 +252,13 @@ def _import_entry(entry: ModelEntry, label: str, name: str | None = None, *,
     becomes (a model's entry point to a module not installed); else, for another
     distribution's entry, whatever importing it raises (or a sys.exit) is a PluginError
     "<label>: importing it raised ..." naming its file; vifpk's own raise as they are."""
-    from .guard import PluginError, describe, source_of
+    from .guard import PluginError, describe, plugin_stdout, source_of
 
     try:
-        return entry.load()
+        if entry.builtin:
+            return entry.load()
+        with plugin_stdout():
+            return entry.load()
     except (KeyboardInterrupt, GeneratorExit):
         raise
     except BaseException as exc:  # noqa: BLE001 - the plugin's own failure, named
@@ -245,7 +276,7 @@ def build_model(scene: Any, name: str, **options: Any) -> Any:
     the entry point. A plugin's model (another distribution's) comes guarded
     (vifpk.core.guard): what its factory or methods raise or return out of protocol is a
     PluginError naming the plugin and its file."""
-    from .guard import PluginError, describe, guard, source_of
+    from .guard import PluginError, describe, guard, plugin_stdout, source_of
     from .result import BadInput
 
     entry = model_entry(name)
@@ -254,7 +285,8 @@ def build_model(scene: Any, name: str, **options: Any) -> Any:
         return factory(scene, **options)
     label = _plugin_label(entry)
     try:
-        model = factory(scene, **options)
+        with plugin_stdout():
+            model = factory(scene, **options)
     except (KeyboardInterrupt, GeneratorExit, BadInput):
         raise
     except BaseException as exc:  # noqa: BLE001 - the plugin's own failure, named
@@ -277,7 +309,7 @@ def model_applies(name: str, scene: Any) -> str | None:
     """None when the registered model ``name`` applies to ``scene``, else its one-line reason
     (the model's own ``applies``; vifpk.core.protocols). A plugin's ``applies`` that raises
     is a PluginError naming it."""
-    from .guard import PluginError, describe, source_of
+    from .guard import PluginError, describe, plugin_stdout, source_of
 
     entry = model_entry(name)
     try:
@@ -290,7 +322,8 @@ def model_applies(name: str, scene: Any) -> str | None:
     if entry.builtin:
         return fn(scene)
     try:
-        why = fn(scene)
+        with plugin_stdout():
+            why = fn(scene)
     except (KeyboardInterrupt, GeneratorExit):
         raise
     except BaseException as exc:  # noqa: BLE001 - the plugin's own failure, named
@@ -323,4 +356,4 @@ def refresh() -> None:
     _entries.cache_clear()
     _solver_entries.cache_clear()
     solver.cache_clear()
-    workflows.cache_clear()
+    _workflow_load.cache_clear()
