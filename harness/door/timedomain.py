@@ -61,19 +61,6 @@ def _passage_settings(scene: Any, *, paths: int, horizon: float, **given: Any) -
 
 
 @boundary
-def passage_refusal(scene: Any, method: str = "auto") -> None:
-    """The original system's first passage (direct and splitting) asked before any work: a
-    physics its Monte Carlo does not handle is refused in its own one line (BadInput;
-    vifpk.montecarlo.plan.refuse_parametric). The direct simulation takes parametric noise
-    (its bridge test uses the parametric terms of the energy's variance rate); splitting
-    does not yet."""
-    from vifpk.montecarlo.plan import refuse_parametric
-
-    if method == "splitting":
-        refuse_parametric(getattr(scene, "parametric", None), "Monte Carlo splitting")
-
-
-@boundary
 def passage_montecarlo(scene: Any, *, threshold: float, start: float | str, horizon: float,
                        paths: int, dt: float | None = None, blocks: int | None = None,
                        seed: int | None = None, threads: int | None = None,
