@@ -16,12 +16,35 @@ crossing time is the root of the straight line through (t_n, E_n), (t_{n+1}, E_{
 whose error is h^2 E'' / (8 E') on the step's own path: O(dt^2), the order of the scheme on
 the smooth sub-system (CROSSING_ORDER, measured against solve_ivp in
 tests/test_passage_mc.py; across impacts and stick-slip the scheme itself is first order).
-With white noise E is a diffusion (variance rate 2 D f^2 v^2 at the kick), which may cross and
-come back inside a step; a step that ends below Ec is then counted as a crossing with the
-Brownian-bridge probability exp(-2 (Ec - E_n)(Ec - E_{n+1}) / (2 D f^2 v^2 h)) (one uniform
-drawn from the path's stream only when that probability exceeds 1e-14), located at
-t_n + h (Ec - E_n) / (2 Ec - E_n - E_{n+1}); without it discrete monitoring biases the
-first-passage time up by O(dt^(1/2)).
+With white noise E is a diffusion, which may cross and come back inside a step; a step that
+ends below Ec is then counted as a crossing with the Brownian-bridge probability
+
+    exp(-2 (Ec - E_n)(Ec - E_{n+1}) / (sigma_H^2 h))
+
+(the law of the maximum of a Brownian bridge with the variance rate frozen over the step:
+Gobet 2000; one uniform drawn from the path's stream only when that probability exceeds
+1e-14), located at t_n + h (Ec - E_n) / (2 Ec - E_n - E_{n+1}); without it discrete
+monitoring biases the first-passage time up by O(dt^(1/2)).
+
+**The energy's variance rate.** With the Stratonovich parametric noises of scene.parametric,
+
+    x'' + d(x) x' (1 + xi_c) + g(x) (1 + xi_k) + ... = f xi,
+    E[xi_k xi_k] = 2 D_k delta, E[xi_c xi_c] = 2 D_c delta, independent of xi and each other,
+
+the velocity's noise part is dv = f dW - g(x) sqrt(2 D_k) o dW_k - d(x) v sqrt(2 D_c) o dW_c
+(d(x) the damping coefficient, kernels.damping_k). By Ito's formula dH = v dv + (dv)^2 / 2 +
+g(x) dx for H = v^2/2 + U(x); the Stratonovich corrections and the (dv)^2 / 2 term are drifts
+(dt), so the martingale part of dH is v (f dW - g sqrt(2 D_k) dW_k - d v sqrt(2 D_c) dW_c) and
+its quadratic variation rate is (docs/averaging.md section 12, sigma_H^2 before averaging)
+
+    sigma_H^2 = v^2 (2 D f^2 + 2 D_k g(x)^2 + 2 D_c d(x)^2 v^2),
+
+the first term for white external noise only (OU noise is continuous: it adds nothing to the
+quadratic variation, and with OU noise alone, D_k = D_c = 0, E is C^1 and no bridge is drawn).
+``_variance`` freezes it over the step at the velocity at the kick (the middle of the step)
+and at x = x_n: sigma_H^2 h = v^2 (P.bridge h + 2 pk^2 g^2 + 2 pc^2 d^2 v^2) with P.bridge =
+2 D f^2 (None for OU), pk^2 = D_k h, pc^2 = D_c h (pieces.record; None when off). With both
+parametric intensities off the test is the additive-noise one, bit for bit.
 
 **Starts.** ``start = A0``: energy U(A0), a phase uniform in time along that conservative
 orbit (geometry.orbit_start; folded onto x >= 0 with the barrier), xi from its stationary law
@@ -59,7 +82,7 @@ from vifpk.core.result import BadInput, Result, Status
 
 from ._jit import jit
 from .geometry import amplitudes, energy, orbit_start, potential
-from .kernels import _step
+from .kernels import _step, damping_k, spring_g
 from .pieces import record
 from .plan import (
     MIN_AUTO_BURN_IN,
@@ -68,7 +91,6 @@ from .plan import (
     fold,
     noise_piece,
     physics,
-    refuse_parametric,
 )
 from .rng import uniform
 from .simulate import (
@@ -119,12 +141,31 @@ class PassageSettings:
 
 
 @jit
-def _bridge_hit(bridge, level, E, E1, vc, h, s0, s1, s2, s3):
+def _variance(bridge, pk, pc, x, vc, h, P):
+    """sigma_H^2 h of the module docstring: the energy's variance over the step, frozen at the
+    velocity at the kick vc and at x; 0 when no term is on (OU noise without parametric
+    noise). The record's fields that may be None are arguments (numba prunes their terms)."""
+    s = 0.0
+    if bridge is not None:
+        s = bridge * vc * vc * h
+    if pk is not None:
+        gk = pk * spring_g(x, P.w0sq, P.alpha, P.khi) * vc
+        s += 2.0 * gk * gk
+    if pc is not None:
+        dc = pc * damping_k(x, P.c1, P.c2, P.dhi) * vc * vc
+        s += 2.0 * dc * dc
+    return s
+
+
+@jit
+def _bridge_hit(B, level, E, E1, x, vc, h, P, s0, s1, s2, s3):
     """(fraction of the step at the crossing, or -1: none; generator) by the Brownian-bridge
-    test of the module docstring; never a crossing (and no draw) when ``bridge`` is None."""
-    if bridge is None:
+    test of the module docstring with B = (bridge, pk, pc) (all None: no test); never a
+    crossing (and no draw) when the variance is 0."""
+    var = _variance(B[0], B[1], B[2], x, vc, h, P)
+    if not var > 0.0:
         return -1.0, s0, s1, s2, s3
-    arg = 2.0 * (level - E) * (level - E1) / (bridge * vc * vc * h)
+    arg = 2.0 * (level - E) * (level - E1) / var
     if arg < -math.log(BRIDGE_FLOOR):
         u, s0, s1, s2, s3 = uniform(s0, s1, s2, s3)
         if u < math.exp(-arg):
@@ -133,19 +174,20 @@ def _bridge_hit(bridge, level, E, E1, vc, h, s0, s1, s2, s3):
 
 
 @jit(parallel=True)
-def run_passage(arrs, count, run, h, P):
+def run_passage(arrs, count, run, h, B, P):
     """Advance every unfinished path by at most ``budget`` steps (its state machine: NEW ->
     [BURN ->] RUN -> CROSSED | CENSORED, or DIVERGED / REFUSED) with the physics record P
-    (plan.Record for this h); ``arrs`` = (rng, state, init, phase, steps, tries, fpt), per-path
-    arrays [b, p] updated in place (``init``: the state at which the path's clock started);
-    ``run`` = (budget, n_max, n_burn, horizon, Ec, a_start, a_burn, max_tries)."""
+    (plan.Record for this h) and the bridge test's B = (P.bridge, P.pk, P.pc) (all None: no
+    bridge test, discrete monitoring only); ``arrs`` = (rng, state, init, phase, steps, tries,
+    fpt), per-path arrays [b, p] updated in place (``init``: the state at which the path's
+    clock started); ``run`` = (budget, n_max, n_burn, horizon, Ec, a_start, a_burn, max_tries)."""
     for b in prange(arrs[1].shape[0]):
         # the index as int64 (one compiled _passage_block, not two: kernels.run_paths)
-        _passage_block(np.int64(b), arrs, count[b], run, h, P)
+        _passage_block(np.int64(b), arrs, count[b], run, h, B, P)
 
 
 @jit
-def _passage_block(b, arrs, n_paths, run, h, P):
+def _passage_block(b, arrs, n_paths, run, h, B, P):
     """run_passage for the paths of block b, one path after the other."""
     rng, state, init, phase, steps, tries, fpt = arrs
     budget, n_max, n_burn, horizon, Ec, a_start, a_burn, max_tries = run
@@ -178,6 +220,7 @@ def _passage_block(b, arrs, n_paths, run, h, P):
             hit = -1.0
             i = 0
             while i < k:
+                x0 = x
                 x, v, xi, s0, s1, s2, s3, o = _step(x, v, xi, s0, s1, s2, s3, h, half, P)
                 E1 = energy(x, v, w0sq, alpha, khi)
                 i += 1
@@ -185,7 +228,7 @@ def _passage_block(b, arrs, n_paths, run, h, P):
                     hit = (level - E) / (E1 - E)
                     break
                 # o[8]: the velocity at the kick
-                hb, s0, s1, s2, s3 = _bridge_hit(P.bridge, level, E, E1, o[8], h, s0, s1, s2,
+                hb, s0, s1, s2, s3 = _bridge_hit(B, level, E, E1, x0, o[8], h, P, s0, s1, s2,
                                                  s3)
                 if hb >= 0.0:
                     hit = hb
@@ -309,8 +352,11 @@ def _starts_loop(rng, out, A, w0sq, alpha, khi, walls, xi_sd):
 
 
 def first_passage(system: Any, noise: Any, settings: PassageSettings, *, threshold: float,
-                  start: float | str, parametric: Any = None) -> Result:
-    """First passage of the energy through U(threshold) (see the module docstring).
+                  start: float | str, parametric: Any = None, bridge: bool = True) -> Result:
+    """First passage of the energy through U(threshold) (see the module docstring), with the
+    Stratonovich parametric noises of ``parametric`` (scene.parametric; None: off).
+    ``bridge=False`` switches the Brownian-bridge test off (discrete monitoring at the step
+    ends only): the uncorrected estimate, to measure the correction (tests).
 
     data["fpt"] = {"time": float64[paths] (the horizon where censored), "censored":
     bool[paths]}; data["start"] = {"x", "v", "xi", "A"}: each path's state when its clock
@@ -318,10 +364,9 @@ def first_passage(system: Any, noise: Any, settings: PassageSettings, *, thresho
     Raises BadInput (one line) on settings or a start it cannot use, SimulationDiverged on a
     non-finite state, StartRejected when "stationary" cannot place a path below Ac."""
     st = settings
-    refuse_parametric(parametric, "Monte Carlo first passage")
     check_settings(st)
     _check_threshold(threshold, start)
-    phys = physics(system, noise)
+    phys = physics(system, noise, parametric)
     stationary = isinstance(start, str)
     if stationary and st.burn_in != "auto" and not st.burn_in > 0:
         raise BadInput("start 'stationary' needs burn_in > 0 (time units of free simulation "
@@ -338,6 +383,7 @@ def first_passage(system: Any, noise: Any, settings: PassageSettings, *, thresho
     threads = st.threads or numba.config.NUMBA_NUM_THREADS
     numba.set_num_threads(threads)
     P = record(phys, h)  # bridge: None, or 2 D f^2 (white noise; 0 -> None: E is C^1)
+    B = (P.bridge, P.pk, P.pc) if bridge else (None, None, None)  # the bridge test's terms
 
     def arrays(blocks: int, per_block: int, seed: int) -> dict[str, np.ndarray]:
         return {"rng": block_seeds(seed, blocks, per_block),
@@ -352,7 +398,7 @@ def first_passage(system: Any, noise: Any, settings: PassageSettings, *, thresho
         arrs = (a["rng"], a["state"], a["init"], a["phase"], a["steps"], a["tries"], a["fpt"])
         run = (budget, n_max, n_burn, float(st.horizon), Ec, float(0.0 if stationary else start),
                float(a_burn), int(st.max_restarts))
-        run_passage(arrs, cnt, run, h, P)
+        run_passage(arrs, cnt, run, h, B, P)
 
     relax = None
     cause = _growth(system)
@@ -418,7 +464,7 @@ def first_passage(system: Any, noise: Any, settings: PassageSettings, *, thresho
         "steps": path_steps,
         "steps_per_second": path_steps / run_s if run_s > 0 else math.nan,
         "effects": effects(system, noise),
-        "crossing": _crossing_words(P.bridge is not None),
+        "crossing": _crossing_words(B[0] is not None, B[1] is not None or B[2] is not None),
         "start_law": _start_words(stationary, a_burn, n_burn * h, st.max_restarts),
         "status": Status.SIMULATED.record(),
     }
@@ -448,17 +494,23 @@ def _amplitudes(x: np.ndarray, v: np.ndarray, phys: dict[str, Any]) -> np.ndarra
     return out
 
 
-def _crossing_words(bridge: bool) -> dict[str, Any]:
+def _crossing_words(additive: bool, parametric: bool) -> dict[str, Any]:
+    """The crossing test's description: linear interpolation alone (E is C^1: OU noise, no
+    parametric noise), or with the bridge test and the terms of sigma_H^2 it uses."""
     out = {"method": "linear interpolation of E = v^2/2 + U(x) between the step ends",
            "order": CROSSING_ORDER,
            "note": "O(dt^2) on the smooth sub-system with OU noise (E is C^1); the scheme is "
                    "first order across impacts and stick-slip"}
-    if bridge:
+    if additive or parametric:
+        terms = " + ".join(t for t, on in (("2 D f^2", additive),
+                                           ("2 D_k g(x)^2 + 2 D_c d(x)^2 v^2", parametric))
+                           if on)
         out.update(method="linear interpolation, plus the Brownian-bridge crossing "
-                          "probability exp(-2 (Ec - E_n)(Ec - E_n+1) / (2 D f^2 v^2 dt)) for "
-                          "steps that end below Ec (white noise)",
-                   order=1, note="white noise: the bridge removes the O(dt^1/2) bias of "
-                                 "discrete monitoring; the scheme is weak order 1 there")
+                          "probability exp(-2 (Ec - E_n)(Ec - E_n+1) / (sigma_H^2 dt)) for "
+                          f"steps that end below Ec, sigma_H^2 = v^2 ({terms})",
+                   order=1, note=("white external noise" if additive else "parametric noise")
+                   + ": the bridge removes the O(dt^1/2) bias of discrete monitoring, "
+                     "leaving O(dt) (Gobet 2000)")
     return out
 
 

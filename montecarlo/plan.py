@@ -22,7 +22,6 @@ from typing import Any
 import numpy as np
 
 from vifpk.core.registry import NOISE_KINDS, one_of
-from vifpk.core.result import BadInput
 from vifpk.core.walls import Wall
 from vifpk.physics import noise as noise_kinds
 
@@ -85,14 +84,6 @@ def physics(system: Any, noise: Any, parametric: Any = None) -> dict[str, Any]:
         "D_k": float(parametric.stiffness) or None if parametric is not None else None,
         "D_c": float(parametric.damping) or None if parametric is not None else None,
     }
-
-
-def refuse_parametric(parametric: Any, solver: str) -> None:
-    """One line (BadInput) when ``solver`` is given a parametric noise it does not handle."""
-    if parametric is not None and (parametric.stiffness > 0 or parametric.damping > 0):
-        raise BadInput(f"parametric noise (parametric.stiffness, parametric.damping): the "
-                       f"{solver} does not handle it (its crossing correction assumes an "
-                       "additive noise); allowed there: 0")
 
 
 def walls(system: Any) -> tuple[Wall | None, Wall | None]:

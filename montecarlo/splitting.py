@@ -54,7 +54,7 @@ from . import splitting_kernels as SK
 from .averaged_sde import sde_tables
 from .geometry import potential
 from .pieces import record
-from .plan import bounds, fold, physics, refuse_parametric
+from .plan import bounds, fold, physics
 
 KEY_START, KEY_CLONE, KEY_PICK, KEY_DIRECT = 0, 1, 2, 3  # spawn_key roots of the streams
 
@@ -457,11 +457,14 @@ class _Original:
 
     width = 5
 
-    def __init__(self, system: Any, noise: Any, dt: float, burn_in: float = 0.0) -> None:
-        self.phys = physics(system, noise)
+    def __init__(self, system: Any, noise: Any, dt: float, burn_in: float = 0.0,
+                 parametric: Any = None) -> None:
+        self.phys = physics(system, noise, parametric)
         self.h = float(dt)
         self.n_burn = int(round(burn_in / self.h))
         self.rec = record(self.phys, self.h)
+        # the bridge test's terms (passage.py's docstring; all None under OU noise alone)
+        self.B = (self.rec.bridge, self.rec.pk, self.rec.pc)
 
     def U(self, A: float) -> float:
         ph = self.phys
@@ -481,7 +484,7 @@ class _Original:
     def advance(self, q_lo: float, q_hi: float, M: int, t_max: float) -> Callable[..., None]:
         def run(recs, rows, start, rng, maxlev, outcome) -> None:
             SK.advance_orig(recs, rows, start, rng, maxlev, outcome, (q_lo, q_hi, M, t_max),
-                            self.h, self.rec)
+                            self.h, self.B, self.rec)
         return run
 
     def cycles(self, starts: np.ndarray, rng: np.ndarray, n_cycles: int, q0: float, q1: float,
@@ -489,7 +492,7 @@ class _Original:
         entries = np.zeros((starts.shape[0], n_cycles, self.width))
         summary = np.zeros((starts.shape[0], 7))
         SK.cycles_orig(starts, rng, (n_cycles, q0, q1, qc, t_max, self.n_burn), self.h,
-                       self.rec, entries, summary)
+                       self.B, self.rec, entries, summary)
         return entries, summary
 
 
@@ -506,7 +509,6 @@ def passage_splitting(system: Any, noise: Any, settings: SplittingSettings, *,
     numbers for any thread count (every path and every clone has its own stream).
     data["mfpt"] = info["mfpt"] = {"value", "stderr", "ci", "level", "replicas",
     "mean_cycle", "mean_warm_up", "warm_up_hits", "p": {...}} (time units)."""
-    refuse_parametric(parametric, "Monte Carlo splitting")
     stationary = start == "stationary"
     if stationary and not burn_in > 0:
         raise ValueError("start 'stationary' needs burn_in > 0 (time units)")
@@ -516,7 +518,7 @@ def passage_splitting(system: Any, noise: Any, settings: SplittingSettings, *,
                          f"low = {low}, entry = {entry}, threshold = {threshold}, "
                          f"start = {start}")
     s = settings
-    dyn = _Original(system, noise, s.dt, burn_in if stationary else 0.0)
+    dyn = _Original(system, noise, s.dt, burn_in if stationary else 0.0, parametric)
     q0, q1, qc = dyn.U(low), dyn.U(entry), dyn.U(threshold)
 
     def rows(n: int, seed: int, g: int) -> np.ndarray:

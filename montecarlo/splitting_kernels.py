@@ -22,8 +22,12 @@ Crossings inside a step: for the SDE, a step that ends short of a boundary (A_lo
 or A_hi = sqrt(q_hi)) is counted as a crossing with the Brownian-bridge probability
 exp(-2 (A_n - b)(A_{n+1} - b) / (sigma^2 h)) (sigma frozen over the step), which removes the
 O(sqrt h) bias of a discretely monitored boundary (Broadie, Glasserman & Kou 1997; Gobet 2000);
-for the original system under OU noise the energy is C^1 in time, so a missed crossing costs
-O(h^2) per step and none is drawn; a success's time is interpolated linearly inside the step.
+for the original system the energy's own test (passage._bridge_hit, sigma_H^2 of
+passage.py's docstring: white external noise and the Stratonovich parametric noises) at the two
+boundaries q_lo (a return; in cycles_orig the arming below q0) and q_hi (a success), with the
+physics record's B = (bridge, pk, pc); under OU noise alone the energy is C^1 in time, B is all
+None, so a missed crossing costs O(h^2) per step and none is drawn. The burn-in of cycles_orig
+tests q_hi at the step ends only. A success's time is interpolated linearly inside the step.
 """
 
 from __future__ import annotations
@@ -36,6 +40,7 @@ from ._jit import jit
 from .averaged_sde import sde_step
 from .geometry import energy, orbit_start
 from .kernels import _step
+from .passage import _bridge_hit
 from .rng import uniform
 
 OUT_FAIL, OUT_SUCCESS, OUT_TIMEOUT = 0, 1, -1
@@ -212,26 +217,29 @@ def cycles_sde(starts, rng, n_cycles, q0, q1, q_hi, t_max, h, a_tab, b_tab, inv_
 
 @jit(inline="always")
 def _orig_move(x, v, xi, rest, s0, s1, s2, s3, h, half, P):
+    """One kernels._step: (x, v, xi, time at rest, the velocity at the kick (o[8]: the bridge
+    test's), generator)."""
     x, v, xi, s0, s1, s2, s3, o = _step(x, v, xi, s0, s1, s2, s3, h, half, P)
-    return x, v, xi, rest + o[4], s0, s1, s2, s3
+    return x, v, xi, rest + o[4], o[8], s0, s1, s2, s3
 
 
 @jit(parallel=True)
-def advance_orig(recs, rows, start, rng, maxlev, outcome, levels, h, P):
+def advance_orig(recs, rows, start, rng, maxlev, outcome, levels, h, B, P):
     """advance_sde for the original system (state row (x, v, xi, t, time at rest)), with the
-    physics record P (plan.Record for this h) and ``levels`` = (q_lo, q_hi, M, t_max). The
+    physics record P (plan.Record for this h), the bridge test's B = (P.bridge, P.pk, P.pc)
+    and ``levels`` = (q_lo, q_hi, M, t_max). The
     path itself is ``_advance_orig`` (serial: numba's parallel array analysis fails on the
     nested tuple ``_step`` returns, as in kernels._block)."""
     for j in prange(rows.size):
         row = rows[j]
         lev, out = _advance_orig(recs, row, start[j], rng[j, 0], rng[j, 1], rng[j, 2],
-                                 rng[j, 3], levels, h, P)
+                                 rng[j, 3], levels, h, B, P)
         maxlev[row] = lev
         outcome[row] = out
 
 
 @jit
-def _advance_orig(recs, row, st, s0, s1, s2, s3, levels, h, P):
+def _advance_orig(recs, row, st, s0, s1, s2, s3, levels, h, B, P):
     q_lo, q_hi, M, t_max = levels
     w0sq, alpha, khi = P.w0sq, P.alpha, P.khi
     half = 0.5 * h
@@ -245,13 +253,26 @@ def _advance_orig(recs, row, st, s0, s1, s2, s3, levels, h, P):
         for c in range(5):
             recs[row, lev, c] = recs[row, st, c]
     out = OUT_TIMEOUT
+    q = energy(x, v, w0sq, alpha, khi)
     while t < t_max:
-        x, v, xi, rest, s0, s1, s2, s3 = _orig_move(x, v, xi, rest, s0, s1, s2, s3, h, half, P)
+        x0, q0 = x, q
+        x, v, xi, rest, vc, s0, s1, s2, s3 = _orig_move(x, v, xi, rest, s0, s1, s2, s3, h,
+                                                        half, P)
         t += h
         q = energy(x, v, w0sq, alpha, khi)
         if q <= q_lo:
             out = OUT_FAIL
             break
+        if q < q_hi:  # a crossing of q_hi, then of q_lo, inside the step (the bridge test)
+            hb, s0, s1, s2, s3 = _bridge_hit(B, q_hi, q0, q, x0, vc, h, P, s0, s1, s2, s3)
+            if hb >= 0.0:
+                q = q_hi
+            else:
+                hb, s0, s1, s2, s3 = _bridge_hit(B, q_lo, q0, q, x0, vc, h, P, s0, s1, s2,
+                                                 s3)
+                if hb >= 0.0:
+                    out = OUT_FAIL
+                    break
         e = level_of(q, q_lo, inv_dq, M)
         while lev < e:
             lev += 1
@@ -267,8 +288,9 @@ def _advance_orig(recs, row, st, s0, s1, s2, s3, levels, h, P):
 
 
 @jit(parallel=True)
-def cycles_orig(starts, rng, cyc, h, P, entries, summary):
-    """cycles_sde for the original system with the physics record P, ``cyc`` = (n_cycles, q0,
+def cycles_orig(starts, rng, cyc, h, B, P, entries, summary):
+    """cycles_sde for the original system with the physics record P (and the bridge test's
+    B = (P.bridge, P.pk, P.pc), all None: none), ``cyc`` = (n_cycles, q0,
     q1, q_hi, t_max, n_burn): starts[p] = (x, v, xi, 0, 0), entries[p, k] the
     state row at the start of cycle k (its time and time at rest set to 0). A success's time
     is interpolated linearly in the energy inside its step. (The path: ``_cycles_orig``.)
@@ -278,12 +300,12 @@ def cycles_orig(starts, rng, cyc, h, P, entries, summary):
     run that stayed below, i.e. the stationary law restricted below the threshold when n_burn
     is several relaxation times. summary[p, 6] counts the restarts."""
     for p in prange(starts.shape[0]):
-        _cycles_orig(p, starts, rng[p, 0], rng[p, 1], rng[p, 2], rng[p, 3], cyc, h, P, entries,
-                     summary)
+        _cycles_orig(p, starts, rng[p, 0], rng[p, 1], rng[p, 2], rng[p, 3], cyc, h, B, P,
+                     entries, summary)
 
 
 @jit
-def _cycles_orig(p, starts, s0, s1, s2, s3, cyc, h, P, entries, summary):
+def _cycles_orig(p, starts, s0, s1, s2, s3, cyc, h, B, P, entries, summary):
     n_cycles, q0, q1, q_hi, t_max, n_burn = cyc
     w0sq, alpha, khi = P.w0sq, P.alpha, P.khi
     half = 0.5 * h
@@ -292,7 +314,8 @@ def _cycles_orig(p, starts, s0, s1, s2, s3, cyc, h, P, entries, summary):
     n = 0
     restarts = 0
     while n < n_burn:
-        x, v, xi, rest, s0, s1, s2, s3 = _orig_move(x, v, xi, rest, s0, s1, s2, s3, h, half, P)
+        x, v, xi, rest, _vc, s0, s1, s2, s3 = _orig_move(x, v, xi, rest, s0, s1, s2, s3, h,
+                                                         half, P)
         n += 1
         if energy(x, v, w0sq, alpha, khi) >= q_hi:
             restarts += 1
@@ -314,16 +337,26 @@ def _cycles_orig(p, starts, s0, s1, s2, s3, cyc, h, P, entries, summary):
         if t >= t_max:
             summary[p, 5] = 1.0
             break
-        q_old = q
-        x, v, xi, rest, s0, s1, s2, s3 = _orig_move(x, v, xi, rest, s0, s1, s2, s3, h, half, P)
+        q_old, x0 = q, x
+        x, v, xi, rest, vc, s0, s1, s2, s3 = _orig_move(x, v, xi, rest, s0, s1, s2, s3, h,
+                                                        half, P)
         t += h
         q = energy(x, v, w0sq, alpha, khi)
         if q >= q_hi:
             tc = t - h * (q - q_hi) / (q - q_old) if q > q_old else t
             k, total, succ = _cycle_success(tc, in_cycle, t_cycle, k, total, succ, summary, p)
             break
+        # a crossing of q_hi inside the step (the bridge test; none drawn when B is all None)
+        hb, s0, s1, s2, s3 = _bridge_hit(B, q_hi, q_old, q, x0, vc, h, P, s0, s1, s2, s3)
+        if hb >= 0.0:
+            k, total, succ = _cycle_success(t - h + hb * h, in_cycle, t_cycle, k, total, succ,
+                                            summary, p)
+            break
         if q <= q0:
             armed = True
+        elif not armed and q_old > q0:  # a dip below q0 inside the step arms it too
+            hb, s0, s1, s2, s3 = _bridge_hit(B, q0, q_old, q, x0, vc, h, P, s0, s1, s2, s3)
+            armed = hb >= 0.0
         if armed and q >= q1:
             k, total, done = _cycle_start(t, in_cycle, t_cycle, k, total, n_cycles, summary, p)
             if done:

@@ -75,27 +75,3 @@ def test_the_record_is_the_kinds_and_holds_its_closed_forms():
     # the kick's variance is 2 D f^2 h (E[W W] = 2 D delta)
     assert rec.kick ** 2 == pytest.approx(2 * 0.02 * sc.system.f ** 2 * h, rel=1e-14)
     assert rec.bridge == pytest.approx(2 * 0.02 * sc.system.f ** 2) and rec.xi_sd == 0.0
-
-
-@pytest.mark.parametrize("which", ["passage", "splitting"])
-def test_solvers_without_parametric_noise_refuse_it_in_one_line(which):
-    """First passage and splitting locate crossings for an additive noise only: a scene with
-    parametric noise is refused before any computation, naming it (issue 37, item 5)."""
-    from vifpk.montecarlo import PassageSettings
-    from vifpk.montecarlo.passage import first_passage
-    from vifpk.montecarlo.splitting import SplittingSettings, passage_splitting
-
-    from vifpk.core.result import BadInput
-    from vifpk.core.scene import load_scene
-
-    sc = load_scene("paper-base")
-    par = SimpleNamespace(stiffness=0.004, damping=0.0)
-    with pytest.raises(BadInput) as e:
-        if which == "passage":
-            first_passage(sc.system, sc.noise, PassageSettings(paths=4, blocks=2, dt=0.01,
-                                                               horizon=1.0, seed=1),
-                          threshold=1.0, start=0.5, parametric=par)
-        else:
-            passage_splitting(sc.system, sc.noise, SplittingSettings(), threshold=1.0,
-                              start=0.3, low=0.35, entry=0.5, parametric=par)
-    assert "parametric" in str(e.value) and "\n" not in str(e.value)

@@ -60,15 +60,6 @@ def _passage_settings(scene: Any, *, paths: int, horizon: float, **given: Any) -
     return montecarlo.PassageSettings(paths=paths, horizon=horizon, **kw)
 
 
-def passage_refusal(scene: Any) -> None:
-    """The original system's first passage (direct and splitting) asked before any work: a
-    physics its Monte Carlo does not handle is refused in its own one line (BadInput;
-    vifpk.montecarlo.plan.refuse_parametric)."""
-    from vifpk.montecarlo.plan import refuse_parametric
-
-    refuse_parametric(getattr(scene, "parametric", None), "Monte Carlo first passage")
-
-
 @boundary
 def passage_montecarlo(scene: Any, *, threshold: float, start: float | str, horizon: float,
                        paths: int, dt: float | None = None, blocks: int | None = None,

@@ -26,7 +26,6 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from vifpk.harness.door import timedomain as door_time
 from vifpk.harness.request import validate
 from vifpk.harness.request.errors import InputError
 
@@ -254,7 +253,6 @@ def passage_request(scene: Scene, *, threshold: Any, start: Any = "stationary",
                                  "estimates the MFPT by its own particles and cycles, with no "
                                  "horizon, no paths and no R(t)); drop it, or use --method "
                                  "direct")
-    door_time.passage_refusal(scene)  # a physics the first passage cannot take: before work
     ac, a0, h = passage_values(scene, threshold=threshold, start=start, horizon=horizon)
     req = PassageRequest(scene=scene, threshold=ac, start=a0, models=models_of(scene, models),
                          horizon=h, paths=_paths(paths), sde=flag("sde", sde), method=method,
