@@ -334,6 +334,12 @@ def reliability(drift: Coefficient, diffusion: Coefficient, *, threshold: float,
               snapshots=list(ts[1:]), check_every=float(ts[-1]) / 20.0)
     snaps, sink = out["snapshots"], out["absorbed_snapshots"]
     keys = sorted(snaps)
+    if not keys:  # issue 39 X14: R(t) at t = 0 alone (R[-2] was an IndexError)
+        raise FPKFailure(
+            f"the FPK time stepping recorded R(t) at none of its {ts.size - 1} output times "
+            f"(t_end = {ts[-1]:.3g}, 1 / lambda_1 = {tau:.3g}; stopped at t = "
+            f"{out['t_final']:.3g}: {out['stop_reason'] or 'no reason given'}); the time "
+            "range is too extreme for the integrator")
     t = np.concatenate([[0.0], np.array(keys)])
     P = np.vstack([p_start] + [snaps[k] for k in keys])
     R = P.sum(axis=1) * disc.h

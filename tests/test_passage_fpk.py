@@ -262,3 +262,23 @@ def test_a_tail_taken_before_one_mode_is_left_is_flagged():
     full = reliability(lambda x: 0 * x, lambda x: 1.0 + 0 * x, **kw)
     assert full.info["warnings"] == []
     assert full.info["mfpt_integral"] == pytest.approx((1 - 0.9**2) / 1.0, rel=1e-3)
+
+
+def test_stepping_that_records_no_output_time_fails_in_one_line(monkeypatch):
+    """Issue 39 X14: `vifpk passage paper-base --threshold 2.0 --method direct --yes --model
+    exact` died with IndexError at R[-2] when the time stepper (fpk.stepper.run) handed back
+    no snapshot, R(t) at t = 0 alone. That stepping takes minutes (it was not reproduced
+    here): the stepper's answer is emptied of its snapshots on the Rayleigh closed form, and
+    reliability must raise the solver's one-line failure (FPKFailure: exit 3), not crash."""
+    import vifpk.fpk.passage as FP
+
+    real = FP.run
+
+    def empty(*a, **k):
+        out = real(*a, **k)
+        return dict(out, snapshots={}, absorbed_snapshots={})
+
+    monkeypatch.setattr(FP, "run", empty)
+    with pytest.raises(fpk.FPKFailure) as e:
+        reliability(ray_m, ray_s2, threshold=1.5, start=1.0, cells=20, times=[0.5, 1.0])
+    assert "none of its 2 output times" in str(e.value) and "\n" not in str(e.value)
