@@ -26,6 +26,11 @@ BD = "systems/bilateral-duffing"
      ("--vary r", "system.lower_wall, system.upper_wall", "--vary mu")),
     (["bifurcation", "paper-base", "--set", "system.barrier=false", "--vary", "r", "--no-mc",
       "--quiet"], 2, ("--vary r", "barrier = false")),
+    # H191, H192: a systems/ scene named without its folder got the list of the shipped
+    # scenes without the systems/ ones (no way to learn the name)
+    (["check", "bilateral-duffing"], 2, ("did you mean 'systems/bilateral-duffing'?",)),
+    (["passage", "offset-parametric", "--threshold", "0.5"], 2,
+     ("did you mean 'systems/offset-parametric'?",)),
 ])
 def test_hostile7_refusals(capsys, args, code, words):
     assert main(args) == code

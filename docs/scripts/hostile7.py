@@ -419,6 +419,21 @@ def build() -> list[Case]:
         body = body.replace("@BD", BD).replace("@OP", OP)
         add(Case(k(n), body.replace("\n    ", "; "), py=body,
                  expect="run" if not w else "refuse", words=w))
+    # 10. names, and cheap real runs of the new physics
+    add(Case(k(n), "check bilateral-duffing (the systems/ prefix left out)",
+             ("check", "bilateral-duffing"), words=("systems/bilateral-duffing",)),
+        Case(k(n), "passage offset-parametric --threshold 0.5 (the prefix left out)",
+             ("passage", "offset-parametric", "--threshold", "0.5"),
+             words=("systems/offset-parametric",)),
+        Case(k(n), f"solve {BD} --solver fpk --model exact --grid 3",
+             ("solve", BD, "--solver", "fpk", "--model", "exact", "--grid", "3"),
+             words=("--grid",)),
+        Case(k(n), f"solve {BD} --solver montecarlo --paths 64 --time 100 --json O",
+             ("solve", BD, "--solver", "montecarlo", "--paths", "64", "--time", "100",
+              "--json", "{O}"), expect="run"),
+        Case(k(n), f"check {OP} --model exact --paths 64 --time 100 --out O",
+             ("check", OP, "--model", "exact", "--paths", "64", "--time", "100", "--quiet",
+              "--out", "{O}"), expect="run", makes=("metrics.json",)))
     return C
 
 
@@ -465,11 +480,14 @@ def main() -> None:
     ap.add_argument("--only", default="")
     ap.add_argument("--md", default="")
     ap.add_argument("--timeout", type=float, default=120.0)
+    ap.add_argument("--part", default="1/1", help="i/n: every n-th case from the i-th")
     a = ap.parse_args()
     cases = build()
     if a.only:
         keep = set(a.only.split(","))
         cases = [c for c in cases if c.id in keep]
+    i, n = (int(x) for x in a.part.split("/"))
+    cases = cases[i - 1::n]
     rows = []
     with tempfile.TemporaryDirectory(prefix="hostile7-") as tmp:
         for c in cases:

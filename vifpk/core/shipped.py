@@ -30,15 +30,17 @@ def shipped_name(text: str) -> bool:
         and all(part and not part.startswith(".") for part in parts) and "\\" not in text
 
 
-def shipped_names() -> list[str]:
-    """The names of the shipped scenes (``hard/...`` included; sweeps excluded)."""
+def shipped_names(*, folders: tuple[str, ...] = ("hard",)) -> list[str]:
+    """The names of the shipped scenes (those of the sub-folders ``folders`` included, as
+    ``hard/...``; sweeps excluded)."""
     root = shipped_scenes()
     out = []
     for entry in sorted(root.iterdir(), key=lambda e: e.name):
         if entry.is_file() and entry.name.endswith(".toml"):
             out.append(entry.name[:-5])
-        elif entry.is_dir() and entry.name == "hard":
-            out += [f"hard/{e.name[:-5]}" for e in sorted(entry.iterdir(), key=lambda e: e.name)
+        elif entry.is_dir() and entry.name in folders:
+            out += [f"{entry.name}/{e.name[:-5]}"
+                    for e in sorted(entry.iterdir(), key=lambda e: e.name)
                     if e.name.endswith(".toml")]
     return out
 
