@@ -31,6 +31,10 @@ BD = "systems/bilateral-duffing"
     (["check", "bilateral-duffing"], 2, ("did you mean 'systems/bilateral-duffing'?",)),
     (["passage", "offset-parametric", "--threshold", "0.5"], 2,
      ("did you mean 'systems/offset-parametric'?",)),
+    # H116: --at beyond a given --horizon was accepted and the run went on (R(T) of the
+    # original system is not measured past the horizon)
+    (["passage", BD, "--set", "parametric.stiffness=0", "--paths", "64", "--threshold", "0.5",
+      "--horizon", "100", "--at", "200"], 2, ("--at 200: beyond --horizon 100",)),
 ])
 def test_hostile7_refusals(capsys, args, code, words):
     assert main(args) == code
