@@ -6,7 +6,6 @@ every case is refused before any solver runs."""
 from __future__ import annotations
 
 import pytest
-
 from vifpk.harness.cli.app import main
 
 BD = "systems/bilateral-duffing"
@@ -56,9 +55,60 @@ def test_a_far_wall_of_finite_energy_is_still_a_scene():
 def test_the_bifurcation_workflow_refuses_r_on_wall_tables_from_python():
     """The same refusal from the workflow function (vifpk.run("bifurcation", ...)), before
     any search."""
+    from vifpk.harness.workflows.bifurcation import bifurcation
+
     from vifpk.core.result import BadInput
     from vifpk.core.scene import load_scene
-    from vifpk.harness.workflows.bifurcation import bifurcation
 
     with pytest.raises(BadInput, match="--vary r"):
         bifurcation(load_scene(BD), "r", mc=False)
+
+
+SWEEP = """scene = "systems/bilateral-duffing"
+workflow = "check"
+models = ["exact"]
+[vary]
+{vary}
+[set]
+{set}
+"montecarlo.paths" = 64
+"""
+
+
+@pytest.mark.parametrize("vary, set_, words", [
+    # H147, H150, H151, H164: every wall key was "unknown key; did you mean
+    # 'system.upper_wall'?" in [vary] and [set], though --set takes them
+    ('"system.upper_wall.r" = [0.9, 1.1]', "", "at the point system.upper_wall.r = 1.1"),
+    ('"system.upper_wall.at" = [-0.2, 0.5]', "", "upper_wall.at = -0.2 is out of range"),
+    ('"system.upper_wall.rr" = [0.9, 1.0]', "", "allowed: system.upper_wall.at"),
+    ('"system.lower_wall.law" = [1, 2]', "", "only numeric parameters can vary"),
+    ('"system.upper_wall.r" = [0.9, 0.95]', '"system.lower_wall.law" = "hertz"',
+     "impact law must be one of"),
+])
+def test_sweeps_take_wall_keys_and_check_every_point(tmp_path, vary, set_, words):
+    from vifpk.harness.sweeps.errors import SweepError
+    from vifpk.harness.sweeps.spec import load_sweep
+
+    p = tmp_path / "s.toml"
+    p.write_text(SWEEP.format(vary=vary, set=set_))
+    with pytest.raises(SweepError) as e:
+        load_sweep(p)
+    assert words in str(e.value) and "\n" not in str(e.value)
+
+
+def test_a_sweep_over_a_wall_key_builds_each_point_with_that_wall(tmp_path):
+    """The points' scenes carry the varied wall (not the shipped one): the sweep moves the
+    physics (the same scene as --set system.upper_wall.r=...)."""
+    from vifpk.harness.sweeps.spec import load_sweep
+
+    from vifpk.core.scene import load_scene
+
+    p = tmp_path / "s.toml"
+    p.write_text(SWEEP.format(vary='"system.upper_wall.r" = [0.9, 0.95]',
+                              set='"system.lower_wall.at" = -0.5'))
+    sw = load_sweep(p)
+    assert [pt.params for pt in sw.points] == [(("system.upper_wall.r", 0.9),),
+                                               (("system.upper_wall.r", 0.95),)]
+    base = load_scene("systems/bilateral-duffing")
+    want = base.with_values({"system.lower_wall.at": -0.5, "system.upper_wall.r": 0.95})
+    assert sw.points[1].scene.system == want.system

@@ -64,7 +64,16 @@ from vifpk.harness.sweeps.points import (
 )
 
 from vifpk.core.defaults import CHECK_MODELS, TOLERANCE
-from vifpk.core.scene import INDEXED, MAX_TERMS, SECTIONS, Scene, SceneError, load_scene
+from vifpk.core.scene import (
+    INDEXED,
+    MAX_TERMS,
+    SECTIONS,
+    WALL_TABLES,
+    Scene,
+    SceneError,
+    load_scene,
+)
+from vifpk.core.walls import WALL_KEYS
 
 MODES = ("product", "zip", "adaptive")
 
@@ -126,6 +135,12 @@ def _field_of(where: str, path: str) -> Any:
         raise SweepError(f"{where} {path!r}: unknown key; use section.key with a section in "
                          f"{sorted(SECTIONS)}")
     known = {f.name: f for f in fields(SECTIONS[section])}
+    table, dot, sub = key.partition(".")
+    if section == "system" and dot and table in WALL_TABLES:  # system.lower_wall.at, ...
+        if sub not in WALL_KEYS:
+            raise SweepError(f"{where} {path!r}: unknown key; allowed: "
+                             + ", ".join(f"system.{table}.{k}" for k in WALL_KEYS))
+        return _WallKey(sub)
     m = INDEXED.fullmatch(key) if section == "system" else None
     if m and m.group(1) in known and known[m.group(1)].type.startswith("tuple"):
         if int(m.group(2)) >= MAX_TERMS:
@@ -140,6 +155,14 @@ def _field_of(where: str, path: str) -> Any:
     if path in RESERVED:
         raise SweepError(f"{where} {path!r}: not allowed in a sweep; {RESERVED[path]}")
     return known[key]
+
+
+class _WallKey:
+    """Stands for the field of one key of a wall table ("system.upper_wall.r"): a number,
+    but the law's name (vifpk.core.walls.WALL_KEYS); the scene checks the value."""
+
+    def __init__(self, key: str) -> None:
+        self.type = "str" if key == "law" else "float"
 
 
 class _Coefficient:
