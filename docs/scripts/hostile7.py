@@ -349,12 +349,13 @@ def build() -> list[Case]:
          ("num",)),
         (BD, "check", '[vary]\n"system.upper_wall.at" = [-0.2, 0.5]', ("upper_wall.at",)),
         (BD, "check", '[vary]\n"system.lower_wall.at" = ["a", "b"]', ("lower_wall.at",)),
-        (BD, "check", '[vary]\n"system.lower_wall.law" = ["newton", "johnson"]', ("v_yield",)),
+        (BD, "check", '[vary]\n"system.lower_wall.law" = ["newton", "johnson"]',
+         ("lower_wall.law", "numeric")),
         (BD, "check", '[vary]\n"system.lower_wall" = [1, 2]', ("lower_wall",)),
         (BD, "check", '[vary]\n"system.r" = [0.9, 0.95]', ("system.r",)),
         (BD, "check", '[vary]\n"parametric.foo" = [0.1, 0.2]', ("parametric.foo",)),
-        ("paper-base", "check", '[vary]\n"system.upper_wall.at" = [0.5, 1.0]\n'
-         '[set2]', ("set2",)),
+        ("paper-base", "check", '[vary]\n"system.upper_wall.at" = [0.5, -1.0]',
+         ("upper_wall.at = -1",)),
         (BD, "check", '[vary]\n"parametric.stiffness" = [0.001, 0.002]\n[set]\n'
          '"system.lower_wall.law" = "hertz"', ("law",)),
         (OP, "passage", '[passage]\nmethod = "splitting"\nstart = 0.1\n[vary]\n'
@@ -374,10 +375,6 @@ def build() -> list[Case]:
         body = sw.format(sc=sc, wf=wf, extra=extra)
         if "[set]\n\"system" in extra:
             body = body.replace('\n[set]\n"montecarlo', '\n"montecarlo', 1)
-        if "[set2]" in extra:
-            body = body.replace("[set2]", "")
-            w = ("paper",)
-            extra = extra.replace("\n[set2]", "")
         first = extra.replace("\n", "; ")
         add(Case(k(n), f"sweep ({wf} on {sc}: {first})",
                  ("sweep", "{S}", "--out", "{O}", "--quiet"), scene=body, words=w))
@@ -436,6 +433,17 @@ def build() -> list[Case]:
         Case(k(n), f"check {OP} --model exact --paths 64 --time 100 --out O",
              ("check", OP, "--model", "exact", "--paths", "64", "--time", "100", "--quiet",
               "--out", "{O}"), expect="run", makes=("metrics.json",)))
+    runs = 'scene = "{sc}"\nworkflow = "check"\nmodels = ["exact"]\n[vary]\n{v}\n[set]\n{s}' \
+           '"montecarlo.paths" = 64\n"montecarlo.time" = 100\n'
+    add(Case(k(n), f"sweep (check on {BD}: [vary] \"system.upper_wall.r\" = [0.9, 0.95])",
+             ("sweep", "{S}", "--out", "{O}", "--quiet"), expect="run", makes=("sweep.nc",),
+             scene=runs.format(sc=BD, v='"system.upper_wall.r" = [0.9, 0.95]', s="")),
+        Case(k(n), "sweep (check on paper-base: [vary] \"system.upper_wall.at\" = [0.8, 1.2]; "
+             "[set] a johnson lower wall)", ("sweep", "{S}", "--out", "{O}", "--quiet"),
+             expect="run", makes=("sweep.nc",),
+             scene=runs.format(sc="paper-base", v='"system.upper_wall.at" = [0.8, 1.2]',
+                               s='"system.lower_wall.law" = "johnson"\n'
+                                 '"system.lower_wall.v_yield" = 0.5\n')))
     return C
 
 
