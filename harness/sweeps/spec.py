@@ -136,11 +136,11 @@ def _field_of(where: str, path: str) -> Any:
                          f"{sorted(SECTIONS)}")
     known = {f.name: f for f in fields(SECTIONS[section])}
     table, dot, sub = key.partition(".")
-    if section == "system" and dot and table in WALL_TABLES:  # system.lower_wall.at, ...
+    if section == "system" and dot and table in WALL_TABLES:  # system.lower_wall.r, ...
         if sub not in WALL_KEYS:
             raise SweepError(f"{where} {path!r}: unknown key; allowed: "
                              + ", ".join(f"system.{table}.{k}" for k in WALL_KEYS))
-        return _WallKey(sub)
+        return _WallKey() if sub == "law" else _Coefficient()
     m = INDEXED.fullmatch(key) if section == "system" else None
     if m and m.group(1) in known and known[m.group(1)].type.startswith("tuple"):
         if int(m.group(2)) >= MAX_TERMS:
@@ -157,18 +157,16 @@ def _field_of(where: str, path: str) -> Any:
     return known[key]
 
 
-class _WallKey:
-    """Stands for the field of one key of a wall table ("system.upper_wall.r"): a number,
-    but the law's name (vifpk.core.walls.WALL_KEYS); the scene checks the value."""
-
-    def __init__(self, key: str) -> None:
-        self.type = "str" if key == "law" else "float"
-
-
 class _Coefficient:
     """Stands for the field of one coefficient of a law ("system.restoring[2]")."""
 
     type = "float"
+
+
+class _WallKey:
+    """Stands for a wall's impact law ("system.lower_wall.law"): a name."""
+
+    type = "str"
 
 
 def _number(v: Any) -> bool:

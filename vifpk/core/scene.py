@@ -378,7 +378,7 @@ def load_scene(path: str | Path | Traversable) -> Scene:
             if isinstance(path, Traversable) and not isinstance(path, Path) \
                     or not shipped_name(text):
                 raise SceneError(f"{path}: no such scene file")
-            names = shipped_names(folders=("hard", "systems"))
+            names = shipped_names()
             close = difflib.get_close_matches(text, names, n=1, cutoff=0.6)
             hint = f"did you mean '{close[0]}'?" if close else "shipped: " + ", ".join(names)
             raise SceneError(f"{path}: no such scene file or shipped scene; {hint}")

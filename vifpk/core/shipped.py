@@ -30,15 +30,15 @@ def shipped_name(text: str) -> bool:
         and all(part and not part.startswith(".") for part in parts) and "\\" not in text
 
 
-def shipped_names(*, folders: tuple[str, ...] = ("hard",)) -> list[str]:
-    """The names of the shipped scenes (those of the sub-folders ``folders`` included, as
-    ``hard/...``; sweeps excluded)."""
+def shipped_names() -> list[str]:
+    """The names of the shipped scenes (``hard/...`` and ``systems/...`` included; sweeps
+    excluded)."""
     root = shipped_scenes()
     out = []
     for entry in sorted(root.iterdir(), key=lambda e: e.name):
         if entry.is_file() and entry.name.endswith(".toml"):
             out.append(entry.name[:-5])
-        elif entry.is_dir() and entry.name in folders:
+        elif entry.is_dir() and entry.name in ("hard", "systems"):
             out += [f"{entry.name}/{e.name[:-5]}"
                     for e in sorted(entry.iterdir(), key=lambda e: e.name)
                     if e.name.endswith(".toml")]
