@@ -144,7 +144,7 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 
 def cmd_bifurcation(args: argparse.Namespace) -> int:
-    from vifpk.harness.workflows.bifurcation import VARIABLES, bifurcation
+    from vifpk.harness.workflows.bifurcation import VARIABLES, bifurcation, vary_problem
 
     from vifpk.core.io import write_json
 
@@ -159,6 +159,8 @@ def cmd_bifurcation(args: argparse.Namespace) -> int:
                                       f"--vary {args.vary} searches; give its interval with "
                                       "--range LO HI instead")
     scene = _checked_scene(args, mc=not args.no_mc)
+    if vary_problem(scene, args.vary) is not None:
+        raise validate.InputError(vary_problem(scene, args.vary))
     if no_noise(scene.system):
         raise SolverFailure(f"{no_noise(scene.system)}, at any "
                             f"{args.vary}; nothing to search")

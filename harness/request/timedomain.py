@@ -254,9 +254,14 @@ def passage_request(scene: Scene, *, threshold: Any, start: Any = "stationary",
                                  "horizon, no paths and no R(t)); drop it, or use --method "
                                  "direct")
     ac, a0, h = passage_values(scene, threshold=threshold, start=start, horizon=horizon)
+    times = mission_times(at)
+    if h is not None and times and times[-1] > h:
+        raise InputError(f"--at {times[-1]:g}: beyond --horizon {h:g} (the original system's "
+                         "R(T) is measured up to the horizon only); allowed: 0 < T <= "
+                         f"{h:g}, or a longer --horizon")
     req = PassageRequest(scene=scene, threshold=ac, start=a0, models=models_of(scene, models),
                          horizon=h, paths=_paths(paths), sde=flag("sde", sde), method=method,
-                         at=mission_times(at), **knobs)
+                         at=times, **knobs)
     if method != "splitting":
         _fits_in_memory(scene, req.paths)
     return req

@@ -47,6 +47,19 @@ PAPER_CLAIMS = {
 PAPER_CLAIM_FIXED = {"mu": {"r": 0.975}, "r": {"mu": 0.001}}
 
 
+def vary_problem(scene: Any, vary: str) -> str | None:
+    """None when ``vary`` moves the scene's physics, else why not: ``r`` is the restitution
+    of the paper's wall at x = 0, so on a scene whose walls are tables (issue 37) or that has
+    no wall (barrier = false) varying it changes nothing (every point is the same system)."""
+    system = scene.system
+    if vary != "r" or (system.r is not None and system.barrier):
+        return None
+    walls = ", ".join(f"system.{w.side}_wall" for w in system.walls) or "none: barrier = false"
+    return (f"--vary r: r is the restitution of the paper's wall at x = 0 and this scene's "
+            f"walls are not that wall ({walls}), so every r would be the same system; "
+            "allowed here: --vary mu (or a sweep over system.lower_wall.r)")
+
+
 def with_param(scene: Any, vary: str, value: float) -> Any:
     section, key, _ = VARIABLES[vary]
     return replace(scene, **{section: replace(getattr(scene, section), **{key: value})})
@@ -102,6 +115,10 @@ def bifurcation(scene: Any, vary: str, *, lo: float | None = None, hi: float | N
         models = registry.applicable(scene, BIFURCATION_MODELS)[0]
     if vary not in VARIABLES:
         raise ValueError(f"--vary must be one of {sorted(VARIABLES)}")
+    if vary_problem(scene, vary) is not None:
+        from vifpk.core.result import BadInput
+
+        raise BadInput(vary_problem(scene, vary))
     d_lo, d_hi = VARIABLES[vary][2]
     lo = d_lo if lo is None else lo
     hi = d_hi if hi is None else hi

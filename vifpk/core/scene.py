@@ -314,10 +314,27 @@ def scene_from_dict(raw: Mapping[str, Any], *, source: str = "<dict>") -> Scene:
         if cls is AveragingSettings:
             _check_harmonics(f"{source}: averaging", kwargs)
         parts[sec] = cls(**kwargs)
+        if cls is System:
+            _check_wall_energy(f"{source}: system", parts[sec])
     given = frozenset(f"{sec}.{key}" for sec in SECTIONS
                       if isinstance(raw.get(sec), Mapping) for key in raw[sec])
     return Scene(name=name, description=description, sweep=sweep, source=source, given=given,
                  **parts)
+
+
+def _check_wall_energy(where: str, system: System) -> None:
+    """Each wall at a finite spring energy U(at) = sum_j k_(2j+1) at^(2j+2) / (2j+2): a wall
+    whose energy overflows a float (at = -1e300) would fail deep in a solver (exit 3)."""
+    k = system.restoring_law
+    for w in system.walls:
+        try:
+            u = sum(c * w.at ** (2 * j + 2) / (2 * j + 2) for j, c in enumerate(k))
+        except OverflowError:
+            u = math.inf
+        if not math.isfinite(u):
+            raise SceneError(f"{where}.{w.side}_wall.at = {w.at:g}: the spring's energy U(at) "
+                             "overflows; allowed: a position of finite energy (a wall that "
+                             "far is no wall: leave its table out)")
 
 
 def _check_wall_spelling(where: str, table: Mapping[str, Any]) -> None:
