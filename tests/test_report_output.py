@@ -42,7 +42,8 @@ def run(tmp_path_factory, tiny_check):
     tmp = tmp_path_factory.mktemp("report")
     res = tiny_check
     prov = provenance.collect(argv=["vifpk", "check", TINY], scene_path=TINY)
-    write_report(res, tmp / "first", prov=prov)
+    # as `vifpk check` writes it: with the run's counted RuntimeWarnings (none here)
+    write_report(res, tmp / "first", prov=prov, runtime_warnings=[])
     (tmp / "res.pickle").write_bytes(pickle.dumps(res))
     return {"res": res, "prov": prov, "dir": tmp / "first", "pickle": tmp / "res.pickle"}
 

@@ -33,7 +33,7 @@ def no_report(monkeypatch):
 
     kept = []
 
-    def write(res, out, prov=None):
+    def write(res, out, prov=None, **_):  # runtime_warnings and what else the writer takes
         kept.append((res, out))
         return {"report.html": f"{out}/report.html"}
 

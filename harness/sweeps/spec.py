@@ -50,12 +50,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import fields
 from pathlib import Path
 from typing import Any
 
 from vifpk.harness.request.prepare import dt_follows_floor
 from vifpk.harness.sweeps.errors import SweepError
+from vifpk.harness.sweeps.keys import key_field
 from vifpk.harness.sweeps.points import (
     Sweep,
     canonical,
@@ -65,15 +65,10 @@ from vifpk.harness.sweeps.points import (
 
 from vifpk.core.defaults import CHECK_MODELS, TOLERANCE
 from vifpk.core.scene import (
-    INDEXED,
-    MAX_TERMS,
-    SECTIONS,
-    WALL_TABLES,
     Scene,
     SceneError,
     load_scene,
 )
-from vifpk.core.walls import WALL_KEYS
 
 MODES = ("product", "zip", "adaptive")
 
@@ -108,65 +103,10 @@ BIFURCATION_KEYS = ("find", "range", "mc")
 FIND = {"mu": "system.mu", "r": "system.r"}
 
 
-#: keys a sweep may not vary or set: the seed comes from the sweep's seed; a wall-clock
-#: budget would make a point depend on the machine's speed
-RESERVED = {"montecarlo.seed": "set the sweep's seed with the top-level key `seed`",
-            "montecarlo.budget": "sweeps run without a wall-clock budget (a budget makes a "
-                                 "point depend on the machine's speed); use montecarlo.floor"}
-
-
 #: the largest grid a sweep file may ask for: building and validating a point's scene costs
 #: ~1-3 ms (measured 2026-11-23: 10000 points in 24 s at load average 10 on 2 cores), so a
 #: 1000 x 1000 grid was silent for many minutes before any work
 MAX_POINTS = 20_000
-
-
-# --------------------------------------------------------------------------------------------
-def _field_of(where: str, path: str) -> Any:
-    """The dataclass field named by ``section.key``, or a SweepError naming it."""
-    import difflib
-
-    from vifpk.harness.sweeps.timesweep import field_of
-
-    if field_of(path) is not None:  # passage.threshold, ...: a workflow's parameter
-        return field_of(path)
-    section, _, key = path.partition(".")
-    if section not in SECTIONS or not key:
-        raise SweepError(f"{where} {path!r}: unknown key; use section.key with a section in "
-                         f"{sorted(SECTIONS)}")
-    known = {f.name: f for f in fields(SECTIONS[section])}
-    table, dot, sub = key.partition(".")
-    if section == "system" and dot and table in WALL_TABLES:  # system.lower_wall.r, ...
-        if sub not in WALL_KEYS:
-            raise SweepError(f"{where} {path!r}: unknown key; allowed: "
-                             + ", ".join(f"system.{table}.{k}" for k in WALL_KEYS))
-        return _WallKey() if sub == "law" else _Coefficient()
-    m = INDEXED.fullmatch(key) if section == "system" else None
-    if m and m.group(1) in known and known[m.group(1)].type.startswith("tuple"):
-        if int(m.group(2)) >= MAX_TERMS:
-            raise SweepError(f"{where} {path!r}: index out of range; allowed: 0 to "
-                             f"{MAX_TERMS - 1}")
-        return _Coefficient()  # one coefficient of a polynomial law: a number
-    if key not in known:
-        close = difflib.get_close_matches(key, list(known), n=1, cutoff=0.5)
-        hint = f"did you mean '{section}.{close[0]}'?" if close else \
-            "allowed: " + ", ".join(f"{section}.{k}" for k in known)
-        raise SweepError(f"{where} {path!r}: unknown key; {hint}")
-    if path in RESERVED:
-        raise SweepError(f"{where} {path!r}: not allowed in a sweep; {RESERVED[path]}")
-    return known[key]
-
-
-class _Coefficient:
-    """Stands for the field of one coefficient of a law ("system.restoring[2]")."""
-
-    type = "float"
-
-
-class _WallKey:
-    """Stands for a wall's impact law ("system.lower_wall.law"): a name."""
-
-    type = "str"
 
 
 def _number(v: Any) -> bool:
@@ -331,7 +271,7 @@ def load_sweep(path: str | Path) -> Sweep:
         raise SweepError(f"{src}: [vary]: empty grid (name at least one parameter to vary)")
     vary = []
     for key, spec in vary_raw.items():
-        f = _field_of(f"{src}: [vary]", key)
+        f = key_field(f"{src}: [vary]", key)
         if f.type not in ("float", "float | str", "float | None"):
             raise SweepError(f"{src}: [vary] {key!r}: only numeric parameters can vary")
         vary.append((key, _range(f"{src}: [vary] {key!r}", spec) if mode == "adaptive"
@@ -345,7 +285,7 @@ def load_sweep(path: str | Path) -> Sweep:
     if not isinstance(fixed_raw, Mapping):
         raise SweepError(f"{src}: [set] must be a table of section.key = value")
     for key in fixed_raw:
-        _field_of(f"{src}: [set]", key)
+        key_field(f"{src}: [set]", key)
         if key in vary_raw:
             raise SweepError(f"{src}: [set] {key!r}: also in [vary]; keep one")
     clash = shared_term([*vary_raw, *fixed_raw])
