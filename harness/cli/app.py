@@ -16,6 +16,7 @@ import traceback
 from collections.abc import Callable, Sequence
 from typing import Any
 
+from vifpk.harness.cli import entry
 from vifpk.harness.cli.options import (
     EXIT_BAD_INPUT,
     EXIT_INTERNAL,
@@ -135,6 +136,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_BAD_INPUT
     signals.reset()
     if from_command_line:
+        entry.release()  # the import-time guard ends here: the command's own handlers
         signals.install()
     tally = args.run_warnings = RunWarnings()
     try:

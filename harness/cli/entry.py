@@ -3,8 +3,12 @@
 ``vifpk`` imports numpy, scipy, numba and every registered workflow before its own handlers
 are in place (``outputs/signals.py``, installed by ``app.main``); a Ctrl-C in that first second
 or two used to end in a KeyboardInterrupt traceback, and a SIGTERM in no message at all
-(issue 39, X11). Nothing has been written before ``app.main`` runs a command, so an interruption
-here says so in one line and exits 130 (SIGINT) or 143 (SIGTERM), as the commands do.
+(issue 39, X11). Nothing has been written before ``app.main`` runs a command, so a signal
+here prints one line and ends the process at once (``os._exit``: 130 for SIGINT, 143 for
+SIGTERM, as the commands do). The handler must not raise: an exception raised while a C
+extension is being imported (numpy's ``_multiarray_umath`` importing ``datetime``) is turned
+into an ImportError by that extension and ends in a traceback, exit 1 (seen in CI, 2026-11-28).
+``app.main`` calls :func:`release` just before it installs the command's own handlers.
 """
 
 from __future__ import annotations
@@ -12,31 +16,44 @@ from __future__ import annotations
 import os
 import signal
 import sys
+from typing import Any
 
 NOTHING = "vifpk: interrupted; nothing was written\n"
 
-
-class _EarlyTerm(BaseException):
-    """SIGTERM before the command's own handlers: unwinds the imports like Ctrl-C."""
+_saved: dict[int, Any] = {}
 
 
-def _term(signum: int, frame: object) -> None:
-    raise _EarlyTerm
+def _early(signum: int, frame: object) -> None:
+    os.write(2, NOTHING.encode())
+    os._exit(128 + signum)
+
+
+def guard() -> None:
+    """Early handlers for SIGTERM and (unless it is ignored, as in a background job) SIGINT."""
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        before = signal.getsignal(signum)
+        if signum == signal.SIGINT and before is not signal.default_int_handler:
+            continue  # SIG_IGN inherited: keep it (signals.install does the same)
+        _saved[signum] = before
+        signal.signal(signum, _early)
+
+
+def release() -> None:
+    """Back to the handlers the process had before :func:`guard` (no-op in-process)."""
+    while _saved:
+        signum, before = _saved.popitem()
+        signal.signal(signum, before)
 
 
 def main() -> int:
     """``vifpk``: app.main behind an interruption guard for its imports and its parser."""
-    signal.signal(signal.SIGTERM, _term)  # app.main replaces it with the command's own
+    guard()
     try:
         from vifpk.harness.cli import app
 
         return app.main()
-    except KeyboardInterrupt:  # Ctrl-C before app.main's own try (imports, the parser)
-        os.write(2, NOTHING.encode())
-        return 130
-    except _EarlyTerm:
-        os.write(2, NOTHING.encode())
-        return 143
+    finally:
+        release()
 
 
 if __name__ == "__main__":  # pragma: no cover - the console script calls main()
