@@ -35,6 +35,8 @@ from typing import Any
 import numba
 import numpy as np
 from numba import prange
+from vifpk.montecarlo.stepper import CHUNK_SECONDS
+from vifpk.montecarlo.summary import density, mean_se
 
 from vifpk.core.defaults import BURN_FACTOR, FPK_CELLS
 from vifpk.core.result import Resolved, Result, Status
@@ -42,7 +44,6 @@ from vifpk.core.result import Resolved, Result, Status
 from ._jit import jit
 from .geometry import amplitude_general, orbit_point, potential
 from .rng import normal, states_from_seed
-from .simulate import CHUNK_SECONDS, _density, _mean_se
 
 ORDER = 1
 #: dt = "auto": the largest sample_every / k not above tau / STEPS_PER_TAU. The averaged SDE
@@ -323,7 +324,7 @@ def simulate_sde(drift: Callable[[np.ndarray], np.ndarray],
             rate = k * path_steps / spent
         done += k
     run_s = time.perf_counter() - t1
-    d = _density(hist, sums[:, 2], np.diff(edges))
+    d = density(hist, sums[:, 2], np.diff(edges))
     steps = float(blocks * per_block * (n_burn + n_samples * stride))
     info: dict[str, Any] = {
         "solver": "averaged-sde",
@@ -335,8 +336,8 @@ def simulate_sde(drift: Callable[[np.ndarray], np.ndarray],
         "seed": {"root": seed, "scheme": "numpy.random.SeedSequence(root).spawn(blocks)"},
         "relaxation_time": tau,
         "L1_floor": {"A": d["L1_floor"]},
-        "moments": {"A": {"mean": _mean_se(sums[:, 0] / sums[:, 2]),
-                          "second": _mean_se(sums[:, 1] / sums[:, 2])}},
+        "moments": {"A": {"mean": mean_se(sums[:, 0] / sums[:, 2]),
+                          "second": mean_se(sums[:, 1] / sums[:, 2])}},
         "reflections_per_sample": float(sums[:, 3].sum() / sums[:, 2].sum()),
         "seconds": {"compile": compile_s, "run": run_s, "total": compile_s + run_s},
         "steps": steps, "steps_per_second": steps / run_s if run_s > 0 else math.nan,
@@ -347,7 +348,7 @@ def simulate_sde(drift: Callable[[np.ndarray], np.ndarray],
                   "err": d["err"], "p_blocks": d["blocks"]}}
     if hx is not None:
         for name, hh, e in (("x1", hx, ex), ("x2", hv, ev)):
-            dd = _density(hh, sums[:, 2], np.diff(e))
+            dd = density(hh, sums[:, 2], np.diff(e))
             data[name] = {"x": 0.5 * (e[1:] + e[:-1]), "p": dd["p"], "edges": e,
                           "err": dd["err"], "p_blocks": dd["blocks"]}
             info["L1_floor"][name] = dd["L1_floor"]

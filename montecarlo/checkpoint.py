@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-#: the arrays of simulate._Arrays (hist is kept as its own names, below)
+#: the arrays of stepper.Arrays (hist is kept as its own names, below)
 _ARRAYS = ("rng", "state", "moments", "events", "stuck", "energy")
 _HISTS = ("A", "x", "v", "joint")
 _EDGES = ("edges_A", "edges_x", "edges_v")

@@ -51,14 +51,14 @@ orbit (geometry.orbit_start; folded onto x >= 0 with the barrier), xi from its s
 N(0, D / alpha1). ``start = "stationary"``: the stationary law restricted to A < Ac, by
 rejection: each path starts at amplitude ``burn_start`` (Ac / 2 when 0) as above, runs
 ``burn_in`` time units of the free system (no threshold; "auto": BURN_FACTOR x the
-relaxation time measured by simulate's relaxation pilot, at least MIN_AUTO_BURN_IN), and is
+relaxation time measured by the relaxation pilot (pilots.py), at least MIN_AUTO_BURN_IN), and is
 accepted if then E < Ec;
 else it starts again (its generator goes on) from ``burn_start``, at most ``max_restarts``
 times (StartRejected beyond). The accepted states are the law at time burn_in conditioned on
 A < Ac, which is the restricted stationary law when burn_in is several relaxation times. The
 first-passage clock starts at the accepted state.
 
-**Seeds.** Path p of block b has its own xoshiro state (simulate.block_seeds: words of
+**Seeds.** Path p of block b has its own xoshiro state (rng.block_seeds: words of
 SeedSequence(seed, spawn_key=(b,))) and its own state machine; kernel calls give each
 unfinished path at most a budget of steps, and a path's arithmetic does not depend on the
 budget, so any cut into calls and any thread count give bit-identical results. Times are
@@ -75,14 +75,26 @@ from typing import Any
 
 import numba
 import numpy as np
-from numba import prange
+from vifpk.montecarlo.failures import diverged, growth
+from vifpk.montecarlo.passage_kernels import (
+    CENSORED,
+    CROSSED,
+    DIVERGED,
+    REFUSED,
+    RUN,
+    run_passage,
+    starts_loop,
+)
+from vifpk.montecarlo.pilots import pilot_scale, relaxation
+from vifpk.montecarlo.progress import progress
+from vifpk.montecarlo.rng import block_seeds
+from vifpk.montecarlo.runplan import effects
+from vifpk.montecarlo.stepper import CHUNK_SECONDS, Stepper
 
 from vifpk.core.defaults import BURN_FACTOR
 from vifpk.core.result import BadInput, Result, Status
 
-from ._jit import jit
-from .geometry import amplitudes, energy, orbit_start, potential
-from .kernels import _step, damping_k, spring_g
+from .geometry import amplitudes, potential
 from .pieces import record
 from .plan import (
     MIN_AUTO_BURN_IN,
@@ -92,23 +104,8 @@ from .plan import (
     noise_piece,
     physics,
 )
-from .rng import uniform
-from .simulate import (
-    CHUNK_SECONDS,
-    _diverged,
-    _growth,
-    _pilot_scale,
-    _progress,
-    _relaxation,
-    _Stepper,
-    block_seeds,
-    effects,
-)
 
 CROSSING_ORDER = 2  # O(dt^2) crossing time on the smooth sub-system with OU noise (see module)
-BRIDGE_FLOOR = 1e-14  # below this bridge-crossing probability no uniform is drawn
-# a path's state machine
-NEW, BURN, RUN, CROSSED, CENSORED, DIVERGED, REFUSED = range(7)
 
 
 class StartRejected(RuntimeError):
@@ -125,7 +122,7 @@ class PassageSettings:
     (the censoring time), seed (root), threads (0: numba's default), progress (a tqdm bar on
     stderr for runs over 3 s); for start = "stationary": burn_in (time units of free
     simulation before the clock starts, > 0, or "auto": BURN_FACTOR x the relaxation time
-    measured by simulate's relaxation pilot), burn_start (the amplitude the burn-in starts
+    measured by the relaxation pilot (pilots.py)), burn_start (the amplitude the burn-in starts
     from; 0: half the threshold), max_restarts (burn-ins a path may repeat)."""
 
     paths: int
@@ -140,149 +137,14 @@ class PassageSettings:
     max_restarts: int = 100
 
 
-@jit
-def _variance(bridge, pk, pc, x, vc, h, P):
-    """sigma_H^2 h of the module docstring: the energy's variance over the step, frozen at the
-    velocity at the kick vc and at x; 0 when no term is on (OU noise without parametric
-    noise). The record's fields that may be None are arguments (numba prunes their terms)."""
-    s = 0.0
-    if bridge is not None:
-        s = bridge * vc * vc * h
-    if pk is not None:
-        gk = pk * spring_g(x, P.w0sq, P.alpha, P.khi) * vc
-        s += 2.0 * gk * gk
-    if pc is not None:
-        dc = pc * damping_k(x, P.c1, P.c2, P.dhi) * vc * vc
-        s += 2.0 * dc * dc
-    return s
-
-
-@jit
-def _bridge_hit(B, level, E, E1, x, vc, h, P, s0, s1, s2, s3):
-    """(fraction of the step at the crossing, or -1: none; generator) by the Brownian-bridge
-    test of the module docstring with B = (bridge, pk, pc) (all None: no test); never a
-    crossing (and no draw) when the variance is 0."""
-    var = _variance(B[0], B[1], B[2], x, vc, h, P)
-    if not var > 0.0:
-        return -1.0, s0, s1, s2, s3
-    arg = 2.0 * (level - E) * (level - E1) / var
-    if arg < -math.log(BRIDGE_FLOOR):
-        u, s0, s1, s2, s3 = uniform(s0, s1, s2, s3)
-        if u < math.exp(-arg):
-            return (level - E) / ((level - E) + (level - E1)), s0, s1, s2, s3
-    return -1.0, s0, s1, s2, s3
-
-
-@jit(parallel=True)
-def run_passage(arrs, count, run, h, B, P):
-    """Advance every unfinished path by at most ``budget`` steps (its state machine: NEW ->
-    [BURN ->] RUN -> CROSSED | CENSORED, or DIVERGED / REFUSED) with the physics record P
-    (plan.Record for this h) and the bridge test's B = (P.bridge, P.pk, P.pc) (all None: no
-    bridge test, discrete monitoring only); ``arrs`` = (rng, state, init, phase, steps, tries,
-    fpt), per-path arrays [b, p] updated in place (``init``: the state at which the path's
-    clock started); ``run`` = (budget, n_max, n_burn, horizon, Ec, a_start, a_burn, max_tries)."""
-    for b in prange(arrs[1].shape[0]):
-        # the index as int64 (one compiled _passage_block, not two: kernels.run_paths)
-        _passage_block(np.int64(b), arrs, count[b], run, h, B, P)
-
-
-@jit
-def _passage_block(b, arrs, n_paths, run, h, B, P):
-    """run_passage for the paths of block b, one path after the other."""
-    rng, state, init, phase, steps, tries, fpt = arrs
-    budget, n_max, n_burn, horizon, Ec, a_start, a_burn, max_tries = run
-    w0sq, alpha, khi, xi_sd = P.w0sq, P.alpha, P.khi, P.xi_sd
-    half = 0.5 * h
-    for p in range(n_paths):
-        ph = phase[b, p]
-        if ph >= CROSSED:
-            continue
-        x, v, xi = state[b, p, 0], state[b, p, 1], state[b, p, 2]
-        s0, s1, s2, s3 = rng[b, p, 0], rng[b, p, 1], rng[b, p, 2], rng[b, p, 3]
-        n = steps[b, p]
-        left = budget
-        while left > 0:
-            if ph == NEW:
-                amp = a_burn if n_burn > 0 else a_start
-                x, v, xi, s0, s1, s2, s3 = orbit_start(amp, w0sq, alpha, khi, P.fold, P.x_lo,
-                                                       P.x_hi, xi_sd, s0, s1, s2, s3)
-                n = 0
-                ph = BURN if n_burn > 0 else RUN
-                if ph == RUN:
-                    init[b, p, 0], init[b, p, 1], init[b, p, 2] = x, v, xi
-                continue
-            # BURN and RUN share one loop (one copy of the inlined step: half the compile
-            # time): a burn-in tests against Ec = inf, which never fires (nor the bridge)
-            burning = ph == BURN
-            level = math.inf if burning else Ec
-            E = energy(x, v, w0sq, alpha, khi)
-            k = min(left, (n_burn if burning else n_max) - n)
-            hit = -1.0
-            i = 0
-            while i < k:
-                x0 = x
-                x, v, xi, s0, s1, s2, s3, o = _step(x, v, xi, s0, s1, s2, s3, h, half, P)
-                E1 = energy(x, v, w0sq, alpha, khi)
-                i += 1
-                if E1 >= level:
-                    hit = (level - E) / (E1 - E)
-                    break
-                # o[8]: the velocity at the kick
-                hb, s0, s1, s2, s3 = _bridge_hit(B, level, E, E1, x0, o[8], h, P, s0, s1, s2,
-                                                 s3)
-                if hb >= 0.0:
-                    hit = hb
-                    break
-                E = E1
-            if not (math.isfinite(x) and math.isfinite(v)):
-                ph = DIVERGED
-                n += i
-                break
-            if burning:
-                n += k
-                left -= k
-                if n == n_burn:
-                    if E < Ec:
-                        ph = RUN
-                        n = 0
-                        init[b, p, 0], init[b, p, 1], init[b, p, 2] = x, v, xi
-                    else:
-                        tries[b, p] += 1
-                        if tries[b, p] > max_tries:
-                            ph = REFUSED
-                            break
-                        ph = NEW
-                continue
-            if hit >= 0.0:
-                t = (n + i - 1 + hit) * h
-                n += i
-                if t <= horizon:
-                    ph = CROSSED
-                    fpt[b, p] = t
-                else:
-                    ph = CENSORED
-                    fpt[b, p] = horizon
-                break
-            n += k
-            left -= k
-            if n >= n_max:
-                ph = CENSORED
-                fpt[b, p] = horizon
-                break
-        state[b, p, 0], state[b, p, 1], state[b, p, 2] = x, v, xi
-        rng[b, p, 0], rng[b, p, 1], rng[b, p, 2], rng[b, p, 3] = s0, s1, s2, s3
-        steps[b, p] = n
-        phase[b, p] = ph
-
-
 def _auto_burn_in(phys: dict[str, Any], h: float, seed: int, threads: int, cause: str,
                   threshold: float) -> tuple[dict[str, Any], float]:
-    """(relaxation fit, burn-in) for burn_in = "auto": simulate's scale pilot and relaxation
+    """(relaxation fit, burn-in) for burn_in = "auto": the scale pilot and relaxation
     pilot (pairs started low and high with common random numbers, tuning.fit_relaxation),
     then max(BURN_FACTOR tau, MIN_AUTO_BURN_IN), as the stationary run does."""
-    step = _Stepper(phys, h, threads, None, cause)
-    a_hi = _pilot_scale(phys, h, seed, step, threshold)
-    relax = _relaxation(phys, h, seed, step, a_hi, SCALE_SAMPLE_EVERY)
+    step = Stepper(phys, h, threads, None, cause)
+    a_hi = pilot_scale(phys, h, seed, step, threshold)
+    relax = relaxation(phys, h, seed, step, a_hi, SCALE_SAMPLE_EVERY)
     if not math.isfinite(relax["tau"]):
         raise StartRejected("start 'stationary' with burn_in 'auto': the relaxation pilot "
                             "found no finite relaxation time; give burn_in explicitly")
@@ -335,20 +197,9 @@ def sample_starts(system: Any, noise: Any, *, amplitude: float, n: int, seed: in
     rng = block_seeds(seed, 1, n)[0]
     out = np.empty((n, 3))
     xi_sd = noise_piece(phys, "start_sd") or 0.0
-    _starts_loop(rng, out, float(amplitude), phys["w0sq"], phys["alpha"], phys["khi"],
-                 (fold(phys), *bounds(phys)), xi_sd)
+    starts_loop(rng, out, float(amplitude), phys["w0sq"], phys["alpha"], phys["khi"],
+                (fold(phys), *bounds(phys)), xi_sd)
     return out
-
-
-@jit
-def _starts_loop(rng, out, A, w0sq, alpha, khi, walls, xi_sd):
-    """out[i] = orbit_start(A, ...) with path i's generator words; walls = (fold, lo, up)."""
-    fold_, lo, up = walls
-    for i in range(out.shape[0]):
-        x, v, xi, s0, s1, s2, s3 = orbit_start(A, w0sq, alpha, khi, fold_, lo, up, xi_sd,
-                                               rng[i, 0], rng[i, 1], rng[i, 2], rng[i, 3])
-        out[i, 0], out[i, 1], out[i, 2] = x, v, xi
-        rng[i, 0], rng[i, 1], rng[i, 2], rng[i, 3] = s0, s1, s2, s3
 
 
 def first_passage(system: Any, noise: Any, settings: PassageSettings, *, threshold: float,
@@ -401,7 +252,7 @@ def first_passage(system: Any, noise: Any, settings: PassageSettings, *, thresho
         run_passage(arrs, cnt, run, h, B, P)
 
     relax = None
-    cause = _growth(system)
+    cause = growth(system)
     burn_in = float(st.burn_in) if stationary and st.burn_in != "auto" else 0.0
     if stationary and st.burn_in == "auto":
         relax, burn_in = _auto_burn_in(phys, h, st.seed, threads, cause, threshold)
@@ -411,7 +262,7 @@ def first_passage(system: Any, noise: Any, settings: PassageSettings, *, thresho
     compile_s = time.perf_counter() - t0
     a = arrays(st.blocks, per, st.seed)
     total = float(st.paths) * (n_max + n_burn)
-    bar = _progress(st.progress, total=total, desc="first passage")
+    bar = progress(st.progress, total=total, desc="first passage")
     rate = 5e6 * threads
     t1 = time.perf_counter()
     shown = 0.0
@@ -430,8 +281,8 @@ def first_passage(system: Any, noise: Any, settings: PassageSettings, *, thresho
             if spent > 0:
                 rate = 0.5 * rate + 0.5 * budget * active / spent
             if np.any(a["phase"] == DIVERGED):
-                raise _diverged(h, "non-finite position or velocity in the first-passage run",
-                                cause)
+                raise diverged(h, "non-finite position or velocity in the first-passage run",
+                               cause)
             if np.any(a["phase"] == REFUSED):
                 bad = int(np.sum(a["phase"] == REFUSED))
                 raise StartRejected(

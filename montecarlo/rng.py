@@ -67,6 +67,18 @@ def states_from_seed(seed: int, blocks: int) -> np.ndarray:
     return out
 
 
+def block_seeds(seed: int, blocks: int, per_block: int = 1, key: int = 0) -> np.ndarray:
+    """(blocks, per_block, 4) uint64 xoshiro states: block b from the state words of
+    SeedSequence(seed, spawn_key=(key + b,)), i.e. the b-th child of SeedSequence(seed)."""
+    out = np.empty((blocks, per_block, 4), dtype=np.uint64)
+    for b in range(blocks):
+        words = np.random.SeedSequence(seed, spawn_key=(key + b,)).generate_state(
+            4 * per_block, dtype=np.uint64).reshape(per_block, 4)
+        words[~words.any(axis=1), 0] = 1  # the all-zero state is a fixed point
+        out[b] = words
+    return out
+
+
 @jit(inline="always")
 def next_u64(s0, s1, s2, s3):
     """xoshiro256+: (64 random bits, new state)."""

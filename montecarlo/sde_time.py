@@ -16,7 +16,7 @@ closed form within 4 standard errors (tests/test_time_sde.py), and the white-noi
 original system at dt = 0.1 with that at dt = 0.00625 (tests/test_passage_mc.py); the order of
 the remaining bias has not been fitted.
 
-**Seeds.** Path p of block b draws from its own xoshiro stream (simulate.block_seeds(seed,
+**Seeds.** Path p of block b draws from its own xoshiro stream (rng.block_seeds(seed,
 blocks, paths per block), as the original system's paths do), so a path's numbers do not
 depend on the other paths, the horizon (a shorter one censors the same paths, leaving the
 other times unchanged), the cut into calls (of whole paths; Ctrl-C between them) nor the
@@ -34,14 +34,17 @@ from typing import Any
 import numba
 import numpy as np
 from numba import prange
+from vifpk.montecarlo.failures import SimulationDiverged
+from vifpk.montecarlo.passage_kernels import BRIDGE_FLOOR
+from vifpk.montecarlo.rng import block_seeds
+from vifpk.montecarlo.stepper import CHUNK_SECONDS
 
 from vifpk.core.result import BadInput, Result, Status
 
 from ._jit import jit
 from .averaged_sde import ORDER, STEPS_PER_TAU, relaxation_time, sde_step, sde_tables
-from .passage import BRIDGE_FLOOR, layout
+from .passage import layout
 from .rng import uniform
-from .simulate import CHUNK_SECONDS, SimulationDiverged, _progress, block_seeds
 from .transient import _densities
 
 TABLE_POINTS = 4001
@@ -160,11 +163,11 @@ def _check(paths: int, blocks: int, dt: float, **positive: float) -> None:
 def _drive(kernel: Callable[..., None], count: np.ndarray, steps_per_path: float,
            progress: bool, label: str) -> float:
     """Run ``kernel(done, k)`` over every block's paths in calls of about CHUNK_SECONDS (whole
-    paths; Ctrl-C between calls), with a tqdm bar in paths (simulate._progress: quiet for
+    paths; Ctrl-C between calls), with a tqdm bar in paths (progress.progress: quiet for
     runs under 3 s); returns the seconds spent."""
     done = np.zeros_like(count)
     rate = 5e6 * numba.get_num_threads()
-    bar = _progress(progress, total=int(count.sum()), desc=label, unit=" paths")
+    bar = progress(progress, total=int(count.sum()), desc=label, unit=" paths")
     t0 = time.perf_counter()
     try:
         while np.any(done < count):

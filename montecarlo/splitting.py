@@ -47,6 +47,8 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
+from vifpk.montecarlo.ams import KEY_START, ams, mean_ci, t_quantile, words
+from vifpk.montecarlo.cycles import cycle_mfpt, mfpt_by_cycles, numba_threads
 
 from vifpk.core.result import BadInput, Result, Status
 
@@ -56,7 +58,9 @@ from .geometry import potential
 from .pieces import record
 from .plan import bounds, fold, physics
 
-KEY_START, KEY_CLONE, KEY_PICK, KEY_DIRECT = 0, 1, 2, 3  # spawn_key roots of the streams
+#: the names this module has always offered (AMS and the cycle decomposition: ams.py, cycles.py)
+__all__ = ["SplittingSettings", "ams", "cycle_mfpt", "mean_ci", "passage_splitting",
+           "sde_escape_probability", "sde_passage_splitting", "t_quantile"]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -125,141 +129,6 @@ class SplittingSettings:
                            f"{self.max_time:g}")
 
 
-def _words(seed: int, key: tuple[int, ...], n: int) -> np.ndarray:
-    """(n, 4) uint64 generator words from SeedSequence(seed, spawn_key=key): a fresh stream
-    per row, the same for a seed whatever the thread count or the executor."""
-    w = np.random.SeedSequence(seed, spawn_key=key).generate_state(4 * n, dtype=np.uint64)
-    w = w.reshape(n, 4)
-    w[~w.any(axis=1), 0] = 1
-    return w
-
-
-def t_quantile(dof: int) -> float:
-    from scipy.stats import t
-
-    return float(t.ppf(0.975, dof))
-
-
-def ams(advance: Callable[..., None], starts: np.ndarray, q: np.ndarray, *, q_lo: float,
-        q_hi: float, levels: int, kill: int, seed: int, first_group: int = 0
-        ) -> dict[str, Any]:
-    """GAMS (module docstring) for G independent runs of N replicas each, run in step so that
-    one kernel call advances the killed replicas of every run (in parallel).
-
-    starts: (G, N, S) state rows; q: (G, N) their reaction coordinate; advance(recs, rows,
-    start, rng, maxlev, outcome) the kernel (splitting_kernels.advance_*, its physics bound).
-    Run g's streams are keyed by first_group + g, so groups run in several calls give the
-    numbers of one call.
-    Returns {"p": (G,), "iterations": (G,), "killed": (G,) total killed, "extinct": (G,) bool,
-    "timeouts": int}."""
-    G, N, S = starts.shape
-    M = int(levels)
-    k = int(kill) if kill > 0 else max(1, N // 10)
-    if not 1 <= k < N:
-        raise ValueError(f"kill = {k}: must be in [1, {N - 1}] for {N} particles")
-    recs = np.zeros((G * N, M + 1, S))
-    lev0 = np.array([SK.level_of(float(v), q_lo, M / (q_hi - q_lo), M) for v in q.ravel()])
-    recs[np.arange(G * N), lev0] = starts.reshape(G * N, S)
-    maxlev = np.zeros(G * N, dtype=np.int64)
-    outcome = np.zeros(G * N, dtype=np.int64)
-    rows = np.arange(G * N, dtype=np.int64)
-    rng = np.concatenate([_words(seed, (KEY_START, first_group + g), N) for g in range(G)])
-    advance(recs, rows, lev0.astype(np.int64), rng, maxlev, outcome)
-    timeouts = int((outcome == SK.OUT_TIMEOUT).sum())
-    log_c = np.zeros(G)
-    iters = np.zeros(G, dtype=np.int64)
-    killed_total = np.zeros(G, dtype=np.int64)
-    extinct = np.zeros(G, dtype=bool)
-    active = np.ones(G, dtype=bool)
-    while active.any():
-        job_rows, job_start, job_rng = [], [], []
-        for g in np.flatnonzero(active):
-            ml = maxlev[g * N:(g + 1) * N]
-            Z = int(np.partition(ml, k - 1)[k - 1])
-            if Z >= M:
-                active[g] = False
-                continue
-            dead = np.flatnonzero(ml <= Z)
-            K = dead.size
-            if K == N:
-                extinct[g] = True
-                active[g] = False
-                continue
-            log_c[g] += math.log1p(-K / N)
-            it = int(iters[g])
-            iters[g] += 1
-            killed_total[g] += K
-            alive = np.flatnonzero(ml > Z)
-            key = (first_group + int(g), it)
-            pick = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(KEY_PICK, *key)))
-            src = alive[pick.integers(0, alive.size, size=K)] + g * N
-            dst = dead + g * N
-            recs[dst, :Z + 2] = recs[src, :Z + 2]
-            job_rows.append(dst)
-            job_start.append(np.full(K, Z + 1, dtype=np.int64))
-            job_rng.append(_words(seed, (KEY_CLONE, *key), K))
-        if job_rows:
-            r = np.concatenate(job_rows).astype(np.int64)
-            advance(recs, r, np.concatenate(job_start), np.concatenate(job_rng), maxlev, outcome)
-            timeouts += int((outcome[r] == SK.OUT_TIMEOUT).sum())
-    hits = (maxlev.reshape(G, N) >= M).sum(axis=1)
-    p = np.where(extinct, 0.0, np.exp(log_c) * hits / N)
-    return {"p": p, "iterations": iters, "killed": killed_total, "extinct": extinct,
-            "timeouts": timeouts, "kill": k}
-
-
-def mean_ci(values: np.ndarray) -> dict[str, Any]:
-    """Mean of independent replicas, standard error and the Student-t 95% interval."""
-    v = np.asarray(values, float)
-    G = v.size
-    m = float(v.mean())
-    se = float(v.std(ddof=1) / math.sqrt(G)) if G > 1 else math.nan
-    tq = t_quantile(G - 1) if G > 1 else math.nan
-    return {"value": m, "stderr": se, "ci": [float(m - tq * se), float(m + tq * se)],
-            "replicas": G,
-            "level": 0.95}
-
-
-def cycle_mfpt(W: np.ndarray, qw: np.ndarray, S: np.ndarray, n: np.ndarray, p: np.ndarray
-               ) -> dict[str, Any]:
-    """T = E[W] + (1 - q_w) E[tau] / p with its delta-method standard error and Student-t 95%
-    interval from per-group values (module docstring): W, qw the groups' mean warm-up time and
-    fraction of warm-ups that reached qc; S, n their total cycle time and cycle count; p their
-    AMS estimates."""
-    W, qw, S, n, p = (np.asarray(a, float) for a in (W, qw, S, n, p))
-    G = W.size
-    Wm, qm, nm, pm = W.mean(), qw.mean(), n.mean(), p.mean()
-    tau = S.sum() / n.sum()
-    value = Wm + (1 - qm) * tau / pm
-    phi = ((W - Wm) - (qw - qm) * tau / pm + (1 - qm) * (S - tau * n) / (nm * pm)
-           - (1 - qm) * tau * (p - pm) / pm**2)
-    se = float(math.sqrt((phi**2).sum() / (G * (G - 1)))) if G > 1 else math.nan
-    tq = t_quantile(G - 1) if G > 1 else math.nan
-    return {"value": float(value), "stderr": se,
-            "ci": [float(value - tq * se), float(value + tq * se)],
-            "level": 0.95, "replicas": G, "mean_cycle": float(tau), "mean_warm_up": float(Wm),
-            "warm_up_hits": float(qm)}
-
-
-def _threads(n: int) -> Any:
-    import contextlib
-
-    import numba
-
-    if n <= 0:
-        return contextlib.nullcontext()
-
-    @contextlib.contextmanager
-    def ctx() -> Any:
-        old = numba.get_num_threads()
-        numba.set_num_threads(min(n, numba.config.NUMBA_NUM_THREADS))
-        try:
-            yield
-        finally:
-            numba.set_num_threads(old)
-    return ctx()
-
-
 # ---------------------------------------------------------------------- the averaged SDE
 class _SDE:
     """The averaged amplitude SDE's kernels, q = Z = A^2."""
@@ -307,7 +176,7 @@ def sde_escape_probability(drift: Callable, diffusion: Callable, *, low: float,
     dyn = _SDE(drift, diffusion, 1.5 * threshold, s.dt)
     starts = np.broadcast_to(dyn.rows(np.array([start])), (s.groups, s.particles, 2)).copy()
     q = np.full((s.groups, s.particles), start**2)
-    with _threads(s.threads):
+    with numba_threads(s.threads):
         out = ams(dyn.advance(low**2, threshold**2, s.levels, s.max_time), starts, q,
                   q_lo=low**2, q_hi=threshold**2, levels=s.levels, kill=s.kill, seed=s.seed)
     est = mean_ci(out["p"])
@@ -319,114 +188,6 @@ def sde_escape_probability(drift: Callable, diffusion: Callable, *, low: float,
             "timeouts": out["timeouts"], "seconds": time.perf_counter() - t0,
             "status": status.record()}
     return Result(data={"p": est}, info=info)
-
-
-def _groups_direct(dyn: Any, start_rows: Callable[[int, int, int], np.ndarray], q0: float,
-                   q1: float, qc: float, s: SplittingSettings, first: int, G: int
-                   ) -> dict[str, Any]:
-    """The direct part: G groups of s.paths paths, each run to s.cycles cycles (or a success).
-    Returns per-group W, qw, S, n, direct successes, and the (G, N, width) AMS starts (cycle
-    starts of the group, taken in order, path after path, when enough)."""
-    P, N = s.paths, s.particles
-    if P * s.cycles < N:
-        raise ValueError(f"paths x cycles = {P * s.cycles} < particles = {N}: too few cycle "
-                         "starts to start the AMS runs from")
-    starts = np.concatenate([start_rows(P, s.seed, first + g) for g in range(G)])
-    rng = np.concatenate([_words(s.seed, (KEY_DIRECT, first + g), P) for g in range(G)])
-    entries, summ = dyn.cycles(starts, rng, s.cycles, q0, q1, qc, s.max_time)
-    if (summ[:, 5] == 2).any():
-        raise RuntimeError(f"start 'stationary': {int((summ[:, 5] == 2).sum())} direct path(s) "
-                           f"reached the threshold in more than {SK.MAX_RESTARTS} burn-ins in "
-                           "a row: the threshold is inside the bulk of the stationary law")
-    if summ[:, 5].any():
-        raise RuntimeError(f"{int(summ[:, 5].sum())} direct path(s) reached max_time = "
-                           f"{s.max_time:g} before completing their cycles: lower levels "
-                           "(low/entry) closer to the bulk of the law, or raise max_time")
-    summ = summ.reshape(G, P, summ.shape[1])
-    ent = entries.reshape(G, P, s.cycles, dyn.width)
-    valid = np.arange(s.cycles)[None, None, :] < summ[:, :, 2, None]
-    pools = np.zeros((G, N, dyn.width))
-    for g in range(G):
-        e = ent[g][valid[g]]
-        if e.shape[0] == 0:
-            raise RuntimeError(f"group {g}: no cycle start (every direct path reached the "
-                               "threshold in its warm-up): the threshold is within reach of "
-                               "direct simulation")
-        # spread over the paths; with fewer starts than particles (direct successes ended
-        # paths early) some are used twice: the AMS then samples the empirical entrance law
-        take = np.linspace(0, e.shape[0] - 1, N).round().astype(int)
-        pools[g] = e[take]
-    return {"W": summ[:, :, 0].mean(axis=1), "qw": summ[:, :, 1].mean(axis=1),
-            "S": summ[:, :, 3].sum(axis=1), "n": summ[:, :, 2].sum(axis=1),
-            "successes": int(summ[:, :, 4].sum()), "pools": pools,
-            "cycles": int(summ[:, :, 2].sum())}
-
-
-def _mfpt(dyn: Any, start_rows: Callable[[int, int, int], np.ndarray], qfun: Callable,
-          q0: float, q1: float, qc: float, s: SplittingSettings
-          ) -> tuple[dict[str, Any], dict[str, Any]]:
-    """The MFPT by the cycle decomposition: (mfpt record, details). Groups are run in batches
-    of s.groups; with s.rel_ci > 0, batches are added until the 95% interval's half-width is at
-    most rel_ci x the value, or s.budget seconds would be exceeded by one more batch, or
-    s.max_groups are run (details["target"] says which). Group g's numbers do not depend on
-    the batch it ran in."""
-    t0 = time.perf_counter()
-    keys = ("W", "qw", "S", "n", "p", "iterations")
-    acc: dict[str, list[np.ndarray]] = {k: [] for k in keys}
-    cycles = successes = extinct = 0
-    t_direct = t_ams = 0.0
-    first = 0
-    target = "fixed groups"
-    while True:
-        tb = time.perf_counter()
-        with _threads(s.threads):
-            d = _groups_direct(dyn, start_rows, q0, q1, qc, s, first, s.groups)
-            t1 = time.perf_counter()
-            out = ams(dyn.advance(q0, qc, s.levels, s.max_time), d["pools"], qfun(d["pools"]),
-                      q_lo=q0, q_hi=qc, levels=s.levels, kill=s.kill, seed=s.seed,
-                      first_group=first)
-        t2 = time.perf_counter()
-        t_direct += t1 - tb
-        t_ams += t2 - t1
-        if out["timeouts"]:
-            raise RuntimeError(f"{out['timeouts']} AMS path(s) reached max_time = "
-                               f"{s.max_time:g}")
-        for k in ("W", "qw", "S", "n"):
-            acc[k].append(d[k])
-        acc["p"].append(out["p"])
-        acc["iterations"].append(out["iterations"])
-        cycles += d["cycles"]
-        successes += d["successes"]
-        extinct += int(out["extinct"].sum())
-        first += s.groups
-        p_all = np.concatenate(acc["p"])
-        if np.all(p_all == 0):
-            raise RuntimeError("every AMS run died out (p = 0 in each group): use more "
-                               "particles")
-        rec = cycle_mfpt(*(np.concatenate(acc[k]) for k in ("W", "qw", "S", "n", "p")))
-        if s.rel_ci <= 0:
-            break
-        half = 0.5 * (rec["ci"][1] - rec["ci"][0]) / rec["value"]
-        spent = time.perf_counter() - t0
-        if half <= s.rel_ci:
-            target = f"reached: relative half-width {half:.3g} <= {s.rel_ci:g}"
-            break
-        if first + s.groups > s.max_groups:
-            target = f"NOT reached: {half:.3g} > {s.rel_ci:g} at max_groups = {s.max_groups}"
-            break
-        if s.budget > 0 and spent + (t2 - tb) > s.budget:
-            target = (f"NOT reached: {half:.3g} > {s.rel_ci:g}; one more batch would exceed "
-                      f"the budget of {s.budget:g} s")
-            break
-    prob = mean_ci(p_all)
-    prob["runs"] = p_all.tolist()
-    rec["p"] = prob
-    details = {"groups": first, "direct_cycles": cycles, "direct_successes": successes,
-               "iterations": np.concatenate(acc["iterations"]).tolist(), "kill": out["kill"],
-               "extinct": extinct, "target": target,
-               "seconds": {"direct": t_direct, "ams": t_ams,
-                           "total": time.perf_counter() - t0}}
-    return rec, details
 
 
 def sde_passage_splitting(drift: Callable, diffusion: Callable, *, threshold: float,
@@ -444,7 +205,7 @@ def sde_passage_splitting(drift: Callable, diffusion: Callable, *, threshold: fl
     def rows(n: int, _seed: int, _g: int) -> np.ndarray:
         return dyn.rows(np.full(n, float(start)))
 
-    rec, det = _mfpt(dyn, rows, lambda st: st[..., 0], low**2, entry**2, threshold**2, s)
+    rec, det = mfpt_by_cycles(dyn, rows, lambda st: st[..., 0], low**2, entry**2, threshold**2, s)
     info = {"solver": "averaged-sde", "method": "splitting", "threshold": threshold,
             "start": start, "low": low, "entry": entry, "settings": asdict(s), "mfpt": rec,
             **det, "status": Status.SIMULATED.record()}
@@ -477,7 +238,7 @@ class _Original:
     def starts(self, A: float, n: int, seed: int, key: int) -> np.ndarray:
         ph = self.phys
         out = np.zeros((n, 5))
-        SK.orbit_starts(float(A), out, _words(seed, (KEY_START + 100, key), n), ph["w0sq"],
+        SK.orbit_starts(float(A), out, words(seed, (KEY_START + 100, key), n), ph["w0sq"],
                         ph["alpha"], ph["khi"], (fold(ph), *bounds(ph)), self.rec.xi_sd)
         return out
 
@@ -524,7 +285,7 @@ def passage_splitting(system: Any, noise: Any, settings: SplittingSettings, *,
     def rows(n: int, seed: int, g: int) -> np.ndarray:
         return dyn.starts(a0, n, seed, g)
 
-    rec, det = _mfpt(dyn, rows, dyn.q, q0, q1, qc, s)
+    rec, det = mfpt_by_cycles(dyn, rows, dyn.q, q0, q1, qc, s)
     info = {"solver": "montecarlo", "method": "splitting", "threshold": threshold,
             "start": start, "burn_in": burn_in if stationary else 0.0, "low": low,
             "entry": entry, "energies": [q0, q1, qc],

@@ -22,7 +22,7 @@ Crossings inside a step: for the SDE, a step that ends short of a boundary (A_lo
 or A_hi = sqrt(q_hi)) is counted as a crossing with the Brownian-bridge probability
 exp(-2 (A_n - b)(A_{n+1} - b) / (sigma^2 h)) (sigma frozen over the step), which removes the
 O(sqrt h) bias of a discretely monitored boundary (Broadie, Glasserman & Kou 1997; Gobet 2000);
-for the original system the energy's own test (passage._bridge_hit, sigma_H^2 of
+for the original system the energy's own test (passage_kernels.bridge_hit, sigma_H^2 of
 passage.py's docstring: white external noise and the Stratonovich parametric noises) at the two
 boundaries q_lo (a return; in cycles_orig the arming below q0) and q_hi (a success), with the
 physics record's B = (bridge, pk, pc); under OU noise alone the energy is C^1 in time, B is all
@@ -35,12 +35,12 @@ from __future__ import annotations
 import math
 
 from numba import prange
+from vifpk.montecarlo.passage_kernels import bridge_hit
 
 from ._jit import jit
 from .averaged_sde import sde_step
 from .geometry import energy, orbit_start
 from .kernels import _step
-from .passage import _bridge_hit
 from .rng import uniform
 
 OUT_FAIL, OUT_SUCCESS, OUT_TIMEOUT = 0, 1, -1
@@ -264,12 +264,12 @@ def _advance_orig(recs, row, st, s0, s1, s2, s3, levels, h, B, P):
             out = OUT_FAIL
             break
         if q < q_hi:  # a crossing of q_hi, then of q_lo, inside the step (the bridge test)
-            hb, s0, s1, s2, s3 = _bridge_hit(B, q_hi, q0, q, x0, vc, h, P, s0, s1, s2, s3)
+            hb, s0, s1, s2, s3 = bridge_hit(B, q_hi, q0, q, x0, vc, h, P, s0, s1, s2, s3)
             if hb >= 0.0:
                 q = q_hi
             else:
-                hb, s0, s1, s2, s3 = _bridge_hit(B, q_lo, q0, q, x0, vc, h, P, s0, s1, s2,
-                                                 s3)
+                hb, s0, s1, s2, s3 = bridge_hit(B, q_lo, q0, q, x0, vc, h, P, s0, s1, s2,
+                                                s3)
                 if hb >= 0.0:
                     out = OUT_FAIL
                     break
@@ -347,7 +347,7 @@ def _cycles_orig(p, starts, s0, s1, s2, s3, cyc, h, B, P, entries, summary):
             k, total, succ = _cycle_success(tc, in_cycle, t_cycle, k, total, succ, summary, p)
             break
         # a crossing of q_hi inside the step (the bridge test; none drawn when B is all None)
-        hb, s0, s1, s2, s3 = _bridge_hit(B, q_hi, q_old, q, x0, vc, h, P, s0, s1, s2, s3)
+        hb, s0, s1, s2, s3 = bridge_hit(B, q_hi, q_old, q, x0, vc, h, P, s0, s1, s2, s3)
         if hb >= 0.0:
             k, total, succ = _cycle_success(t - h + hb * h, in_cycle, t_cycle, k, total, succ,
                                             summary, p)
@@ -355,7 +355,7 @@ def _cycles_orig(p, starts, s0, s1, s2, s3, cyc, h, B, P, entries, summary):
         if q <= q0:
             armed = True
         elif not armed and q_old > q0:  # a dip below q0 inside the step arms it too
-            hb, s0, s1, s2, s3 = _bridge_hit(B, q0, q_old, q, x0, vc, h, P, s0, s1, s2, s3)
+            hb, s0, s1, s2, s3 = bridge_hit(B, q0, q_old, q, x0, vc, h, P, s0, s1, s2, s3)
             armed = hb >= 0.0
         if armed and q >= q1:
             k, total, done = _cycle_start(t, in_cycle, t_cycle, k, total, n_cycles, summary, p)

@@ -3,9 +3,9 @@ given times from an ensemble started at amplitude A0.
 
 The start is first_passage's (geometry.orbit_start: energy U(A0), a phase uniform in time
 along that conservative orbit, folded onto x >= 0 with the barrier, xi from its stationary
-law), drawn from each path's own generator (simulate.block_seeds). The paths are then
+law), drawn from each path's own generator (rng.block_seeds). The paths are then
 advanced by the kernel of the stationary run (kernels.run_paths, nothing sampled), from one
-snapshot time to the next, in calls of about CHUNK_SECONDS (simulate._Stepper: the progress
+snapshot time to the next, in calls of about CHUNK_SECONDS (stepper.Stepper: the progress
 bar, Ctrl-C between calls, a non-finite state raises SimulationDiverged in one line). Each
 time must be a whole number of steps, t_j = k_j dt (BadInput otherwise: a snapshot is never moved).
 
@@ -25,13 +25,18 @@ from typing import Any
 
 import numba
 import numpy as np
+from vifpk.montecarlo.failures import growth
+from vifpk.montecarlo.passage_kernels import starts_loop
+from vifpk.montecarlo.progress import progress
+from vifpk.montecarlo.rng import block_seeds
+from vifpk.montecarlo.runplan import effects
+from vifpk.montecarlo.stepper import DUMMY_EDGES, Stepper, arrays
 
 from vifpk.core.result import BadInput, Result, Status
 
 from .geometry import amplitudes
-from .passage import PassageSettings, _starts_loop, check_settings, layout
+from .passage import PassageSettings, check_settings, layout
 from .plan import bounds, fold, noise_piece, physics
-from .simulate import _DUMMY, _arrays, _growth, _progress, _Stepper, block_seeds, effects
 
 EDGE_KEYS = {"A": "edges_A", "x1": "edges_x", "x2": "edges_v"}
 
@@ -80,13 +85,13 @@ def snapshots(system: Any, noise: Any, settings: PassageSettings, *, start: floa
     state = np.empty((st.blocks, per, 3))
     xi_sd = noise_piece(phys, "start_sd") or 0.0
     flat_rng = rng.reshape(-1, 4)  # a view: the starts advance each path's own stream
-    _starts_loop(flat_rng, state.reshape(-1, 3), float(start), phys["w0sq"], phys["alpha"],
-                 phys["khi"], (fold(phys), *bounds(phys)), xi_sd)
-    arr = _arrays(rng, state, _DUMMY, ())
+    starts_loop(flat_rng, state.reshape(-1, 3), float(start), phys["w0sq"], phys["alpha"],
+                phys["khi"], (fold(phys), *bounds(phys)), xi_sd)
+    arr = arrays(rng, state, DUMMY_EDGES, ())
     never = np.iinfo(np.int64).max // 2  # a burn-in never reached: nothing is sampled
-    bar = _progress(st.progress, total=float(st.blocks * per * max(marks[-1], 1)),
-                    desc="monte carlo: transient")
-    step = _Stepper(phys, h, threads, bar, _growth(system))
+    bar = progress(st.progress, total=float(st.blocks * per * max(marks[-1], 1)),
+                   desc="monte carlo: transient")
+    step = Stepper(phys, h, threads, bar, growth(system))
     hists = {k: np.zeros((st.blocks, marks.size, e.size - 1)) for k, e in ed.items()}
     atom = np.zeros((st.blocks, marks.size))
     n = 0

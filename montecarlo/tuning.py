@@ -43,7 +43,7 @@ noise floor (about 0.01) at every dt <= 0.08, and a fit through the two larger s
 differ by 7x (at dt = 0.02: 0.0023 here, 0.00033 from the new fit). The constants here are
 kept: they are the larger prediction there, and their order 1.11 matches the kernel's declared
 weak order 1 across impacts (kernels.WEAK_ORDER_NONSMOOTH, measured in the tests), while 1.94
-would be the smooth sub-system's. The rate of the kernel is not a constant: simulate._Stepper
+would be the smooth sub-system's. The rate of the kernel is not a constant: stepper.Stepper
 measures it on every call.
 """
 

@@ -375,10 +375,10 @@ def test_progress_into_a_file_is_plain_lines(monkeypatch):
     import io
     import sys
 
-    simulate = importlib.import_module("vifpk.montecarlo.simulate")
+    progress = importlib.import_module("vifpk.montecarlo.progress")
     buf = io.StringIO()
     monkeypatch.setattr(sys, "stderr", buf)
-    bar = simulate._progress(True)
+    bar = progress.progress(True)
     bar.total = 1000
     for _ in range(3):
         bar.update(100)

@@ -220,9 +220,10 @@ def _kernel_run(base, per, cuts, seed=5):
     the same per-path states and generator words whatever ``per``, the steps cut into calls
     at ``cuts``: (state, moments, energy, windows, stuck time) per path."""
     from vifpk.montecarlo.pieces import record
-    from vifpk.montecarlo.simulate import _params, block_seeds
+    from vifpk.montecarlo.plan import physics
+    from vifpk.montecarlo.rng import block_seeds
 
-    phys = _params(base.system, base.noise)
+    phys = physics(base.system, base.noise)
     blocks, h, n_burn, stride, spw = 2, 0.02, 50, 5, 10
     rng = block_seeds(seed, blocks, 8)[:, :per].copy()
     start = np.random.default_rng(seed).uniform(0.05, 0.8, (blocks, 8, 3))
@@ -532,7 +533,7 @@ def test_auto_burn_in_measures_a_long_relaxation_and_certifies(base):
 def test_runs_cut_into_any_chunks_are_bit_identical(base, monkeypatch):
     import sys as _sys
 
-    sim = _sys.modules["vifpk.montecarlo.simulate"]
+    sim = _sys.modules["vifpk.montecarlo.stepper"]  # the Stepper's home reads CHUNK_SECONDS
     kw = dict(paths=32, blocks=16, time=50, burn_in=20.0, edges=FIXED, seed=5,
               observables=("A", "x1", "x2", "moments", "events", "energy"))
     one = run(base, **kw)

@@ -55,7 +55,7 @@ def test_starts_are_uniform_in_time(base, k, A, barrier):
     """Moments of 200000 starts against the orbit's time averages (solve_ivp): a strongly
     hardening Duffing spring (alpha A^2 = 11 omega0^2), and a quintic one softening then
     hardening (k3 < 0: the slowest phase is not at x = 0, the rejection bound comes from the
-    grid of orbit_point). The uniform-ANGLE law of simulate._starts is 20+ standard errors
+    grid of orbit_point). The uniform-ANGLE law of pilots.starts is 20+ standard errors
     off the Duffing truth for x^2: the test tells the two apart."""
     sc = vary(base, restoring=k, barrier=barrier)
     s = sample_starts(sc.system, sc.noise, amplitude=A, n=200_000, seed=3)

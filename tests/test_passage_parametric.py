@@ -20,7 +20,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 from vifpk.montecarlo import PassageSettings, first_passage
-from vifpk.montecarlo.passage import _variance
+from vifpk.montecarlo.passage_kernels import energy_variance
 from vifpk.montecarlo.pieces import record
 from vifpk.montecarlo.plan import physics
 
@@ -49,7 +49,7 @@ def _mfpt(sc, dt, par, bridge=True, paths=8000):
 
 
 def test_variance_is_the_ito_quadratic_variation():
-    """_variance against sigma_H^2 h written out: a Duffing spring and a quadratic damping
+    """energy_variance against sigma_H^2 h written out: a Duffing spring and a quadratic damping
     (so g and d depend on x), white external noise, both parametric terms; each term alone;
     and with the parametric terms off the additive variance bridge v^2 h bit for bit (the
     old code path)."""
@@ -60,13 +60,13 @@ def test_variance_is_the_ito_quadratic_variation():
     d = K + 0.4 * x * x  # d(x) = c2 x^2 - c1, c1 = -K
     P = record(physics(sc.system, sc.noise, SimpleNamespace(stiffness=DK, damping=DC)), h)
     want = vc ** 2 * (2 * D * f ** 2 + 2 * DK * g ** 2 + 2 * DC * d ** 2 * vc ** 2) * h
-    assert _variance(P.bridge, P.pk, P.pc, x, vc, h, P) == pytest.approx(want, rel=1e-12)
-    assert _variance(None, P.pk, None, x, vc, h, P) == pytest.approx(
+    assert energy_variance(P.bridge, P.pk, P.pc, x, vc, h, P) == pytest.approx(want, rel=1e-12)
+    assert energy_variance(None, P.pk, None, x, vc, h, P) == pytest.approx(
         vc ** 2 * 2 * DK * g ** 2 * h, rel=1e-12)
-    assert _variance(None, None, P.pc, x, vc, h, P) == pytest.approx(
+    assert energy_variance(None, None, P.pc, x, vc, h, P) == pytest.approx(
         vc ** 4 * 2 * DC * d ** 2 * h, rel=1e-12)
-    assert _variance(None, None, None, x, vc, h, P) == 0.0
-    assert _variance(P.bridge, None, None, x, vc, h, P) == P.bridge * vc * vc * h
+    assert energy_variance(None, None, None, x, vc, h, P) == 0.0
+    assert energy_variance(P.bridge, None, None, x, vc, h, P) == P.bridge * vc * vc * h
 
 
 def test_bridge_with_parametric_noise_converges_in_dt():

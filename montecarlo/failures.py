@@ -1,0 +1,48 @@
+"""How a Monte Carlo run fails, in one line each: the exceptions of a run that blew up or ran
+out of budget, and the words that name the likely cause (the step, or an energy balance that
+lets the amplitude grow without bound)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from vifpk.core.scene import energy_balance
+
+
+class SimulationDiverged(RuntimeError):
+    """The simulation produced a non-finite state, or no sample inside any histogram range.
+    The message is one line and names the time step (the usual cause)."""
+
+
+class BudgetExhausted(RuntimeError):
+    """The wall-time budget of a run to a target floor ran out before the first sampling
+    window (in the pilots or the burn-in): there is no sample. The message is one line."""
+
+
+def diverged(h: float, what: str, cause: str = "") -> SimulationDiverged:
+    """One line: what blew up, then the likely cause. ``cause``: the scene's large-amplitude
+    energy balance when it says the energy may grow without bound (:func:`growth`): that comes
+    first, before any advice on the time step."""
+    step = (f"try a smaller --dt (e.g. {h / 4:g}) or --dt auto; if a smaller step blows up "
+            "too, the amplitude grows without bound and no stationary density exists")
+    if cause:
+        return SimulationDiverged(f"the Monte Carlo blew up ({what}) at dt = {h:g}: most likely "
+                                  f"{cause}; else the time step is too large: {step}")
+    return SimulationDiverged(
+        f"the Monte Carlo blew up ({what}) at dt = {h:g}: the time step is most likely too "
+        f"large for this scene; {step} (negative damping c1 > 0 not held by c2, impacts or "
+        "friction)")
+
+
+def growth(system: Any) -> str:
+    """'' when the losses win the large-amplitude energy balance (vifpk.core.scene.
+    energy_balance), else the words of why the energy may grow without bound."""
+    if not hasattr(system, "restoring_law"):  # a duck-typed system with the paper's names
+        return ""
+    bal = energy_balance(system)
+    if bal.grows:
+        return f"the energy grows without bound ({bal.text})"
+    if bal.tie:
+        return (f"the energy grows without bound: {bal.text}, and here the gain may win (no "
+                "stationary density)")
+    return ""
