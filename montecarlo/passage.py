@@ -86,7 +86,7 @@ from vifpk.montecarlo.passage_kernels import (
     starts_loop,
 )
 from vifpk.montecarlo.pilots import pilot_scale, relaxation
-from vifpk.montecarlo.progress import progress
+from vifpk.montecarlo.progress import progress_bar
 from vifpk.montecarlo.rng import block_seeds
 from vifpk.montecarlo.runplan import effects
 from vifpk.montecarlo.stepper import CHUNK_SECONDS, Stepper
@@ -262,7 +262,7 @@ def first_passage(system: Any, noise: Any, settings: PassageSettings, *, thresho
     compile_s = time.perf_counter() - t0
     a = arrays(st.blocks, per, st.seed)
     total = float(st.paths) * (n_max + n_burn)
-    bar = progress(st.progress, total=total, desc="first passage")
+    bar = progress_bar(st.progress, total=total, desc="first passage")
     rate = 5e6 * threads
     t1 = time.perf_counter()
     shown = 0.0

@@ -28,8 +28,8 @@ class Lines:
         self.stream.flush()
 
 
-def progress(enabled: bool, *, total: float = 1, desc: str = "monte carlo: pilot",
-             unit: str = " steps") -> Any:
+def progress_bar(enabled: bool, *, total: float = 1, desc: str = "monte carlo: pilot",
+                 unit: str = " steps") -> Any:
     """A tqdm bar in path-steps (it shows the ETA); quiet for runs under 3 s. (tqdm's
     ``reset`` draws the bar at once, delay or not: a caller that knows its total gives it
     here.) On a terminal it redraws in place; elsewhere it writes a plain line every

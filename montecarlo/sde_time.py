@@ -36,6 +36,7 @@ import numpy as np
 from numba import prange
 from vifpk.montecarlo.failures import SimulationDiverged
 from vifpk.montecarlo.passage_kernels import BRIDGE_FLOOR
+from vifpk.montecarlo.progress import progress_bar
 from vifpk.montecarlo.rng import block_seeds
 from vifpk.montecarlo.stepper import CHUNK_SECONDS
 
@@ -163,11 +164,11 @@ def _check(paths: int, blocks: int, dt: float, **positive: float) -> None:
 def _drive(kernel: Callable[..., None], count: np.ndarray, steps_per_path: float,
            progress: bool, label: str) -> float:
     """Run ``kernel(done, k)`` over every block's paths in calls of about CHUNK_SECONDS (whole
-    paths; Ctrl-C between calls), with a tqdm bar in paths (progress.progress: quiet for
+    paths; Ctrl-C between calls), with a tqdm bar in paths (progress.progress_bar: quiet for
     runs under 3 s); returns the seconds spent."""
     done = np.zeros_like(count)
     rate = 5e6 * numba.get_num_threads()
-    bar = progress(progress, total=int(count.sum()), desc=label, unit=" paths")
+    bar = progress_bar(progress, total=int(count.sum()), desc=label, unit=" paths")
     t0 = time.perf_counter()
     try:
         while np.any(done < count):

@@ -29,7 +29,7 @@ from vifpk.montecarlo.assemble import assemble
 from vifpk.montecarlo.burnin import begin, resume
 from vifpk.montecarlo.failures import BudgetExhausted, SimulationDiverged, growth
 from vifpk.montecarlo.pilots import START_LOW
-from vifpk.montecarlo.progress import PLAIN_PROGRESS_EVERY, progress
+from vifpk.montecarlo.progress import PLAIN_PROGRESS_EVERY, progress_bar
 from vifpk.montecarlo.rng import block_seeds
 from vifpk.montecarlo.runplan import OBSERVABLES, Settings, compile_kernel, effects, resolve
 from vifpk.montecarlo.sampling import sample
@@ -63,7 +63,7 @@ def simulate(system: Any, noise: Any, settings: Settings, *, parametric: Any = N
     """
     plan = resolve(system, noise, replace(settings, **overrides), parametric)
     clock = compile_kernel(plan)
-    bar = progress(plan.settings.progress)
+    bar = progress_bar(plan.settings.progress)
     step = Stepper(plan.phys, plan.h, plan.threads, bar, growth(system))
     try:
         run = begin(plan, clock, step, bar) if plan.resume is None else resume(plan, clock, bar)

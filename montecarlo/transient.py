@@ -27,7 +27,7 @@ import numba
 import numpy as np
 from vifpk.montecarlo.failures import growth
 from vifpk.montecarlo.passage_kernels import starts_loop
-from vifpk.montecarlo.progress import progress
+from vifpk.montecarlo.progress import progress_bar
 from vifpk.montecarlo.rng import block_seeds
 from vifpk.montecarlo.runplan import effects
 from vifpk.montecarlo.stepper import DUMMY_EDGES, Stepper, arrays
@@ -89,8 +89,8 @@ def snapshots(system: Any, noise: Any, settings: PassageSettings, *, start: floa
                 phys["khi"], (fold(phys), *bounds(phys)), xi_sd)
     arr = arrays(rng, state, DUMMY_EDGES, ())
     never = np.iinfo(np.int64).max // 2  # a burn-in never reached: nothing is sampled
-    bar = progress(st.progress, total=float(st.blocks * per * max(marks[-1], 1)),
-                   desc="monte carlo: transient")
+    bar = progress_bar(st.progress, total=float(st.blocks * per * max(marks[-1], 1)),
+                       desc="monte carlo: transient")
     step = Stepper(phys, h, threads, bar, growth(system))
     hists = {k: np.zeros((st.blocks, marks.size, e.size - 1)) for k, e in ed.items()}
     atom = np.zeros((st.blocks, marks.size))

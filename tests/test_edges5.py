@@ -378,7 +378,7 @@ def test_progress_into_a_file_is_plain_lines(monkeypatch):
     progress = importlib.import_module("vifpk.montecarlo.progress")
     buf = io.StringIO()
     monkeypatch.setattr(sys, "stderr", buf)
-    bar = progress.progress(True)
+    bar = progress.progress_bar(True)
     bar.total = 1000
     for _ in range(3):
         bar.update(100)
