@@ -3,8 +3,10 @@
 - ``harness/door/`` is the only harness package that imports a solver package (``averaging``,
   ``fpk``, ``montecarlo``): every workflow reaches the solvers through it, and it imports no
   harness module outside itself;
-- the harness is in layers: no module over ``MAX_LINES`` lines, no import cycle between its
-  modules (imports inside functions count), every sub-package named in docs/architecture.md;
+- no module of any package of ours over ``MAX_LINES`` lines but the numba-kernel modules named
+  in ``KERNEL_MODULES``, each with its reason;
+- the harness is in layers: no import cycle between its modules (imports inside functions
+  count), every sub-package named in docs/architecture.md;
 - a solver package imports neither ``harness`` nor another solver package: of ours, only
   ``vifpk.core`` (the shared vocabulary);
 - ``vifpk.core`` imports no solver, no ``harness`` and nothing of ``vifpk`` outside itself;
@@ -28,6 +30,16 @@ from tests.conftest import ROOT
 SOLVERS = ("averaging", "fpk", "montecarlo")
 DOOR = Path("harness") / "door"
 MAX_LINES = 500  # issue 27: "no module over ~500 lines except the numba kernel"
+#: every package of ours: the line rule holds in each (issue 38: not the harness only)
+PACKAGES = ("vifpk", "averaging", "fpk", "montecarlo", "harness")
+#: the numba-kernel modules the line rule exempts, each with its reason; an entry must hold
+#: numba-compiled functions (test_kernel_exemptions_are_numba_kernels). Only these: a module
+#: with a kernel or two in it (passage_kernels.py, splitting_kernels.py, rng.py) is not exempt.
+KERNEL_MODULES: dict[str, str] = {
+    "montecarlo/kernels.py": "the original system's Strang step and run_paths (477 lines): "
+    "one step inlined into every kernel that advances a path, its pieces chosen when the "
+    "kernel is specialised; cutting it across modules only spreads one function's branches",
+}
 CORE = "vifpk.core"
 PHYSICS = "vifpk.physics"  # issue 37: the physics every solver reads, on the core only
 
@@ -290,10 +302,33 @@ def _harness_modules() -> dict[str, Path]:
     return out
 
 
-@pytest.mark.parametrize("path", modules("harness"), ids=lambda p: str(p.relative_to(ROOT)))
-def test_no_harness_module_over_the_line_limit(path: Path):
-    n = len(path.read_text(encoding="utf-8").splitlines())
-    assert n <= MAX_LINES, f"{path.relative_to(ROOT)}: {n} lines > {MAX_LINES}; split it"
+def test_no_module_over_the_line_limit():
+    """Every module of every package of ours (vifpk/, averaging/, fpk/, montecarlo/, harness/)
+    has at most MAX_LINES lines, but the numba-kernel modules of KERNEL_MODULES."""
+    over = {}
+    for package in PACKAGES:
+        for path in modules(package):
+            name = path.relative_to(ROOT).as_posix()
+            n = len(path.read_text(encoding="utf-8").splitlines())
+            if n > MAX_LINES and name not in KERNEL_MODULES:
+                over[name] = n
+    assert not over, f"over {MAX_LINES} lines, split them: {over}"
+
+
+@pytest.mark.parametrize("name", sorted(KERNEL_MODULES))
+def test_kernel_exemptions_are_numba_kernels(name: str):
+    """An exempt module exists and compiles kernels: a function decorated with ``jit`` (the one
+    jit helper, montecarlo/_jit.py) or ``numba.njit``."""
+    path = ROOT / name
+    assert path.is_file(), f"KERNEL_MODULES names {name}, which does not exist"
+    jitted = [n.name for n in nodes(path) if isinstance(n, ast.FunctionDef)
+              and any(_decorator_name(d) in ("jit", "njit") for d in n.decorator_list)]
+    assert jitted, f"{name} compiles no numba kernel: it is not exempt from the line rule"
+
+
+def _decorator_name(d: ast.expr) -> str:
+    f = d.func if isinstance(d, ast.Call) else d
+    return f.attr if isinstance(f, ast.Attribute) else getattr(f, "id", "")
 
 
 def test_no_import_cycles_in_the_harness():
