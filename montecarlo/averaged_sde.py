@@ -191,10 +191,7 @@ def run_sde_blocks(states, n_paths, n_burn, n_samples, stride, h, a_tab, b_tab, 
                     else:
                         w = u - j
                         sd = (1.0 - w) * obs_tab[j] + w * obs_tab[j + 1]
-                    if okhi is None:
-                        E = 0.5 * ow0sq * A * A + 0.25 * oalpha * A * A * A * A
-                    else:
-                        E = potential(A, ow0sq, oalpha, okhi)
+                    E = potential(A, ow0sq, oalpha, okhi)
                     while True:
                         z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
                         Eo = E + sd * z

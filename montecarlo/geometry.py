@@ -1,5 +1,6 @@
-"""The few lines of oscillator geometry the Monte Carlo needs, kept apart from ``averaging``
-so that a bug there cannot hide here too.
+"""The oscillator geometry the Monte Carlo's kernels need, compiled: the energy, amplitudes and
+time-uniform starts on an orbit. U(x) itself is the physics' one formula
+(vifpk.physics.spring.potential_parts, issue 37: written once), compiled here.
 
     E = v^2/2 + omega0^2 x^2/2 + alpha x^4/4 [+ k5 x^6/6 + k7 x^8/8 + ...]
     A = U^{-1}(E):  A^2 = 4E / (w0^2 + sqrt(w0^4 + 4 alpha E))     (no terms beyond x^3)
@@ -16,14 +17,21 @@ from __future__ import annotations
 
 import math
 
+from vifpk.physics import spring
+
 from ._jit import jit
 from .rng import normal, uniform
+
+#: U(x) = w0^2 x^2/2 + alpha x^4/4 + sum_j k_{2j+3} x^{2j+6} / (2j + 6): the physics' one
+#: formula (vifpk.physics.spring.potential_parts), compiled; potential(x, w0sq, alpha, khi)
+potential = jit(spring.potential_parts)
 
 
 @jit
 def amplitude(x: float, v: float, w0sq: float, alpha: float) -> float:
-    """Amplitude of the conservative orbit through (x, v): U(A) = v^2/2 + U(x)."""
-    E = 0.5 * v * v + 0.5 * w0sq * x * x + 0.25 * alpha * x * x * x * x
+    """Amplitude of the conservative orbit through (x, v) of the Duffing spring: U(A) =
+    v^2/2 + U(x)."""
+    E = 0.5 * v * v + potential(x, w0sq, alpha, None)
     return math.sqrt(4.0 * E / (w0sq + math.sqrt(w0sq * w0sq + 4.0 * alpha * E)))
 
 
@@ -36,17 +44,6 @@ def poly_x2(c, x2: float) -> float:
     return out
 
 
-@jit
-def potential(x: float, w0sq: float, alpha: float, khi) -> float:
-    """U(x) = w0^2 x^2/2 + alpha x^4/4 + sum_j k_{2j+3} x^{2j+6} / (2j + 6)."""
-    x2 = x * x
-    u = 0.5 * w0sq * x2 + 0.25 * alpha * x2 * x2
-    if khi is not None:
-        s = 0.0
-        for i in range(khi.shape[0] - 1, -1, -1):
-            s = s * x2 + khi[i] / (2 * i + 6)
-        u += s * x2 * x2 * x2
-    return u
 
 
 @jit

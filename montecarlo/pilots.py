@@ -31,17 +31,14 @@ from vifpk.montecarlo.stepper import DUMMY_EDGES, Stepper, arrays
 from vifpk.montecarlo.tuning import fit_relaxation
 
 from vifpk.core.defaults import BURN_FACTOR
+from vifpk.physics import spring
 
 START_LOW = 0.05  # lowest start amplitude, as a fraction of the pilot's largest
 
 
 def potential(x: Any, phys: dict[str, Any]) -> Any:
-    """U(x) of the kernel's spring (geometry.potential, vectorised)."""
-    w0sq, alpha = phys["w0sq"], phys["alpha"]
-    u = 0.5 * w0sq * x * x + 0.25 * alpha * x**4  # (the paper's form, operation for operation)
-    for i, c in enumerate(phys["khi"] if phys["khi"] is not None else ()):
-        u = u + c / (2 * i + 6) * x ** (2 * i + 6)
-    return u
+    """U(x) of the kernel's spring on arrays (vifpk.physics.spring.potential_parts)."""
+    return spring.potential_parts(x, phys["w0sq"], phys["alpha"], phys["khi"])
 
 
 def starts(amplitudes: np.ndarray, phys: dict[str, Any], gen: np.random.Generator

@@ -479,6 +479,21 @@ def test_blow_up_raises_naming_the_time_step(base):
         run(base, paths=32, blocks=16, dt=2.0, time=100, burn_in=10.0, edges=FIXED)
 
 
+def test_the_monte_carlo_uses_the_physics_u():
+    """U(x) written once (issue 37): the kernels' compiled U is vifpk.physics.spring's
+    potential_parts itself, and the pilots' NumPy U (the starts, the x2 range) gives
+    spring.potential's numbers bit for bit, on a Duffing spring and one with k5, k7."""
+    from vifpk.montecarlo import geometry, pilots
+
+    from vifpk.physics import spring
+
+    assert geometry.potential.py_func is spring.potential_parts
+    x = np.linspace(-2.0, 2.0, 101)
+    for k in ((1.3, 0.6), (1.3, 0.2, 0.05, 0.01)):
+        phys = {"w0sq": k[0], "alpha": k[1], "khi": np.array(k[2:]) if len(k) > 2 else None}
+        np.testing.assert_array_equal(pilots.potential(x, phys), spring.potential(x, k))
+
+
 @pytest.mark.slow
 def test_numpy_reference_is_the_same_scheme(base):
     """The benchmark's NumPy implementation must simulate the same scheme: stuck fraction and

@@ -27,14 +27,23 @@ import numpy as np
 
 
 def potential(x: Any, k: Any) -> Any:
-    """U(x) = sum_j k_{2j-1} x^{2j} / (2j) (Horner in x^2: U = x^2 (k1/2 + x^2 (k3/4 + ...)))."""
-    if len(k) <= 2:
-        k3 = k[1] if len(k) > 1 else 0.0
-        return 0.5 * k[0] * x**2 + 0.25 * k3 * x**4
+    """U(x) = sum_j k_{2j-1} x^{2j} / (2j) (:func:`potential_parts` with k = (k1, k3, k5, ...))."""
+    return potential_parts(x, k[0], k[1] if len(k) > 1 else 0.0, k[2:] if len(k) > 2 else None)
+
+
+def potential_parts(x: Any, k1: float, k3: float, khi: Any) -> Any:
+    """U(x) = k1 x^2/2 + k3 x^4/4 + sum_{i>=1} khi_i x^{2i+4} / (2i + 4), ``khi`` = (k5, k7, ...)
+    or None: the one formula of U (the Monte Carlo compiles it with numba on scalars, the
+    averaged models call it through :func:`potential` on arrays). With khi None the Duffing
+    closed form; else Horner in x^2, U = x^2 (k1/2 + x^2 (k3/4 + x^2 (k5/6 + ...)))."""
+    if khi is None:
+        return 0.5 * k1 * x**2 + 0.25 * k3 * x**4
     x2 = x * x
     out = 0.0 * x2
-    for j in range(len(k), 0, -1):
-        out = out * x2 + k[j - 1] / (2 * j)
+    for i in range(len(khi), 0, -1):
+        out = out * x2 + khi[i - 1] / (2 * i + 4)
+    out = out * x2 + k3 / 4
+    out = out * x2 + k1 / 2
     return out * x2
 
 
