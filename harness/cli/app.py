@@ -16,7 +16,6 @@ import traceback
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from vifpk.harness.cli import entry
 from vifpk.harness.cli.options import (
     EXIT_BAD_INPUT,
     EXIT_INTERNAL,
@@ -100,9 +99,14 @@ def _plugin_command(fn: Callable[[Any], Any], label: str, source: str | None
     return run
 
 
-def main(argv: Sequence[str] | None = None) -> int:
+def main(argv: Sequence[str] | None = None, *,
+         release: Callable[[], None] | None = None) -> int:
     """The ``vifpk`` command. Exit codes: 0, 1 internal error (a bug), 2 bad input, 3 a solver
     could not produce a result (SolverFailure, mapped at the door), 130 Ctrl-C.
+
+    ``release``: the console script's import-time signal guard (harness/cli/entry.py hands its
+    ``release``; passed in, not imported, so app and entry do not import each other), called
+    just before the command's own handlers are installed.
 
     numpy RuntimeWarnings are caught (never printed) and counted (harness/outputs/runwarnings.py,
     handed to the command as ``args.run_warnings``): a run that then fails names the first one
@@ -128,7 +132,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_SOLVER
     args = parser.parse_args(argv)
     debug = bool(getattr(args, "debug", False) or os.environ.get("VIFPK_TRACEBACK"))
-    args.argv = ["vifpk", *(sys.argv[1:] if argv is None else argv)]
+    args.argv = ["vifpk", *argv]  # argv is the list of arguments by now, never None
     try:
         validate.environment()
     except BadInput as exc:
@@ -136,7 +140,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_BAD_INPUT
     signals.reset()
     if from_command_line:
-        entry.release()  # the import-time guard ends here: the command's own handlers
+        if release is not None:
+            release()  # the import-time guard ends here: the command's own handlers
         signals.install()
     tally = args.run_warnings = RunWarnings()
     try:
