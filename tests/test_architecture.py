@@ -479,3 +479,23 @@ def test_no_module_over_the_line_limit_outside_the_harness():
     assert not new, f"over {MAX_LINES} lines: {new}; split them"
     stale = LONG_PENDING - over
     assert not stale, f"no longer over the limit, delete from LONG_PENDING: {sorted(stale)}"
+
+
+def test_no_module_reads_pyproject_at_run_time():
+    """The registries come from the installed metadata only, the same in an editable install
+    and a wheel (issue 38 item 4: vifpk/core/registry.py read vifpk's own entry points from
+    pyproject.toml in a source checkout, so the two gave two orders): no code of ours names
+    pyproject.toml outside docstrings and comments."""
+    bad = []
+    for p in _all_sources():
+        if "pyproject" not in p.read_text(encoding="utf-8"):
+            continue
+        docs = {id(n.body[0].value) for n in nodes(p)
+                if isinstance(n, (ast.Module, ast.FunctionDef, ast.ClassDef,
+                                  ast.AsyncFunctionDef))
+                and n.body and isinstance(n.body[0], ast.Expr)
+                and isinstance(n.body[0].value, ast.Constant)}
+        bad += [f"{p.relative_to(ROOT)}:{n.lineno}" for n in nodes(p)
+                if isinstance(n, ast.Constant) and isinstance(n.value, str)
+                and "pyproject" in n.value and id(n) not in docs]
+    assert not bad, bad
