@@ -62,5 +62,5 @@ def test_the_command_recorded_is_the_argv_given_and_the_guard_is_released(monkey
     assert seen["argv"] == ["vifpk", "models", "--x"]
     released = []
     monkeypatch.setattr(signals, "install", lambda: None)  # no handlers in the test process
-    assert app.main(None, release=lambda: released.append(1)) == 0
+    assert app.main(None, release_guard=lambda: released.append(1)) == 0
     assert seen["argv"] == ["vifpk", "something", "else"] and released == [1]

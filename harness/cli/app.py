@@ -100,13 +100,9 @@ def _plugin_command(fn: Callable[[Any], Any], label: str, source: str | None
 
 
 def main(argv: Sequence[str] | None = None, *,
-         release: Callable[[], None] | None = None) -> int:
+         release_guard: Callable[[], None] | None = None) -> int:
     """The ``vifpk`` command. Exit codes: 0, 1 internal error (a bug), 2 bad input, 3 a solver
     could not produce a result (SolverFailure, mapped at the door), 130 Ctrl-C.
-
-    ``release``: the console script's import-time signal guard (harness/cli/entry.py hands its
-    ``release``; passed in, not imported, so app and entry do not import each other), called
-    just before the command's own handlers are installed.
 
     numpy RuntimeWarnings are caught (never printed) and counted (harness/outputs/runwarnings.py,
     handed to the command as ``args.run_warnings``): a run that then fails names the first one
@@ -140,8 +136,8 @@ def main(argv: Sequence[str] | None = None, *,
         return EXIT_BAD_INPUT
     signals.reset()
     if from_command_line:
-        if release is not None:
-            release()  # the import-time guard ends here: the command's own handlers
+        if release_guard is not None:  # the console script's import-time guard ends here
+            release_guard()
         signals.install()
     tally = args.run_warnings = RunWarnings()
     try:
