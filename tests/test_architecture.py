@@ -499,3 +499,14 @@ def test_no_module_reads_pyproject_at_run_time():
                 if isinstance(n, ast.Constant) and isinstance(n.value, str)
                 and "pyproject" in n.value and id(n) not in docs]
     assert not bad, bad
+
+
+def test_the_api_doc_names_every_status():
+    """docs/api.md's table names every member of vifpk.core.result.Status (it had lost one)."""
+    from vifpk.core.result import Status
+
+    text = (ROOT / "docs" / "api.md").read_text(encoding="utf-8")
+    row = next(line for line in text.splitlines() if line.startswith("| `vifpk.Status`"))
+    missing = [m.name for m in Status if f"`{m.name}`" not in row and f"`Status.{m.name}`"
+               not in row]
+    assert not missing, missing
