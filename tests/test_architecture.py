@@ -510,3 +510,23 @@ def test_the_api_doc_names_every_status():
     missing = [m.name for m in Status if f"`{m.name}`" not in row and f"`Status.{m.name}`"
                not in row]
     assert not missing, missing
+
+
+@pytest.mark.parametrize("package", SOLVERS)
+def test_solvers_read_the_scene_duck_typed(package: str):
+    """docs/architecture.md: a solver reads plain numbers from the scene it is given
+    (duck-typed): it never imports ``Scene`` and never asks ``isinstance`` of a scene class,
+    so any object with the attributes will do (the core's schema functions, ``no_noise``, and
+    a section's defaults, ``Observables().names()``, are used as such)."""
+    classes = {"Scene", "Noise", "AveragingSettings", "MonteCarloSettings", "Observables",
+               "System", "Wall", "Parametric", "Sweep"}
+    bad = [f"{p.relative_to(ROOT)}:{n.lineno} imports Scene" for p in modules(package)
+           for n in nodes(p) if isinstance(n, ast.ImportFrom)
+           and (n.module or "").startswith(CORE) and any(a.name == "Scene" for a in n.names)]
+    bad += [f"{p.relative_to(ROOT)}:{n.lineno} isinstance" for p in modules(package)
+            for n in nodes(p) if isinstance(n, ast.Call) and getattr(n.func, "id", "") ==
+            "isinstance" and len(n.args) == 2 and any(
+                isinstance(c, ast.Name) and c.id in classes
+                for c in ([n.args[1]] if not isinstance(n.args[1], ast.Tuple)
+                          else n.args[1].elts))]
+    assert not bad, bad

@@ -63,10 +63,11 @@ class Status(Enum):
     Set where the outcome is decided: ``CENSORED`` by the averaged SDE's first passage
     (montecarlo/sde_time.py) when paths reach the horizon without passing (its mean is then a
     restricted mean, ``info["censored"]`` says how many). Not yet members (issue 38): a
-    diverged simulation is the exception ``SimulationDiverged`` (exit 3), an equilibration
-    that fails is ``info["convergence"]["equilibrated"]``, a floor the budget did not reach
-    and the original system's censored paths are numbers in ``info`` (montecarlo/simulate.py,
-    montecarlo/passage.py)."""
+    diverged simulation and a budget spent before the first sampled window are the exceptions
+    ``SimulationDiverged`` and ``BudgetExhausted`` (exit 3, montecarlo/simulate.py); a budget
+    that stops a run short of its floor is ``info["convergence"]["stopped"]``; an equilibration
+    that fails is ``info["convergence"]["equilibrated"]`` (montecarlo/certificate.py); the original
+    system's censored paths are ``info["censored"]`` (montecarlo/passage.py)."""
 
     DENSITY = ("density", "stationary density computed", True)
     SNAPSHOTS = ("snapshots", "transient snapshots computed", True)
