@@ -146,24 +146,27 @@ def run_seconds(p: dict[str, Any], runs: int, speed: float, cores: int) -> float
 
 
 # ------------------------------------------------------------------------------- workflow
-def run(req: Any, *, quiet: bool = True, price: Any = None) -> PassageResult:
+def run(req: Any, *, quiet: bool = True, price: Any = None,
+        reference: Any = None) -> PassageResult:
     """The workflow on a checked request (harness.request.timedomain.PassageRequest): every
-    front end builds one and calls this."""
+    front end builds one and calls this. ``reference``: passage()'s."""
     return passage(req.scene, threshold=req.threshold, start=req.start, models=req.models,
                    paths=req.paths, horizon=req.horizon, sde=req.sde, quiet=quiet,
-                   price=price, quadratures=req.quadratures, at=req.at)
+                   price=price, quadratures=req.quadratures, at=req.at, reference=reference)
 
 
 def passage(scene: Any, *, threshold: float, start: float | str = "stationary",
             models: tuple[str, ...] = CHECK_MODELS, paths: int | None = None,
             horizon: float | None = None, sde: bool = True, quiet: bool = True,
             price: Any = None, quadratures: Mapping[str, Any] | None = None,
-            at: tuple[float, ...] = ()) -> PassageResult:
+            at: tuple[float, ...] = (), reference: Any = None) -> PassageResult:
     """The first-passage cross-check (module docstring). ``price(plan)`` is called with the
     Monte Carlo plan before any Monte Carlo and may raise (the CLI's cost guard).
     ``quadratures``: {model label: fpk.mfpt's record} already computed to price the run
     (request.timedomain.with_quadratures), reused. ``at``: mission times T whose R(T) is
-    reported for every model and the original system (metrics["at"])."""
+    reported for every model and the original system (metrics["at"]). ``reference``: a
+    stand-in for timedomain.passage_montecarlo with its signature (the testing API's on-disk
+    cache of the original system's run)."""
     from vifpk.harness.workflows import survival
 
     named, models, absent = applicable(scene, models)
@@ -186,9 +189,9 @@ def passage(scene: Any, *, threshold: float, start: float | str = "stationary",
         price(p)
     stages("Monte Carlo of the original system (first passage)")
     burn = {"burn_in": p["burn_in"]} if isinstance(p.get("burn_in"), float) else {}
-    mc = timedomain.passage_montecarlo(scene, threshold=threshold, start=start,
-                                       horizon=p["horizon"], paths=p["paths"],
-                                       progress=not quiet, **burn)
+    mc = (reference or timedomain.passage_montecarlo)(
+        scene, threshold=threshold, start=start, horizon=p["horizon"], paths=p["paths"],
+        progress=not quiet, **burn)
     sol["mc:original"] = mc
     t_mc, cens = _fpt(mc)
     km = survival.kaplan_meier(t_mc, cens)
