@@ -153,7 +153,7 @@ def passage(source: Scene | str | Path, *, threshold: float, start: float | str 
             models: Any = None, horizon: float | None = None, sde: bool = True,
             at: Any = None, method: str = "direct", particles: int | None = None,
             groups: int | None = None, out: str | Path | None = None, quiet: bool = True,
-            **options: Any) -> Any:
+            yes: bool = False, **options: Any) -> Any:
     """First passage out of A < ``threshold`` (``vifpk passage``): a ``PassageResult`` with
     ``metrics`` (metrics.json's: ``mfpt``, ``models``, ``R``, ``plan``, ``at``, ...),
     ``verdicts``, ``recommendation``, ``warnings``; with ``out``, the report folder is written
@@ -165,7 +165,10 @@ def passage(source: Scene | str | Path, *, threshold: float, start: float | str 
     ``groups`` its settings; ``horizon``, ``paths`` and ``at`` do not apply). ``options``:
     ``paths``, ``dt``, ``seed`` and ``set``, as the command's flags. The inputs are checked as
     the command checks them, by the same request (harness/request/timedomain.py: BadInput,
-    one line); no cost guard, hence no "auto"."""
+    one line). A direct run is priced as the command prices it, from the models' MFPTs
+    before any R(t) stepping or Monte Carlo: one estimated above an hour is BadInput naming
+    method="splitting" unless ``yes=True`` (issue 39, X12: threshold 2.0 ran silently for
+    minutes); there is no "auto" (the choice is the caller's)."""
     from vifpk.harness.request.timedomain import output, passage_request, with_quadratures
 
     out = output(out)
@@ -178,22 +181,49 @@ def passage(source: Scene | str | Path, *, threshold: float, start: float | str 
     if req.method == "splitting":
         from vifpk.harness.workflows import rarepassage
 
-        res = rarepassage.run(req, reason="asked for: method='splitting'")
+        res = rarepassage.run(req, reason="asked for: method='splitting'", quiet=quiet)
         if out is not None:
-            from vifpk.core import provenance
+            from vifpk.harness.outputs.splitreport import write_splitting_report
 
-            rarepassage.write_report(res, out, provenance.collect(
-                scene_path=provenance.scene_file(req.scene.source) if req.scene.source
-                else None))
+            write_splitting_report(res, out)
         return res
     from vifpk.harness.workflows.passage import run
 
+    if not yes:
+        _price_direct(req)
     res = run(req, quiet=quiet)
     if out is not None:
         from vifpk.harness.outputs.timereport import write_time_report
 
         write_time_report(res, out)
     return res
+
+
+def _price_direct(req: Any) -> None:
+    """The command's cost guard on a direct passage run (harness/request/cost.py:
+    refuse_costly, the plan of harness/workflows/passage.py from the request's quadratures):
+    BadInput in one line when it is estimated above an hour."""
+    import os
+
+    from vifpk.harness.request import cost
+    from vifpk.harness.request.errors import InputError
+    from vifpk.harness.workflows.passage import plan, run_seconds
+
+    sc = req.scene
+    p = plan(sc, {m: float(q["value"]) for m, q in req.quadratures.items()},
+             paths=req.paths, horizon=req.horizon)
+    cores = sc.montecarlo.threads or min(cost.numba_threads_available(), os.cpu_count() or 1)
+    what = (f"threshold {req.threshold:g}: the averaged models put the MFPT at up to "
+            f"{p['largest_model_mfpt']:.3g} time units, so the first-passage Monte Carlo "
+            f"({p['paths']} paths to a horizon of {p['horizon']:.3g}, dt {p['dt']:g}) is out "
+            "of reach as a direct simulation (method='splitting' estimates the MFPT at rare "
+            "thresholds)")
+    try:
+        cost.refuse_costly(lambda sp: run_seconds(p, 1 + len(req.models),
+                                                  sp or cost.MC_STEPS_PER_CORE, cores),
+                           what, False)
+    except InputError as exc:
+        raise InputError(str(exc).replace("--yes", "yes=True")) from None
 
 
 def transient(source: Scene | str | Path, *, start: float, times: Any, models: Any = None,

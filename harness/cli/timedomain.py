@@ -215,12 +215,14 @@ def _splitting(args: argparse.Namespace, req: Any, out: str, prov: dict[str, Any
                reason: str) -> int:
     """vifpk passage --method splitting (harness/workflows/rarepassage.py): the MFPT only."""
     from vifpk.harness.outputs import outdir
+    from vifpk.harness.outputs.splitreport import passage_splitting_report
     from vifpk.harness.outputs.timereport import PASSAGE_FILES
-    from vifpk.harness.workflows.rarepassage import passage_splitting_report
 
     print(f"method: splitting ({reason})")
     with outdir.hold(out, run_id=prov["run_id"], allowed=PASSAGE_FILES, kind="passage report"):
-        met = passage_splitting_report(req, out=out, prov=prov, reason=reason)
+        met = passage_splitting_report(req, out=out, prov=prov, reason=reason,
+                                       quiet=args.quiet,
+                                       run_warnings=getattr(args, "run_warnings", None))
         _finite(met)
     o = met["mfpt"]["original_system"]
     if args.json:
@@ -232,7 +234,9 @@ def _splitting(args: argparse.Namespace, req: Any, out: str, prov: dict[str, Any
         for line in met["verdicts"]:
             print(line)
         print(met["recommendation"])
-    print(f"report: {Path(out) / 'report.md'}")
+        for w in met.get("warnings", []):
+            print(f"warning: {w}")
+    print(f"report: {Path(out) / 'report.html'}")
     return 0
 
 
