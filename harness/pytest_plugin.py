@@ -10,7 +10,7 @@ Fixtures:
   **{"noise.D": 0.02})`` returns a validated Scene;
 - ``vifpk_reference``: ``vifpk_reference(scene, paths=256, time=500)`` returns the cached Monte
   Carlo reference of the original system (``.data``, ``.info``, ``.cached``);
-- ``vifpk_mfpt``: ``vifpk_mfpt(scene, "exact", threshold=2.0, rtol=0.2)`` asserts the model's
+- ``vifpk_mfpt``: ``vifpk_mfpt(scene, "exact", threshold=0.8, rtol=0.2)`` asserts the model's
   mean first-passage time against the original system's (harness.testing.assert_mfpt_close).
 """
 

@@ -50,7 +50,8 @@ def test_x12_api_passage_out_of_direct_reach_is_refused_in_one_line(far_tail, tm
         vifpk.passage("paper-base", threshold=2.0, start="stationary", out=out)
     msg = str(exc.value)
     assert "\n" not in msg and msg.startswith("threshold 2: the averaged models put the MFPT")
-    assert "method='splitting'" in msg and "yes=True" in msg and "--yes" not in msg
+    assert "method='splitting'" in msg and msg.endswith("allowed: up to 1 hour (or yes=True to "
+                                                       "run it anyway)")
     assert far_tail == [] and not out.exists()
 
 
@@ -158,3 +159,31 @@ def test_splitting_report_is_a_direct_run_s_report(split_doubles, tmp_path, caps
     assert "] splitting of the original system (200 particles x 20 groups" in cap.err
     assert "] MFPT of the exact model (quadrature) ..." in cap.err
     assert f"report: {out / 'report.html'}" in cap.out
+
+
+def test_x12_assert_mfpt_close_out_of_direct_reach_is_a_usage_error(far_tail):
+    """The testing API (``vifpk.assert_mfpt_close``, the ``vifpk_mfpt`` fixture) at the same
+    threshold: BadInput in one line before any R(t) stepping or Monte Carlo, not hours."""
+    from vifpk.harness.testing import assert_mfpt_close
+
+    from vifpk.core.result import BadInput
+
+    with pytest.raises(BadInput, match=r"out of reach as a direct simulation .*allowed: up to "
+                                       r"1 hour \(or a lower threshold"):
+        assert_mfpt_close("paper-base", "exact", 2.0, rtol=0.1)
+    assert far_tail == []
+
+
+@pytest.mark.slow
+def test_x13_real_splitting_that_dies_out_exits_3(tmp_path, capsys):
+    """X13 on the real splitting: two particles in two groups to Ac = 1.2 from A0 = 0.3 on
+    paper-base die out (measured: within seconds); exit 3, the last line of the standard
+    error names --particles (the progress lines come before it), nothing written."""
+    out = tmp_path / "s"
+    code, cap = _cli(["passage", "paper-base", "--threshold", "1.2", "--start", "0.3",
+                      "--method", "splitting", "--particles", "2", "--groups", "2", "--out",
+                      str(out), "--quiet"], capsys)
+    lines = cap.err.strip().splitlines()
+    assert code == 3 and len(lines) == 1, cap.err
+    assert "every AMS run died out" in lines[0] and "(--particles, now 2)" in lines[0]
+    assert not (out / "metrics.json").exists()

@@ -190,40 +190,15 @@ def passage(source: Scene | str | Path, *, threshold: float, start: float | str 
     from vifpk.harness.workflows.passage import run
 
     if not yes:
-        _price_direct(req)
+        from vifpk.harness.workflows.pricing import refuse_costly_direct
+
+        refuse_costly_direct(req, override="or yes=True to run it anyway")
     res = run(req, quiet=quiet)
     if out is not None:
         from vifpk.harness.outputs.timereport import write_time_report
 
         write_time_report(res, out)
     return res
-
-
-def _price_direct(req: Any) -> None:
-    """The command's cost guard on a direct passage run (harness/request/cost.py:
-    refuse_costly, the plan of harness/workflows/passage.py from the request's quadratures):
-    BadInput in one line when it is estimated above an hour."""
-    import os
-
-    from vifpk.harness.request import cost
-    from vifpk.harness.request.errors import InputError
-    from vifpk.harness.workflows.passage import plan, run_seconds
-
-    sc = req.scene
-    p = plan(sc, {m: float(q["value"]) for m, q in req.quadratures.items()},
-             paths=req.paths, horizon=req.horizon)
-    cores = sc.montecarlo.threads or min(cost.numba_threads_available(), os.cpu_count() or 1)
-    what = (f"threshold {req.threshold:g}: the averaged models put the MFPT at up to "
-            f"{p['largest_model_mfpt']:.3g} time units, so the first-passage Monte Carlo "
-            f"({p['paths']} paths to a horizon of {p['horizon']:.3g}, dt {p['dt']:g}) is out "
-            "of reach as a direct simulation (method='splitting' estimates the MFPT at rare "
-            "thresholds)")
-    try:
-        cost.refuse_costly(lambda sp: run_seconds(p, 1 + len(req.models),
-                                                  sp or cost.MC_STEPS_PER_CORE, cores),
-                           what, False)
-    except InputError as exc:
-        raise InputError(str(exc).replace("--yes", "yes=True")) from None
 
 
 def transient(source: Scene | str | Path, *, start: float, times: Any, models: Any = None,
