@@ -667,3 +667,27 @@ def test_every_request_field_is_an_option_of_every_front_end():
         assert fields <= params, (req.__name__, fields - params)
         missing = fields - sweep_only_not - set(KEYS[table])
         assert not missing, (req.__name__, missing)
+
+
+def test_paths_dt_seed_are_declared_once_for_every_command():
+    """Issue 38 item 1: --paths, --dt and --seed are declared once (cli/options.py
+    _MC_DECLARED): solve/check and passage/transient take the same type (hence the same
+    parsing and range checks); no module under harness/cli declares them a second time."""
+    import argparse
+    from pathlib import Path
+
+    from vifpk.harness.cli import options
+    from vifpk.harness.cli.timedomain import passage_arguments, transient_arguments
+
+    for build in (options._add_mc_options, passage_arguments, transient_arguments):
+        p = argparse.ArgumentParser()
+        build(p)
+        acts = {a.dest: a for a in p._actions}
+        for name, decl in options._MC_DECLARED.items():
+            assert acts[name].type is decl["type"], (build.__name__, name)
+            assert acts[name].help, (build.__name__, name)
+    cli = Path(options.__file__).parent
+    for f in cli.glob("*.py"):
+        text = f.read_text()
+        for name in options._MC_DECLARED:
+            assert f'add_argument("--{name}"' not in text, (f.name, name)

@@ -289,9 +289,8 @@ def _finite(metrics: dict[str, Any]) -> None:
 def _common(p: argparse.ArgumentParser) -> None:
     """The options passage and transient share."""
     from vifpk.harness.cli.options import (
-        _dt_value,
         _model_name,
-        _whole_number,
+        add_mc_option,
         add_quiet,
         add_scene,
         add_set,
@@ -313,15 +312,13 @@ def _common(p: argparse.ArgumentParser) -> None:
                         "(default: off; the report is written either way)")
     add_set(p)
     add_quiet(p)
-    p.add_argument("--paths", type=_whole_number, metavar="N",
-                   help="Monte Carlo: paths of each run, a whole multiple of "
-                        "montecarlo.blocks (default: the scene's montecarlo.paths)")
-    p.add_argument("--dt", type=_dt_value, metavar="H",
-                   help="Monte Carlo: time step (default: the scene's montecarlo.dt)")
-    p.add_argument("--seed", type=_whole_number, metavar="S",
-                   help="Monte Carlo: root seed; each model's averaged SDE gets a seed "
-                        "of S and the model's name alone, as in check (default: the "
-                        "scene's montecarlo.seed)")
+    add_mc_option(p, "paths", help="Monte Carlo: paths of each run, a whole multiple of "
+                  "montecarlo.blocks (default: the scene's montecarlo.paths)")
+    add_mc_option(p, "dt", metavar="H", help="Monte Carlo: time step (default: the scene's "
+                  "montecarlo.dt)")
+    add_mc_option(p, "seed", help="Monte Carlo: root seed; each model's averaged SDE gets a "
+                  "seed of S and the model's name alone, as in check (default: the scene's "
+                  "montecarlo.seed)")
     p.add_argument("--yes", action="store_true",
                    help="run even when the estimated cost exceeds an hour (default: off)")
 
