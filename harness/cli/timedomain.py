@@ -2,10 +2,10 @@
 
     vifpk passage SCENE --threshold Ac [--start A0 | --start stationary] [--model M ...]
                   [--method auto|direct|splitting] [--horizon T] [--at T ...]
-                  [--particles N] [--groups G] [--out DIR] [--json] [--paths N] [--dt H]
-                  [--seed S] [--yes]
+                  [--particles N] [--groups G] [--out DIR] [--json] [--paths N | --rel-se R
+                  [--max-paths N]] [--dt H] [--seed S] [--yes]
     vifpk transient SCENE --start A0 --times t1,t2,t3,... [--model M ...] [--out DIR] [--json]
-                  [--paths N] [--dt H] [--seed S] [--yes]
+                  [--paths N | --rel-se R [--max-paths N]] [--dt H] [--seed S] [--yes]
 
 Every input is checked before any computation by the time domain's request
 (harness/request/timedomain.py; one line, exit 2: :func:`check_passage`,
@@ -26,7 +26,7 @@ from typing import Any
 
 from vifpk.harness.request import cost, validate
 
-from vifpk.core.defaults import CHECK_MODELS
+from vifpk.core.defaults import CHECK_MODELS, MAX_PATHS_FACTOR, REL_SE_MFPT, REL_SE_RELAXATION
 
 
 def _number(text: str) -> float:
@@ -72,7 +72,8 @@ def check_passage(args: argparse.Namespace) -> Any:
     req = passage_request(_checked_scene(args, mc=True), threshold=args.threshold,
                           start=args.start, models=args.model, horizon=args.horizon,
                           paths=args.paths, method=args.method, at=args.at,
-                          particles=args.particles, groups=args.groups)
+                          particles=args.particles, groups=args.groups, rel_se=args.rel_se,
+                          max_paths=args.max_paths)
     return req
 
 
@@ -83,7 +84,8 @@ def check_transient(args: argparse.Namespace) -> Any:
 
     _refuse_common(args, "transient")
     req = transient_request(_checked_scene(args, mc=True), start=args.start, times=args.times,
-                            models=args.model, paths=args.paths)
+                            models=args.model, paths=args.paths, rel_se=args.rel_se,
+                            max_paths=args.max_paths)
     return req
 
 
@@ -121,6 +123,10 @@ def _print(res: Any, files: dict[str, Any], as_json: bool) -> None:
         return
     for v in res.verdicts:
         print(v)
+    if "precision" in res.metrics:
+        from vifpk.harness.workflows.precision import line
+
+        print(line(res.metrics["precision"]))
     if getattr(res, "recommendation", ""):
         print(res.recommendation)
     for line in mission_lines(res.metrics.get("at", ())):
@@ -295,6 +301,7 @@ def _common(p: argparse.ArgumentParser) -> None:
         add_scene,
         add_set,
     )
+    from vifpk.harness.cli.options import _whole_number as _number_whole
 
     # a value such as -5,10,20 or -1e3 is a value, not an option (issue 39, T01): argparse
     # takes only plain negative numbers as values by default; vifpk has no option -<digit>
@@ -312,8 +319,18 @@ def _common(p: argparse.ArgumentParser) -> None:
                         "(default: off; the report is written either way)")
     add_set(p)
     add_quiet(p)
-    add_mc_option(p, "paths", help="Monte Carlo: paths of each run, a whole multiple of "
-                  "montecarlo.blocks (default: the scene's montecarlo.paths)")
+    add_mc_option(p, "paths", help="Monte Carlo: exactly N paths in each run, a whole "
+                  "multiple of montecarlo.blocks, no precision target (default: units of the "
+                  "scene's montecarlo.paths until --rel-se is met)")
+    p.add_argument("--rel-se", type=_number, metavar="R",
+                   help="target relative standard error of the original system's MFPT "
+                        f"(passage, default {REL_SE_MFPT:g}) or relaxation time (transient, "
+                        f"default {REL_SE_RELAXATION:g}), 0 < R < 1: its paths grow in units "
+                        "of the scene's montecarlo.paths until R, --max-paths or the scene's "
+                        "montecarlo.budget (wall seconds) is reached; the report says which")
+    p.add_argument("--max-paths", type=_number_whole, metavar="N",
+                   help="the paths cap of --rel-se, >= montecarlo.paths (default "
+                        f"{MAX_PATHS_FACTOR} x the scene's montecarlo.paths)")
     add_mc_option(p, "dt", metavar="H", help="Monte Carlo: time step (default: the scene's "
                   "montecarlo.dt)")
     add_mc_option(p, "seed", help="Monte Carlo: root seed; each model's averaged SDE gets a "
