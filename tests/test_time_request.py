@@ -211,6 +211,17 @@ def test_the_door_uses_a_given_quadrature_and_does_not_compute_it(monkeypatch):
      "--at -3: out of range; allowed: a finite time > 0"),
     ("at-splitting", ["passage", "paper-base", "--threshold", "0.6", "--method", "splitting",
                       "--at", "3"], "--at: does not apply to --method splitting"),
+    ("rel-se-paths", ["passage", "paper-base", "--threshold", "0.6", "--paths", "64",
+                      "--rel-se", "0.1"], "--rel-se: does not apply with --paths"),
+    ("rel-se-range", ["transient", "paper-base", "--start", "1.0", "--times", "5,10,20",
+                      "--rel-se", "-0.1"], "--rel-se -0.1: out of range; allowed: a number "
+                                           "0 < R < 1"),
+    ("max-paths-range", ["transient", "paper-base", "--start", "1.0", "--times", "5,10,20",
+                         "--max-paths", "100"], "--max-paths 100: out of range; allowed: a "
+                                                "whole number >= montecarlo.paths = 1024"),
+    ("rel-se-splitting", ["passage", "paper-base", "--threshold", "0.6", "--method",
+                          "splitting", "--rel-se", "0.1"],
+     "--rel-se: does not apply to --method splitting"),
 ])
 def test_issue39_cli_refusals(no_computation, capsys, case, args, needle):
     """T24, T25 (fewer than 3 times: the relaxation fit has two parameters), T01 (a negative

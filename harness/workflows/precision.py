@@ -132,8 +132,7 @@ def grow(run_unit: Callable[[int, int], Any], measure: Callable[[list[Any]], dic
             break
         n_target = nxt
     out = record(quantity=quantity, target=target, rse=_rse(m), paths=n, unit=unit,
-                 max_paths=cap, stopped=stopped, budget=budget, seconds=spent,
-                 units=len(units))
+                 max_paths=cap, stopped=stopped, budget=budget, units=len(units))
     out["history"] = history
     return units, out
 
@@ -157,12 +156,14 @@ _WHY = {"target met": "target met",
 
 def record(*, quantity: str, target: float | None, rse: float, paths: int, unit: int,
            max_paths: int | None, stopped: str, budget: float | None = None,
-           seconds: float | None = None, units: int = 1) -> dict[str, Any]:
-    """metrics.json's ``precision`` block."""
+           units: int = 1) -> dict[str, Any]:
+    """metrics.json's ``precision`` block (no wall seconds: only ``timings`` and
+    ``provenance`` differ between two runs of one command and seed, unless the budget stopped
+    it)."""
     return {"quantity": quantity, "target_rel_se": target,
             "achieved_rel_se": rse if math.isfinite(rse) else None, "paths": int(paths),
             "unit_paths": int(unit), "units": int(units), "max_paths": max_paths,
-            "budget_seconds": budget, "seconds": seconds, "stopped": stopped,
+            "budget_seconds": budget, "stopped": stopped,
             "status": _WHY[stopped],
             "seed_scheme": "unit 0: the root seed S; unit k >= 1: "
                            "numpy.random.SeedSequence(S, spawn_key=(0x7D5E, k))"
@@ -233,7 +234,7 @@ def original_system(scene: Any, *, threshold: float, start: float | str,
 def pool_fpt(results: list[Any]) -> Any:
     """One first-passage Result from units (passage_montecarlo's): the passage times, censoring
     flags and starts concatenated; the info of unit 0 with the pooled paths, censored count,
-    steps and seconds."""
+    steps."""
     from vifpk.core.result import Result
 
     if len(results) == 1:
