@@ -194,3 +194,44 @@ def test_issue_case_noise_is_no_longer_reported_as_a_model_error():
     tau = grown.metrics["relaxation"]["original_system"]
     assert abs(tau["value"] - 91.2) < 2 * math.hypot(tau["err"], 8.2)
     assert "within the error bar" in grown.verdicts[0]
+
+
+# ------------------------------------------------------------ the workflows, on doubles
+@pytest.fixture
+def doubles(monkeypatch):
+    from tests import time_doubles as td
+
+    td.install(monkeypatch)
+    return td
+
+
+def test_api_passage_grows_its_paths_to_the_target(doubles):
+    """vifpk.passage without paths: units of the scene's 64 paths until the MFPT's relative
+    SE (exponential FPTs: about 1/sqrt(N)) is at most 5%; the original system's record, the
+    plan and the averaged SDE all use the pooled paths."""
+    import vifpk
+    from tests.conftest import TINY
+
+    res = vifpk.passage(str(TINY), threshold=2.0, start=0.5, models=("exact",))
+    p = res.metrics["precision"]
+    assert p["stopped"] == "target met" and p["achieved_rel_se"] <= 0.05 < \
+        p["history"][0]["err"] / p["history"][0]["value"]
+    n = p["paths"]
+    assert n % 64 == 0 and n > 64 and p["history"][0]["paths"] == 64
+    assert res.metrics["mfpt"]["original_system"]["paths"] == n == res.metrics["plan"]["paths"]
+    assert res.metrics["models"]["exact"]["sde"]["mfpt"]["paths"] == n
+    fixed = vifpk.passage(str(TINY), threshold=2.0, start=0.5, models=("exact",), paths=64)
+    assert fixed.metrics["precision"]["stopped"] == "paths given"
+    assert fixed.metrics["mfpt"]["original_system"]["paths"] == 64
+
+
+def test_an_unmeasured_mfpt_does_not_grow(doubles, monkeypatch):
+    """Every path censored (P49): more paths of the same question do not make an estimate."""
+    import vifpk
+    from tests.conftest import TINY
+
+    monkeypatch.setattr(doubles, "T_ORIGINAL", 1e12)
+    res = vifpk.passage(str(TINY), threshold=2.0, start=0.5, models=("exact",), horizon=5.0,
+                        sde=False)
+    assert res.metrics["precision"]["stopped"] == "not measured"
+    assert res.metrics["precision"]["paths"] == 64
