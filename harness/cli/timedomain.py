@@ -292,8 +292,9 @@ def _finite(metrics: dict[str, Any]) -> None:
                             + (" ..." if len(bad) > 3 else "") + "; no report written")
 
 
-def _common(p: argparse.ArgumentParser) -> None:
-    """The options passage and transient share."""
+def _common(p: argparse.ArgumentParser, quantity: str, default: float) -> None:
+    """The options passage and transient share (``quantity``, ``default``: what --rel-se
+    is on, and its default)."""
     from vifpk.harness.cli.options import (
         _model_name,
         add_mc_option,
@@ -323,14 +324,13 @@ def _common(p: argparse.ArgumentParser) -> None:
                   "multiple of montecarlo.blocks, no precision target (default: units of the "
                   "scene's montecarlo.paths until --rel-se is met)")
     p.add_argument("--rel-se", type=_number, metavar="R",
-                   help="target relative standard error of the original system's MFPT "
-                        f"(passage, default {REL_SE_MFPT:g}) or relaxation time (transient, "
-                        f"default {REL_SE_RELAXATION:g}), 0 < R < 1: its paths grow in units "
-                        "of the scene's montecarlo.paths until R, --max-paths or the scene's "
-                        "montecarlo.budget (wall seconds) is reached; the report says which")
+                   help=f"target relative standard error of the original system's {quantity}, "
+                        "0 < R < 1: its paths grow in units of the scene's montecarlo.paths "
+                        "until R, --max-paths or the scene's montecarlo.budget (wall seconds) "
+                        f"is reached; the report says which (default {default:g})")
     p.add_argument("--max-paths", type=_number_whole, metavar="N",
-                   help="the paths cap of --rel-se, >= montecarlo.paths (default "
-                        f"{MAX_PATHS_FACTOR} x the scene's montecarlo.paths)")
+                   help="the paths cap of --rel-se, >= montecarlo.paths, in whole units of "
+                        f"it (default {MAX_PATHS_FACTOR} x the scene's montecarlo.paths)")
     add_mc_option(p, "dt", metavar="H", help="Monte Carlo: time step (default: the scene's "
                   "montecarlo.dt)")
     add_mc_option(p, "seed", help="Monte Carlo: root seed; each model's averaged SDE gets a "
@@ -344,7 +344,7 @@ def passage_arguments(p: argparse.ArgumentParser) -> None:
     """``vifpk passage``'s options."""
     from vifpk.harness.cli.options import _whole_number
 
-    _common(p)
+    _common(p, "MFPT", REL_SE_MFPT)
     p.add_argument("--threshold", type=_number, required=True, metavar="Ac",
                    help="the amplitude threshold Ac (energy U(Ac)); required")
     p.add_argument("--start", type=_start, default="stationary", metavar="A0|stationary",
@@ -372,7 +372,7 @@ def passage_arguments(p: argparse.ArgumentParser) -> None:
 
 def transient_arguments(t: argparse.ArgumentParser) -> None:
     """``vifpk transient``'s options."""
-    _common(t)
+    _common(t, "relaxation time", REL_SE_RELAXATION)
     t.add_argument("--start", type=_number, required=True, metavar="A0",
                    help="start amplitude (energy U(A0), phase uniform in time along that "
                         "orbit, noise from its stationary law); required")
