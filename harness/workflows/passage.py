@@ -203,7 +203,7 @@ def passage(scene: Any, *, threshold: float, start: float | str = "stationary",
     km = survival.kaplan_meier(t_mc, cens)
     rmean = survival.restricted_mean(t_mc, cens, p["horizon"])
     frac = float(np.mean(cens)) if cens.size else 0.0
-    warnings: list[str] = []
+    warnings: list[str] = precision.unmet(prec)
     if frac > CENSORED_WARN:
         warnings.append(
             f"{100 * frac:.1f}% of the original system's paths did not pass Ac = {threshold:g} "

@@ -231,6 +231,13 @@ def original_system(scene: Any, *, threshold: float, start: float | str,
     return pool_fpt(units), prec
 
 
+def unmet(p: dict[str, Any]) -> list[str]:
+    """A warning when a target was asked and not met (paths cap, budget, misfit), else []."""
+    if p["target_rel_se"] and p["stopped"] in ("paths cap", "budget", "misfit"):
+        return ["precision target NOT met: " + line(p).removeprefix("precision: ")]
+    return []
+
+
 def pool_fpt(results: list[Any]) -> Any:
     """One first-passage Result from units (passage_montecarlo's): the passage times, censoring
     flags and starts concatenated; the info of unit 0 with the pooled paths, censored count,

@@ -121,7 +121,7 @@ def transient(scene: Any, *, start: float, times: tuple[float, ...],
                                             seed=sde_seed(scene.montecarlo.seed, m))
     stages("metrics")
     entries: dict[str, Any] = {}
-    warnings: list[str] = []
+    warnings: list[str] = precision.unmet(prec)
     measured = fit_relaxation(times, [mean_of(h) for h in hists], start)
     if measured is not None and not measured["err"] > 0:  # no error bar: not a measurement
         measured = None
