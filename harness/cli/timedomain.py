@@ -25,8 +25,9 @@ from pathlib import Path
 from typing import Any
 
 from vifpk.harness.request import cost, validate
+from vifpk.harness.request.timedomain import MAX_PATHS_FACTOR, REL_SE_MFPT, REL_SE_RELAXATION
 
-from vifpk.core.defaults import CHECK_MODELS, MAX_PATHS_FACTOR, REL_SE_MFPT, REL_SE_RELAXATION
+from vifpk.core.defaults import CHECK_MODELS
 
 
 def _number(text: str) -> float:

@@ -29,12 +29,7 @@ from typing import Any
 from vifpk.harness.request import validate
 from vifpk.harness.request.errors import InputError
 
-from vifpk.core.defaults import (
-    CHECK_MODELS,
-    MAX_PATHS_FACTOR,
-    REL_SE_MFPT,
-    REL_SE_RELAXATION,
-)
+from vifpk.core.defaults import CHECK_MODELS
 from vifpk.core.scene import Scene, no_noise
 
 #: the two-parameter relaxation fit a(t) = a_inf + (A0 - a_inf) exp(-t / tau) needs at least
@@ -45,6 +40,13 @@ METHODS = ("auto", "direct", "splitting")
 #: max_groups: its sequential stop adds groups up to this many)
 SPLITTING_MAX_GROUPS = 400
 TIMES_ALLOWED = f"at least {MIN_FIT_TIMES} times > 0 in strictly increasing order"
+#: the time domain's default precision (issue 39 item 5; harness/workflows/precision.py says
+#: why, docs/passage.md "Precision" measures it): the target relative standard error of the
+#: original system's MFPT (passage) and of its relaxation time (transient), and the paths cap
+#: as a multiple of the first unit (the scene's montecarlo.paths)
+REL_SE_MFPT = 0.05
+REL_SE_RELAXATION = 0.05
+MAX_PATHS_FACTOR = 16
 
 
 @dataclass(frozen=True)

@@ -36,6 +36,7 @@ import numpy as np
 from vifpk.harness.door import solvers, timedomain
 from vifpk.harness.workflows import precision
 from vifpk.harness.workflows.check import _Stages, models_of, sde_seed
+from vifpk.harness.workflows.precision import _fpt, not_measured
 from vifpk.harness.workflows.verdict import RECOMMENDABLE
 
 from vifpk.core.defaults import BURN_FACTOR, CHECK_MODELS
@@ -307,11 +308,6 @@ def sde_start(scene: Any, model: Any, start: float | str, threshold: float, path
     return np.minimum(np.interp(u * cdf[-1], cdf, A), np.nextafter(threshold, 0.0))
 
 
-def _fpt(res: Any) -> tuple[np.ndarray, np.ndarray]:
-    f = res.data["fpt"]
-    return np.asarray(f["time"], float), np.asarray(f["censored"], bool)
-
-
 def _scalar(v: Any) -> float:
     return float(v["value"]) if isinstance(v, dict) else float(v)
 
@@ -481,24 +477,3 @@ def recommend(entries: dict[str, Any]) -> tuple[str, str]:
         return "none", (head + f"none -- the best model, {best}, misses the MFPT by "
                         f"{100 * _error_used(cand[best])['value']:+.1f}% ({desc})")
     return best, head + f"{best} -- nearest MFPT to the original system's ({desc})"
-
-
-def not_measured(t_mc: np.ndarray, cens: np.ndarray, threshold: float, horizon: float,
-                 dt: float, stderr: float) -> str:
-    """Why the original system's MFPT is not a measurement ("" when it is): no path passed
-    within the horizon (every one censored: the restricted mean is the horizon itself), or
-    every passage came within the first time step (the MFPT is below the step's resolution and
-    its spread is zero), or the estimate has no error bar at all."""
-    done = t_mc[~cens]
-    if done.size == 0:
-        return (f"no path of the original system passed Ac = {threshold:g} within the horizon "
-                f"{horizon:.4g} ({cens.size} of {cens.size} censored): its MFPT is not "
-                "measured; raise --horizon")
-    if float(np.max(done)) <= dt * (1.0 + 1e-9):
-        return (f"every passing path of the original system crossed Ac = {threshold:g} within "
-                f"the first time step (dt = {dt:g}): its MFPT is below the step's resolution; "
-                "start further below Ac, or give a smaller --dt")
-    if not (math.isfinite(stderr) and stderr > 0):
-        return "the original system's MFPT has no error bar (no spread in its passage times)"
-    return ""
-

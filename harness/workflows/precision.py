@@ -44,7 +44,7 @@ from typing import Any
 
 import numpy as np
 
-# The defaults (vifpk.core.defaults) and why: REL_SE_MFPT (0.05) is the largest target at
+# The defaults (harness/request/timedomain.py) and why: REL_SE_MFPT (0.05) is the largest target at
 # which a model error of MFPT_SMALL (10%, the small/moderate boundary) lies 2 error bars from
 # zero; the scene's 1024 paths meet it for a near-exponential FPT (1/sqrt(1024) = 3%).
 # REL_SE_RELAXATION (0.05), the same reasoning; on paper-base from 0.2 at times 20,50,100,200
@@ -189,7 +189,6 @@ def original_system(scene: Any, *, threshold: float, start: float | str,
     0; the later units use it (one burn-in for the whole run)."""
     from vifpk.harness.door import timedomain
     from vifpk.harness.workflows import survival
-    from vifpk.harness.workflows.passage import _fpt, not_measured
 
     quantity = "MFPT of the original system"
 
@@ -294,3 +293,28 @@ def _summed(results: list[Any], *keys: str) -> dict[str, Any]:
 def _units(results: list[Any]) -> list[dict[str, Any]]:
     return [{"seed": r.info["seed"]["root"] if isinstance(r.info.get("seed"), dict)
              else r.info.get("seed"), "paths": r.info.get("paths")} for r in results]
+
+
+def _fpt(res: Any) -> tuple[np.ndarray, np.ndarray]:
+    f = res.data["fpt"]
+    return np.asarray(f["time"], float), np.asarray(f["censored"], bool)
+
+
+def not_measured(t_mc: np.ndarray, cens: np.ndarray, threshold: float, horizon: float,
+                 dt: float, stderr: float) -> str:
+    """Why the original system's MFPT is not a measurement ("" when it is): no path passed
+    within the horizon (every one censored: the restricted mean is the horizon itself), or
+    every passage came within the first time step (the MFPT is below the step's resolution and
+    its spread is zero), or the estimate has no error bar at all."""
+    done = t_mc[~cens]
+    if done.size == 0:
+        return (f"no path of the original system passed Ac = {threshold:g} within the horizon "
+                f"{horizon:.4g} ({cens.size} of {cens.size} censored): its MFPT is not "
+                "measured; raise --horizon")
+    if float(np.max(done)) <= dt * (1.0 + 1e-9):
+        return (f"every passing path of the original system crossed Ac = {threshold:g} within "
+                f"the first time step (dt = {dt:g}): its MFPT is below the step's resolution; "
+                "start further below Ac, or give a smaller --dt")
+    if not (math.isfinite(stderr) and stderr > 0):
+        return "the original system's MFPT has no error bar (no spread in its passage times)"
+    return ""

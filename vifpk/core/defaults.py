@@ -23,12 +23,6 @@ BURN_FACTOR = 6.0
 #: in this order: report columns follow it (the averaged SDEs' seeds follow each model's name,
 #: harness.workflows.check.sde_seed, never its place in the list).
 CHECK_MODELS = ("paper", "exact", "corrected")
-#: The time domain's default precision (issue 39 item 5; harness/workflows/precision.py says
-#: why): the target relative standard error of the original system's MFPT (vifpk passage) and
-#: of its relaxation time (vifpk transient), and the paths cap as a multiple of the first unit.
-REL_SE_MFPT = 0.05
-REL_SE_RELAXATION = 0.05
-MAX_PATHS_FACTOR = 16
 #: The observables every solver gives as densities (closed forms, FPK, Monte Carlo), compared
 #: by check and by the tolerance tests.
 DENSITY_OBSERVABLES = ("A", "x1", "x2")
