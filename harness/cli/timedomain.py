@@ -225,6 +225,9 @@ def _splitting(args: argparse.Namespace, req: Any, out: str, prov: dict[str, Any
     from vifpk.harness.outputs.timereport import PASSAGE_FILES
     from vifpk.harness.workflows.rarepassage import passage_splitting_report
 
+    if getattr(args, "rel_se", None) is not None or getattr(args, "max_paths", None) is not None:
+        reason += ("; --rel-se and --max-paths do not apply to splitting, which has its own "
+                   "target interval")
     print(f"method: splitting ({reason})")
     with outdir.hold(out, run_id=prov["run_id"], allowed=PASSAGE_FILES, kind="passage report"):
         met = passage_splitting_report(req, out=out, prov=prov, reason=reason)
