@@ -185,8 +185,8 @@ def original_system(scene: Any, *, threshold: float, start: float | str,
     """(the original system's first-passage Result, metrics.json's "precision"): one run of
     plan["paths"] paths (``rel_se`` None), or units of plan["paths"] paths grown until the
     relative standard error of the (restricted) MFPT is at most ``rel_se``
-    (harness/workflows/py). A "stationary" start measures its burn-in once, in unit
-    0; the later units use it (one burn-in for the whole run)."""
+    (:func:`grow`). A "stationary" start measures its burn-in once, in unit 0; the later
+    units use it (one burn-in for the whole run)."""
     from vifpk.harness.door import timedomain
     from vifpk.harness.workflows import survival
 
@@ -208,25 +208,23 @@ def original_system(scene: Any, *, threshold: float, start: float | str,
         mc = one(plan["paths"], None, burn)
         m = measure([mc])
         rse = m["err"] / m["value"] if m["measured"] and m["value"] > 0 else math.nan
-        return mc, record(quantity=quantity, target=None, rse=rse,
-                                    paths=plan["paths"], unit=plan["paths"], max_paths=None,
-                                    stopped="paths given")
+        return mc, record(quantity=quantity, target=None, rse=rse, paths=plan["paths"],
+                          unit=plan["paths"], max_paths=None, stopped="paths given")
 
-    first: list[Any] = []
+    done: list[Any] = []  # the units so far (unit 0's burn-in is every later unit's)
 
     def run_unit(k: int, seed: int) -> Any:
         kw = dict(burn)
-        stat = first[0].info.get("stationary") if first else None
+        stat = done[0].info.get("stationary") if done else None
         if stat:
             kw.update(burn_in=float(stat["burn_in"]), burn_start=float(stat["burn_start"]))
         r = one(plan["paths"], seed, kw)
-        first.append(r)
+        done.append(r)
         return r
 
-    units, prec = grow(run_unit, measure, seed=int(plan["seed"]),
-                                 unit=int(plan["paths"]), target=rel_se,
-                                 max_paths=int(max_paths or plan["paths"]),
-                                 budget=float(scene.montecarlo.budget), quantity=quantity)
+    units, prec = grow(run_unit, measure, seed=int(plan["seed"]), unit=int(plan["paths"]),
+                       target=rel_se, max_paths=int(max_paths or plan["paths"]),
+                       budget=float(scene.montecarlo.budget), quantity=quantity)
     return pool_fpt(units), prec
 
 
