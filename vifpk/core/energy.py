@@ -8,6 +8,7 @@ from typing import Any
 
 from .registry import IMPACT_LAW_PARAMS
 from .system import _trim
+from .tail import Tail, parametric_tail
 
 
 @dataclass(frozen=True)
@@ -25,6 +26,8 @@ class EnergyBalance:
     losses: tuple[str, ...]
     terms: tuple[tuple[str, int, int], ...]
     text: str
+    #: the parametric tail (vifpk.core.tail.Tail) where a parametric noise is of the top degree
+    tail: Any = None
 
 
 def energy_balance(system: Any, parametric: Any = None) -> EnergyBalance:
@@ -62,6 +65,12 @@ def energy_balance(system: Any, parametric: Any = None) -> EnergyBalance:
     (D_k <g(x)^2>, D_c <d(x)^2 x'^2>); they are counted as gains of their degree that never
     decide alone: at or above the top loss they make a ``tie`` (the averaged model decides),
     since a multiplicative noise also spreads the law without making its mean energy grow.
+    A parametric tie with a loss of the same degree is then decided by the constants
+    (vifpk.core.tail.parametric_tail, wall-free or one wall): the averaged energy's law decays
+    as E^-kappa, so it ``grows`` (no stationary law) when kappa <= 1, and holds otherwise
+    (``tail``; E[H] is infinite when kappa <= 2). A parametric gain of a degree above every
+    loss stays a tie: the law is E^-kappa beyond the crossover energy only, the averaged model
+    decides on its grid.
     """
     k = _trim(tuple(system.restoring_law))
     n = max(len(k) - 1, 0)
@@ -103,6 +112,9 @@ def energy_balance(system: Any, parametric: Any = None) -> EnergyBalance:
         reach = [nm for nm, p in gains_p if p >= top_loss]
         if reach:
             losses = tuple(nm for nm, p, s in terms if p == top_loss and s > 0)
+            tail = parametric_tail(system, parametric)
+            if tail is not None:
+                return _decided(tail, top_loss, tuple(reach), losses, tuple(terms))
             text = (f"the parametric noise ({', '.join(reach)}) feeds energy that grows with "
                     f"the amplitude as fast as the losses ({', '.join(losses) or 'none'}): "
                     "their constants decide whether the energy is held")
@@ -136,3 +148,26 @@ def energy_balance(system: Any, parametric: Any = None) -> EnergyBalance:
     text = (f"at large amplitude A the loss of {', '.join(losses)} (~ A^{top}) outgrows the "
             "bounded noise input and every gain")
     return EnergyBalance(False, False, top, (), losses, tuple(terms), text)
+
+
+def _decided(tail: Tail, degree: int, gains: tuple[str, ...], losses: tuple[str, ...],
+             terms: tuple[tuple[str, int, int], ...]) -> EnergyBalance:
+    """The verdict of a parametric tie from its tail (vifpk.core.tail)."""
+    law = f"the averaged energy's law decays as E^-{tail.kappa:.3g} at large E"
+    mean = "" if tail.mean_finite else "; its mean energy is infinite (past mean-square stability)"
+    if not tail.top_losses:
+        where = (f"beyond E ~ {tail.crossover:.3g}" if tail.crossover is not None
+                 else "at large amplitude")
+        verdict = ("no stationary law strictly: the law describes the motion below that "
+                   "energy (metastable)" if not tail.normalisable else "a stationary law exists")
+        text = (f"the parametric noise ({', '.join(gains)}) outgrows every loss {where}: {law}, "
+                f"{verdict}{mean}")
+        return EnergyBalance(False, True, degree, gains, (), terms, text, tail)
+    if not tail.normalisable:
+        text = (f"the parametric noise ({', '.join(gains)}) outweighs the losses of the same "
+                f"degree ({', '.join(losses)}): {law} (kappa <= 1), so there is no stationary "
+                "law")
+        return EnergyBalance(True, False, degree, gains, losses, terms, text, tail)
+    text = (f"the losses ({', '.join(losses)}) hold the parametric noise ({', '.join(gains)}) "
+            f"of the same degree: {law} (kappa > 1){mean}")
+    return EnergyBalance(False, False, degree, gains, losses, terms, text, tail)
