@@ -91,7 +91,7 @@ def snapshots(system: Any, noise: Any, settings: PassageSettings, *, start: floa
     never = np.iinfo(np.int64).max // 2  # a burn-in never reached: nothing is sampled
     bar = _progress(st.progress, total=float(st.blocks * per * max(marks[-1], 1)),
                     desc="monte carlo: transient")
-    step = _Stepper(phys, h, threads, bar, _growth(system))
+    step = _Stepper(phys, h, threads, bar, _growth(system, parametric))
     hists = {k: np.zeros((st.blocks, marks.size, e.size - 1)) for k, e in ed.items()}
     atom = np.zeros((st.blocks, marks.size))
     mom = np.zeros((3, st.blocks, marks.size))
