@@ -97,16 +97,22 @@ def closed_form(scene: Any, *, model: Any, tail_mass: bool = True, **options: An
 def _heavy_tail(scene: Any) -> Iterator[None]:
     """A parametric scene whose law exists with a power-law tail E^-kappa (vifpk.core.tail)
     that the closed form's grid cannot hold (it asks for a fall by e^60 before A = 1e4): say
-    so, instead of "no stationary density"."""
+    so, instead of "no stationary density"; where no law exists, say which noise outgrows
+    the losses (energy_balance's words)."""
     from vifpk import averaging
+    from vifpk.core.scene import energy_balance
     from vifpk.core.tail import parametric_tail
 
     try:
         yield
     except averaging.NoStationaryDensity as exc:
-        tail = parametric_tail(scene.system, getattr(scene, "parametric", None))
-        if tail is None or not tail.normalisable or "does not decay" not in str(exc):
+        par = getattr(scene, "parametric", None)
+        tail = parametric_tail(scene.system, par)
+        if tail is None or "does not decay" not in str(exc):
             raise
+        if not tail.normalisable:
+            raise averaging.NoStationaryDensity(
+                f"{exc}: {energy_balance(scene.system, par).text}") from exc
         raise averaging.NoStationaryDensity(
             f"the amplitude density decays too slowly for the closed form's grid: the "
             f"parametric noise gives the averaged law a power-law tail p(E) ~ "
