@@ -216,10 +216,10 @@ def _growth(system: Any, parametric: Any = None) -> str:
     if not hasattr(system, "restoring_law"):  # a duck-typed system with the paper's names
         return ""
     bal = energy_balance(system, parametric)
-    if bal.tail is not None and not bal.tie and not bal.tail.mean_finite:
-        return f"the parametric noise: {bal.text}"
     if bal.grows:
         return f"the energy grows without bound ({bal.text})"
+    if bal.tail is not None and not bal.tie and not bal.tail.mean_finite:
+        return f"the parametric noise: {bal.text}"
     if bal.tie:
         return (f"the energy grows without bound: {bal.text}, and here the gain may win (no "
                 "stationary density)")
