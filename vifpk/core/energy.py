@@ -156,7 +156,8 @@ def _decided(tail: Tail, degree: int, gains: tuple[str, ...], losses: tuple[str,
     law = f"the averaged energy's law decays as E^-{tail.kappa:.3g} at large E"
     mean = "" if tail.mean_finite else "; its mean energy is infinite (past mean-square stability)"
     if not tail.top_losses:
-        where = (f"beyond E ~ {tail.crossover:.3g}" if tail.crossover is not None
+        where = (f"beyond E ~ {tail.crossover:.3g}" if tail.crossover
+                 else "beyond an energy too small for double precision" if tail.crossover == 0.0
                  else "at large amplitude")
         verdict = ("no stationary law strictly: the law describes the motion below that "
                    "energy (metastable)" if not tail.normalisable else "a stationary law exists")
