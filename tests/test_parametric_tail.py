@@ -61,6 +61,7 @@ def test_the_refusal_names_the_key_and_its_bound():
     ("paper-base", {"parametric.stiffness": 0.01, "system.barrier": False}),
     ("paper-base", {"parametric.damping": 0.01}),
     ("systems/offset-parametric", {}),
+    (None, {"parametric.stiffness": 0.3}),
 ])
 def test_the_averaged_models_tail(name, values):
     """The exact model's log p_A between A = 2e4 and 4e4 against (q - 1) - q kappa (p_A = p_E
@@ -69,18 +70,28 @@ def test_the_averaged_models_tail(name, values):
     -1.66669 (-5/3: the damping noise outgrows c2 x^2 x', kappa = 7/6 at every D_c: a law
     exists, E[H] is infinite) and +1.99289 (+2: offset-parametric's stiffness noise ~ A^6
     outgrows its impacts ~ A^5 beyond E ~ 1.7e4; kappa = 1/4, no stationary law strictly);
-    0.71 off at A = 200-400. Bound 0.05. About 1-2 s each."""
+    0.71 off at A = 200-400; and a linear spring with a Newton wall at -0.3 (r = 0.8, d0 =
+    0.01), where the impacts, the damping and the stiffness noise are all ~ E: -0.66123 against
+    -0.66122 (1 - 2 kappa, q = 2; kappa = 0.831 at D_k = 0.3, above its bound 0.249: no law).
+    Bound 0.05. About 1-2 s each."""
     from vifpk.averaging.solve import build_model
     from vifpk.averaging.stationary import _cumulative
 
-    scene = load_scene(name).with_values(values)
+    if name is None:
+        scene = scene_from_dict({"system": {"restoring": [1.0], "damping": [0.01], "mu": 0.0,
+                                            "lower_wall": {"at": -0.3, "r": 0.8}},
+                                 "noise": {"kind": "white", "D": 0.01}})
+    else:
+        scene = load_scene(name)
+    scene = scene.with_values(values)
+    q = 2 * len([c for c in scene.system.restoring_law if c != 0.0])
     tail = parametric_tail(scene.system, scene.parametric)
     edges = np.linspace(0.0, 4e4, 4001)
     psi, log_pre, _ = _cumulative(build_model(scene, "exact"), edges)
     lp = log_pre + psi
     i, j = np.searchsorted(edges, [2e4, 4e4])
     slope = (lp[j] - lp[i]) / np.log(edges[j] / edges[i])
-    assert abs(slope - (3 - 4 * tail.kappa)) < 0.05, (slope, tail)
+    assert abs(slope - ((q - 1) - q * tail.kappa)) < 0.05, (slope, tail)
 
 
 def test_the_monte_carlos_growth_cause_reads_the_parametric_noise():
