@@ -1,4 +1,4 @@
-"""The large-energy tail of the averaged law under parametric noise (vifpk.core.tail; issue 37,
+"""The large-energy tail of the averaged law under parametric noise (vifpk.core.energy; issue 37,
 docs/averaging.md section 12 "The tail"), against independent truths:
 
 - the linear oscillator's closed form of section 12, p(E) ~ (s + b E)^(-2a/b - 2), and the exact
@@ -15,8 +15,8 @@ import pytest
 from vifpk.harness.request import validate
 from vifpk.harness.request.errors import InputError
 
+from vifpk.core.energy import parametric_tail
 from vifpk.core.scene import load_scene, scene_from_dict
-from vifpk.core.tail import parametric_tail
 
 
 def _linear(k: float, w: float, D_k: float, D_c: float):

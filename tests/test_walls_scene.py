@@ -86,7 +86,7 @@ def test_energy_balance_with_two_walls_counts_their_losses():
 
 def test_parametric_noise_at_the_top_degree():
     """A parametric gain of the top loss's degree is decided by the tail's constants
-    (vifpk.core.tail; tests/test_parametric_tail.py): held while kappa > 1, else no stationary
+    (vifpk.core.energy; tests/test_parametric_tail.py): held while kappa > 1, else no stationary
     law; one of a degree above every loss stays a tie (the law is E^-kappa beyond a crossover
     energy only)."""
     s = scene_from_dict({"system": {"restoring": [1.0], "damping": [0.05], "mu": 0.0,

@@ -95,13 +95,13 @@ def closed_form(scene: Any, *, model: Any, tail_mass: bool = True, **options: An
 
 @contextmanager
 def _heavy_tail(scene: Any) -> Iterator[None]:
-    """A parametric scene whose law exists with a power-law tail E^-kappa (vifpk.core.tail)
+    """A parametric scene whose law exists with a power-law tail E^-kappa (vifpk.core.energy)
     that the closed form's grid cannot hold (it asks for a fall by e^60 before A = 1e4): say
     so, instead of "no stationary density"; where no law exists, say which noise outgrows
     the losses (energy_balance's words)."""
     from vifpk import averaging
+    from vifpk.core.energy import parametric_tail
     from vifpk.core.scene import energy_balance
-    from vifpk.core.tail import parametric_tail
 
     try:
         yield

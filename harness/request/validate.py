@@ -152,7 +152,7 @@ def stationary_density(scene: Scene) -> None:
     if not bal.grows:
         return
     bounds = bal.tail.bounds if bal.tail is not None else {}
-    for key, top in bounds.items():  # vifpk.core.tail: each intensity's bound, the other held
+    for key, top in bounds.items():  # vifpk.core.energy: each intensity's bound, the other held
         value = getattr(scene.parametric, key.split(".")[1])
         raise InputError(f"{key} = {value:g} is out of range for this scene; allowed: 0 <= "
                          f"{key} < {top:.4g} (above it {bal.text})")
