@@ -128,7 +128,7 @@ def main(argv: Sequence[str] | None = None, *,
         return EXIT_SOLVER
     args = parser.parse_args(argv)
     debug = bool(getattr(args, "debug", False) or os.environ.get("VIFPK_TRACEBACK"))
-    args.argv = ["vifpk", *(sys.argv[1:] if argv is None else argv)]
+    args.argv = ["vifpk", *argv]  # argv is the list of arguments by now, never None
     try:
         validate.environment()
     except BadInput as exc:
