@@ -320,6 +320,13 @@ def _reproduce_passage(sc: Scene, model: str, threshold: float, start: Any,
             f"{sc.montecarlo.dt} --horizon {horizon!r}")
 
 
+def _exact(sc: Any, paths: Any) -> Any:
+    """The testing API's paths: as given, else exactly the scene's montecarlo.paths (the
+    assertions keep their documented sample size; the command's --rel-se growth, issue 39
+    item 5, is not applied here)."""
+    return sc.montecarlo.paths if paths is None else paths
+
+
 def assert_mfpt_close(scene: Any, model: Any, threshold: float, *, rtol: float,
                       start: float | str = "stationary", paths: int | None = None,
                       horizon: float | None = None) -> dict[str, Any]:
@@ -335,8 +342,10 @@ def assert_mfpt_close(scene: Any, model: Any, threshold: float, *, rtol: float,
     from vifpk.harness.workflows.pricing import refuse_costly_direct
 
     rtol = _rtol(rtol)
-    req = passage_request(_scene(scene), threshold=threshold, start=start, models=(model,),
-                          horizon=horizon, paths=paths, sde=False, method="direct")
+    sc = _scene(scene)  # exactly the paths asked (default the scene's): no --rel-se growth
+    req = passage_request(sc, threshold=threshold, start=start, models=(model,),
+                          horizon=horizon, paths=_exact(sc, paths), sde=False,
+                          method="direct")
     threshold, start, sc = req.threshold, req.start, req.scene
     name = model_label(model)
     req = with_quadratures(req)
@@ -377,8 +386,9 @@ def assert_relaxation_close(scene: Any, model: Any, *, start: float, times: Any,
     from vifpk.harness.workflows.transient import run
 
     rtol = _rtol(rtol)
-    req = transient_request(_scene(scene), start=start, times=times, models=(model,),
-                            paths=paths, sde=False)
+    sc = _scene(scene)
+    req = transient_request(sc, start=start, times=times, models=(model,),
+                            paths=_exact(sc, paths), sde=False)
     name = model_label(model)
     res = run(req, quiet=True)
     meas = res.metrics["relaxation"]["original_system"]
