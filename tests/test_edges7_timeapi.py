@@ -118,6 +118,11 @@ def test_x13_splitting_that_dies_out_is_a_numerical_failure_naming_particles(
     assert "raise particles (--particles, now 50)" in lines[0]
     assert "internal error" not in lines[0] and split_doubles["particles"] == [50]
     assert not (out / "metrics.json").exists()
+    # with progress lines: the splitting's line ends ("died out"), the failure is its own line
+    code, cap = _cli([*SPLIT, "--particles", "50", "--out", str(out)], capsys)
+    lines = cap.err.strip().splitlines()
+    assert code == 3 and lines[-2].endswith("died out, 0.0 s"), cap.err
+    assert lines[-1].startswith("vifpk: splitting: every AMS run died out")
 
 
 def test_x13_splitting_retries_with_more_particles_within_the_budget(split_doubles, tmp_path,

@@ -14,6 +14,7 @@ verdict class (passage.verdict_class: the same classes as a direct run), the rec
 
 from __future__ import annotations
 
+import sys
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -124,6 +125,8 @@ def _split(req: Any, stages: Any) -> tuple[Any, list[dict[str, Any]]]:
             attempts.append({"particles": particles, "seconds": spent, "outcome": "died out"})
             left = BUDGET - (time.perf_counter() - t0)
             if given or 2.0 * spent > left:
+                if not stages.quiet:  # end the stage's line: the failure's line comes next
+                    print(f" died out, {spent:.1f} s", file=sys.stderr, flush=True)
                 tried = ", ".join(str(a["particles"]) for a in attempts)
                 why = "" if given else (f" (tried {tried} particles; twice the last run would "
                                         f"exceed the {BUDGET:g} s budget)")
