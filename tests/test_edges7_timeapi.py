@@ -192,3 +192,22 @@ def test_x13_real_splitting_that_dies_out_exits_3(tmp_path, capsys):
     assert code == 3 and len(lines) == 1, cap.err
     assert "every AMS run died out" in lines[0] and "(--particles, now 2)" in lines[0]
     assert not (out / "metrics.json").exists()
+
+
+@pytest.mark.filterwarnings("ignore:overflow encountered in exp:RuntimeWarning")  # the double's
+def test_api_splitting_out_writes_the_same_report_and_progress(split_doubles, tmp_path,
+                                                               capsys):
+    """``vifpk.passage(..., method="splitting", out=DIR, quiet=False)``: the report.html and
+    report.md the command writes (no runtime_warnings key: the API records none, as for a
+    direct run), and the progress lines (it printed nothing and wrote report.md only)."""
+    import json
+
+    import vifpk
+
+    split_doubles["need"] = 0
+    out = tmp_path / "api"
+    vifpk.passage("paper-base", threshold=1.2, start=0.1, models=["exact"], method="splitting",
+                  out=out, quiet=False)
+    assert "exact model: MODERATE -- MFPT error -16.7%" in (out / "report.html").read_text()
+    assert "runtime_warnings" not in json.loads((out / "metrics.json").read_text())
+    assert "] splitting of the original system (200 particles" in capsys.readouterr().err

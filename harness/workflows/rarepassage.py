@@ -101,10 +101,10 @@ def run(req: Any, *, reason: str, quiet: bool = True) -> SplittingResult:
 
 
 def _split(req: Any, stages: Any) -> tuple[Any, list[dict[str, Any]]]:
-    """door.timedomain.passage_splitting with the request's knobs; on SplittingDiedOut at the
-    default particles, again with twice as many while twice the last run's seconds fit in
-    what is left of BUDGET (run's docstring). Returns (result, attempts: [{"particles",
-    "seconds", "outcome"}])."""
+    """door.timedomain.passage_splitting with the request's knobs and what is left of BUDGET
+    (its batches stop there); on SplittingDiedOut at the default particles, again with twice
+    as many while twice the last run's seconds fit in what is left (run's docstring).
+    Returns (result, attempts: [{"particles", "seconds", "outcome"}])."""
     given = req.particles is not None
     particles = int(req.particles if given else timedomain.SPLITTING_PARTICLES)
     knobs = {} if req.groups is None else {"groups": req.groups}
@@ -113,13 +113,14 @@ def _split(req: Any, stages: Any) -> tuple[Any, list[dict[str, Any]]]:
     while True:
         groups = knobs.get("groups", timedomain.SPLITTING_GROUPS)
         stages(f"splitting of the original system ({particles} particles x {groups} groups, "
-               f"to a 95% half-width of {REL_CI:.0%} within {BUDGET:g} s)")
+               f"to a 95% half-width of {REL_CI:.0%} within "
+               f"{BUDGET - (time.perf_counter() - t0):.0f} s)")
         t = time.perf_counter()
+        mine = {"particles": particles} if given or attempts else {}
         try:
             sp = timedomain.passage_splitting(
                 req.scene, threshold=req.threshold, start=req.start, rel_ci=REL_CI,
-                budget=BUDGET, **knobs, **({"particles": particles} if given or attempts
-                                           else {}))
+                budget=max(BUDGET - (t - t0), 1.0), **knobs, **mine)
         except timedomain.SplittingDiedOut as exc:
             spent = time.perf_counter() - t
             attempts.append({"particles": particles, "seconds": spent, "outcome": "died out"})
