@@ -23,11 +23,12 @@ is solved in closed form; any other gets its stationary p(A) from the generic FP
 (REFERENCE_CELLS = 800 cells, vifpk.core.defaults), and p(x1), p(x2) from the same phase-space
 mapping as the closed forms.
 
-Monte Carlo references of the original system are cached on disk (``cache_dir()``: the
+Monte Carlo references of the original system -- the stationary densities and the
+first-passage runs of :func:`assert_mfpt_close` -- are cached on disk (``cache_dir()``: the
 ``--vifpk-cache`` pytest option, else vifpk.core.defaults.cache_dir(): ``$VIFPK_CACHE``,
-else ``~/.cache/vifpk``) under a key
-of the scene's physics, the Monte Carlo settings and the package version, so a test suite
-pays for each reference once; ``--vifpk-refresh`` rebuilds them.
+else ``~/.cache/vifpk``) under a key of the scene's physics, the Monte Carlo settings (seed
+included), the run's own arguments (threshold, start, horizon, paths) and the package
+version, so a test suite pays for each reference once; ``--vifpk-refresh`` rebuilds them.
 """
 
 from __future__ import annotations
@@ -126,18 +127,33 @@ def _scene(scene: Any) -> Scene:
     return load_scene(scene)
 
 
-def reference_key(scene: Scene) -> str:
-    """Cache key: the physics (system, noise), the Monte Carlo settings, the version."""
+def _version() -> str:
     from importlib import metadata
 
     try:
-        version = metadata.version("vifpk")
+        return metadata.version("vifpk")
     except metadata.PackageNotFoundError:
-        version = "unknown"
+        return "unknown"
+
+
+def reference_key(scene: Scene) -> str:
+    """Cache key: the physics (system, noise), the Monte Carlo settings, the version."""
     d = scene.to_dict()
     payload = {"system": d["system"], "noise": d["noise"], "montecarlo": d["montecarlo"],
-               "version": version}
+               "version": _version()}
     return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()[:20]
+
+
+def passage_key(scene: Scene, **call: Any) -> str:
+    """Cache key of a first-passage Monte Carlo of the original system: the physics (system,
+    noise, parametric forcing when on), the scene's Monte Carlo settings (seed, dt, blocks,
+    ...), every argument of the run (threshold, start, horizon, paths, burn-in: the model
+    enters through the horizon it sets, harness/workflows/passage.py: plan) and the version."""
+    d = scene.to_dict()
+    payload = {k: d.get(k) for k in ("system", "noise", "parametric", "montecarlo")}
+    payload.update(kind="passage", call=jsonable(call), version=_version())
+    return "passage-" + hashlib.sha256(
+        json.dumps(payload, sort_keys=True).encode()).hexdigest()[:20]
 
 
 def _scene_argument(scene: Scene) -> str:
@@ -191,28 +207,57 @@ def mc_reference(scene: Any, **montecarlo: Any) -> Reference:
     if montecarlo:
         sc = sc.with_values({f"montecarlo.{k}": v for k, v in montecarlo.items()})
     key = reference_key(sc)
-    folder = cache_dir()
-    npz, meta = folder / f"{key}.npz", folder / f"{key}.json"
+    npz, meta = cache_dir() / f"{key}.npz", cache_dir() / f"{key}.json"
     if npz.is_file() and meta.is_file() and not _STATE["refresh"]:
         _STATE["stats"]["hits"] += 1
-        with np.load(npz) as z:
-            data: dict[str, Any] = {}
-            for name in z.files:
-                obs, field = name.split("__")
-                data.setdefault(obs, {})[field] = z[name]
-        return Reference(data, json.loads(meta.read_text()), cached=True)
+        return Reference(*_load(npz, meta), cached=True)
     _STATE["stats"]["misses"] += 1
     obs = dataclasses.replace(sc.observables, A=True, x1=True, x2=True, joint=False)
     res = montecarlo_solution(dataclasses.replace(sc, observables=obs), progress=False)
-    folder.mkdir(parents=True, exist_ok=True)
-    arrays = {f"{o}__{k}": np.asarray(v) for o, rec in res.data.items() if o != "joint"
-              for k, v in rec.items()}
-    with atomic_path(npz) as tmp:
-        np.savez(tmp, **arrays)
+    data = {o: r for o, r in res.data.items() if o != "joint"}
     info = {"settings": res.info["settings"], "seed": res.info["seed"]["root"],
             "scene": sc.to_dict(), "command": reproduce_command(sc), "key": key}
+    _store(npz, meta, data, info)
+    return Reference(data, info, cached=False)
+
+
+def _load(npz: Path, meta: Path) -> tuple[dict[str, Any], dict[str, Any]]:
+    with np.load(npz) as z:
+        data: dict[str, Any] = {}
+        for name in z.files:
+            obs, field = name.split("__")
+            data.setdefault(obs, {})[field] = z[name]
+    return data, json.loads(meta.read_text())
+
+
+def _store(npz: Path, meta: Path, data: dict[str, Any], info: dict[str, Any]) -> None:
+    npz.parent.mkdir(parents=True, exist_ok=True)
+    arrays = {f"{o}__{k}": np.asarray(v) for o, rec in data.items() for k, v in rec.items()}
+    with atomic_path(npz) as tmp:
+        np.savez(tmp, **arrays)
     write_atomic(meta, json.dumps(jsonable(info), indent=1))
-    return Reference({o: r for o, r in res.data.items() if o != "joint"}, info, cached=False)
+
+
+def cached_passage_montecarlo(scene: Scene, *, progress: bool = False, **call: Any) -> Any:
+    """harness.door.timedomain.passage_montecarlo through the reference cache (cache_dir(),
+    key :func:`passage_key`; ``--vifpk-refresh`` runs it again). ``info["cached"]`` says
+    whether it came from the cache."""
+    from vifpk.harness.door import timedomain
+
+    from vifpk.core.result import Result
+
+    key = passage_key(scene, **call)
+    npz, meta = cache_dir() / f"{key}.npz", cache_dir() / f"{key}.json"
+    if npz.is_file() and meta.is_file() and not _STATE["refresh"]:
+        _STATE["stats"]["hits"] += 1
+        data, info = _load(npz, meta)
+        return Result(data=data, info=dict(info, cached=True))
+    _STATE["stats"]["misses"] += 1
+    from vifpk.harness.workflows.passage import plain_info
+
+    res = timedomain.passage_montecarlo(scene, progress=progress, **call)
+    _store(npz, meta, res.data, dict(plain_info(res.info), key=key))
+    return Result(data=res.data, info=dict(res.info, key=key, cached=False))
 
 
 def model_densities(scene: Scene, model: Any) -> dict[str, dict[str, Any]]:
@@ -275,6 +320,13 @@ def _reproduce_passage(sc: Scene, model: str, threshold: float, start: Any,
             f"{sc.montecarlo.dt} --horizon {horizon!r}")
 
 
+def _exact(sc: Any, paths: Any) -> Any:
+    """The testing API's paths: as given, else exactly the scene's montecarlo.paths (the
+    assertions keep their documented sample size; the command's --rel-se growth, issue 39
+    item 5, is not applied here)."""
+    return sc.montecarlo.paths if paths is None else paths
+
+
 def assert_mfpt_close(scene: Any, model: Any, threshold: float, *, rtol: float,
                       start: float | str = "stationary", paths: int | None = None,
                       horizon: float | None = None) -> dict[str, Any]:
@@ -287,13 +339,19 @@ def assert_mfpt_close(scene: Any, model: Any, threshold: float, *, rtol: float,
     from vifpk.harness.door.solvers import model_label
     from vifpk.harness.request.timedomain import passage_request, with_quadratures
     from vifpk.harness.workflows.passage import run
+    from vifpk.harness.workflows.pricing import refuse_costly_direct
 
     rtol = _rtol(rtol)
-    req = passage_request(_scene(scene), threshold=threshold, start=start, models=(model,),
-                          horizon=horizon, paths=paths, sde=False, method="direct")
+    sc = _scene(scene)  # exactly the paths asked (default the scene's): no --rel-se growth
+    req = passage_request(sc, threshold=threshold, start=start, models=(model,),
+                          horizon=horizon, paths=_exact(sc, paths), sde=False,
+                          method="direct")
     threshold, start, sc = req.threshold, req.start, req.scene
     name = model_label(model)
-    res = run(with_quadratures(req), quiet=True)
+    req = with_quadratures(req)
+    # issue 39, X12: hours of R(t) stepping and Monte Carlo, silently, at threshold 2.0
+    refuse_costly_direct(req, override="or a lower threshold, fewer paths, a horizon")
+    res = run(req, quiet=True, reference=cached_passage_montecarlo)
     if name not in res.metrics["models"]:
         raise ValueError(f"model {name}: {res.metrics.get('models_absent', {}).get(name, '')}")
     e = res.metrics["models"][name]
@@ -308,7 +366,9 @@ def assert_mfpt_close(scene: Any, model: Any, threshold: float, *, rtol: float,
             f"relative error {err['value']:+.4f} +/- {err['err']:.4f} exceeds rtol {rtol:g} + "
             f"2 error bars = {tol:.4f}\n  reference: Monte Carlo of the original system, "
             f"{mc['paths']} paths ({mc['censored']} censored at {p['horizon']:.4g}), dt "
-            f"{p['dt']:g}, seed {p['seed']}\n  reproduce: "
+            f"{p['dt']:g}, seed {p['seed']}"
+            f"{' (from cache)' if res.metrics['monte_carlo'].get('cached') else ''}"
+            "\n  reproduce: "
             + _reproduce_passage(sc, name, threshold, start, mc["paths"], p["horizon"]))
     return e
 
@@ -326,8 +386,9 @@ def assert_relaxation_close(scene: Any, model: Any, *, start: float, times: Any,
     from vifpk.harness.workflows.transient import run
 
     rtol = _rtol(rtol)
-    req = transient_request(_scene(scene), start=start, times=times, models=(model,),
-                            paths=paths, sde=False)
+    sc = _scene(scene)
+    req = transient_request(sc, start=start, times=times, models=(model,),
+                            paths=_exact(sc, paths), sde=False)
     name = model_label(model)
     res = run(req, quiet=True)
     meas = res.metrics["relaxation"]["original_system"]

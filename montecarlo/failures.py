@@ -34,14 +34,16 @@ def diverged(h: float, what: str, cause: str = "") -> SimulationDiverged:
         "friction)")
 
 
-def growth(system: Any) -> str:
+def growth(system: Any, parametric: Any = None) -> str:
     """'' when the losses win the large-amplitude energy balance (vifpk.core.scene.
-    energy_balance), else the words of why the energy may grow without bound."""
+    energy_balance, with the parametric noise), else the words of why the energy may grow."""
     if not hasattr(system, "restoring_law"):  # a duck-typed system with the paper's names
         return ""
-    bal = energy_balance(system)
+    bal = energy_balance(system, parametric)
     if bal.grows:
         return f"the energy grows without bound ({bal.text})"
+    if bal.tail is not None and not bal.tie and not bal.tail.mean_finite:
+        return f"the parametric noise: {bal.text}"
     if bal.tie:
         return (f"the energy grows without bound: {bal.text}, and here the gain may win (no "
                 "stationary density)")

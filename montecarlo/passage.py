@@ -252,7 +252,7 @@ def first_passage(system: Any, noise: Any, settings: PassageSettings, *, thresho
         run_passage(arrs, cnt, run, h, B, P)
 
     relax = None
-    cause = growth(system)
+    cause = growth(system, parametric)
     burn_in = float(st.burn_in) if stationary and st.burn_in != "auto" else 0.0
     if stationary and st.burn_in == "auto":
         relax, burn_in = _auto_burn_in(phys, h, st.seed, threads, cause, threshold)

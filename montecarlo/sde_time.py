@@ -237,7 +237,8 @@ def sde_first_passage(drift: Callable[[np.ndarray], np.ndarray],
         "table": {"points": int(table_points), "top": float(grid[-1])},
         "seconds": {"compile": compile_s, "run": run_s, "total": compile_s + run_s},
         "steps": steps, "steps_per_second": steps / run_s if run_s > 0 else math.nan,
-        "status": Status.SIMULATED.record(),
+        "status": (Status.CENSORED.record(f"{int(cens.sum())} of {cens.size} paths")
+                   if cens.any() else Status.SIMULATED.record()),
     }
     return Result(data={"fpt": {"time": fpt, "censored": cens}, "start": {"A": a0}},
                   info=info)

@@ -64,7 +64,7 @@ def simulate(system: Any, noise: Any, settings: Settings, *, parametric: Any = N
     plan = resolve(system, noise, replace(settings, **overrides), parametric)
     clock = compile_kernel(plan)
     bar = progress_bar(plan.settings.progress)
-    step = Stepper(plan.phys, plan.h, plan.threads, bar, growth(system))
+    step = Stepper(plan.phys, plan.h, plan.threads, bar, growth(system, parametric))
     try:
         run = begin(plan, clock, step, bar) if plan.resume is None else resume(plan, clock, bar)
         done = sample(plan, clock, run, step, bar)

@@ -11,8 +11,11 @@ time must be a whole number of steps, t_j = k_j dt (BadInput otherwise: a snapsh
 
 Densities are per unit length over all paths of a block (a sample outside the edges is not
 counted, so the mass inside the edges is reported), averaged over blocks, with the standard
-error of the block means. A sample at v = 0 exactly (the mass at rest) is the atom of x2 at 0:
-counted in "atom_weight", not in the x2 bins, as in the stationary run.
+error of the block means. The second moments E[x^2], E[x x'], E[x'^2] at each time
+(``moments``, every path, no edges) come with their block means, so that a smooth function of
+them (e.g. the log-slope of E[x^2] between two times) gets its standard error from the
+blocks (tests/test_parametric_growth.py). A sample at v = 0 exactly (the mass at rest) is the
+atom of x2 at 0: counted in "atom_weight", not in the x2 bins, as in the stationary run.
 """
 
 from __future__ import annotations
@@ -57,8 +60,10 @@ def _edges(edges: dict[str, Any]) -> dict[str, np.ndarray]:
 def snapshots(system: Any, noise: Any, settings: PassageSettings, *, start: float,
               times: Sequence[float], edges: dict[str, Any], parametric: Any = None) -> Result:
     """data["snapshots"] = {"t": float[n], "A" | "x1" | "x2": {"edges", "x" (centres),
-    "p": float[n, bins], "err": float[n, bins]}} (x2 also "atom_weight", "atom_err":
-    float[n]); settings.horizon is not used (the last time is the end)."""
+    "p": float[n, bins], "err": float[n, bins]}, "moments": {"x1x1" | "x1x2" | "x2x2":
+    {"value": float[n], "err": float[n], "blocks": float[blocks, n]}}} (x2 also
+    "atom_weight", "atom_err": float[n]); settings.horizon is not used (the last time is the
+    end)."""
     st = settings
     check_settings(st)
     if not (isinstance(start, Real) and math.isfinite(start) and start >= 0):
@@ -91,9 +96,10 @@ def snapshots(system: Any, noise: Any, settings: PassageSettings, *, start: floa
     never = np.iinfo(np.int64).max // 2  # a burn-in never reached: nothing is sampled
     bar = progress_bar(st.progress, total=float(st.blocks * per * max(marks[-1], 1)),
                        desc="monte carlo: transient")
-    step = Stepper(phys, h, threads, bar, growth(system))
+    step = Stepper(phys, h, threads, bar, growth(system, parametric))
     hists = {k: np.zeros((st.blocks, marks.size, e.size - 1)) for k, e in ed.items()}
     atom = np.zeros((st.blocks, marks.size))
+    mom = np.zeros((3, st.blocks, marks.size))
     n = 0
     try:
         for j, mark in enumerate(marks):
@@ -101,6 +107,7 @@ def snapshots(system: Any, noise: Any, settings: PassageSettings, *, start: floa
                 step.run(arr, int(mark - n), n, never, 1)
                 n = int(mark)
             _record(arr.state, mask, phys, ed, hists, atom, j)
+            _second(arr.state, mask, mom, j)
     finally:
         if bar is not None:
             bar.close()
@@ -115,6 +122,12 @@ def snapshots(system: Any, noise: Any, settings: PassageSettings, *, start: floa
     w = atom / cnt[:, None]
     snap["x2"]["atom_weight"] = w.mean(axis=0)
     snap["x2"]["atom_err"] = w.std(axis=0, ddof=1) / math.sqrt(st.blocks)
+    snap["moments"] = {}
+    for name, sums in zip(("x1x1", "x1x2", "x2x2"), mom, strict=True):
+        blk = sums / cnt[:, None]
+        snap["moments"][name] = {"value": blk.mean(axis=0),
+                                 "err": blk.std(axis=0, ddof=1) / math.sqrt(st.blocks),
+                                 "blocks": blk}
     steps = float(st.blocks * per * marks[-1])
     info = {"solver": "montecarlo", "method": "snapshots", "start": float(start),
             "start_law": "energy U(A0), phase uniform in time along the conservative orbit "
@@ -148,6 +161,12 @@ def _record(state: np.ndarray, mask: np.ndarray, phys: dict[str, Any],
         hists["A"][b, j] = np.histogram(A[b][m], ed["A"])[0]
         hists["x1"][b, j] = np.histogram(x[b][m], ed["x1"])[0]
         hists["x2"][b, j] = np.histogram(vb[~rest], ed["x2"])[0]
+
+
+def _second(state: np.ndarray, mask: np.ndarray, mom: np.ndarray, j: int) -> None:
+    """Per-block sums of x^2, x x', x'^2 over the paths into time slot j."""
+    x, v = np.where(mask, state[..., 0], 0.0), np.where(mask, state[..., 1], 0.0)
+    mom[0, :, j], mom[1, :, j], mom[2, :, j] = (x * x).sum(1), (x * v).sum(1), (v * v).sum(1)
 
 
 def _densities(hist: np.ndarray, count: np.ndarray, edges: np.ndarray) -> dict[str, Any]:

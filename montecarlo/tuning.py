@@ -45,6 +45,23 @@ kept: they are the larger prediction there, and their order 1.11 matches the ker
 weak order 1 across impacts (kernels.WEAK_ORDER_NONSMOOTH, measured in the tests), while 1.94
 would be the smooth sub-system's. The rate of the kernel is not a constant: stepper.Stepper
 measures it on every call.
+
+**Parametric noise** (issue 37). A parametric noise has a time scale of its own: by Ito's
+formula on H (docs/averaging.md section 12) it spreads the energy at the relative rate
+nu = sigma_par^2 / E^2, sigma_par^2 = 2 D_k <g^2 v^2> + 2 D_c <d^2 v^4> (parametric_rate), a
+frequency (it scales as s under the clock change above), so the dimensionless step has a
+second part, nu dt. The scheme's sub-flows of the parametric noises are exact with x frozen
+over half a step (docs/montecarlo.md), so what the step must resolve is the change of the
+energy they make over it: its relative variance is nu dt, against Omega dt of the orbit's turn
+per step. The fitted bias C (Omega dt)^p holds for nu <= Omega (the base family: no
+parametric noise); for nu > Omega the energy's random change per step is the larger one and
+the rule reads the bias in the faster rate: Omega -> max(Omega, nu) (scene_rate), nu the
+largest over the same amplitudes. This is a bound by the faster scale, not a fit (no ladder of
+steps was measured on parametric scenes); the run-time check (step_check) still judges the
+step. On a mean-square-stable linear oscillator nu = D_k w^2 + 3 D_c k^2 < k + D_c k^2 (the
+stability condition D_k w^2 + 2 D_c k^2 < k), so the rule changes nothing unless the damping
+is strong (k of the order of w) or the damping noise is; on the paper's c2 x^2 x' damping the
+damping noise's nu grows as A^4 with the amplitude the pilot reaches.
 """
 
 from __future__ import annotations
@@ -104,6 +121,47 @@ def scene_omega(phys: dict[str, Any], amplitude: float) -> float:
                for j in range(AMPLITUDE_NODES + 1))
 
 
+def parametric_rate(phys: dict[str, Any], A: float, nodes: int = 64) -> float:
+    """nu(A): the rate at which the parametric noises alone spread the energy, relative to
+    itself, on the free conservative orbit of amplitude A (walls ignored):
+    nu = sigma_par^2 / E^2 with sigma_par^2 = 2 D_k <g^2 v^2> + 2 D_c <d^2 v^4> (Ito's formula
+    on H, docs/averaging.md section 12), the orbit average by Gauss-Legendre in x = A sin(theta)
+    as in orbit_omega. 0 without parametric noise or at A = 0. A frequency: under t -> t / s
+    (g -> s^2 g, d -> s d, D_k, D_c -> D_k / s, D_c / s, E -> s^2 E) it scales as s. The linear
+    oscillator: nu = D_k w^2 + 3 D_c k^2."""
+    D_k, D_c = phys.get("D_k") or 0.0, phys.get("D_c") or 0.0
+    if not (D_k > 0 or D_c > 0) or not A > 0:
+        return 0.0
+    k = _spring(phys)
+    d = (-float(phys["c1"]), float(phys["c2"]),
+         *(() if phys.get("dhi") is None else (float(c) for c in phys["dhi"])))
+
+    def U(x: Any) -> Any:
+        return sum(c * x ** (2 * i + 2) / (2 * i + 2) for i, c in enumerate(k))
+
+    th, wq = _nodes(nodes)
+    x = A * np.sin(th)
+    E = U(A)
+    v2 = np.maximum(2.0 * (E - U(x)), 1e-300)
+    g = sum(c * x ** (2 * i + 1) for i, c in enumerate(k))
+    dd = sum(c * x ** (2 * i) for i, c in enumerate(d))
+    w = wq * np.cos(th) / np.sqrt(v2)  # dt = dx / v, dx = A cos(theta) d theta
+    s2 = (2 * D_k * g * g * v2 + 2 * D_c * dd * dd * v2 * v2) @ w / np.sum(w)
+    return float(s2 / (E * E)) if E > 0 else 0.0
+
+
+def scene_rate(phys: dict[str, Any], amplitude: float) -> float:
+    """The fastest rate of the scene on amplitudes 0..amplitude: max(scene_omega, the largest
+    parametric_rate at amplitude j / n, j = 1..n); scene_omega itself without parametric
+    noise."""
+    omega = scene_omega(phys, amplitude)
+    if not (phys.get("D_k") or phys.get("D_c")):
+        return omega
+    nu = max(parametric_rate(phys, amplitude * j / AMPLITUDE_NODES)
+             for j in range(1, AMPLITUDE_NODES + 1))
+    return max(omega, nu)
+
+
 def auto_dt(target_floor: float | None, phys: dict[str, Any],
             amplitude: float | None = None) -> float:
     """Largest dt whose predicted bias C (Omega dt / OMEGA_REF)^p is at most BIAS_FRACTION x
@@ -113,13 +171,14 @@ def auto_dt(target_floor: float | None, phys: dict[str, Any],
     pilot's paths of each one's largest amplitude (simulate.py). Without it (before the
     pilot) the step is provisional, the scale pilot's own and the plan's estimate:
     dt_ref / max(sqrt(k1), 1), the base family's, shorter for a faster linear spring (the
-    pilot is cheap: it errs short)."""
+    pilot is cheap: it errs short). With parametric noise Omega is scene_rate's max(Omega,
+    nu): see the module's "Parametric noise"."""
     F = target_floor if target_floor and target_floor > 0 else DEFAULT_FLOOR
     dt_ref = (BIAS_FRACTION * F / BIAS_C) ** (1.0 / BIAS_P)
     dt_ref = min(max(dt_ref, DT_RANGE[0]), DT_RANGE[1])
     if amplitude is None or not (amplitude > 0 and math.isfinite(amplitude)):
         return float(dt_ref / max(math.sqrt(max(phys["w0sq"], 0.0)), 1.0))
-    return float(dt_ref * OMEGA_REF / scene_omega(phys, amplitude))
+    return float(dt_ref * OMEGA_REF / scene_rate(phys, amplitude))
 
 
 def fit_relaxation(t: np.ndarray, d: np.ndarray, se: np.ndarray) -> dict[str, Any]:

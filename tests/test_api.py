@@ -33,6 +33,7 @@ def test_scene_solve_and_models():
     assert callable(vifpk.build_model(sc, "paper").drift)
 
 
+@pytest.mark.slow
 def test_check_writes_the_report_like_the_command(canned_check, tmp_path):
     res = vifpk.check("paper-base", out=tmp_path / "rep")
     assert res.verdicts and (tmp_path / "rep" / "report.html").is_file()

@@ -59,6 +59,7 @@ def test_bifurcation_command_json(tmp_path: Path, capsys):
     assert "critical r" in capsys.readouterr().out
 
 
+@pytest.mark.slow
 def test_bifurcation_command_takes_the_corrected_model(tmp_path: Path, base):
     """--model picks the models (issue 15: the corrected model too); its critical r is a sign
     change of its own shape index F, checked 1e-4 either side of the root (brentq's xtol is

@@ -72,6 +72,7 @@ def test_exact_is_measured_the_same_whatever_else_is_checked(white_envelope):
     assert e["w1"] >= 0 and e["w1_floor"] > 0 and e["w1_err"] > 0
 
 
+@pytest.mark.slow
 def test_check_tolerance_verdict_end_to_end(tmp_path, capsys, canned_check):
     """`vifpk check --tolerance`: metrics.json keeps every old key and adds per model the
     tolerance verdict (estimate, interval, P, class), the question asked, and a recommendation

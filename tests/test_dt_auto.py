@@ -205,3 +205,38 @@ def test_the_rule_on_scenes_unlike_the_base_one(name):
         assert res.info["settings"]["dt"] < 0.6 * 0.5 / 13
     assert chk["verdict"] != "failed", chk
     assert res.info["warnings"] == []
+
+
+# --- parametric noise (issue 37): its own rate nu in the step rule ------------------------------
+
+def _linear_phys(k, w, D_k, D_c, s=1.0):
+    """A linear oscillator's physics on a clock s times faster (k -> s k, w -> s w, D -> D / s)."""
+    scene = scene_from_dict({"system": {"restoring": [(s * w) ** 2], "damping": [s * k],
+                                        "mu": 0.0, "barrier": False},
+                             "noise": {"kind": "white", "D": 0.01},
+                             "parametric": {"stiffness": D_k / s, "damping": D_c / s}})
+    return physics(scene.system, scene.noise, scene.parametric)
+
+
+def test_the_parametric_rate_of_a_linear_oscillator():
+    """nu = D_k w^2 + 3 D_c k^2 (docs/averaging.md section 12: b of sigma_E^2 = s E + b E^2),
+    at every amplitude; it scales as a frequency; without parametric noise the rule's rate
+    is scene_omega's, exactly."""
+    for A in (0.3, 1.0, 2.5):
+        assert tuning.parametric_rate(_linear_phys(0.2, 1.3, 0.05, 0.1), A) == pytest.approx(
+            0.05 * 1.3**2 + 3 * 0.1 * 0.2**2, rel=1e-10)
+        assert tuning.parametric_rate(_linear_phys(0.2, 1.3, 0.05, 0.1, s=3.0), A) == \
+            pytest.approx(3 * tuning.parametric_rate(_linear_phys(0.2, 1.3, 0.05, 0.1), A))
+    off = _linear_phys(0.2, 1.3, 0.0, 0.0)
+    assert tuning.scene_rate(off, 1.0) == tuning.scene_omega(off, 1.0)
+
+
+def test_a_strong_damping_noise_shortens_the_step():
+    """k = 2, w = 1, D_c = 0.2 (mean-square stable: 2 D_c k^2 = 1.6 < k): nu = 2.4 > Omega = 1,
+    so the automatic step is 1 / 2.4 of the step without the damping noise; a weak one
+    (D_c = 0.01, nu = 0.12) leaves it as it was."""
+    strong, none = _linear_phys(2.0, 1.0, 0.0, 0.2), _linear_phys(2.0, 1.0, 0.0, 0.0)
+    assert tuning.auto_dt(0.005, strong, 1.0) == pytest.approx(
+        tuning.auto_dt(0.005, none, 1.0) / 2.4, rel=1e-9)
+    weak = _linear_phys(2.0, 1.0, 0.0, 0.01)
+    assert tuning.auto_dt(0.005, weak, 1.0) == tuning.auto_dt(0.005, none, 1.0)

@@ -5,9 +5,11 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import pytest
 from vifpk.harness.cli.app import main
 
 
+@pytest.mark.slow
 def test_figures_command(tmp_path: Path):
     out = tmp_path / "figs"
     assert main(["figures", "--out", str(out), "--figure", "6", "--paths", "64", "--time", "50",

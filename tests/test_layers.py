@@ -26,6 +26,8 @@ import ast
 from functools import cache
 from pathlib import Path
 
+import pytest
+
 from tests.conftest import ROOT
 from tests.test_architecture import imported_modules, nodes
 
@@ -262,3 +264,20 @@ def test_no_blanket_suppress():
                     for a in node.args):
                 bad.append(f"{p.relative_to(ROOT)}:{node.lineno}")
     assert not bad, bad
+
+
+@pytest.mark.slow
+def test_loading_the_workflow_registry_imports_no_front_end():
+    """docs/architecture.md: the built-in workflows' records name their command-line parts,
+    sweep points and Python functions by ``Ref``, so loading the registry (every registered
+    workflow's record) imports neither the command line nor the Python API nor the sweeps. A
+    fresh interpreter (slow tier: ~1.5 s)."""
+    import subprocess
+    import sys
+
+    code = ("import sys; from vifpk.core import registry; ws = registry.workflows(); "
+            "print(len(ws)); print(' '.join(sorted(m for m in sys.modules "
+            "if m.startswith(('vifpk.harness.cli', 'vifpk.api', 'vifpk.harness.sweeps')))))")
+    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True,
+                         text=True, timeout=120, check=True).stdout.splitlines()
+    assert int(out[0]) >= 9 and (out[1:] == [] or out[1] == ""), out

@@ -187,6 +187,7 @@ def test_atom_at_rest_is_the_stuck_fraction(base):
     assert mass + atom["weight"] + out == pytest.approx(1.0, abs=1e-9)
 
 
+@pytest.mark.slow
 def test_switched_off_effects_are_not_compiled(tmp_path):
     """With mu = None numba prunes the friction branches: the machine code of that
     specialisation has no root finder for the velocity zero (log1p) and no stick test.
@@ -445,6 +446,7 @@ def test_averaged_sde_in_short_calls_is_bit_identical(monkeypatch):
     assert one.info["moments"] == many.info["moments"]
 
 
+@pytest.mark.slow
 def test_montecarlo_imports_no_other_vifpk_package():
     code = ("import sys, vifpk.montecarlo, vifpk.montecarlo.averaged_sde; bad = [m for m in "
             "sys.modules if m.split('.')[:2] in (['vifpk', 'averaging'], ['vifpk', 'fpk'], "
@@ -545,6 +547,7 @@ def test_auto_burn_in_measures_a_long_relaxation_and_certifies(base):
     assert res.info["convergence"]["equilibrated"] is True, res.info["convergence"]
 
 
+@pytest.mark.slow
 def test_runs_cut_into_any_chunks_are_bit_identical(base, monkeypatch):
     import sys as _sys
 

@@ -192,3 +192,28 @@ def test_modes_follow_the_umask(tmp_path: Path, umask: int):
     assert (out / "sub").stat().st_mode & 0o777 == 0o777 & ~umask
     assert out.stat().st_mode & 0o777 == 0o777 & ~umask
     assert (tmp_path / "x.json").stat().st_mode & 0o777 == 0o666 & ~umask
+
+
+
+def test_replaceability_is_checked_on_what_recovery_restores(tmp_path: Path):
+    """A run killed between the fallback's two renames leaves DIR absent and its old set at
+    .DIR.old-<id>; the next run restores it under the lock. Checked only before the lock, a
+    check report into DIR saw no folder and replaced the restored sweep (issue 38 item 4:
+    the replaceability was checked before the lock, not after)."""
+    out = tmp_path / "rep"
+
+    def killed_sweep() -> None:
+        old = tmp_path / ".rep.old-killed"
+        (old / "points").mkdir(parents=True)
+        (old / "sweep.nc").write_text("the sweep")
+
+    killed_sweep()
+    with pytest.raises(outdir.FolderRefused, match="holds files this command does not write"):
+        outdir.write_folder(out, _fill("one"), run_id="one", allowed=NAMES)
+    assert (out / "sweep.nc").read_text() == "the sweep" and _leftovers(out) == []
+    os.rename(out, tmp_path / ".rep.old-killed")  # killed again, between the renames
+    with pytest.raises(outdir.FolderRefused, match="is a sweep folder"), \
+            outdir.hold(out, run_id="two", allowed=(*NAMES, "points", "sweep.nc"),
+                        kind="check report"):
+        pass
+    assert (out / "sweep.nc").read_text() == "the sweep" and _leftovers(out) == []

@@ -126,6 +126,7 @@ def _cli(args, capsys):
     return code, capsys.readouterr()
 
 
+@pytest.mark.slow
 def test_passage_command_writes_a_report_with_the_contract_keys(doubles, tmp_path, capsys):
     out = tmp_path / "p"
     code, cap = _cli(["passage", str(TINY), "--threshold", "2", "--start", "0.5",

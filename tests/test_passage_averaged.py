@@ -39,6 +39,7 @@ def scene():
     return vifpk.scene("paper-base")
 
 
+@pytest.mark.slow
 def test_passage_of_a_model_object_meets_the_closed_form(scene):
     r = passage_averaged(scene, Rayleigh(), threshold=0.8, start=0.2, cells=200)
     exact = ray_T(0.2, 0.8)
@@ -52,6 +53,7 @@ def test_passage_of_a_model_object_meets_the_closed_form(scene):
     assert R[0] == 1.0 and np.all(np.diff(R) <= 1e-15) and r.data["mfpt_curve"]["T"][-1] == 0
 
 
+@pytest.mark.slow
 def test_transient_of_a_model_object_meets_the_rice_law(scene):
     times = [2.0, 5.0, 20.0]
     errs = []

@@ -252,6 +252,7 @@ def test_decay_rate_and_discrete_mfpt_keep_precision_at_high_thresholds():
                                                                    rel=1e-3)
 
 
+@pytest.mark.slow
 def test_a_tail_taken_before_one_mode_is_left_is_flagged():
     # Brownian motion from A0 = 0.9 next to the wall at L = 1, stopped at t = 0.02: many modes
     # are alive, R decays at ~4x lambda_1 there, so the tail R(t_end) / lambda_1 is not

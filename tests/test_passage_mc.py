@@ -99,6 +99,7 @@ def test_bad_input_is_one_line(base):
         first_passage(base.system, base.noise, settings(), threshold=1.2, start="stationary")
 
 
+@pytest.mark.slow
 def test_same_seed_same_numbers_any_threads_and_cut(base, monkeypatch):
     """Bit-identical first-passage times on 1 and 2 threads, and when the run is cut into
     many more kernel calls (a tiny CHUNK_SECONDS: a path's budget per call is then a few

@@ -5,6 +5,7 @@ the right mass in phase space before the code normalises it (conftest.phase_mass
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, assume, example, given, settings
 from hypothesis import strategies as st
 from vifpk.averaging import solve
@@ -62,6 +63,7 @@ def check(scene, model: str, **options) -> None:
     assert phase_mass_gap(scene, result, model) < 5e-3
 
 
+@pytest.mark.slow
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(params)
 @example({"c1": 0.0, "c2": 0.5, "alpha": 0.0, "mu": 0.0625, "r": 1.0, "D": 1e-4,

@@ -111,6 +111,7 @@ def _cli(plugin_path: Path, *args: str, cwd: Path = ROOT) -> subprocess.Complete
                           capture_output=True, text=True, timeout=600)
 
 
+@pytest.mark.slow
 def test_a_plugin_is_listed_and_solved_like_a_builtin(plugin_path: Path, tmp_path: Path):
     res = _cli(plugin_path, "models")
     assert res.returncode == 0, res.stderr
@@ -135,6 +136,7 @@ def test_a_plugin_is_listed_and_solved_like_a_builtin(plugin_path: Path, tmp_pat
     assert "FPK direct solve, 800 cells" in res.stdout and "period T(A): exact orbit" in res.stdout
 
 
+@pytest.mark.slow
 def test_an_unknown_model_exits_2_listing_the_plugins_too(plugin_path: Path):
     for cmd in ("solve", "check", "bifurcation"):
         extra = ["--vary", "mu"] if cmd == "bifurcation" else []

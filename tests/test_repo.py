@@ -33,6 +33,7 @@ def collected(*args: str) -> set[str]:
     return rec.ids
 
 
+@pytest.mark.slow
 def test_ci_runs_every_test():
     """The pytest command of .ci/run selects the same tests as pytest with no marker filter
     (addopts emptied), and so includes the slow tier (e.g. the wheel test), and spreads them
@@ -52,6 +53,7 @@ def test_ci_runs_every_test():
     assert "-n" in shlex.split(lines[0]) and "loadgroup" in lines[0]
 
 
+@pytest.mark.slow
 def test_xdist_groups_keep_their_tests_on_one_worker(tmp_path):
     """`--dist loadgroup` (the fast tier's and CI's) keeps an xdist_group on one worker, so a
     group's shared fixture (the wheel, the adaptive sweep, the CLI catalogue) is built once.

@@ -126,6 +126,7 @@ _KILLED = textwrap.dedent("""
 """)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("moment", ["fill", "before-swap", "after-swap"])
 def test_sigkill_while_writing_leaves_one_whole_set(run, tmp_path: Path, moment):
     import shutil

@@ -34,3 +34,16 @@ def test_no_workflow_reads_settings_out_of_an_info_dict():
                     and node.slice.value == "settings"):
                 found.append(f"{path.name}:{node.lineno}")
     assert found == []
+
+
+def test_the_plan_that_is_priced_is_the_run_that_is_made(tiny_check):
+    """docs/architecture.md, "The Monte Carlo's plan is written once": the plan the request
+    layer checks and prices (harness.door.solvers.montecarlo_plan, montecarlo/plan.py) gives
+    the step and the sampled time the simulation then ran with (its Resolved), on the tiny
+    check's own scene."""
+    from vifpk.harness.door.solvers import montecarlo_plan
+
+    assert tiny_check.scene.montecarlo.floor == 0.0  # no floor: exactly the plan's time
+    plan = montecarlo_plan(tiny_check.scene)
+    res = tiny_check.solutions["mc:original"].resolved
+    assert (res.dt, res.time, res.burn_in) == (plan.dt, plan.sampled_time, plan.burn_in)

@@ -94,21 +94,24 @@ def test_surface_recovers_known_boundary_and_shrinks_with_noise():
 
 @pytest.mark.slow
 def test_band_covers_true_boundary_at_nominal_rate():
-    """Coverage of the true boundary by the 5-95% band over 40 seeds at each noise level,
-    against the nominal 90% (module docstring: a boundary point is in the band iff the
-    pointwise 90% interval of log L covers the truth).
+    """Coverage of the true boundary by the 5-95% band over 25 seeds at the highest and the
+    lowest noise level, against the nominal 90% (module docstring: a boundary point is in the
+    band iff the pointwise 90% interval of log L covers the truth).
 
     Tolerance: each seed's coverage is a fraction of the boundary (201 points, strongly
     correlated along it), the seeds are independent, so the mean over seeds has the standard
-    error SE = sd(per-seed coverage) / sqrt(40) (measured 0.02-0.04). The assertion is
+    error SE = sd(per-seed coverage) / sqrt(25) (measured 0.025-0.05). The assertion is
     |mean - 0.90| < 3 SE + 0.03: 3 SE for the sampling of seeds, and 0.03 for what the
     method knowingly neglects (the hyperparameters' uncertainty, type-II ML, which narrows
     the band; the linearisation of exp(g) at the surface). Measured (2026-11-24, seeds 0-39,
     21 x 21 grid, about 8 s a level): coverage 0.951 (SE 0.020) at noise 0.3 T, 0.935
     (0.023) at 0.1 T, 0.934 (0.022) at 0.03 T: the band is a little wider than nominal, on the
-    safe side; the worst seed's band held 39% of the boundary."""
-    for noise in (0.3, 0.1, 0.03):
-        cov = np.array([_scores(noise, seed, resolution=21)["coverage"] for seed in range(40)])
+    safe side; the worst seed's band held 39% of the boundary. Since 2026-11-28 the middle
+    level and seeds 25-39 are left out to halve the suite's longest test (59 s in CI): the
+    three levels behaved alike, and the fast test above covers all three. Measured then (seeds
+    0-24): 0.932 (SE 0.031) at 0.3 T, 0.917 (SE 0.032) at 0.03 T."""
+    for noise in (0.3, 0.03):
+        cov = np.array([_scores(noise, seed, resolution=21)["coverage"] for seed in range(25)])
         se = cov.std(ddof=1) / math.sqrt(cov.size)
         assert abs(cov.mean() - NOMINAL) < 3 * se + 0.03, (noise, cov.mean(), se)
 

@@ -197,6 +197,7 @@ def test_sde_check_only_at_sampled_points(source, request):
         assert (ok >= 0).all() if sampled else (ok == -1).all(), (pt.params, ok)
 
 
+@pytest.mark.slow
 def test_interrupted_sweep_resumes_with_only_the_rest(tmp_path):
     """Ctrl-C (SIGINT) after two points: exit 130, no sweep.nc; the second run (on a process
     pool) computes only the points without a record and leaves the kept records untouched."""
@@ -306,6 +307,7 @@ def test_the_grid_map_boundary_is_the_cell_edges_between_verdicts():
 
 
 
+@pytest.mark.slow
 def test_a_check_sweep_carries_the_tolerance_verdict(canned_check, tmp_path):
     """`tolerance` in a check sweep (issue 29): per point and model the error with the noise
     removed, its error, P(error <= tolerance) and the class, and the tolerance as an
@@ -390,6 +392,7 @@ def test_the_sweep_report_table_gives_each_models_error_and_verdict(canned_check
     assert table.count(" ± ") >= 4 and "[" in table
 
 
+@pytest.mark.slow
 def test_a_sweep_over_the_hour_by_its_measured_rate_stops_with_its_records(
         tmp_path, monkeypatch, capsys):
     """Issue 28: `points = 2000` was estimated under the hour and ran 10 minutes for 279 points.

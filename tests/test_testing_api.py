@@ -157,3 +157,81 @@ def test_reproduce_command_gives_the_same_reference(tmp_path, dt):
     assert got["info"]["settings"]["dt"] == ref.info["settings"]["dt"]
     for key in ("A", "x1", "x2"):
         assert np.array_equal(np.array(got["pdf"][key]["p"]), ref.data[key]["p"])
+
+
+# ---------------------------------------------------------------- issue 39: Y03, Y08, Y05
+@pytest.fixture
+def mfpt_calls(monkeypatch):
+    """The time-domain doubles (tests/time_doubles.py: exponential first-passage times,
+    T_exact / T_original - 1 = -1/6 exactly), with the list of the original system's runs.
+    One warm-up call first: what it imports stays loaded when a later pytester fixture
+    unloads what was imported after its creation."""
+    import vifpk.harness.door.timedomain as door
+
+    from tests import time_doubles as td
+
+    td.install(monkeypatch)
+    calls = []
+
+    def counted(scene, **kw):
+        calls.append(kw)
+        return td.passage_montecarlo(scene, **kw)
+
+    monkeypatch.setattr(door, "passage_montecarlo", counted)
+    testing.assert_mfpt_close("paper-base", "exact", threshold=1.4, start=0.5, rtol=0.5,
+                              paths=200)
+    calls.clear()
+    testing._STATE["stats"].update(hits=0, misses=0)
+    return calls
+
+
+def test_y03_y08_mfpt_references_are_cached_on_disk(mfpt_calls, tmp_path):
+    """assert_mfpt_close's Monte Carlo of the original system goes through the reference
+    cache (it was run again at every call): a second call reads it from the cache folder and
+    gives the same metrics; another threshold, paths or seed is another key; --vifpk-refresh
+    (configure(refresh=True)) runs it again."""
+    from vifpk.harness.testing import assert_mfpt_close
+
+    calls = mfpt_calls
+    kw = {"threshold": 1.5, "start": 0.5, "rtol": 0.5, "paths": 400}
+    first = assert_mfpt_close("paper-base", "exact", **kw)
+    assert first["mfpt_error"]["value"] == pytest.approx(-1 / 6, abs=0.1)  # 400 exp. draws
+    second = assert_mfpt_close("paper-base", "exact", **kw)
+    assert len(calls) == 1 and testing.cache_stats() == {"hits": 1, "misses": 1}
+    assert second["mfpt_error"] == first["mfpt_error"]
+    assert len(list((tmp_path / "cache").glob("passage-*.npz"))) == 2  # and the warm-up's
+    assert_mfpt_close("paper-base", "exact", **dict(kw, threshold=1.6))
+    assert_mfpt_close("paper-base", "exact", **dict(kw, paths=401))
+    assert_mfpt_close(testing._scene("paper-base").with_values({"montecarlo.seed": 7}),
+                      "exact", **kw)
+    assert len(calls) == 4
+    testing.configure(refresh=True)
+    assert_mfpt_close("paper-base", "exact", **kw)
+    assert len(calls) == 5
+
+
+def test_y08_vifpk_mfpt_uses_the_vifpk_cache_option(mfpt_calls, pytester):
+    """The ``vifpk_mfpt`` fixture caches in the folder ``--vifpk-cache`` names (issue 39 Y08:
+    it was not cached at all)."""
+    calls = mfpt_calls
+    pytester.makepyfile("""
+        def test_mfpt(vifpk_mfpt):
+            vifpk_mfpt("paper-base", "exact", threshold=1.5, start=0.5, rtol=0.5, paths=200)
+    """)
+    cache = pytester.path / "mine"  # one run (the hits: the test above)
+    pytester.runpytest_inprocess("--vifpk-cache", str(cache)).assert_outcomes(passed=1)
+    assert len(calls) == 1
+    assert len(list(cache.glob("passage-*.npz"))) == 1
+
+
+def test_y05_vifpk_cache_naming_a_file_is_a_usage_error(pytester):
+    """``--vifpk-cache`` naming a file: pytest's usage error in one line naming the option,
+    no traceback, no test run (a folder under a file is refused by the same check)."""
+    f = pytester.path / "afile"
+    f.write_text("x")
+    pytester.makepyfile("def test_x():\n    pass\n")
+    res = pytester.runpytest_inprocess("--vifpk-cache", str(f))
+    assert res.ret == pytest.ExitCode.USAGE_ERROR
+    err = res.stderr.str()
+    assert f"--vifpk-cache {f}: {f} is a file, not a folder" in err
+    assert "Traceback" not in err + res.stdout.str()

@@ -211,6 +211,17 @@ def test_the_door_uses_a_given_quadrature_and_does_not_compute_it(monkeypatch):
      "--at -3: out of range; allowed: a finite time > 0"),
     ("at-splitting", ["passage", "paper-base", "--threshold", "0.6", "--method", "splitting",
                       "--at", "3"], "--at: does not apply to --method splitting"),
+    ("rel-se-paths", ["passage", "paper-base", "--threshold", "0.6", "--paths", "64",
+                      "--rel-se", "0.1"], "--rel-se: does not apply with --paths"),
+    ("rel-se-range", ["transient", "paper-base", "--start", "1.0", "--times", "5,10,20",
+                      "--rel-se", "-0.1"], "--rel-se -0.1: out of range; allowed: a number "
+                                           "0 < R < 1"),
+    ("max-paths-range", ["transient", "paper-base", "--start", "1.0", "--times", "5,10,20",
+                         "--max-paths", "100"], "--max-paths 100: out of range; allowed: a "
+                                                "whole number >= montecarlo.paths = 1024"),
+    ("rel-se-splitting", ["passage", "paper-base", "--threshold", "0.6", "--method",
+                          "splitting", "--rel-se", "0.1"],
+     "--rel-se: does not apply to --method splitting"),
 ])
 def test_issue39_cli_refusals(no_computation, capsys, case, args, needle):
     """T24, T25 (fewer than 3 times: the relaxation fit has two parameters), T01 (a negative
@@ -667,3 +678,27 @@ def test_every_request_field_is_an_option_of_every_front_end():
         assert fields <= params, (req.__name__, fields - params)
         missing = fields - sweep_only_not - set(KEYS[table])
         assert not missing, (req.__name__, missing)
+
+
+def test_paths_dt_seed_are_declared_once_for_every_command():
+    """Issue 38 item 1: --paths, --dt and --seed are declared once (cli/options.py
+    _MC_DECLARED): solve/check and passage/transient take the same type (hence the same
+    parsing and range checks); no module under harness/cli declares them a second time."""
+    import argparse
+    from pathlib import Path
+
+    from vifpk.harness.cli import options
+    from vifpk.harness.cli.timedomain import passage_arguments, transient_arguments
+
+    for build in (options._add_mc_options, passage_arguments, transient_arguments):
+        p = argparse.ArgumentParser()
+        build(p)
+        acts = {a.dest: a for a in p._actions}
+        for name, decl in options._MC_DECLARED.items():
+            assert acts[name].type is decl["type"], (build.__name__, name)
+            assert acts[name].help, (build.__name__, name)
+    cli = Path(options.__file__).parent
+    for f in cli.glob("*.py"):
+        text = f.read_text()
+        for name in options._MC_DECLARED:
+            assert f'add_argument("--{name}"' not in text, (f.name, name)

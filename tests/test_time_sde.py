@@ -31,7 +31,7 @@ from scipy import stats
 from scipy.special import expi
 from vifpk.montecarlo.sde_time import sde_first_passage, sde_snapshots
 
-from vifpk.core.result import BadInput
+from vifpk.core.result import BadInput, Status
 
 C, S = 1.0, 1.0
 
@@ -97,6 +97,10 @@ def test_sde_passage_censoring_threads_and_input():
     assert 10 < inside.sum() < 190
     np.testing.assert_array_equal(t[inside], T[inside])
     assert not c[inside].any() and c[~inside].all() and np.all(t[~inside] == 2.0)
+    # the outcome named where it is decided (vifpk.core.result.Status, issue 38)
+    assert short.info["status"] == {"ok": True, "code": "censored", "message": (
+        f"{Status.CENSORED.message} ({(~inside).sum()} of 200 paths)")}
+    assert long.info["status"]["code"] == ("censored" if long.info["censored"] else "simulated")
     numba.set_num_threads(1)  # ``long`` ran on all threads (2 in CI)
     one = sde_first_passage(drift, diffusion, horizon=50.0, **kw)
     numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)

@@ -84,10 +84,17 @@ def test_energy_balance_with_two_walls_counts_their_losses():
     assert energy_balance(elastic.system).losses == ("system.c1",)
 
 
-def test_parametric_noise_never_decides_alone():
-    """A parametric gain that reaches the top loss degree is a tie (the model decides)."""
+def test_parametric_noise_at_the_top_degree():
+    """A parametric gain of the top loss's degree is decided by the tail's constants
+    (vifpk.core.energy; tests/test_parametric_tail.py): held while kappa > 1, else no stationary
+    law; one of a degree above every loss stays a tie (the law is E^-kappa beyond a crossover
+    energy only)."""
     s = scene_from_dict({"system": {"restoring": [1.0], "damping": [0.05], "mu": 0.0,
                                     "barrier": False},
                          "parametric": {"stiffness": 0.01}})
     bal = energy_balance(s.system, s.parametric)
-    assert bal.tie and not bal.grows and bal.gains == ("parametric.stiffness",)
+    assert not bal.tie and not bal.grows and bal.gains == ("parametric.stiffness",)
+    assert energy_balance(s.system, s.with_values({"parametric.stiffness": 0.2}).parametric).grows
+    cubic = s.with_values({"system.restoring": [1.0, 0.3]})
+    bal = energy_balance(cubic.system, cubic.parametric)
+    assert bal.tie and not bal.grows and bal.tail.crossover > 0

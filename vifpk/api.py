@@ -152,8 +152,9 @@ def _time_scene(source: Any, options: dict[str, Any], what: str) -> Any:
 def passage(source: Scene | str | Path, *, threshold: float, start: float | str = "stationary",
             models: Any = None, horizon: float | None = None, sde: bool = True,
             at: Any = None, method: str = "direct", particles: int | None = None,
-            groups: int | None = None, out: str | Path | None = None, quiet: bool = True,
-            **options: Any) -> Any:
+            groups: int | None = None, rel_se: float | None = None,
+            max_paths: int | None = None, out: str | Path | None = None, quiet: bool = True,
+            yes: bool = False, **options: Any) -> Any:
     """First passage out of A < ``threshold`` (``vifpk passage``): a ``PassageResult`` with
     ``metrics`` (metrics.json's: ``mfpt``, ``models``, ``R``, ``plan``, ``at``, ...),
     ``verdicts``, ``recommendation``, ``warnings``; with ``out``, the report folder is written
@@ -163,31 +164,38 @@ def passage(source: Scene | str | Path, *, threshold: float, start: float | str 
     "splitting" (the MFPT only, at thresholds direct simulation cannot reach: a
     ``SplittingResult`` with ``metrics``, ``verdicts``, ``recommendation``; ``particles`` and
     ``groups`` its settings; ``horizon``, ``paths`` and ``at`` do not apply). ``options``:
-    ``paths``, ``dt``, ``seed`` and ``set``, as the command's flags. The inputs are checked as
+    ``paths``, ``dt``, ``seed`` and ``set``, as the command's flags. ``rel_se``, ``max_paths``:
+    the target relative standard error of the original system's MFPT and the paths cap
+    (``--rel-se``, ``--max-paths``; not with ``paths``). The inputs are checked as
     the command checks them, by the same request (harness/request/timedomain.py: BadInput,
-    one line); no cost guard, hence no "auto"."""
+    one line). A direct run is priced as the command prices it, from the models' MFPTs
+    before any R(t) stepping or Monte Carlo: one estimated above an hour is BadInput naming
+    method="splitting" unless ``yes=True`` (issue 39, X12: threshold 2.0 ran silently for
+    minutes); there is no "auto" (the choice is the caller's)."""
     from vifpk.harness.request.timedomain import output, passage_request, with_quadratures
 
     out = output(out)
     req = passage_request(_time_scene(source, options, "passage"), threshold=threshold,
                           start=start, models=models, horizon=horizon,
                           paths=options.get("paths"), sde=sde, method=method, at=at,
-                          particles=particles, groups=groups,
-                          methods=("direct", "splitting"))
+                          particles=particles, groups=groups, rel_se=rel_se,
+                          max_paths=max_paths, methods=("direct", "splitting"))
     req = with_quadratures(req)
     if req.method == "splitting":
         from vifpk.harness.workflows import rarepassage
 
-        res = rarepassage.run(req, reason="asked for: method='splitting'")
+        res = rarepassage.run(req, reason="asked for: method='splitting'", quiet=quiet)
         if out is not None:
-            from vifpk.core import provenance
+            from vifpk.harness.outputs.splitreport import write_splitting_report
 
-            rarepassage.write_report(res, out, provenance.collect(
-                scene_path=provenance.scene_file(req.scene.source) if req.scene.source
-                else None))
+            write_splitting_report(res, out)
         return res
     from vifpk.harness.workflows.passage import run
 
+    if not yes:
+        from vifpk.harness.workflows.pricing import refuse_costly_direct
+
+        refuse_costly_direct(req, override="or yes=True to run it anyway")
     res = run(req, quiet=quiet)
     if out is not None:
         from vifpk.harness.outputs.timereport import write_time_report
@@ -197,18 +205,20 @@ def passage(source: Scene | str | Path, *, threshold: float, start: float | str 
 
 
 def transient(source: Scene | str | Path, *, start: float, times: Any, models: Any = None,
-              sde: bool = True, out: str | Path | None = None, quiet: bool = True,
-              **options: Any) -> Any:
+              sde: bool = True, rel_se: float | None = None, max_paths: int | None = None,
+              out: str | Path | None = None, quiet: bool = True, **options: Any) -> Any:
     """The law of the amplitude at ``times`` from a start at amplitude ``start`` (``vifpk
     transient``): a ``TransientResult`` with ``metrics`` (per-snapshot L1 and KS with error
     bars and floors, ``relaxation``), ``verdicts``, ``warnings``; with ``out``, the report.
-    ``models`` and ``options`` as for :func:`passage`; at least three ``times``."""
+    ``models`` and ``options`` as for :func:`passage`; at least three ``times``; ``rel_se``,
+    ``max_paths``: the relaxation time's target and the paths cap (``--rel-se``)."""
     from vifpk.harness.request.timedomain import output, transient_request
     from vifpk.harness.workflows.transient import run
 
     out = output(out)
     req = transient_request(_time_scene(source, options, "transient"), start=start,
-                            times=times, models=models, paths=options.get("paths"), sde=sde)
+                            times=times, models=models, paths=options.get("paths"), sde=sde,
+                            rel_se=rel_se, max_paths=max_paths)
     res = run(req, quiet=quiet)
     if out is not None:
         from vifpk.harness.outputs.timereport import write_time_report

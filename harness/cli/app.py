@@ -16,7 +16,6 @@ import traceback
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from vifpk.harness.cli import entry
 from vifpk.harness.cli.options import (
     EXIT_BAD_INPUT,
     EXIT_INTERNAL,
@@ -100,7 +99,8 @@ def _plugin_command(fn: Callable[[Any], Any], label: str, source: str | None
     return run
 
 
-def main(argv: Sequence[str] | None = None) -> int:
+def main(argv: Sequence[str] | None = None, *,
+         release_guard: Callable[[], None] | None = None) -> int:
     """The ``vifpk`` command. Exit codes: 0, 1 internal error (a bug), 2 bad input, 3 a solver
     could not produce a result (SolverFailure, mapped at the door), 130 Ctrl-C.
 
@@ -128,7 +128,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_SOLVER
     args = parser.parse_args(argv)
     debug = bool(getattr(args, "debug", False) or os.environ.get("VIFPK_TRACEBACK"))
-    args.argv = ["vifpk", *(sys.argv[1:] if argv is None else argv)]
+    args.argv = ["vifpk", *argv]  # argv is the list of arguments by now, never None
     try:
         validate.environment()
     except BadInput as exc:
@@ -136,7 +136,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_BAD_INPUT
     signals.reset()
     if from_command_line:
-        entry.release()  # the import-time guard ends here: the command's own handlers
+        if release_guard is not None:  # the console script's import-time guard ends here
+            release_guard()
         signals.install()
     tally = args.run_warnings = RunWarnings()
     try:

@@ -8,7 +8,8 @@ here prints one line and ends the process at once (``os._exit``: 130 for SIGINT,
 SIGTERM, as the commands do). The handler must not raise: an exception raised while a C
 extension is being imported (numpy's ``_multiarray_umath`` importing ``datetime``) is turned
 into an ImportError by that extension and ends in a traceback, exit 1 (seen in CI, 2026-11-28).
-``app.main`` calls :func:`release` just before it installs the command's own handlers.
+``app.main`` calls :func:`release` (passed to it) just before it installs the command's own
+handlers.
 """
 
 from __future__ import annotations
@@ -51,7 +52,7 @@ def main() -> int:
     try:
         from vifpk.harness.cli import app
 
-        return app.main()
+        return app.main(release_guard=release)
     finally:
         release()
 

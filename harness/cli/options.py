@@ -186,17 +186,15 @@ def add_quiet(p: argparse.ArgumentParser) -> None:
 
 
 def _add_mc_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--paths", type=_whole_number, metavar="N",
-                   help="Monte Carlo: number of paths, a whole multiple of montecarlo.blocks "
-                        "(default: the scene's montecarlo.paths)")
-    p.add_argument("--dt", type=_dt_value, metavar="H|auto",
-                   help='Monte Carlo: time step, or "auto" (the largest with bias below half '
-                        "the target floor) (default: the scene's montecarlo.dt)")
+    add_mc_option(p, "paths", help="Monte Carlo: number of paths, a whole multiple of "
+                  "montecarlo.blocks (default: the scene's montecarlo.paths)")
+    add_mc_option(p, "dt", help='Monte Carlo: time step, or "auto" (the largest with bias '
+                  "below half the target floor) (default: the scene's montecarlo.dt)")
     p.add_argument("--time", type=float, metavar="T",
                    help="Monte Carlo: simulated time sampled per path after the burn-in "
                         "(default: the scene's montecarlo.time)")
-    p.add_argument("--seed", type=_whole_number, metavar="S",
-                   help="Monte Carlo: root seed (default: the scene's montecarlo.seed)")
+    add_mc_option(p, "seed", help="Monte Carlo: root seed (default: the scene's "
+                  "montecarlo.seed)")
     p.add_argument("--floor", type=float, metavar="F",
                    help="Monte Carlo: simulate until the L1 noise floor of p(A) is at most F "
                         "(default: the scene's montecarlo.floor; 0: sample exactly --time)")
@@ -229,6 +227,26 @@ def _dt_value(text: str) -> float | str:
         return float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number or 'auto'") from None
+
+
+#: the Monte Carlo options every command shares, declared once here (issue 38 item 1): the flag,
+#: its type (the range is checked in harness/request/validate.py) and its metavar; the help is
+#: each command's (``add_mc_option``'s ``help``), since what the option means differs
+_MC_DECLARED: dict[str, dict[str, Any]] = {
+    "paths": {"type": _whole_number, "metavar": "N"},
+    "dt": {"type": _dt_value, "metavar": "H|auto"},
+    "seed": {"type": _whole_number, "metavar": "S"},
+}
+
+
+def add_mc_option(p: argparse.ArgumentParser, name: str, *, help: str,
+                  metavar: str | None = None) -> None:
+    """``--<name>`` (paths, dt or seed) as declared in ``_MC_DECLARED``, with this command's
+    help (and metavar, e.g. "H" where "auto" does not apply)."""
+    d = _MC_DECLARED[name]
+    p.add_argument(f"--{name}", type=d["type"], metavar=metavar or d["metavar"],
+                   help=help)
+
 
 
 def _model_name(text: str) -> str:

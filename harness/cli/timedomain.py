@@ -2,10 +2,10 @@
 
     vifpk passage SCENE --threshold Ac [--start A0 | --start stationary] [--model M ...]
                   [--method auto|direct|splitting] [--horizon T] [--at T ...]
-                  [--particles N] [--groups G] [--out DIR] [--json] [--paths N] [--dt H]
-                  [--seed S] [--yes]
+                  [--particles N] [--groups G] [--out DIR] [--json] [--paths N | --rel-se R
+                  [--max-paths N]] [--dt H] [--seed S] [--yes]
     vifpk transient SCENE --start A0 --times t1,t2,t3,... [--model M ...] [--out DIR] [--json]
-                  [--paths N] [--dt H] [--seed S] [--yes]
+                  [--paths N | --rel-se R [--max-paths N]] [--dt H] [--seed S] [--yes]
 
 Every input is checked before any computation by the time domain's request
 (harness/request/timedomain.py; one line, exit 2: :func:`check_passage`,
@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from vifpk.harness.request import cost, validate
+from vifpk.harness.request.timedomain import MAX_PATHS_FACTOR, REL_SE_MFPT, REL_SE_RELAXATION
 
 from vifpk.core.defaults import CHECK_MODELS
 
@@ -72,7 +73,8 @@ def check_passage(args: argparse.Namespace) -> Any:
     req = passage_request(_checked_scene(args, mc=True), threshold=args.threshold,
                           start=args.start, models=args.model, horizon=args.horizon,
                           paths=args.paths, method=args.method, at=args.at,
-                          particles=args.particles, groups=args.groups)
+                          particles=args.particles, groups=args.groups, rel_se=args.rel_se,
+                          max_paths=args.max_paths)
     return req
 
 
@@ -83,7 +85,8 @@ def check_transient(args: argparse.Namespace) -> Any:
 
     _refuse_common(args, "transient")
     req = transient_request(_checked_scene(args, mc=True), start=args.start, times=args.times,
-                            models=args.model, paths=args.paths)
+                            models=args.model, paths=args.paths, rel_se=args.rel_se,
+                            max_paths=args.max_paths)
     return req
 
 
@@ -121,6 +124,10 @@ def _print(res: Any, files: dict[str, Any], as_json: bool) -> None:
         return
     for v in res.verdicts:
         print(v)
+    if "precision" in res.metrics:
+        from vifpk.harness.workflows.precision import line
+
+        print(line(res.metrics["precision"]))
     if getattr(res, "recommendation", ""):
         print(res.recommendation)
     for line in mission_lines(res.metrics.get("at", ())):
@@ -215,12 +222,17 @@ def _splitting(args: argparse.Namespace, req: Any, out: str, prov: dict[str, Any
                reason: str) -> int:
     """vifpk passage --method splitting (harness/workflows/rarepassage.py): the MFPT only."""
     from vifpk.harness.outputs import outdir
+    from vifpk.harness.outputs.splitreport import passage_splitting_report
     from vifpk.harness.outputs.timereport import PASSAGE_FILES
-    from vifpk.harness.workflows.rarepassage import passage_splitting_report
 
+    if getattr(args, "rel_se", None) is not None or getattr(args, "max_paths", None) is not None:
+        reason += ("; --rel-se and --max-paths do not apply to splitting, which has its own "
+                   "target interval")
     print(f"method: splitting ({reason})")
     with outdir.hold(out, run_id=prov["run_id"], allowed=PASSAGE_FILES, kind="passage report"):
-        met = passage_splitting_report(req, out=out, prov=prov, reason=reason)
+        met = passage_splitting_report(req, out=out, prov=prov, reason=reason,
+                                       quiet=args.quiet,
+                                       run_warnings=getattr(args, "run_warnings", None))
         _finite(met)
     o = met["mfpt"]["original_system"]
     if args.json:
@@ -232,7 +244,9 @@ def _splitting(args: argparse.Namespace, req: Any, out: str, prov: dict[str, Any
         for line in met["verdicts"]:
             print(line)
         print(met["recommendation"])
-    print(f"report: {Path(out) / 'report.md'}")
+        for w in met.get("warnings", []):
+            print(f"warning: {w}")
+    print(f"report: {Path(out) / 'report.html'}")
     return 0
 
 
@@ -286,16 +300,17 @@ def _finite(metrics: dict[str, Any]) -> None:
                             + (" ..." if len(bad) > 3 else "") + "; no report written")
 
 
-def _common(p: argparse.ArgumentParser) -> None:
-    """The options passage and transient share."""
+def _common(p: argparse.ArgumentParser, quantity: str, default: float) -> None:
+    """The options passage and transient share (``quantity``, ``default``: what --rel-se
+    is on, and its default)."""
     from vifpk.harness.cli.options import (
-        _dt_value,
         _model_name,
-        _whole_number,
+        add_mc_option,
         add_quiet,
         add_scene,
         add_set,
     )
+    from vifpk.harness.cli.options import _whole_number as _number_whole
 
     # a value such as -5,10,20 or -1e3 is a value, not an option (issue 39, T01): argparse
     # takes only plain negative numbers as values by default; vifpk has no option -<digit>
@@ -313,15 +328,22 @@ def _common(p: argparse.ArgumentParser) -> None:
                         "(default: off; the report is written either way)")
     add_set(p)
     add_quiet(p)
-    p.add_argument("--paths", type=_whole_number, metavar="N",
-                   help="Monte Carlo: paths of each run, a whole multiple of "
-                        "montecarlo.blocks (default: the scene's montecarlo.paths)")
-    p.add_argument("--dt", type=_dt_value, metavar="H",
-                   help="Monte Carlo: time step (default: the scene's montecarlo.dt)")
-    p.add_argument("--seed", type=_whole_number, metavar="S",
-                   help="Monte Carlo: root seed; each model's averaged SDE gets a seed "
-                        "of S and the model's name alone, as in check (default: the "
-                        "scene's montecarlo.seed)")
+    add_mc_option(p, "paths", help="Monte Carlo: exactly N paths in each run, a whole "
+                  "multiple of montecarlo.blocks, no precision target (default: units of the "
+                  "scene's montecarlo.paths until --rel-se is met)")
+    p.add_argument("--rel-se", type=_number, metavar="R",
+                   help=f"target relative standard error of the original system's {quantity}, "
+                        "0 < R < 1: its paths grow in units of the scene's montecarlo.paths "
+                        "until R, --max-paths or the scene's montecarlo.budget (wall seconds) "
+                        f"is reached; the report says which (default {default:g})")
+    p.add_argument("--max-paths", type=_number_whole, metavar="N",
+                   help="the paths cap of --rel-se, >= montecarlo.paths, in whole units of "
+                        f"it (default {MAX_PATHS_FACTOR} x the scene's montecarlo.paths)")
+    add_mc_option(p, "dt", metavar="H", help="Monte Carlo: time step (default: the scene's "
+                  "montecarlo.dt)")
+    add_mc_option(p, "seed", help="Monte Carlo: root seed; each model's averaged SDE gets a "
+                  "seed of S and the model's name alone, as in check (default: the scene's "
+                  "montecarlo.seed)")
     p.add_argument("--yes", action="store_true",
                    help="run even when the estimated cost exceeds an hour (default: off)")
 
@@ -330,7 +352,7 @@ def passage_arguments(p: argparse.ArgumentParser) -> None:
     """``vifpk passage``'s options."""
     from vifpk.harness.cli.options import _whole_number
 
-    _common(p)
+    _common(p, "MFPT", REL_SE_MFPT)
     p.add_argument("--threshold", type=_number, required=True, metavar="Ac",
                    help="the amplitude threshold Ac (energy U(Ac)); required")
     p.add_argument("--start", type=_start, default="stationary", metavar="A0|stationary",
@@ -358,7 +380,7 @@ def passage_arguments(p: argparse.ArgumentParser) -> None:
 
 def transient_arguments(t: argparse.ArgumentParser) -> None:
     """``vifpk transient``'s options."""
-    _common(t)
+    _common(t, "relaxation time", REL_SE_RELAXATION)
     t.add_argument("--start", type=_number, required=True, metavar="A0",
                    help="start amplitude (energy U(A0), phase uniform in time along that "
                         "orbit, noise from its stationary law); required")

@@ -82,7 +82,7 @@ def closed_form(scene: Any, *, model: Any, tail_mass: bool = True, **options: An
 
     m = averaged_model(scene, model, **options)
     if averaging.has_closed_form(m):
-        with _blamed(m):
+        with _blamed(m), _heavy_tail(scene):
             res = averaging.solve(scene, model=m, tail_mass=tail_mass)
         res.info.update(model=model_label(model), closed_form=True)
         return res
@@ -91,6 +91,34 @@ def closed_form(scene: Any, *, model: Any, tail_mass: bool = True, **options: An
                     method=f"FPK direct solve, {REFERENCE_CELLS} cells (the model gives no "
                            "closed form: no log_stationary_parts/period)")
     return res
+
+
+@contextmanager
+def _heavy_tail(scene: Any) -> Iterator[None]:
+    """A parametric scene whose law exists with a power-law tail E^-kappa (vifpk.core.energy)
+    that the closed form's grid cannot hold (it asks for a fall by e^60 before A = 1e4): say
+    so, instead of "no stationary density"; where no law exists, say which noise outgrows
+    the losses (energy_balance's words)."""
+    from vifpk import averaging
+    from vifpk.core.energy import parametric_tail
+    from vifpk.core.scene import energy_balance
+
+    try:
+        yield
+    except averaging.NoStationaryDensity as exc:
+        par = getattr(scene, "parametric", None)
+        tail = parametric_tail(scene.system, par)
+        if tail is None or "does not decay" not in str(exc):
+            raise
+        if not tail.normalisable:
+            raise averaging.NoStationaryDensity(
+                f"{exc}: {energy_balance(scene.system, par).text}") from exc
+        raise averaging.NoStationaryDensity(
+            f"the amplitude density decays too slowly for the closed form's grid: the "
+            f"parametric noise gives the averaged law a power-law tail p(E) ~ "
+            f"E^-{tail.kappa:.3g} (a stationary law exists, kappa > 1"
+            f"{'' if tail.mean_finite else ', but its mean energy is infinite'}), which does "
+            "not fall by e^60 before A = 1e4") from exc
 
 
 def model_label(model: Any) -> str:

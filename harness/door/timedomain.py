@@ -201,10 +201,26 @@ def splitting_levels(scene: Any, *, start: float, threshold: float) -> dict[str,
     return {"low": low, "entry": entry, "source": source}
 
 
+#: passage_splitting's default groups and particles (montecarlo.SplittingSettings')
+SPLITTING_GROUPS, SPLITTING_PARTICLES = 20, 200
+#: what montecarlo.splitting says when every AMS run of a batch went extinct
+DIED_OUT = "every AMS run died out"
+
+
+class SplittingDiedOut(SolverFailure):
+    """Splitting found no passage in any group: a numerical failure (exit 3) that more
+    particles may cure; ``particles`` the number it had."""
+
+    def __init__(self, message: str, *, particles: int):
+        super().__init__(message)
+        self.particles = particles
+
+
 @boundary
 def passage_splitting(scene: Any, *, threshold: float, start: float | str,
                       low: float | None = None,
-                      entry: float | None = None, groups: int = 20, particles: int = 200,
+                      entry: float | None = None, groups: int = SPLITTING_GROUPS,
+                      particles: int = SPLITTING_PARTICLES,
                       levels: int = 200, kill: int = 0, paths: int = 8, cycles: int = 25,
                       dt: float | None = None, seed: int | None = None,
                       threads: int | None = None, rel_ci: float = 0.0, budget: float = 0.0,
@@ -249,10 +265,19 @@ def passage_splitting(scene: Any, *, threshold: float, start: float | str,
                           dt=float(st.dt), seed=int(st.seed), cycles=cycles, paths=paths,
                           rel_ci=rel_ci, budget=budget, max_groups=max_groups,
                           threads=int(st.threads))
-    res = split(scene.system, scene.noise, s, threshold=float(threshold),
-                start="stationary" if stationary else float(start), low=chosen["low"],
-                entry=chosen["entry"], burn_in=burn.get("burn_in", 0.0),
-                parametric=getattr(scene, "parametric", None))
+    try:
+        res = split(scene.system, scene.noise, s, threshold=float(threshold),
+                    start="stationary" if stationary else float(start), low=chosen["low"],
+                    entry=chosen["entry"], burn_in=burn.get("burn_in", 0.0),
+                    parametric=getattr(scene, "parametric", None))
+    except RuntimeError as exc:  # montecarlo.splitting's plain RuntimeError: issue 39, X13
+        if DIED_OUT not in str(exc):
+            raise
+        raise SplittingDiedOut(
+            f"splitting: every AMS run died out before reaching Ac = {float(threshold):g} "
+            f"(p = 0 in each of {groups} groups of {particles} particles): the passage is too "
+            f"rare for {particles} particles; raise particles (--particles, now {particles}) "
+            "or lower the threshold", particles=particles) from exc
     info = dict(res.info)
     info["levels_source"] = chosen["source"]
     if burn:

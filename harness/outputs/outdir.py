@@ -97,9 +97,12 @@ def hold(folder: str | Path, *, run_id: str = "", allowed: Collection[str] | Non
     lock, clear what killed runs left, and check that the folder may be replaced.
 
     ``kind`` (a key of :data:`KINDS`): a non-empty folder must hold that kind of output.
-    Yields the resolved folder path. Re-entrant within one process. The lock file is removed
-    on exit, and by the interrupt watchdog (harness/outputs/signals.py) when Ctrl-C or SIGTERM force
-    an exit; a run killed with SIGKILL leaves the file, which the next run finds stale.
+    Yields the resolved folder path. Re-entrant within one process. The folder's
+    replaceability is checked before the lock (a refusal leaves no lock file) and again under
+    it, after the recovery (the folder a killed run's leftovers restore is the one that will be
+    replaced). The lock file is removed on exit, and by the interrupt watchdog
+    (harness/outputs/signals.py) when Ctrl-C or SIGTERM force an exit; a run killed with
+    SIGKILL leaves the file, which the next run finds stale.
     """
     from vifpk.harness.outputs import signals
 
@@ -107,7 +110,7 @@ def hold(folder: str | Path, *, run_id: str = "", allowed: Collection[str] | Non
     if target in _held:
         yield target
         return
-    check_replaceable(target, allowed, kind)
+    check_replaceable(target, allowed, kind)  # early: a refusal creates no lock file
     made_parent = not target.parent.exists()
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
@@ -124,6 +127,10 @@ def hold(folder: str | Path, *, run_id: str = "", allowed: Collection[str] | Non
     handle = signals.on_interrupt(emergency)
     try:
         recover(target)
+        # again under the lock, on what recovery restored: a run killed between its two
+        # renames left DIR absent and its old set at .DIR.old-*, which the check above could
+        # not see (a sweep's folder restored here must not be replaced by a check report)
+        check_replaceable(target, allowed, kind)
         yield target
     finally:
         signals.forget(handle)

@@ -290,6 +290,14 @@ def transient_rows(res: Any) -> tuple[list[str], list[list[str]]]:
 
 
 # ------------------------------------------------------------------------------ common
+def _precision(res: Any) -> str:
+    """The run's precision line (harness/workflows/precision.py), "" when it has none."""
+    from vifpk.harness.workflows.precision import line
+
+    p = res.metrics.get("precision")
+    return line(p) if p else ""
+
+
 def _markdown(title: str, res: Any, figs: dict[str, str], head: list[str],
               rows: list[list[str]], extra: list[str]) -> str:
     out = [f"# {title}", ""]
@@ -297,6 +305,8 @@ def _markdown(title: str, res: Any, figs: dict[str, str], head: list[str],
         out += [f"*{provenance.summary(res.provenance)}*", ""]
     out += [res.scene.description, "", "## Verdicts", ""]
     out += [f"- {v}" for v in res.verdicts]
+    if _precision(res):
+        out += ["", _precision(res)]
     rec = getattr(res, "recommendation", "")
     if rec:
         out += ["", f"**{rec}**"]
@@ -336,6 +346,8 @@ def _html(title: str, res: Any, pngs: dict[str, bytes], head: list[str],
         parts.append(f'<p class="run">{e(provenance.summary(res.provenance))}</p>')
     parts += [f"<p>{e(res.scene.description)}</p>", "<h2>Verdicts</h2><ul>"]
     parts += [f"<li>{e(v)}</li>" for v in res.verdicts] + ["</ul>"]
+    if _precision(res):
+        parts.append(f'<p class="precision">{e(_precision(res))}</p>')
     rec = getattr(res, "recommendation", "")
     if rec:
         parts.append(f'<p class="recommendation"><b>{e(rec)}</b></p>')

@@ -40,6 +40,13 @@ METHODS = ("auto", "direct", "splitting")
 #: max_groups: its sequential stop adds groups up to this many)
 SPLITTING_MAX_GROUPS = 400
 TIMES_ALLOWED = f"at least {MIN_FIT_TIMES} times > 0 in strictly increasing order"
+#: the time domain's default precision (issue 39 item 5; harness/workflows/precision.py says
+#: why, docs/passage.md "Precision" measures it): the target relative standard error of the
+#: original system's MFPT (passage) and of its relaxation time (transient), and the paths cap
+#: as a multiple of the first unit (the scene's montecarlo.paths)
+REL_SE_MFPT = 0.05
+REL_SE_RELAXATION = 0.05
+MAX_PATHS_FACTOR = 16
 
 
 @dataclass(frozen=True)
@@ -51,7 +58,9 @@ class PassageRequest:
     plan's defaults; ``at``: mission times T at which R(T) is reported (``--at``);
     ``particles``, ``groups``: splitting's replicas per AMS run and independent repetitions
     (None: the door's defaults, 200 and 20); ``quadratures``: {model label: fpk.mfpt's
-    record} once priced (:func:`with_quadratures`)."""
+    record} once priced (:func:`with_quadratures`); ``rel_se``, ``max_paths``: the target
+    relative standard error of the original system's MFPT and the paths cap the paths grow to
+    (harness/workflows/precision.py; both None: exactly ``paths`` or the scene's paths)."""
 
     scene: Scene
     threshold: float
@@ -64,6 +73,8 @@ class PassageRequest:
     at: tuple[float, ...] = ()
     particles: int | None = None
     groups: int | None = None
+    rel_se: float | None = None
+    max_paths: int | None = None
     quadratures: Mapping[str, Any] | None = field(default=None, compare=False)
 
     @property
@@ -82,6 +93,8 @@ class TransientRequest:
     models: tuple[Any, ...] = CHECK_MODELS
     paths: int | None = None
     sde: bool = True
+    rel_se: float | None = None
+    max_paths: int | None = None
 
     @property
     def dt(self) -> float:
@@ -177,6 +190,33 @@ def _paths(paths: Any) -> int | None:
     return int(paths)
 
 
+def precision(scene: Scene, *, paths: int | None, rel_se: Any, max_paths: Any,
+              default: float) -> tuple[float | None, int | None]:
+    """(target relative standard error, paths cap) of a time-domain run
+    (harness/workflows/precision.py): with ``paths`` given, (None, None) -- exactly that many
+    paths, and ``rel_se`` or ``max_paths`` given with it are refused (one line); else the
+    target (default ``default``; allowed 0 < R < 1) and the cap (default MAX_PATHS_FACTOR x the
+    scene's montecarlo.paths; allowed: a whole number >= montecarlo.paths)."""
+    unit = int(scene.montecarlo.paths)
+    if paths is not None:
+        for option, value in (("--rel-se", rel_se), ("--max-paths", max_paths)):
+            if value is not None:
+                raise InputError(f"{option}: does not apply with --paths (exactly that many "
+                                 f"paths, no target); give --paths or {option}, not both")
+        return None, None
+    r = default if rel_se is None else real("--rel-se", rel_se, "a number 0 < R < 1")
+    if not (0.0 < r < 1.0):
+        raise InputError(f"--rel-se {r:g}: out of range; allowed: a number 0 < R < 1 (the "
+                         "target relative standard error)")
+    if max_paths is None:
+        return r, MAX_PATHS_FACTOR * unit
+    if isinstance(max_paths, bool) or not isinstance(max_paths, numbers.Integral) \
+            or max_paths < unit:
+        raise InputError(f"--max-paths {max_paths!r}: out of range; allowed: a whole number "
+                         f">= montecarlo.paths = {unit} (the paths come in units of {unit})")
+    return r, int(max_paths)
+
+
 # ------------------------------------------------------------------------------- passage
 def passage_values(scene: Scene, *, threshold: Any, start: Any, horizon: Any = None
                    ) -> tuple[float, float | str, float | None]:
@@ -223,8 +263,9 @@ def mission_times(at: Any) -> tuple[float, ...]:
 def passage_request(scene: Scene, *, threshold: Any, start: Any = "stationary",
                     models: Any = None, horizon: Any = None, paths: Any = None,
                     sde: Any = True, method: Any = "auto", at: Any = None,
-                    particles: Any = None, groups: Any = None,
-                    methods: tuple[str, ...] = METHODS) -> PassageRequest:
+                    particles: Any = None, groups: Any = None, rel_se: Any = None,
+                    max_paths: Any = None, methods: tuple[str, ...] = METHODS
+                    ) -> PassageRequest:
     """The checked PassageRequest (module docstring); InputError, one line, before any work.
     ``method`` "splitting" estimates the MFPT only, with no horizon and no paths of its own:
     ``horizon``, ``paths`` and ``at`` given with it are refused (they do not apply), as are
@@ -247,7 +288,8 @@ def passage_request(scene: Scene, *, threshold: Any, start: Any = "stationary",
                              f"{allowed}")
         knobs[option[2:]] = int(value)
     if method == "splitting":
-        for option, value in (("--horizon", horizon), ("--paths", paths), ("--at", at)):
+        for option, value in (("--horizon", horizon), ("--paths", paths), ("--at", at),
+                              ("--rel-se", rel_se), ("--max-paths", max_paths)):
             if value is not None:
                 raise InputError(f"{option}: does not apply to --method splitting (splitting "
                                  "estimates the MFPT by its own particles and cycles, with no "
@@ -259,9 +301,12 @@ def passage_request(scene: Scene, *, threshold: Any, start: Any = "stationary",
         raise InputError(f"--at {times[-1]:g}: beyond --horizon {h:g} (the original system's "
                          "R(T) is measured up to the horizon only); allowed: 0 < T <= "
                          f"{h:g}, or a longer --horizon")
+    n = _paths(paths)
+    target, cap = precision(scene, paths=n, rel_se=rel_se, max_paths=max_paths,
+                            default=REL_SE_MFPT)
     req = PassageRequest(scene=scene, threshold=ac, start=a0, models=models_of(scene, models),
-                         horizon=h, paths=_paths(paths), sde=flag("sde", sde), method=method,
-                         at=times, **knobs)
+                         horizon=h, paths=n, sde=flag("sde", sde), method=method,
+                         at=times, rel_se=target, max_paths=cap, **knobs)
     if method != "splitting":
         _fits_in_memory(scene, req.paths)
     return req
@@ -334,12 +379,18 @@ def transient_values(scene: Scene, *, start: Any, times: Any) -> tuple[float, tu
 
 
 def transient_request(scene: Scene, *, start: Any, times: Any, models: Any = None,
-                      paths: Any = None, sde: Any = True) -> TransientRequest:
-    """The checked TransientRequest (module docstring); InputError, one line, before any work."""
+                      paths: Any = None, sde: Any = True, rel_se: Any = None,
+                      max_paths: Any = None) -> TransientRequest:
+    """The checked TransientRequest (module docstring); InputError, one line, before any work.
+    ``rel_se``, ``max_paths``: the relaxation time's target and the paths cap
+    (:func:`precision`)."""
     scene = time_scene(scene)
     a0, t = transient_values(scene, start=start, times=times)
+    n = _paths(paths)
+    target, cap = precision(scene, paths=n, rel_se=rel_se, max_paths=max_paths,
+                            default=REL_SE_RELAXATION)
     req = TransientRequest(scene=scene, start=a0, times=t, models=models_of(scene, models),
-                           paths=_paths(paths), sde=flag("sde", sde))
+                           paths=n, sde=flag("sde", sde), rel_se=target, max_paths=cap)
     _fits_in_memory(scene, req.paths)
     return req
 

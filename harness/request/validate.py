@@ -49,7 +49,8 @@ from vifpk.core.scene import SECTIONS, Scene
 MAGNITUDE = (1e-100, 1e100)  # allowed |value| of a non-zero physical parameter (module doc)
 
 
-PHYSICAL = {"system": ("c1", "c2", "omega0", "alpha", "mu", "f"), "noise": ("D", "alpha1")}
+PHYSICAL = {"system": ("c1", "c2", "omega0", "alpha", "mu", "f"), "noise": ("D", "alpha1"),
+            "parametric": ("stiffness", "damping")}
 
 
 REL = 1e-9  # relative slack of "a whole number" tests (far above rounding, far below any step)
@@ -150,6 +151,11 @@ def stationary_density(scene: Scene) -> None:
     bal = energy_balance(scene.system, scene.parametric)
     if not bal.grows:
         return
+    bounds = bal.tail.bounds if bal.tail is not None else {}
+    for key, top in bounds.items():  # vifpk.core.energy: each intensity's bound, the other held
+        value = getattr(scene.parametric, key.split(".")[1])
+        raise InputError(f"{key} = {value:g} is out of range for this scene; allowed: 0 <= "
+                         f"{key} < {top:.4g} (above it {bal.text})")
     if bal.gains:
         allowed = (f"a loss of a degree above A^{bal.degree} (e.g. a positive damping or "
                    "velocity_damping term of higher degree), or no gain at that degree")

@@ -9,6 +9,8 @@
     sde = false                  # optional: also the averaged SDEs' Monte Carlo (default off)
     method = "direct"            # or "splitting": the MFPT only, at thresholds direct
                                  # simulation cannot reach (no horizon; particles, groups)
+    rel_se = 0.05                # optional: the MFPT's target relative standard error
+    max_paths = 16384            # optional: its paths cap (docs/passage.md, "Precision")
 
     workflow = "transient"
     [transient]
@@ -29,8 +31,9 @@ from typing import Any
 #: workflow parameters that a sweep may vary or fix in its table, by workflow
 TIME_PARAMS = {"passage.threshold": "passage", "passage.start": "passage",
                "transient.start": "transient"}
-KEYS = {"passage": ("threshold", "start", "horizon", "sde", "method", "particles", "groups"),
-        "transient": ("start", "times", "sde")}
+KEYS = {"passage": ("threshold", "start", "horizon", "sde", "method", "particles", "groups",
+                    "rel_se", "max_paths"),
+        "transient": ("start", "times", "sde", "rel_se", "max_paths")}
 POINT_SECONDS = 3600.0  # a point's Monte Carlo is refused above an hour at the fastest rate
 
 
@@ -132,9 +135,11 @@ def request(workflow: str, opts: Mapping[str, Any], scene: Any, models: Any) -> 
         return passage_request(scene, threshold=opts["threshold"], start=opts["start"],
                                models=models, horizon=opts.get("horizon"), sde=opts["sde"],
                                method=opts.get("method", "direct"),
-                               particles=opts.get("particles"), groups=opts.get("groups"))
+                               particles=opts.get("particles"), groups=opts.get("groups"),
+                               rel_se=opts.get("rel_se"), max_paths=opts.get("max_paths"))
     return transient_request(scene, start=opts["start"], times=opts["times"], models=models,
-                             sde=opts["sde"])
+                             sde=opts["sde"], rel_se=opts.get("rel_se"),
+                             max_paths=opts.get("max_paths"))
 
 
 def _price(p: dict[str, Any], runs: int) -> None:

@@ -34,16 +34,19 @@ from typing import Any
 
 import numpy as np
 from vifpk.harness.door import solvers, timedomain
+from vifpk.harness.workflows import precision
 from vifpk.harness.workflows.check import _Stages, models_of, sde_seed
+from vifpk.harness.workflows.precision import _fpt, not_measured
 from vifpk.harness.workflows.verdict import RECOMMENDABLE
 
 from vifpk.core.defaults import BURN_FACTOR, CHECK_MODELS
 
 HORIZON_FACTOR = 8.0  # horizon = 8 x the largest model MFPT (censoring e^-8 if a model is right)
 CENSORED_WARN = 0.01  # more censored paths than this: warn, compare restricted means
-INDISTINGUISHABLE_FACTOR = 2.0  # |e| < 2 error bars: cannot be told from zero
-MFPT_SMALL = 0.1  # |T_M / T_MC - 1| below 10%
-MFPT_LARGE = 0.3  # at or above 30%
+# the time domain's one rule (precision.model_error_class), kept here under their old names
+INDISTINGUISHABLE_FACTOR = precision.ERROR_BAR_FACTOR  # |e| < 2 error bars: not told from zero
+MFPT_SMALL = precision.MFPT_SMALL  # |T_M / T_MC - 1| below 10%
+MFPT_LARGE = precision.MFPT_LARGE  # at or above 30%
 SAMPLING_Z = 3.0  # the averaged SDE's MFPT within 3 standard errors of its quadrature
 CURVE_POINTS = 200  # points of each R(t) curve kept in metrics.json (all in arrays.npz)
 
@@ -146,24 +149,32 @@ def run_seconds(p: dict[str, Any], runs: int, speed: float, cores: int) -> float
 
 
 # ------------------------------------------------------------------------------- workflow
-def run(req: Any, *, quiet: bool = True, price: Any = None) -> PassageResult:
+def run(req: Any, *, quiet: bool = True, price: Any = None,
+        reference: Any = None) -> PassageResult:
     """The workflow on a checked request (harness.request.timedomain.PassageRequest): every
-    front end builds one and calls this."""
+    front end builds one and calls this. ``reference``: passage()'s."""
     return passage(req.scene, threshold=req.threshold, start=req.start, models=req.models,
                    paths=req.paths, horizon=req.horizon, sde=req.sde, quiet=quiet,
-                   price=price, quadratures=req.quadratures, at=req.at)
+                   price=price, quadratures=req.quadratures, at=req.at, rel_se=req.rel_se,
+                   max_paths=req.max_paths, reference=reference)
 
 
 def passage(scene: Any, *, threshold: float, start: float | str = "stationary",
             models: tuple[str, ...] = CHECK_MODELS, paths: int | None = None,
             horizon: float | None = None, sde: bool = True, quiet: bool = True,
             price: Any = None, quadratures: Mapping[str, Any] | None = None,
-            at: tuple[float, ...] = ()) -> PassageResult:
+            at: tuple[float, ...] = (), rel_se: float | None = None,
+            max_paths: int | None = None, reference: Any = None) -> PassageResult:
     """The first-passage cross-check (module docstring). ``price(plan)`` is called with the
     Monte Carlo plan before any Monte Carlo and may raise (the CLI's cost guard).
     ``quadratures``: {model label: fpk.mfpt's record} already computed to price the run
     (request.timedomain.with_quadratures), reused. ``at``: mission times T whose R(T) is
-    reported for every model and the original system (metrics["at"])."""
+    reported for every model and the original system (metrics["at"]). ``rel_se``: the
+    original system's paths grow in units of ``paths`` (or the scene's) until the relative
+    standard error of its MFPT is at most ``rel_se`` or ``max_paths`` / the scene's budget is
+    reached (harness/workflows/precision.py; None: exactly ``paths``); metrics["precision"]
+    says which. ``reference``: a stand-in for timedomain.passage_montecarlo with its
+    signature (the testing API's on-disk cache of the original system's runs)."""
     from vifpk.harness.workflows import survival
 
     named, models, absent = applicable(scene, models)
@@ -186,15 +197,16 @@ def passage(scene: Any, *, threshold: float, start: float | str = "stationary",
         price(p)
     stages("Monte Carlo of the original system (first passage)")
     burn = {"burn_in": p["burn_in"]} if isinstance(p.get("burn_in"), float) else {}
-    mc = timedomain.passage_montecarlo(scene, threshold=threshold, start=start,
-                                       horizon=p["horizon"], paths=p["paths"],
-                                       progress=not quiet, **burn)
+    mc, prec = precision.original_system(scene, threshold=threshold, start=start, plan=p,
+                                         burn=burn, rel_se=rel_se, max_paths=max_paths,
+                                         quiet=quiet, reference=reference)
+    p = dict(p, paths=int(prec["paths"]), first_paths=p["paths"])
     sol["mc:original"] = mc
     t_mc, cens = _fpt(mc)
     km = survival.kaplan_meier(t_mc, cens)
     rmean = survival.restricted_mean(t_mc, cens, p["horizon"])
     frac = float(np.mean(cens)) if cens.size else 0.0
-    warnings: list[str] = []
+    warnings: list[str] = precision.unmet(prec)
     if frac > CENSORED_WARN:
         warnings.append(
             f"{100 * frac:.1f}% of the original system's paths did not pass Ac = {threshold:g} "
@@ -244,7 +256,7 @@ def passage(scene: Any, *, threshold: float, start: float | str = "stationary",
         "start": start if start == "stationary" else float(start),
         "start_law": start_label(start),
         "mfpt": {**mfpt, "original_system": orig},
-        "models": entries, "plan": dict(p, censored_fraction=frac),
+        "models": entries, "plan": dict(p, censored_fraction=frac), "precision": prec,
         "R": _curves(sol, km, models, sde),
         "verdicts": verdicts, "recommended_model": rec_model, "recommendation": rec_line,
         "warnings": warnings,
@@ -296,11 +308,6 @@ def sde_start(scene: Any, model: Any, start: float | str, threshold: float, path
     cdf = np.concatenate([[0.0], np.cumsum(0.5 * (p[1:] + p[:-1]) * np.diff(A))])
     u = np.random.default_rng(np.random.SeedSequence([seed, 0x57A7])).random(paths)
     return np.minimum(np.interp(u * cdf[-1], cdf, A), np.nextafter(threshold, 0.0))
-
-
-def _fpt(res: Any) -> tuple[np.ndarray, np.ndarray]:
-    f = res.data["fpt"]
-    return np.asarray(f["time"], float), np.asarray(f["censored"], bool)
 
 
 def _scalar(v: Any) -> float:
@@ -423,9 +430,9 @@ def verdict_class(e: dict[str, Any], censored_fraction: float = 0.0) -> tuple[st
     v, bar = float(err["value"]), float(err["err"])
     if not (math.isfinite(v) and math.isfinite(bar)):
         return "not an estimate", "the MFPT error is not finite"
-    if abs(v) < INDISTINGUISHABLE_FACTOR * bar:
+    cls = precision.model_error_class(v, bar)  # the one rule of the time domain
+    if cls == precision.WITHIN:
         return "indistinguishable", "Monte Carlo noise (the error is within 2 error bars)"
-    cls = "small" if abs(v) < MFPT_SMALL else ("moderate" if abs(v) < MFPT_LARGE else "large")
     side = "too short (the model predicts failure too early)" if v < 0 else \
         "too long (the model predicts failure too late: unsafe)"
     return cls, f"the averaged model itself: its MFPT is {side}"
@@ -438,9 +445,11 @@ def verdict(model: str, e: dict[str, Any]) -> str:
     err = _error_used(e)
     what = "restricted MFPT" if "mfpt_error_restricted" in e else "MFPT"
     s = e["R_sup"]
-    line = (f"{model} model: {e['verdict_class'].upper()} -- {what} error "
-            f"{100 * err['value']:+.1f}% +/- {100 * err['err']:.1f}% against the original "
-            f"system; sup|R_model - R_MC| = {s['value']:.3f} (noise floor {s['floor']:.3f}"
+    pct = f"{100 * err['value']:+.1f}% +/- {100 * err['err']:.1f}%"
+    if e["verdict_class"] == "indistinguishable":  # the rule: no model error below 2 bars
+        pct = f"within the error bar ({pct})"
+    line = (f"{model} model: {e['verdict_class'].upper()} -- {what} error {pct} against the "
+            f"original system; sup|R_model - R_MC| = {s['value']:.3f} (noise floor {s['floor']:.3f}"
             + ("" if s.get("inside_band", True) else ", outside the 95% band") + ")")
     d = e["fpt_density_L1"]
     if d.get("value") is not None:
@@ -470,24 +479,3 @@ def recommend(entries: dict[str, Any]) -> tuple[str, str]:
         return "none", (head + f"none -- the best model, {best}, misses the MFPT by "
                         f"{100 * _error_used(cand[best])['value']:+.1f}% ({desc})")
     return best, head + f"{best} -- nearest MFPT to the original system's ({desc})"
-
-
-def not_measured(t_mc: np.ndarray, cens: np.ndarray, threshold: float, horizon: float,
-                 dt: float, stderr: float) -> str:
-    """Why the original system's MFPT is not a measurement ("" when it is): no path passed
-    within the horizon (every one censored: the restricted mean is the horizon itself), or
-    every passage came within the first time step (the MFPT is below the step's resolution and
-    its spread is zero), or the estimate has no error bar at all."""
-    done = t_mc[~cens]
-    if done.size == 0:
-        return (f"no path of the original system passed Ac = {threshold:g} within the horizon "
-                f"{horizon:.4g} ({cens.size} of {cens.size} censored): its MFPT is not "
-                "measured; raise --horizon")
-    if float(np.max(done)) <= dt * (1.0 + 1e-9):
-        return (f"every passing path of the original system crossed Ac = {threshold:g} within "
-                f"the first time step (dt = {dt:g}): its MFPT is below the step's resolution; "
-                "start further below Ac, or give a smaller --dt")
-    if not (math.isfinite(stderr) and stderr > 0):
-        return "the original system's MFPT has no error bar (no spread in its passage times)"
-    return ""
-

@@ -8,21 +8,21 @@ no Kaplan-Meier R(t), no sup |R - R_MC| and no FPT-density L1: metrics.json hold
 model {"value"}, "original_system" {"value", "stderr", "ci", "method": "splitting", ...}),
 per model the relative MFPT error with its error bar (survival.relative_mfpt_error), its
 verdict class (passage.verdict_class: the same classes as a direct run), the recommendation
-(passage.recommend), the method and why it was chosen; report.md a table of the same.
+(passage.recommend), the method and why it was chosen, the splitting attempts; the report
+(report.html, report.md, metrics.json) is harness/outputs/splitreport.py's.
 """
 
 from __future__ import annotations
 
+import sys
 import time
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 from vifpk.harness.door import timedomain
 from vifpk.harness.workflows import survival
 
 from vifpk.core import registry
-from vifpk.core.io import write_atomic, write_json
 
 #: the target 95% half-width of the original system's MFPT, relative, and the wall budget
 REL_CI, BUDGET = 0.10, 900.0
@@ -41,26 +41,32 @@ class SplittingResult:
     verdicts: list[str]
     recommendation: str
     warnings: list[str]
+    provenance: dict[str, Any] | None = None
 
 
-def run(req: Any, *, reason: str) -> SplittingResult:
+def run(req: Any, *, reason: str, quiet: bool = True) -> SplittingResult:
     """The splitting workflow on a checked PassageRequest (harness/request/timedomain.py):
     its models' MFPTs (the request's quadratures when priced, else computed here), the
-    original system's by splitting (``req.particles``, ``req.groups`` when given)."""
+    original system's by splitting (``req.particles``, ``req.groups`` when given). Progress
+    lines on the standard error unless ``quiet`` (the direct run's). When every AMS run dies
+    out at the default particles, the splitting runs again with twice as many while the next
+    run (priced at twice the last) fits in BUDGET; with ``req.particles`` given, or out of
+    budget, door.timedomain.SplittingDiedOut (exit 3, naming --particles)."""
+    from vifpk.harness.workflows.check import _Stages
     from vifpk.harness.workflows.passage import recommend, verdict_class
 
     t0 = time.perf_counter()
     scene, threshold, start = req.scene, req.threshold, req.start
     names = tuple(m for m in req.models if isinstance(m, str))
+    kept = registry.applicable(scene, names)[0]  # the models that apply to the scene
+    stages = _Stages(len(kept) + 2, quiet)
     mfpt: dict[str, Any] = {}
-    for m in registry.applicable(scene, names)[0]:  # the models that apply to the scene
+    for m in kept:
+        stages(f"MFPT of the {m} model (quadrature)")
         q = (req.quadratures or {}).get(m) or timedomain.mfpt_averaged(
             scene, m, threshold=threshold, start=start)
         mfpt[m] = {"value": float(q["value"]), "error_estimate": q.get("error_estimate")}
-    knobs = {k: v for k, v in (("particles", req.particles), ("groups", req.groups))
-             if v is not None}
-    sp = timedomain.passage_splitting(scene, threshold=threshold, start=start, rel_ci=REL_CI,
-                                      budget=BUDGET, **knobs)
+    sp, attempts = _split(req, stages)
     o = sp.info["mfpt"]
     orig = {"value": o["value"], "stderr": o["stderr"], "ci": o["ci"], "method": "splitting",
             "restricted": False, "groups": sp.info["groups"], "p_cycle": o["p"]["value"],
@@ -75,17 +81,63 @@ def run(req: Any, *, reason: str) -> SplittingResult:
     rec_model, rec_line = recommend(models_out)
     keep = ("low", "entry", "levels_source", "target", "groups", "direct_cycles",
             "direct_successes", "seconds", "burn_in", "burn_in_rule", "settings")
+    stages("metrics")
+    stages.done()
+    warnings = [f"every AMS run died out with {a['particles']} particles: run again with "
+                f"{2 * a['particles']}" for a in attempts[:-1]]
     metrics = {"workflow": "passage", "method": "splitting", "method_reason": reason,
                "threshold": float(threshold),
                "start": start if start == "stationary" else float(start),
                "mfpt": {**mfpt, "original_system": orig}, "models": models_out,
-               "splitting": {k: sp.info[k] for k in keep if k in sp.info},
+               "splitting": {**{k: sp.info[k] for k in keep if k in sp.info},
+                             "attempts": attempts},
+               "warnings": warnings,
                "verdicts": verdicts, "recommended_model": rec_model,
                "recommendation": rec_line,
                "timings": {"wall_seconds": time.perf_counter() - t0}}
     return SplittingResult(scene=scene, threshold=float(threshold), start=start,
                            models=tuple(mfpt), metrics=metrics, verdicts=verdicts,
-                           recommendation=rec_line, warnings=[])
+                           recommendation=rec_line, warnings=warnings)
+
+
+def _split(req: Any, stages: Any) -> tuple[Any, list[dict[str, Any]]]:
+    """door.timedomain.passage_splitting with the request's knobs and what is left of BUDGET
+    (its batches stop there); on SplittingDiedOut at the default particles, again with twice
+    as many while twice the last run's seconds fit in what is left (run's docstring).
+    Returns (result, attempts: [{"particles", "seconds", "outcome"}])."""
+    given = req.particles is not None
+    particles = int(req.particles if given else timedomain.SPLITTING_PARTICLES)
+    knobs = {} if req.groups is None else {"groups": req.groups}
+    attempts: list[dict[str, Any]] = []
+    t0 = time.perf_counter()
+    while True:
+        groups = knobs.get("groups", timedomain.SPLITTING_GROUPS)
+        stages(f"splitting of the original system ({particles} particles x {groups} groups, "
+               f"to a 95% half-width of {REL_CI:.0%} within "
+               f"{BUDGET - (time.perf_counter() - t0):.0f} s)")
+        t = time.perf_counter()
+        mine = {"particles": particles} if given or attempts else {}
+        try:
+            sp = timedomain.passage_splitting(
+                req.scene, threshold=req.threshold, start=req.start, rel_ci=REL_CI,
+                budget=max(BUDGET - (t - t0), 1.0), **knobs, **mine)
+        except timedomain.SplittingDiedOut as exc:
+            spent = time.perf_counter() - t
+            attempts.append({"particles": particles, "seconds": spent, "outcome": "died out"})
+            left = BUDGET - (time.perf_counter() - t0)
+            if given or 2.0 * spent > left:
+                if not stages.quiet:  # end the stage's line: the failure's line comes next
+                    print(f" died out, {spent:.1f} s", file=sys.stderr, flush=True)
+                tried = ", ".join(str(a["particles"]) for a in attempts)
+                why = "" if given else (f" (tried {tried} particles; twice the last run would "
+                                        f"exceed the {BUDGET:g} s budget)")
+                raise timedomain.SplittingDiedOut(f"{exc}{why}", particles=particles) from None
+            particles *= 2
+            stages.total += 1
+            continue
+        attempts.append({"particles": particles, "seconds": time.perf_counter() - t,
+                         "outcome": "finished"})
+        return sp, attempts
 
 
 def _verdict(model: str, e: dict[str, Any]) -> str:
@@ -96,32 +148,3 @@ def _verdict(model: str, e: dict[str, Any]) -> str:
     if e["verdict_class"] not in ("indistinguishable", "not an estimate"):
         line += f"; {e['verdict_cause']}"
     return line
-
-
-def write_report(res: SplittingResult, out: str | Path, prov: dict[str, Any]) -> None:
-    """DIR/metrics.json and DIR/report.md of a splitting run."""
-    metrics = dict(res.metrics, provenance=prov)
-    o = metrics["mfpt"]["original_system"]
-    folder = Path(out)
-    folder.mkdir(parents=True, exist_ok=True)
-    write_json(folder / "metrics.json", metrics)
-    rows = [f"| {m} | {e['mfpt']:.4g} | {100 * e['mfpt_error']['value']:+.1f}% +- "
-            f"{100 * e['mfpt_error']['err']:.1f}% | {e['verdict_class']} |"
-            for m, e in metrics["models"].items()]
-    text = "\n".join([
-        f"# First passage to Ac = {res.threshold:g} (method: splitting)", "",
-        f"Method: splitting ({metrics['method_reason']}). Original system: MFPT "
-        f"{o['value']:.4g} +- {o['stderr']:.2g} (95% interval {o['ci'][0]:.4g} to "
-        f"{o['ci'][1]:.4g}; {metrics['splitting']['target']}).", "",
-        "| model | MFPT | relative error vs original (1 s.e.) | class |", "|---|---|---|---|",
-        *rows, "", res.recommendation, "",
-        "Splitting estimates the MFPT only: no R(t), FPT density or their metrics here.", ""])
-    write_atomic(folder / "report.md", text)
-
-
-def passage_splitting_report(req: Any, *, out: str | Path, prov: dict[str, Any], reason: str
-                             ) -> dict[str, Any]:
-    """Run and write DIR/metrics.json and DIR/report.md; returns the metrics."""
-    res = run(req, reason=reason)
-    write_report(res, out, prov)
-    return dict(res.metrics, provenance=prov)

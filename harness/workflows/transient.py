@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 from vifpk.harness.door import solvers, timedomain
 from vifpk.harness.request.timedomain import MIN_FIT_TIMES  # the fit's fewest times (3)
+from vifpk.harness.workflows import precision
 from vifpk.harness.workflows.check import _Stages, sde_seed
 from vifpk.harness.workflows.compare import compare
 from vifpk.harness.workflows.passage import applicable, plain_info
@@ -81,14 +82,20 @@ def snapshot_edges(scene: Any, fpks: dict[str, Any], start: float, bins: int
 def run(req: Any, *, quiet: bool = True, price: Any = None) -> TransientResult:
     """The workflow on a checked request (harness.request.timedomain.TransientRequest)."""
     return transient(req.scene, start=req.start, times=req.times, models=req.models,
-                     paths=req.paths, sde=req.sde, quiet=quiet, price=price)
+                     paths=req.paths, sde=req.sde, quiet=quiet, price=price,
+                     rel_se=req.rel_se, max_paths=req.max_paths)
 
 
 def transient(scene: Any, *, start: float, times: tuple[float, ...],
               models: tuple[str, ...] = CHECK_MODELS, paths: int | None = None,
-              sde: bool = True, quiet: bool = True, price: Any = None) -> TransientResult:
+              sde: bool = True, quiet: bool = True, price: Any = None,
+              rel_se: float | None = None, max_paths: int | None = None) -> TransientResult:
     """The transient cross-check (module docstring). ``price(edges)`` is called before any
-    Monte Carlo and may raise (the CLI's cost guard)."""
+    Monte Carlo and may raise (the CLI's cost guard). ``rel_se``: the original system's
+    paths grow in units of ``paths`` (or the scene's) until the relative standard error of its
+    relaxation time is at most ``rel_se``, or ``max_paths`` / the scene's budget is reached
+    (harness/workflows/precision.py; None: exactly ``paths``); metrics["precision"] says
+    which. The histogram grid is fixed by the first unit's paths (snapshot_bins)."""
     named, models, absent = applicable(scene, models)
     times = tuple(float(t) for t in times)
     stages = _Stages(2 + len(models) * (1 + int(sde)), quiet)
@@ -102,8 +109,9 @@ def transient(scene: Any, *, start: float, times: tuple[float, ...],
     if price is not None:
         price(n)
     stages("Monte Carlo of the original system (snapshots)")
-    mc = timedomain.transient_montecarlo(scene, start=start, times=times, edges=edges, paths=n,
-                                  progress=not quiet)
+    mc, prec = _original(scene, start=start, times=times, edges=edges, paths=n, rel_se=rel_se,
+                         max_paths=max_paths, quiet=quiet)
+    n = int(prec["paths"])
     sol["mc:original"] = mc
     hists = snapshot_hists(mc)
     for m in models if sde else ():
@@ -113,7 +121,7 @@ def transient(scene: Any, *, start: float, times: tuple[float, ...],
                                             seed=sde_seed(scene.montecarlo.seed, m))
     stages("metrics")
     entries: dict[str, Any] = {}
-    warnings: list[str] = []
+    warnings: list[str] = precision.unmet(prec)
     measured = fit_relaxation(times, [mean_of(h) for h in hists], start)
     if measured is not None and not measured["err"] > 0:  # no error bar: not a measurement
         measured = None
@@ -148,9 +156,7 @@ def transient(scene: Any, *, start: float, times: tuple[float, ...],
         pred = float(fpk.info.get("relaxation_time", math.nan))
         entries[m] = {"snapshots": rows, "verdict_class": worst["class"],
                       "worst_time": worst["t"],
-                      "relaxation": {"predicted": pred,
-                                     "fitted": fitted["value"] if fitted else None,
-                                     "error": _tau_error(fitted, measured)}}
+                      "relaxation": _relaxation(pred, fitted, measured)}
     if measured is None and not any("no error bar" in w for w in warnings):
         warnings.append(f"no relaxation time measured on the original system: the fit of its "
                         f"mean amplitude needs at least {MIN_FIT_TIMES} snapshot times that "
@@ -167,7 +173,7 @@ def transient(scene: Any, *, start: float, times: tuple[float, ...],
                        **{m: entries[m]["relaxation"] for m in models}},
         "original_system": {"mean_A": [mean_of(h)[0] for h in hists],
                             "mean_A_err": [mean_of(h)[1] for h in hists], "paths": n},
-        "verdicts": verdicts, "warnings": warnings,
+        "verdicts": verdicts, "warnings": warnings, "precision": prec,
         "monte_carlo": plain_info(mc.info),
         "timings": {"wall_seconds": float(sum(stages.seconds.values())),
                     "stages": stages.seconds},
@@ -269,6 +275,49 @@ def _tau_error(fitted: dict[str, Any] | None, measured: dict[str, Any] | None
     return {"value": r - 1.0, "err": r * measured["err"] / measured["value"]}
 
 
+def _original(scene: Any, *, start: float, times: tuple[float, ...], edges: dict[str, Any],
+              paths: int, rel_se: float | None, max_paths: int | None, quiet: bool
+              ) -> tuple[Any, dict[str, Any]]:
+    """(the original system's snapshots, metrics.json's "precision"): one run of ``paths``
+    (``rel_se`` None) or units of ``paths`` grown to the relaxation time's target
+    (harness/workflows/precision.py; the misfit stop applies)."""
+    quantity = "relaxation time of the original system"
+
+    def one(k: int, seed: int | None) -> Any:
+        return timedomain.transient_montecarlo(scene, start=start, times=times, edges=edges,
+                                               paths=paths, seed=seed, progress=not quiet)
+
+    def measure(units: list[Any]) -> dict[str, Any]:
+        f = fit_relaxation(times, [mean_of(h) for h in snapshot_hists(
+            precision.pool_snapshots(units))], start)
+        if f is None or not f["err"] > 0:
+            return {"measured": False}
+        return f
+
+    if rel_se is None:
+        mc = one(0, None)
+        m = measure([mc])
+        rse = m["err"] / m["value"] if m.get("measured", True) else math.nan
+        return mc, precision.record(quantity=quantity, target=None, rse=rse, paths=paths,
+                                    unit=paths, max_paths=None, stopped="paths given")
+    units, prec = precision.grow(one, measure, seed=int(scene.montecarlo.seed), unit=paths,
+                                 target=rel_se, max_paths=int(max_paths or paths),
+                                 budget=float(scene.montecarlo.budget), quantity=quantity,
+                                 misfit=True)
+    return precision.pool_snapshots(units), prec
+
+
+def _relaxation(pred: float, fitted: dict[str, Any] | None, measured: dict[str, Any] | None
+                ) -> dict[str, Any]:
+    """A model's relaxation record: predicted (its FPK's slowest rate), fitted (the same fit
+    on its FPK snapshots), the relative error of the fitted one against the measured one with
+    its error bar, and its class by the time domain's rule (precision.model_error_class:
+    "within the error bar" unless |error| >= 2 error bars)."""
+    err = _tau_error(fitted, measured)
+    return {"predicted": pred, "fitted": fitted["value"] if fitted else None, "error": err,
+            "class": precision.model_error_class(err["value"], err["err"]) if err else None}
+
+
 def transient_verdict(model: str, e: dict[str, Any], measured: dict[str, Any] | None) -> str:
     """One line: the worst snapshot's class with its L1 and KS (none when no snapshot is an
     estimate: a law in fewer than MIN_RESOLVED_BINS bins has an L1 of ~0 whatever the model
@@ -293,6 +342,10 @@ def transient_verdict(model: str, e: dict[str, Any], measured: dict[str, Any] | 
         line += f", measured on the original system {measured['value']:.4g} +/- " \
                 f"{measured['err']:.2g}"
         if rel["error"] is not None:
-            line += (f" ({100 * rel['error']['value']:+.1f}% +/- "
-                     f"{100 * rel['error']['err']:.1f}%)")
+            pct = (f"{100 * rel['error']['value']:+.1f}% +/- "
+                   f"{100 * rel['error']['err']:.1f}%")
+            cls = rel.get("class") or precision.model_error_class(rel["error"]["value"],
+                                                                  rel["error"]["err"])
+            line += (f" ({cls}: {pct})" if cls == precision.WITHIN else
+                     f" ({pct}: {cls.upper()} relaxation-time error)")
     return line

@@ -57,12 +57,24 @@ class Result(NamedTuple):
 
 
 class Status(Enum):
-    """How a solver run ended: ``code`` (a stable word), ``message`` (for people), ``ok``."""
+    """How a solver run ended: ``code`` (a stable word), ``message`` (for people), ``ok`` (the
+    numbers asked for exist and may be used as what they say they are).
+
+    Set where the outcome is decided: ``CENSORED`` by the averaged SDE's first passage
+    (montecarlo/sde_time.py) when paths reach the horizon without passing (its mean is then a
+    restricted mean, ``info["censored"]`` says how many). Not yet members (issue 38): a
+    diverged simulation and a budget spent before the first sampled window are the exceptions
+    ``SimulationDiverged`` and ``BudgetExhausted`` (exit 3, montecarlo/simulate.py); a budget
+    that stops a run short of its floor is ``info["convergence"]["stopped"]``; an equilibration
+    that fails is ``info["convergence"]["equilibrated"]`` (montecarlo/certificate.py); the original
+    system's censored paths are ``info["censored"]`` (montecarlo/passage.py)."""
 
     DENSITY = ("density", "stationary density computed", True)
     SNAPSHOTS = ("snapshots", "transient snapshots computed", True)
     SIMULATED = ("simulated", "simulated", True)
     PASSAGE = ("passage", "first passage computed", True)
+    CENSORED = ("censored", "simulated; some paths did not pass within the horizon (censored): "
+                "the mean first-passage time is a restricted mean", True)
     NOT_FINITE = ("not_finite", "density is negative or not finite", False)
 
     def __init__(self, code: str, message: str, ok: bool):
