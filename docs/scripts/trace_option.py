@@ -3,7 +3,7 @@ in-process under ``sys.setprofile`` and list, in call order, every module of our
 function receives the value (as an argument or local, or inside one: a scene's
 ``montecarlo.dt``, a request's ``threshold``, a dict, a tuple) or returns it.
 
-    python docs/scripts/trace_option.py check --dt 0.0123457 -- tests/data/tiny.toml \
+    python docs/scripts/trace_option.py check --dt 0.00390625 -- tests/data/tiny.toml \
         --set montecarlo.budget=0.001 --out /tmp/trace-check
     python docs/scripts/trace_option.py passage --threshold 0.777777 -- paper-base \
         --paths 64 --horizon 20 --no-fpk --json --out /tmp/trace-passage
