@@ -244,7 +244,7 @@ def decay(v, tau, ev):
 
 
 @jit(inline="always")
-def _step(x, v, xi, s0, s1, s2, s3, h, half, P):
+def strang_step(x, v, xi, s0, s1, s2, s3, h, half, P):
     """One step of one path (the splitting of the module docstring) with the physics record P
     (plan.Record): the new (x, v, xi), the generator state, and what the bookkeeping needs:
     (impacts and chatter entries of the two drifts, time stuck, k, the velocities between the
@@ -312,7 +312,7 @@ LANES = 4  # paths one thread advances together, step by step in turn (_block)
 @jit
 def _block(b, rng, state, n_steps, step0, n_burn, stride, h, P, bins, out, spw):
     """run_paths for the paths of block b. (A serial function of its own: numba's parallel
-    array analysis fails on the nested tuple ``_step`` returns.)
+    array analysis fails on the nested tuple ``strang_step`` returns.)
 
     The paths are advanced LANES = 4 at a time, the four paths' steps in turn (paths p .. p + 3
     at step n, then at step n + 1; when fewer than four are left, the missing lanes run
@@ -320,7 +320,7 @@ def _block(b, rng, state, n_steps, step0, n_burn, stride, h, P, bins, out, spw):
     a chain of dependent operations whose latency, not the arithmetic, bounds the speed
     (docs/performance.md); the chains of different paths are independent, so the core
     overlaps them (measured: 2 lanes 1.4x, 4 lanes 1.5x, 8 lanes no better than 4). Each
-    path's arithmetic (``_step``) is the same whatever the grouping, so the results do not
+    path's arithmetic (``strang_step``) is the same whatever the grouping, so the results do not
     depend on it.
 
     Steps with global index < ``n_burn`` are burn-in. After it, event counts (and, with
@@ -362,13 +362,13 @@ def _block(b, rng, state, n_steps, step0, n_burn, stride, h, P, bins, out, spw):
         steps = 0
         left = -1  # steps until the next sample (a counter: no integer division per step)
         for n in range(step0, step0 + n_steps):
-            x0, v0, xi0, a0, a1, a2, a3, o0 = _step(
+            x0, v0, xi0, a0, a1, a2, a3, o0 = strang_step(
                 x0, v0, xi0, a0, a1, a2, a3, h, half, P)
-            x1, v1, xi1, b0, b1, b2, b3, o1 = _step(
+            x1, v1, xi1, b0, b1, b2, b3, o1 = strang_step(
                 x1, v1, xi1, b0, b1, b2, b3, h, half, P)
-            x2, v2, xi2, c0, c1_, c2_, c3, o2 = _step(
+            x2, v2, xi2, c0, c1_, c2_, c3, o2 = strang_step(
                 x2, v2, xi2, c0, c1_, c2_, c3, h, half, P)
-            x3, v3, xi3, d0, d1, d2, d3, o3 = _step(
+            x3, v3, xi3, d0, d1, d2, d3, o3 = strang_step(
                 x3, v3, xi3, d0, d1, d2, d3, h, half, P)
             if n < n_burn:
                 continue

@@ -1,6 +1,6 @@
 """First passage of the ORIGINAL system's energy through a threshold (issue 30).
 
-Each path is advanced with the kernel's own step (``kernels._step``: the Strang splitting of
+Each path is advanced with the kernel's own step (``kernels.strang_step``: the Strang splitting of
 the original system, nothing of its physics is repeated here) until its energy
 
     E = v^2/2 + U(x),   U the potential of the scene's spring (geometry.potential)

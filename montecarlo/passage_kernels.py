@@ -11,7 +11,7 @@ import numpy as np
 from numba import prange
 from vifpk.montecarlo._jit import jit
 from vifpk.montecarlo.geometry import energy, orbit_start
-from vifpk.montecarlo.kernels import _step, damping_k, spring_g
+from vifpk.montecarlo.kernels import damping_k, spring_g, strang_step
 from vifpk.montecarlo.rng import uniform
 
 BRIDGE_FLOOR = 1e-14  # below this bridge-crossing probability no uniform is drawn
@@ -100,7 +100,7 @@ def _passage_block(b, arrs, n_paths, run, h, B, P):
             i = 0
             while i < k:
                 x0 = x
-                x, v, xi, s0, s1, s2, s3, o = _step(x, v, xi, s0, s1, s2, s3, h, half, P)
+                x, v, xi, s0, s1, s2, s3, o = strang_step(x, v, xi, s0, s1, s2, s3, h, half, P)
                 E1 = energy(x, v, w0sq, alpha, khi)
                 i += 1
                 if E1 >= level:

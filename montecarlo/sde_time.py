@@ -46,7 +46,7 @@ from ._jit import jit
 from .averaged_sde import ORDER, STEPS_PER_TAU, relaxation_time, sde_step, sde_tables
 from .passage import layout
 from .rng import uniform
-from .transient import _densities
+from .transient import snapshot_densities
 
 TABLE_POINTS = 4001
 TABLE_MARGIN = 1.25  # the tables reach TABLE_MARGIN x the threshold (or the top edge)
@@ -286,7 +286,7 @@ def sde_snapshots(drift: Callable[[np.ndarray], np.ndarray],
     if bad.any():
         raise SimulationDiverged(f"the averaged SDE blew up (non-finite amplitude) at dt = {dt:g}; "
                            "try a smaller dt")
-    snap = _densities(hist, count.astype(float), edges)
+    snap = snapshot_densities(hist, count.astype(float), edges)
     t = marks * float(dt)
     info = {"solver": "averaged-sde", "method": "snapshots", "paths": int(paths),
             "blocks": int(blocks), "dt": float(dt), "times_requested": t_req.tolist(),

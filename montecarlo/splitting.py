@@ -214,7 +214,7 @@ def sde_passage_splitting(drift: Callable, diffusion: Callable, *, threshold: fl
 
 # ---------------------------------------------------------------------- the original system
 class _Original:
-    """The original system's kernels (kernels._step), q = E = v^2/2 + U(x)."""
+    """The original system's kernels (kernels.strang_step), q = E = v^2/2 + U(x)."""
 
     width = 5
 

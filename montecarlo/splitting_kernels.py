@@ -5,7 +5,7 @@ coordinate (AMS), and the direct simulation of the cycles (the cycle decompositi
 Two dynamics, each with its own pair of kernels and the same conventions:
 - the averaged amplitude SDE, state row (Z = A^2, t); the step is averaged_sde.sde_step (not a
   copy), and the reaction coordinate is q = Z;
-- the original system, state row (x, v, xi, t, time at rest); the step is kernels._step (not a
+- the original system, state row (x, v, xi, t, time at rest); the step is kernels.strang_step (not a
   copy), and the reaction coordinate is the energy q = E = v^2/2 + U(x) (geometry.energy).
   The state at rest needs no flag of its own: the kernel's rest is v == 0 exactly (and x == 0
   at the wall), which the copied row carries.
@@ -40,7 +40,7 @@ from vifpk.montecarlo.passage_kernels import bridge_hit
 from ._jit import jit
 from .averaged_sde import sde_step
 from .geometry import energy, orbit_start
-from .kernels import _step
+from .kernels import strang_step
 from .rng import uniform
 
 OUT_FAIL, OUT_SUCCESS, OUT_TIMEOUT = 0, 1, -1
@@ -217,9 +217,9 @@ def cycles_sde(starts, rng, n_cycles, q0, q1, q_hi, t_max, h, a_tab, b_tab, inv_
 
 @jit(inline="always")
 def _orig_move(x, v, xi, rest, s0, s1, s2, s3, h, half, P):
-    """One kernels._step: (x, v, xi, time at rest, the velocity at the kick (o[8]: the bridge
+    """One kernels.strang_step: (x, v, xi, time at rest, the velocity at the kick (o[8]: the bridge
     test's), generator)."""
-    x, v, xi, s0, s1, s2, s3, o = _step(x, v, xi, s0, s1, s2, s3, h, half, P)
+    x, v, xi, s0, s1, s2, s3, o = strang_step(x, v, xi, s0, s1, s2, s3, h, half, P)
     return x, v, xi, rest + o[4], o[8], s0, s1, s2, s3
 
 
@@ -229,7 +229,7 @@ def advance_orig(recs, rows, start, rng, maxlev, outcome, levels, h, B, P):
     physics record P (plan.Record for this h), the bridge test's B = (P.bridge, P.pk, P.pc)
     and ``levels`` = (q_lo, q_hi, M, t_max). The
     path itself is ``_advance_orig`` (serial: numba's parallel array analysis fails on the
-    nested tuple ``_step`` returns, as in kernels._block)."""
+    nested tuple ``strang_step`` returns, as in kernels._block)."""
     for j in prange(rows.size):
         row = rows[j]
         lev, out = _advance_orig(recs, row, start[j], rng[j, 0], rng[j, 1], rng[j, 2],

@@ -116,7 +116,7 @@ def snapshots(system: Any, noise: Any, settings: PassageSettings, *, start: floa
     snap: dict[str, Any] = {"t": marks * h}
     floors, mass = {}, {}
     for name, e in ed.items():
-        d = _densities(hists[name], cnt, e)
+        d = snapshot_densities(hists[name], cnt, e)
         floors[name], mass[name] = d.pop("L1_floor").tolist(), d.pop("mass").tolist()
         snap[name] = d
     w = atom / cnt[:, None]
@@ -169,7 +169,7 @@ def _second(state: np.ndarray, mask: np.ndarray, mom: np.ndarray, j: int) -> Non
     mom[0, :, j], mom[1, :, j], mom[2, :, j] = (x * x).sum(1), (x * v).sum(1), (v * v).sum(1)
 
 
-def _densities(hist: np.ndarray, count: np.ndarray, edges: np.ndarray) -> dict[str, Any]:
+def snapshot_densities(hist: np.ndarray, count: np.ndarray, edges: np.ndarray) -> dict[str, Any]:
     """hist[b, j, bin] -> {"edges", "x", "p", "err", "L1_floor", "mass"} (block means)."""
     w = np.diff(edges)
     per_block = hist / (count[:, None, None] * w)

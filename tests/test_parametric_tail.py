@@ -95,17 +95,17 @@ def test_the_averaged_models_tail(name, values):
 
 
 def test_the_monte_carlos_growth_cause_reads_the_parametric_noise():
-    """The cause a blow-up's line leads with (montecarlo.simulate._growth): nothing below the
+    """The cause a blow-up's line leads with (montecarlo.failures.growth): nothing below the
     mean-square bound (k - 2 D_c k^2) / w^2 = 0.1136 of the linear oscillator of the first
     test, past it the infinite mean energy, above the law's bound 0.2343 no stationary law.
     Without the [parametric] section it said nothing in all three."""
-    from vifpk.montecarlo.simulate import _growth
+    from vifpk.montecarlo.failures import growth
 
     causes = {}
     for D_k in (0.1, 0.2, 0.3):
         s = _linear(0.2, 1.3, D_k, 0.1)
-        causes[D_k] = _growth(s.system, s.parametric)
-        assert _growth(s.system) == ""
+        causes[D_k] = growth(s.system, s.parametric)
+        assert growth(s.system) == ""
     assert causes[0.1] == ""
     assert "mean energy is infinite" in causes[0.2]
     assert "grows without bound" in causes[0.3] and "no stationary law" in causes[0.3]

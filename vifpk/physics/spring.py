@@ -26,11 +26,6 @@ from typing import Any
 import numpy as np
 
 
-def potential(x: Any, k: Any) -> Any:
-    """U(x) = sum_j k_{2j-1} x^{2j} / (2j) (:func:`potential_parts` with k = (k1, k3, k5, ...))."""
-    return potential_parts(x, k[0], k[1] if len(k) > 1 else 0.0, k[2:] if len(k) > 2 else None)
-
-
 def potential_parts(x: Any, k1: float, k3: float, khi: Any) -> Any:
     """U(x) = k1 x^2/2 + k3 x^4/4 + sum_{i>=1} khi_i x^{2i+4} / (2i + 4), ``khi`` = (k5, k7, ...)
     or None: the one formula of U (the Monte Carlo compiles it with numba on scalars, the
@@ -45,6 +40,25 @@ def potential_parts(x: Any, k1: float, k3: float, khi: Any) -> Any:
     out = out * x2 + k3 / 4
     out = out * x2 + k1 / 2
     return out * x2
+
+
+def make_potential(parts: Any) -> Any:
+    """U(x, k) for a coefficient sequence k = (k1, k3, k5, ...) built on the given
+    :func:`potential_parts` (plain Python: :data:`potential`) or its numba-compiled version
+    (``jit(make_potential(jit(potential_parts)))``: numba calls a compiled function it finds in
+    a closure, not a plain one it finds as a module global)."""
+
+    def potential(x: Any, k: Any) -> Any:
+        """U(x) = sum_j k_{2j-1} x^{2j} / (2j): :func:`potential_parts` on k's parts."""
+        if len(k) > 2:
+            return parts(x, k[0], k[1], k[2:])
+        return parts(x, k[0], k[1] if len(k) > 1 else 0.0, None)
+
+    return potential
+
+
+#: U(x) for k = (k1, k3, k5, ...), plain Python (see :func:`make_potential`)
+potential = make_potential(potential_parts)
 
 
 def restoring(x: Any, k: Any) -> Any:
@@ -74,8 +88,9 @@ def restoring_slope(x: Any, k: Any) -> Any:
 def make_amplitude_scalar(potential_fn: Any, restoring_fn: Any) -> Any:
     """The scalar inverse A(E) built on the given U and g: pass :func:`potential` and
     :func:`restoring` (plain Python, :data:`amplitude_scalar`) or their numba-compiled versions
-    (``jit(make_amplitude_scalar(jit(potential), jit(restoring)))``: numba calls a compiled
-    function it finds in a closure, not a plain one it finds as a module global)."""
+    (``jit(make_amplitude_scalar(P, jit(restoring)))`` with P =
+    ``jit(make_potential(jit(potential_parts)))``: numba calls a compiled function it finds in
+    a closure, not a plain one it finds as a module global)."""
 
     def amplitude(E: float, k: Any) -> float:
         """A >= 0 with U(A) = E for one energy (:func:`amplitude_of_energy` is the same
