@@ -71,7 +71,7 @@ def _noise_run(c, chi2=None):
         n = 100 * len(units)
         out = {"value": 1.0, "err": c / math.sqrt(n)}
         if chi2 is not None:
-            out["chi2_per_dof"] = chi2 * n / 100
+            out["chi2_per_dof"], out["dof"] = chi2 * n / 100, 2
             out["err"] *= math.sqrt(max(out["chi2_per_dof"], 1.0))
         return out
     return run_unit, measure
@@ -95,6 +95,21 @@ def test_a_stopped_run_holds_the_first_units_of_a_longer_one():
     assert p["stopped"] == q["stopped"] == "paths cap" and p["paths"] == 300
     assert long[:len(short)] == short
     assert "budget reached" in p["status"]
+
+
+@pytest.mark.parametrize("dof", [1, 2])
+def test_a_misfit_within_noise_does_not_stop_the_run(dof):
+    """Finding 1 of REVIEW1: a correct model's chi2/dof exceeds 1 with probability ~0.3-0.4
+    at 1-2 dof, so chi2/dof = 1.2 (the 99% quantile / dof is 6.6 at dof 1, 4.6 at dof 2) is
+    noise: with the noise part 0.048 (widened 0.048 x sqrt(1.2) = 0.053 > 0.05) the run
+    keeps growing to the target instead of stopping with 'misfit'."""
+    def measure(units):
+        n = 100 * len(units)
+        return {"value": 1.0, "err": 0.048 * math.sqrt(100 / n) * math.sqrt(1.2),
+                "chi2_per_dof": 1.2, "dof": dof}
+    units, p = pr.grow(lambda k, s: s, measure, seed=1, unit=100, target=0.05, max_paths=1600,
+                       budget=0, quantity="relaxation time", misfit=True)
+    assert p["stopped"] == "target met" and p["paths"] == 200, p
 
 
 def test_grow_stops_when_the_misfit_dominates():

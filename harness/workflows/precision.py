@@ -21,9 +21,12 @@ cannot send the run far), and never past the cap. The run stops when
 - ``budget``: the next batch, priced at the units' measured wall seconds, would take the run past
   the scene's montecarlo.budget (wall seconds, as ``vifpk check``'s floor; 0: no limit);
 - ``misfit`` (relaxation time only): the fit's error bar is widened by sqrt(chi2/dof) (the
-  Birge ratio: the mean amplitude need not decay with one rate); once the noise part alone is
-  at the target, more paths shrink the noise but chi2/dof grows as N, so the widened bar stays:
-  more paths cannot meet the target (give snapshot times around the relaxation time);
+  Birge ratio: the mean amplitude need not decay with one rate); once chi2/dof is significant
+  (above its MISFIT_LEVEL = 99% quantile under a correct model, chi2.ppf(0.99, dof) / dof: 4.6
+  at dof 2, 6.6 at dof 1; :func:`significant_misfit`) and the noise part alone is at the
+  target, more paths shrink the noise but chi2/dof grows as N, so the widened bar stays: more
+  paths cannot meet the target (give snapshot times around the relaxation time). A chi2/dof
+  above 1 but within noise does not stop the run: the widened bar still shrinks as 1/sqrt(N);
 - ``not measured``: the quantity is not an estimate (every path censored, no fit): more paths
   of the same question do not make it one.
 
@@ -54,6 +57,7 @@ import numpy as np
 GROWTH_MARGIN = 1.1  # 10% more paths than the 1/sqrt(N) law predicts
 GROWTH_MAX = 4.0  # a batch at most brings N to 4 x N
 UNIT_KEY = 0x7D5E  # the spawn key's first word of the units k >= 1
+MISFIT_LEVEL = 0.99  # the misfit stop: chi2/dof beyond its 99% quantile under a correct fit
 ERROR_BAR_FACTOR = 2.0  # a model error is one when |e| >= 2 error bars
 MFPT_SMALL = 0.1
 MFPT_LARGE = 0.3
@@ -119,8 +123,7 @@ def grow(run_unit: Callable[[int, int], Any], measure: Callable[[list[Any]], dic
         if rse <= target:
             stopped = "target met"
             break
-        chi2 = m.get("chi2_per_dof")
-        if misfit and chi2 is not None and chi2 > 1.0 and rse / math.sqrt(chi2) <= target:
+        if misfit and significant_misfit(m) and rse / math.sqrt(m["chi2_per_dof"]) <= target:
             stopped = "misfit"
             break
         if n >= cap:
@@ -137,6 +140,20 @@ def grow(run_unit: Callable[[int, int], Any], measure: Callable[[list[Any]], dic
     return units, out
 
 
+def significant_misfit(m: dict[str, Any]) -> bool:
+    """True when the fit's chi2/dof is beyond noise: above chi2.ppf(MISFIT_LEVEL, dof) / dof
+    (a correct one-rate model exceeds it with probability 1 - MISFIT_LEVEL = 1%; chi2/dof > 1
+    alone happens with probability ~0.3-0.4 at the 1-2 dof of 3-4 snapshot times). ``m``:
+    {"chi2_per_dof", "dof"} (dof 1 when not given: the strictest bound)."""
+    from scipy.stats import chi2 as chi2_law
+
+    c = m.get("chi2_per_dof")
+    if c is None or not math.isfinite(c):
+        return False
+    dof = max(int(m.get("dof") or 1), 1)
+    return bool(c > float(chi2_law.ppf(MISFIT_LEVEL, dof)) / dof)
+
+
 def _rse(m: dict[str, Any]) -> float:
     v, e = m.get("value"), m.get("err")
     if v is None or e is None or not (isinstance(v, float | int) and v > 0):
@@ -147,7 +164,8 @@ def _rse(m: dict[str, Any]) -> float:
 _WHY = {"target met": "target met",
         "paths cap": "budget reached: the paths cap (--max-paths)",
         "budget": "budget reached: the scene's montecarlo.budget (wall seconds)",
-        "misfit": "target not reachable by more paths: the one-rate fit's misfit (chi2/dof > 1) "
+        "misfit": "target not reachable by more paths: the one-rate fit's misfit (chi2/dof "
+                  "beyond its 99% noise quantile) "
                   "dominates the error bar; give snapshot times around the relaxation time",
         "not measured": "not measured: more paths of the same question do not make it an "
                         "estimate",
