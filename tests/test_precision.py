@@ -122,6 +122,31 @@ def test_grow_stops_when_the_misfit_dominates():
     assert p["achieved_rel_se"] > 0.05
 
 
+def test_the_budget_stop_prices_path_steps_not_wall_seconds(monkeypatch):
+    """Finding 3 of REVIEW1: the budget prices the units' path-steps (info["steps"]) at
+    BUDGET_STEPS_PER_SECOND, so the stop is the same for a seed whatever the wall clock says
+    (here a clock that jumps 1e6 s per call, and one that stands still, give one answer).
+    Units of 100 paths, 1.5e9 path-steps each = 10 s at 1.5e8/s; budget 45 s: the first
+    batch to 400 paths (4 x N, 40 s) fits, the next to 1600 (160 s) would not."""
+    import itertools
+    import time
+
+    def run_unit(k, seed):
+        return Result(data={}, info={"steps": 1.5e9, "seed": seed})
+
+    def measure(units):
+        return {"value": 1.0, "err": 1.0 / math.sqrt(100 * len(units))}
+
+    got = []
+    for clock in (itertools.count(0.0, 1e6), itertools.repeat(0.0)):
+        monkeypatch.setattr(time, "perf_counter", lambda c=clock: float(next(c)))
+        units, p = pr.grow(run_unit, measure, seed=3, unit=100, target=0.01, max_paths=10**6,
+                           budget=45.0, quantity="MFPT")
+        got.append((p["stopped"], p["paths"], p["path_steps"]))
+    assert pr.BUDGET_STEPS_PER_SECOND == 1.5e8
+    assert got == [("budget", 400, 6e9)] * 2
+
+
 # ----------------------------------------------------------------------------- pooling
 def test_pooled_snapshots_average_and_shrink_as_independent():
     """K units of one histogram pool to the same p and err / sqrt(K) (independent errors

@@ -18,8 +18,10 @@ cannot send the run far), and never past the cap. The run stops when
 
 - ``target met``: the relative standard error is at most the target;
 - ``paths cap``: N reached ``max_paths`` (default MAX_PATHS_FACTOR x U);
-- ``budget``: the next batch, priced at the units' measured wall seconds, would take the run past
-  the scene's montecarlo.budget (wall seconds, as ``vifpk check``'s floor; 0: no limit);
+- ``budget``: the units' path-steps so far plus the next batch's (at the units' path-steps a
+  path), at BUDGET_STEPS_PER_SECOND (one core at cost.MC_STEPS_PER_CORE), would pass the
+  scene's montecarlo.budget seconds (0: no limit). Path-steps, not wall seconds: the stop is
+  the same for a seed whatever the machine, its load, numba's cache or the executor;
 - ``misfit`` (relaxation time only): the fit's error bar is widened by sqrt(chi2/dof) (the
   Birge ratio: the mean amplitude need not decay with one rate); once chi2/dof is significant
   (above its MISFIT_LEVEL = 99% quantile under a correct model, chi2.ppf(0.99, dof) / dof: 4.6
@@ -41,11 +43,11 @@ alike).
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+from vifpk.harness.request.cost import MC_STEPS_PER_CORE
 
 # The defaults (harness/request/timedomain.py) and why: REL_SE_MFPT (0.05) is the largest target at
 # which a model error of MFPT_SMALL (10%, the small/moderate boundary) lies 2 error bars from
@@ -56,6 +58,11 @@ import numpy as np
 # units (16384 paths at the scene's 1024).
 GROWTH_MARGIN = 1.1  # 10% more paths than the 1/sqrt(N) law predicts
 GROWTH_MAX = 4.0  # a batch at most brings N to 4 x N
+# the budget stop prices path-steps, not wall seconds, so that it is the same for a seed on
+# any machine, load, cache state or executor: seconds = path-steps / MC_STEPS_PER_CORE (one
+# core at the cost guard's reference speed, faster than every kernel measured: a lower bound
+# of the wall time, which is up to ~2.2x it at the measured 69-124 M path-steps/s a core)
+BUDGET_STEPS_PER_SECOND = MC_STEPS_PER_CORE
 UNIT_KEY = 0x7D5E  # the spawn key's first word of the units k >= 1
 MISFIT_LEVEL = 0.99  # the misfit stop: chi2/dof beyond its 99% quantile under a correct fit
 ERROR_BAR_FACTOR = 2.0  # a model error is one when |e| >= 2 error bars
@@ -103,15 +110,14 @@ def grow(run_unit: Callable[[int, int], Any], measure: Callable[[list[Any]], dic
     chi2_per_dof) after each batch; its first entry is the fixed-paths run of the seed)."""
     units: list[Any] = []
     history: list[dict[str, Any]] = []  # the estimate after each batch
-    spent = 0.0
+    spent = 0.0  # path-steps of the units so far (their info["steps"])
     cap = max(unit, (int(max_paths) // unit) * unit)
     n_target = unit
     stopped = ""
     while True:
         while len(units) * unit < n_target:
-            t0 = time.perf_counter()
             units.append(run_unit(len(units), unit_seed(seed, len(units))))
-            spent += time.perf_counter() - t0
+            spent += path_steps(units[-1])
         m = measure(units)
         n = len(units) * unit
         rse = _rse(m)
@@ -130,14 +136,22 @@ def grow(run_unit: Callable[[int, int], Any], measure: Callable[[list[Any]], dic
             stopped = "paths cap"
             break
         nxt = next_total(n, rse, target, unit, cap)
-        if budget > 0 and spent + spent / n * (nxt - n) > budget:
+        if budget > 0 and (spent + spent / n * (nxt - n)) / BUDGET_STEPS_PER_SECOND > budget:
             stopped = "budget"
             break
         n_target = nxt
     out = record(quantity=quantity, target=target, rse=_rse(m), paths=n, unit=unit,
                  max_paths=cap, stopped=stopped, budget=budget, units=len(units))
     out["history"] = history
+    out["path_steps"] = float(spent)
     return units, out
+
+
+def path_steps(unit: Any) -> float:
+    """A unit's path-steps (its Result's info["steps"]: deterministic for its seed); 0 when
+    it has none (then the budget does not price it)."""
+    s = getattr(unit, "info", {}).get("steps") if hasattr(unit, "info") else None
+    return float(s) if isinstance(s, float | int) and math.isfinite(s) else 0.0
 
 
 def significant_misfit(m: dict[str, Any]) -> bool:
@@ -163,7 +177,8 @@ def _rse(m: dict[str, Any]) -> float:
 
 _WHY = {"target met": "target met",
         "paths cap": "budget reached: the paths cap (--max-paths)",
-        "budget": "budget reached: the scene's montecarlo.budget (wall seconds)",
+        "budget": "budget reached: the scene's montecarlo.budget (seconds, priced in path-steps "
+                  "at cost.MC_STEPS_PER_CORE on one core)",
         "misfit": "target not reachable by more paths: the one-rate fit's misfit (chi2/dof "
                   "beyond its 99% noise quantile) "
                   "dominates the error bar; give snapshot times around the relaxation time",
