@@ -43,6 +43,21 @@ def test_the_transient_line_says_within_the_error_bar():
         assert needle in transient_verdict("exact", e, measured)
 
 
+@pytest.mark.parametrize("e", [0.1, -0.1])
+def test_the_default_target_tells_a_ten_percent_error_from_noise(e):
+    """Finding 4 of REVIEW1: at the default relative SE R of the original system's MFPT, a
+    model off by +/-10% (the small/moderate boundary) is a model error, not "within the error
+    bar": its bar is (1 + e) R by the delta method (survival.relative_mfpt_error, an
+    independent formula), 1.1 R at +10%, so R must be <= 0.1 / 2.2 (0.05 gave 1.8 bars)."""
+    from vifpk.harness.request.timedomain import REL_SE_MFPT, REL_SE_RELAXATION
+    from vifpk.harness.workflows.survival import relative_mfpt_error
+
+    for rse in (REL_SE_MFPT, REL_SE_RELAXATION):
+        err = relative_mfpt_error(1.0 + e, {"value": 1.0, "stderr": rse, "restricted": False})
+        assert err["value"] == pytest.approx(e) and err["err"] == pytest.approx((1 + e) * rse)
+        assert pr.model_error_class(err["value"], err["err"]) != pr.WITHIN
+
+
 # ------------------------------------------------------------------------ growth and seeds
 def test_unit_seeds_start_at_the_root_and_differ():
     seeds = [pr.unit_seed(20190101, k) for k in range(16)]

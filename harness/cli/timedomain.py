@@ -334,7 +334,8 @@ def _common(p: argparse.ArgumentParser, quantity: str, default: float) -> None:
     p.add_argument("--rel-se", type=_number, metavar="R",
                    help=f"target relative standard error of the original system's {quantity}, "
                         "0 < R < 1: its paths grow in units of the scene's montecarlo.paths "
-                        "until R, --max-paths or the scene's montecarlo.budget (wall seconds) "
+                        "until R, --max-paths or the scene's montecarlo.budget (seconds, priced "
+                        "in path-steps) "
                         f"is reached; the report says which (default {default:g})")
     p.add_argument("--max-paths", type=_number_whole, metavar="N",
                    help="the paths cap of --rel-se, >= montecarlo.paths, in whole units of "

@@ -44,8 +44,8 @@ TIMES_ALLOWED = f"at least {MIN_FIT_TIMES} times > 0 in strictly increasing orde
 #: why, docs/passage.md "Precision" measures it): the target relative standard error of the
 #: original system's MFPT (passage) and of its relaxation time (transient), and the paths cap
 #: as a multiple of the first unit (the scene's montecarlo.paths)
-REL_SE_MFPT = 0.05
-REL_SE_RELAXATION = 0.05
+REL_SE_MFPT = 0.045  # 0.1 / (2 x 1.1): a +/-10% error is 2 error bars (precision.py)
+REL_SE_RELAXATION = 0.045
 MAX_PATHS_FACTOR = 16
 
 

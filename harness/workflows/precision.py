@@ -49,13 +49,15 @@ from typing import Any
 import numpy as np
 from vifpk.harness.request.cost import MC_STEPS_PER_CORE
 
-# The defaults (harness/request/timedomain.py) and why: REL_SE_MFPT (0.05) is the largest target at
-# which a model error of MFPT_SMALL (10%, the small/moderate boundary) lies 2 error bars from
-# zero; the scene's 1024 paths meet it for a near-exponential FPT (1/sqrt(1024) = 3%).
-# REL_SE_RELAXATION (0.05), the same reasoning; on paper-base from 0.2 at times 20,50,100,200
-# the scene's 1024 paths give 9-14% over 4 seeds and the fit's misfit limits it near 7% from
-# 4096 paths on (docs/passage.md, "Precision"). MAX_PATHS_FACTOR (16): the paths cap is 16
-# units (16384 paths at the scene's 1024).
+# The defaults (harness/request/timedomain.py) and why: REL_SE_MFPT (0.045) is the largest target
+# at which a model error of MFPT_SMALL (10%, the small/moderate boundary) lies 2 error bars
+# from zero on either side: the error bar of e = T_M / T_MC - 1 is (1 + e) x rse, so at
+# e = +10% it is 1.1 rse, and 2 x 1.1 rse <= 0.1 needs rse <= 0.1 / 2.2 = 0.0455 (at 0.05 a
+# +10% error was only 1.8 bars); the scene's 1024 paths meet it for a near-exponential FPT
+# (1/sqrt(1024) = 3%). REL_SE_RELAXATION (0.045), the same reasoning; on paper-base from 0.2
+# at times 20,50,100,200 the scene's 1024 paths give 9-14% over 4 seeds and the fit's misfit
+# limits it near 7% from 4096 paths on (docs/passage.md, "Precision"). MAX_PATHS_FACTOR (16):
+# the paths cap is 16 units (16384 paths at the scene's 1024).
 GROWTH_MARGIN = 1.1  # 10% more paths than the 1/sqrt(N) law predicts
 GROWTH_MAX = 4.0  # a batch at most brings N to 4 x N
 # the budget stop prices path-steps, not wall seconds, so that it is the same for a seed on
