@@ -290,3 +290,46 @@ def test_an_unmeasured_mfpt_does_not_grow(doubles, monkeypatch):
                         sde=False)
     assert res.metrics["precision"]["stopped"] == "not measured"
     assert res.metrics["precision"]["paths"] == 64
+
+
+def test_the_guard_prices_the_growth_at_its_paths_cap(doubles):
+    """Finding 2 of REVIEW1: with a precision target the workflow's price (the cost guard's
+    and a sweep point's) sees the worst case, the paths cap, not the first unit: the grown
+    paths run in the original system and in every averaged SDE."""
+    from vifpk.harness.request.timedomain import passage_request
+    from vifpk.harness.workflows.passage import run
+
+    import vifpk
+    from tests.conftest import TINY
+    from vifpk.core.scene import load_scene
+
+    seen = []
+    req = passage_request(load_scene(TINY), threshold=2.0, start=0.5, models=("exact",),
+                          max_paths=256)
+    run(req, price=seen.append)
+    fixed = vifpk.passage(str(TINY), threshold=2.0, start=0.5, models=("exact",), paths=64,
+                          sde=False)  # one unit of 64 paths: its plan's path-steps
+    assert seen[0]["paths"] == 256
+    assert seen[0]["expected_path_steps"] == pytest.approx(
+        4 * fixed.metrics["plan"]["expected_path_steps"])
+
+
+def test_a_paths_cap_beyond_memory_is_refused(monkeypatch):
+    """Finding 2 of REVIEW1: the memory check holds at --max-paths (the most any run of the
+    growth holds), not only at the first unit; named by its option."""
+    import os
+
+    from vifpk.harness.request import cost
+    from vifpk.harness.request.errors import InputError
+    from vifpk.harness.request.timedomain import transient_request
+
+    from tests.conftest import TINY
+    from vifpk.core.scene import load_scene
+
+    total = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    monkeypatch.setattr(cost, "memory_bytes", lambda sc: total * sc.montecarlo.paths / 128)
+    kw = {"start": 0.5, "times": (1, 2, 4)}
+    sc = load_scene(TINY)  # 64 paths a unit: 128 fits exactly, 192 does not
+    assert transient_request(sc, max_paths=128, **kw).max_paths == 128
+    with pytest.raises(InputError, match="^--max-paths 192: the simulation needs"):
+        transient_request(sc, max_paths=192, **kw)

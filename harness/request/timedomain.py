@@ -308,18 +308,21 @@ def passage_request(scene: Scene, *, threshold: Any, start: Any = "stationary",
                          horizon=h, paths=n, sde=flag("sde", sde), method=method,
                          at=times, rel_se=target, max_paths=cap, **knobs)
     if method != "splitting":
-        _fits_in_memory(scene, req.paths)
+        _fits_in_memory(scene, req.paths, req.max_paths)
     return req
 
 
-def _fits_in_memory(scene: Scene, paths: int | None) -> None:
+def _fits_in_memory(scene: Scene, paths: int | None, max_paths: int | None = None) -> None:
     """Memory is a hard limit for every front end (time is the caller's: the command line's
-    cost guard prices it): cost.refuse_oversized at the run's paths."""
+    cost guard prices it): cost.refuse_oversized at the run's paths, or with a precision
+    target at its paths cap (the grown paths are pooled and the averaged SDEs run with them:
+    the cap is the most any run holds)."""
     from vifpk.harness.request import cost
 
-    if paths is not None and paths != scene.montecarlo.paths:
-        scene = scene.with_values({"montecarlo.paths": paths})
-    cost.refuse_oversized(scene)
+    n, option = (paths, "--paths") if paths is not None else (max_paths, "--max-paths")
+    if n is not None and n != scene.montecarlo.paths:
+        scene = scene.with_values({"montecarlo.paths": n})
+    cost.refuse_oversized(scene, option)
 
 
 def with_quadratures(req: PassageRequest) -> PassageRequest:
@@ -391,7 +394,7 @@ def transient_request(scene: Scene, *, start: Any, times: Any, models: Any = Non
                             default=REL_SE_RELAXATION)
     req = TransientRequest(scene=scene, start=a0, times=t, models=models_of(scene, models),
                            paths=n, sde=flag("sde", sde), rel_se=target, max_paths=cap)
-    _fits_in_memory(scene, req.paths)
+    _fits_in_memory(scene, req.paths, req.max_paths)
     return req
 
 
