@@ -177,6 +177,24 @@ def test_pooled_snapshots_average_and_shrink_as_independent():
     assert pooled.info["paths"] == 256 and pooled.info["L1_floor"]["A"] == [0.05]
 
 
+def test_pooled_snapshots_pool_the_moments_from_every_unit():
+    """Finding 5 of REVIEW1: the second moments (value, err, blocks) come from all units'
+    blocks, as one run of those blocks: checked against numpy on the stacked blocks."""
+    rng = np.random.default_rng(5)
+    units, allb = [], []
+    for _ in range(3):
+        b = rng.normal(2.0, 0.3, (8, 2))  # 8 blocks, 2 times
+        allb.append(b)
+        units.append(Result(data={"snapshots": {"t": np.array([1.0, 2.0]), "moments": {
+            "x1x1": {"value": b.mean(0), "err": b.std(0, ddof=1) / math.sqrt(8), "blocks": b}}}},
+            info={"paths": 64, "steps": 1.0, "seed": {"root": 1}}))
+    m = pr.pool_snapshots(units).data["snapshots"]["moments"]["x1x1"]
+    stacked = np.vstack(allb)
+    assert m["blocks"].shape == (24, 2)
+    np.testing.assert_allclose(m["value"], stacked.mean(0), rtol=1e-14)
+    np.testing.assert_allclose(m["err"], stacked.std(0, ddof=1) / math.sqrt(24), rtol=1e-14)
+
+
 def test_pooled_passage_times_are_concatenated():
     def unit(t):
         return Result(data={"fpt": {"time": np.array(t), "censored": np.array([False] * 2)}},

@@ -291,7 +291,8 @@ def pool_snapshots(results: list[Any]) -> Any:
     """One snapshot Result from K units of equal paths (transient_montecarlo's): per
     observable the densities averaged, their standard errors combined as independent
     (sqrt(sum err_k^2) / K), the L1 floors scaled by 1/sqrt(K) (a floor goes as
-    1/sqrt(paths)); the info of unit 0 with the pooled paths and steps."""
+    1/sqrt(paths)); the second moments from all units' blocks (:func:`_pooled_moment`); the
+    info of unit 0 with the pooled paths and steps."""
     from vifpk.core.result import Result
 
     if len(results) == 1:
@@ -301,6 +302,9 @@ def pool_snapshots(results: list[Any]) -> Any:
     out: dict[str, Any] = {"t": snaps[0]["t"]}
     for name, first in snaps[0].items():
         if name == "t":
+            continue
+        if name == "moments":
+            out[name] = {m: _pooled_moment([s[name][m] for s in snaps]) for m in first}
             continue
         d = dict(first)
         for key in ("p", "atom_weight"):
@@ -317,6 +321,16 @@ def pool_snapshots(results: list[Any]) -> Any:
                                          for r in results], axis=0) / math.sqrt(k)).tolist()
                             for o in info["L1_floor"]}
     return Result(data={"snapshots": out}, info=info)
+
+
+def _pooled_moment(parts: list[dict[str, Any]]) -> dict[str, Any]:
+    """One moment record (montecarlo.transient's "moments": value, err, blocks[blocks, n])
+    from units of equal paths and blocks: the blocks stacked, the value their mean, the
+    standard error of the block means std(ddof=1) / sqrt(all blocks), as one run of those
+    blocks would give it."""
+    blk = np.vstack([np.asarray(p["blocks"], float) for p in parts])
+    return {"value": blk.mean(axis=0),
+            "err": blk.std(axis=0, ddof=1) / math.sqrt(blk.shape[0]), "blocks": blk}
 
 
 def _summed(results: list[Any], *keys: str) -> dict[str, Any]:
