@@ -351,3 +351,24 @@ def test_a_paths_cap_beyond_memory_is_refused(monkeypatch):
     assert transient_request(sc, max_paths=128, **kw).max_paths == 128
     with pytest.raises(InputError, match="^--max-paths 192: the simulation needs"):
         transient_request(sc, max_paths=192, **kw)
+
+
+def test_unit_zero_is_the_fixed_run_of_the_seed(doubles):
+    """Finding 6 of REVIEW1: the grown run's first history entry is exactly the fixed
+    --paths U run of the same seed (value and error bar, bit for bit), for the MFPT and for
+    the relaxation time; the doubles draw from the seed they are given, as the doors do."""
+    import vifpk
+    from tests.conftest import TINY
+
+    kw = {"threshold": 2.0, "start": 0.5, "models": ("exact",), "sde": False}
+    grown = vifpk.passage(str(TINY), **kw).metrics
+    fixed = vifpk.passage(str(TINY), paths=64, **kw).metrics["mfpt"]["original_system"]
+    first = grown["precision"]["history"][0]
+    assert grown["precision"]["paths"] > 64 and first["paths"] == 64
+    assert (first["value"], first["err"]) == (fixed["value"], fixed["stderr"])
+    kw = {"start": 0.5, "times": (2, 6, 12, 24), "models": ("exact",), "sde": False}
+    grown = vifpk.transient(str(TINY), rel_se=0.01, max_paths=128, **kw).metrics
+    fixed = vifpk.transient(str(TINY), paths=64, **kw).metrics["relaxation"]["original_system"]
+    first = grown["precision"]["history"][0]
+    assert grown["precision"]["paths"] == 128 and first["paths"] == 64
+    assert (first["value"], first["err"]) == (fixed["value"], fixed["err"])
