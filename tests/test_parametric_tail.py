@@ -109,3 +109,20 @@ def test_the_monte_carlos_growth_cause_reads_the_parametric_noise():
     assert causes[0.1] == ""
     assert "mean energy is infinite" in causes[0.2]
     assert "grows without bound" in causes[0.3] and "no stationary law" in causes[0.3]
+
+
+def test_the_heavy_tail_words_are_chosen_by_the_exception_type():
+    """REVIEW1 finding 8: harness/door/solvers._heavy_tail rewords the averaging's "density
+    does not decay" by its type (averaging.DensityDoesNotDecay), not by matching its text:
+    any other NoStationaryDensity, whatever its words, passes through unchanged."""
+    from vifpk.harness.door.solvers import _heavy_tail
+
+    from vifpk import averaging
+
+    scene = _linear(0.2, 1.3, 0.05, 0.1)  # a law exists, with a power-law tail
+    with pytest.raises(averaging.NoStationaryDensity, match="decays too slowly"):
+        with _heavy_tail(scene):
+            raise averaging.DensityDoesNotDecay("grid exhausted")
+    with pytest.raises(averaging.NoStationaryDensity, match="^other: does not decay$"):
+        with _heavy_tail(scene):
+            raise averaging.NoStationaryDensity("other: does not decay")

@@ -66,6 +66,15 @@ def test_unit_seeds_start_at_the_root_and_differ():
     assert seeds == [pr.unit_seed(20190101, k) for k in range(16)]  # reproducible
 
 
+def test_the_seed_scheme_is_written_from_the_unit_key(monkeypatch):
+    """REVIEW1 finding 8: metrics' seed_scheme names the spawn key unit_seed uses."""
+    assert f"spawn_key=({pr.UNIT_KEY:#x}, k)" in pr.record(
+        quantity="q", target=0.1, rse=0.1, paths=1, unit=1, max_paths=1, stopped="target met",
+    )["seed_scheme"]
+    assert pr.unit_seed(9, 3) == int(np.random.SeedSequence(9, spawn_key=(pr.UNIT_KEY, 3))
+                                      .generate_state(1, np.uint32)[0])
+
+
 @pytest.mark.parametrize("n, rse, cap, expected", [
     (1024, 0.096, 16384, 4096),  # predicts 4150: capped at 4 x n
     (1024, 0.055, 16384, 2048),  # predicts 1362: rounded up to whole units

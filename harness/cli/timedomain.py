@@ -25,7 +25,12 @@ from pathlib import Path
 from typing import Any
 
 from vifpk.harness.request import cost, validate
-from vifpk.harness.request.timedomain import MAX_PATHS_FACTOR, REL_SE_MFPT, REL_SE_RELAXATION
+from vifpk.harness.request.timedomain import (
+    MAX_PATHS_FACTOR,
+    REL_SE_ALLOWED,
+    REL_SE_MFPT,
+    REL_SE_RELAXATION,
+)
 
 from vifpk.core.defaults import CHECK_MODELS
 
@@ -338,10 +343,10 @@ def _common(p: argparse.ArgumentParser, quantity: str, default: float) -> None:
                   "scene's montecarlo.paths until --rel-se is met)")
     p.add_argument("--rel-se", type=_number, metavar="R",
                    help=f"target relative standard error of the original system's {quantity}, "
-                        "0 < R < 1: its paths grow in units of the scene's montecarlo.paths "
-                        "until R, --max-paths or the scene's montecarlo.budget (seconds, priced "
-                        "in path-steps) "
-                        f"is reached; the report says which (default {default:g})")
+                        f"{REL_SE_ALLOWED}: its paths grow in units of the scene's "
+                        "montecarlo.paths until R, --max-paths or the scene's montecarlo.budget "
+                        "(seconds, priced in path-steps) is reached; the report says which "
+                        f"(default {default:g})")
     p.add_argument("--max-paths", type=_number_whole, metavar="N",
                    help="the paths cap of --rel-se, >= montecarlo.paths, in whole units of "
                         f"it (default {MAX_PATHS_FACTOR} x the scene's montecarlo.paths)")

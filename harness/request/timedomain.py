@@ -47,6 +47,7 @@ TIMES_ALLOWED = f"at least {MIN_FIT_TIMES} times > 0 in strictly increasing orde
 REL_SE_MFPT = 0.045  # 0.1 / (2 x 1.1): a +/-10% error is 2 error bars (precision.py)
 REL_SE_RELAXATION = 0.045
 MAX_PATHS_FACTOR = 16
+REL_SE_ALLOWED = "a number 0 < R < 1"  # --rel-se's range, as the errors and the help say it
 
 
 @dataclass(frozen=True)
@@ -204,9 +205,9 @@ def precision(scene: Scene, *, paths: int | None, rel_se: Any, max_paths: Any,
                 raise InputError(f"{option}: does not apply with --paths (exactly that many "
                                  f"paths, no target); give --paths or {option}, not both")
         return None, None
-    r = default if rel_se is None else real("--rel-se", rel_se, "a number 0 < R < 1")
+    r = default if rel_se is None else real("--rel-se", rel_se, REL_SE_ALLOWED)
     if not (0.0 < r < 1.0):
-        raise InputError(f"--rel-se {r:g}: out of range; allowed: a number 0 < R < 1 (the "
+        raise InputError(f"--rel-se {r:g}: out of range; allowed: {REL_SE_ALLOWED} (the "
                          "target relative standard error)")
     if max_paths is None:
         return r, MAX_PATHS_FACTOR * unit

@@ -67,6 +67,8 @@ GROWTH_MAX = 4.0  # a batch at most brings N to 4 x N
 BUDGET_STEPS_PER_SECOND = MC_STEPS_PER_CORE
 UNIT_KEY = 0x7D5E  # the spawn key's first word of the units k >= 1
 MISFIT_LEVEL = 0.99  # the misfit stop: chi2/dof beyond its 99% quantile under a correct fit
+SEED_SCHEME = ("unit 0: the root seed S; unit k >= 1: numpy.random.SeedSequence(S, spawn_key="
+               f"({UNIT_KEY:#x}, k)).generate_state(1, uint32)[0]")  # metrics' seed_scheme
 ERROR_BAR_FACTOR = 2.0  # a model error is one when |e| >= 2 error bars
 MFPT_SMALL = 0.1
 MFPT_LARGE = 0.3
@@ -161,13 +163,13 @@ def significant_misfit(m: dict[str, Any]) -> bool:
     (a correct one-rate model exceeds it with probability 1 - MISFIT_LEVEL = 1%; chi2/dof > 1
     alone happens with probability ~0.3-0.4 at the 1-2 dof of 3-4 snapshot times). ``m``:
     {"chi2_per_dof", "dof"} (dof 1 when not given: the strictest bound)."""
-    from scipy.stats import chi2 as chi2_law
+    from scipy.special import chdtri  # the chi2 law's inverse survival function
 
     c = m.get("chi2_per_dof")
     if c is None or not math.isfinite(c):
         return False
     dof = max(int(m.get("dof") or 1), 1)
-    return bool(c > float(chi2_law.ppf(MISFIT_LEVEL, dof)) / dof)
+    return bool(c > float(chdtri(dof, 1.0 - MISFIT_LEVEL)) / dof)
 
 
 def _rse(m: dict[str, Any]) -> float:
@@ -200,9 +202,7 @@ def record(*, quantity: str, target: float | None, rse: float, paths: int, unit:
             "unit_paths": int(unit), "units": int(units), "max_paths": max_paths,
             "budget_seconds": budget, "stopped": stopped,
             "status": _WHY[stopped],
-            "seed_scheme": "unit 0: the root seed S; unit k >= 1: "
-                           "numpy.random.SeedSequence(S, spawn_key=(0x7D5E, k))"
-                           ".generate_state(1, uint32)[0]"}
+            "seed_scheme": SEED_SCHEME}
 
 
 def line(p: dict[str, Any]) -> str:
