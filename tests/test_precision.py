@@ -250,19 +250,22 @@ def test_precision_defaults():
 
 # --------------------------------------------------------------------- the issue's scene
 @pytest.mark.slow
-def test_issue_case_noise_is_no_longer_reported_as_a_model_error():
+def test_issue_case_grown_paths_agree_with_an_independent_simulation():
     """Issue 39: `vifpk transient paper-base --start 0.2 --times 20,50,100,200` at exactly
-    1024 paths measured tau = 73.7 +/- 7.1 and called the exact model +27.5% +/- 12.3% off
-    (an independent simulation: 91.2 +/- 8.2). With exactly 1024 paths the rule still gives a
-    class (2.2 error bars); the default precision grows the paths (4096: the fit's misfit
-    then dominates its error bar) and the exact model is within the error bar, its measured
-    tau within 2 combined error bars of the independent 91.2 +/- 8.2."""
+    1024 paths measured tau = 73.7 +/- 7.1 and called the exact model +27.5% +/- 12.3% off;
+    an independent simulation gives 91.2 +/- 8.2. Unit 0 of the grown run is that fixed run
+    (its class pinned: the issue's report reproduced). Grown to 4096 paths (the cap given
+    here to keep the test small; the default cap runs on to 16384, docs/passage.md), the
+    measured tau lies within 2 combined error bars of the independent one. No model class is
+    asserted (REVIEW1 finding 7): with no independent truth for the model's error, a class
+    would pin one seed's verdict."""
     from vifpk.harness.request import prepare
     from vifpk.harness.request.timedomain import transient_request
     from vifpk.harness.workflows.transient import _relaxation, run
 
     scene = prepare.concrete("paper-base", [])
-    kw = {"start": 0.2, "times": (20, 50, 100, 200), "models": ("exact",), "sde": False}
+    kw = {"start": 0.2, "times": (20, 50, 100, 200), "models": ("exact",), "sde": False,
+          "max_paths": 4096}
     grown = run(transient_request(scene, **kw))
     prec = grown.metrics["precision"]
     first = prec["history"][0]  # unit 0: exactly the fixed 1024-path run of this seed
@@ -270,12 +273,10 @@ def test_issue_case_noise_is_no_longer_reported_as_a_model_error():
     old = _relaxation(rel["predicted"], {"value": rel["fitted"]}, first)
     assert first["paths"] == 1024
     assert old["class"] == "moderate" and old["error"]["value"] > 0.2, old  # the issue's
-    new = grown.metrics["models"]["exact"]["relaxation"]
-    assert prec["paths"] > 1024 and prec["stopped"] in ("misfit", "target met"), prec
-    assert new["class"] == pr.WITHIN, new
+    assert prec["paths"] == 4096, prec
     tau = grown.metrics["relaxation"]["original_system"]
     assert abs(tau["value"] - 91.2) < 2 * math.hypot(tau["err"], 8.2)
-    assert "within the error bar" in grown.verdicts[0]
+    assert abs(first["value"] - 91.2) < 2 * math.hypot(first["err"], 8.2)  # both: noise
 
 
 # ------------------------------------------------------------ the workflows, on doubles
