@@ -71,8 +71,18 @@ def test_the_seed_scheme_is_written_from_the_unit_key(monkeypatch):
     assert f"spawn_key=({pr.UNIT_KEY:#x}, k)" in pr.record(
         quantity="q", target=0.1, rse=0.1, paths=1, unit=1, max_paths=1, stopped="target met",
     )["seed_scheme"]
-    assert pr.unit_seed(9, 3) == int(np.random.SeedSequence(9, spawn_key=(pr.UNIT_KEY, 3))
-                                      .generate_state(1, np.uint32)[0])
+    w = np.random.SeedSequence(9, spawn_key=(pr.UNIT_KEY, 3)).generate_state(4, np.uint32)
+    assert pr.unit_seed(9, 3) == int(w[0]) + (int(w[1]) << 32) + (int(w[2]) << 64) + (
+        int(w[3]) << 96)
+
+
+def test_unit_seeds_carry_the_whole_entropy_pool():
+    """REVIEW1 finding 9: a unit's seed is 128 bits (not one 32-bit word, where 16 units of
+    many sweep points would meet birthday collisions); each is a valid SeedSequence
+    entropy."""
+    seeds = [pr.unit_seed(20190101, k) for k in range(1, 16)]
+    assert max(seeds) >= 2 ** 96 and all(0 <= s < 2 ** 128 for s in seeds)
+    np.random.default_rng(seeds[0]).random()
 
 
 @pytest.mark.parametrize("n, rse, cap, expected", [
@@ -306,6 +316,20 @@ def test_api_passage_grows_its_paths_to_the_target(doubles):
     fixed = vifpk.passage(str(TINY), threshold=2.0, start=0.5, models=("exact",), paths=64)
     assert fixed.metrics["precision"]["stopped"] == "paths given"
     assert fixed.metrics["mfpt"]["original_system"]["paths"] == 64
+
+
+def test_the_plan_of_a_grown_run_counts_all_its_paths(doubles):
+    """REVIEW1 finding 9: metrics' plan gives paths and expected_path_steps for the same
+    paths (the grown total), first_paths the unit's."""
+    import vifpk
+    from tests.conftest import TINY
+
+    kw = {"threshold": 2.0, "start": 0.5, "models": ("exact",), "sde": False}
+    grown = vifpk.passage(str(TINY), **kw).metrics["plan"]
+    one = vifpk.passage(str(TINY), paths=64, **kw).metrics["plan"]
+    assert grown["first_paths"] == 64 < grown["paths"]
+    assert grown["expected_path_steps"] == pytest.approx(
+        one["expected_path_steps"] * grown["paths"] / 64, rel=1e-12)
 
 
 def test_an_unmeasured_mfpt_does_not_grow(doubles, monkeypatch):

@@ -219,6 +219,10 @@ def test_the_door_uses_a_given_quadrature_and_does_not_compute_it(monkeypatch):
     ("max-paths-range", ["transient", "paper-base", "--start", "1.0", "--times", "5,10,20",
                          "--max-paths", "100"], "--max-paths 100: out of range; allowed: a "
                                                 "whole number >= montecarlo.paths = 1024"),
+    ("max-paths-units", ["transient", "paper-base", "--start", "1.0", "--times", "5,10,20",
+                         "--max-paths", "1500"], "--max-paths 1500: not a whole number of "
+                                                 "units; allowed: a multiple of "
+                                                 "montecarlo.paths = 1024"),
     ("rel-se-splitting", ["passage", "paper-base", "--threshold", "0.6", "--method",
                           "splitting", "--rel-se", "0.1"],
      "--rel-se: does not apply to --method splitting"),

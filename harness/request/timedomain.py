@@ -197,7 +197,7 @@ def precision(scene: Scene, *, paths: int | None, rel_se: Any, max_paths: Any,
     (harness/workflows/precision.py): with ``paths`` given, (None, None) -- exactly that many
     paths, and ``rel_se`` or ``max_paths`` given with it are refused (one line); else the
     target (default ``default``; allowed 0 < R < 1) and the cap (default MAX_PATHS_FACTOR x the
-    scene's montecarlo.paths; allowed: a whole number >= montecarlo.paths)."""
+    scene's montecarlo.paths; allowed: a whole multiple of montecarlo.paths)."""
     unit = int(scene.montecarlo.paths)
     if paths is not None:
         for option, value in (("--rel-se", rel_se), ("--max-paths", max_paths)):
@@ -215,6 +215,11 @@ def precision(scene: Scene, *, paths: int | None, rel_se: Any, max_paths: Any,
             or max_paths < unit:
         raise InputError(f"--max-paths {max_paths!r}: out of range; allowed: a whole number "
                          f">= montecarlo.paths = {unit} (the paths come in units of {unit})")
+    if max_paths % unit:
+        lo = max_paths // unit * unit
+        raise InputError(f"--max-paths {max_paths}: not a whole number of units; allowed: a "
+                         f"multiple of montecarlo.paths = {unit} (the paths come in units of "
+                         f"{unit}; e.g. {lo} or {lo + unit})")
     return r, int(max_paths)
 
 

@@ -210,7 +210,8 @@ def passage(scene: Any, *, threshold: float, start: float | str = "stationary",
     mc, prec = precision.original_system(scene, threshold=threshold, start=start, plan=p,
                                          burn=burn, rel_se=rel_se, max_paths=max_paths,
                                          quiet=quiet, reference=reference)
-    p = dict(p, paths=int(prec["paths"]), first_paths=p["paths"])
+    p = dict(p, paths=int(prec["paths"]), first_paths=p["paths"],  # the plan of all paths run
+             expected_path_steps=p["expected_path_steps"] * int(prec["paths"]) / p["paths"])
     sol["mc:original"] = mc
     t_mc, cens = _fpt(mc)
     km = survival.kaplan_meier(t_mc, cens)

@@ -5,11 +5,12 @@ budget is reached; and the rule that says when a model's error is an error at al
 
 **Units and seeds.** The paths come in units of U paths (the first run's: ``--paths`` is not
 given, so U is the scene's montecarlo.paths). Unit 0 is seeded with the root seed S itself, so
-that it is exactly the run of U paths a fixed-paths command makes; unit k >= 1 with the 32-bit
-word ``numpy.random.SeedSequence(S, spawn_key=(UNIT_KEY, k)).generate_state(1)[0]``
-(:func:`unit_seed`). Each unit is one Monte Carlo call; the estimate after K units pools units
-0..K-1, so the result for a seed does not depend on when the run stopped: a run that stopped at
-K units holds the same paths as the first K units of a longer one.
+that it is exactly the run of U paths a fixed-paths command makes; unit k >= 1 with the
+128-bit integer of the words ``numpy.random.SeedSequence(S, spawn_key=(UNIT_KEY, k))
+.generate_state(4, uint32)`` (:func:`unit_seed`). Each unit is one Monte Carlo call; the
+estimate after K units pools units 0..K-1, so the result for a seed does not depend on when
+the run stopped: a run that stopped at K units holds the same paths as the first K units of a
+longer one.
 
 **Growth.** After each batch the needed paths are predicted from SE ~ 1/sqrt(N):
 N_needed = N (rse / target)^2 x GROWTH_MARGIN; the next batch brings N to that many, in whole
@@ -67,8 +68,9 @@ GROWTH_MAX = 4.0  # a batch at most brings N to 4 x N
 BUDGET_STEPS_PER_SECOND = MC_STEPS_PER_CORE
 UNIT_KEY = 0x7D5E  # the spawn key's first word of the units k >= 1
 MISFIT_LEVEL = 0.99  # the misfit stop: chi2/dof beyond its 99% quantile under a correct fit
-SEED_SCHEME = ("unit 0: the root seed S; unit k >= 1: numpy.random.SeedSequence(S, spawn_key="
-               f"({UNIT_KEY:#x}, k)).generate_state(1, uint32)[0]")  # metrics' seed_scheme
+SEED_SCHEME = ("unit 0: the root seed S; unit k >= 1: sum_i w_i 2^(32 i) of the words w = "
+               f"numpy.random.SeedSequence(S, spawn_key=({UNIT_KEY:#x}, k))"
+               ".generate_state(4, uint32)")  # metrics' seed_scheme
 ERROR_BAR_FACTOR = 2.0  # a model error is one when |e| >= 2 error bars
 MFPT_SMALL = 0.1
 MFPT_LARGE = 0.3
@@ -76,12 +78,13 @@ WITHIN = "within the error bar"
 
 
 def unit_seed(seed: int, k: int) -> int:
-    """The root seed of unit k (module docstring): S for k = 0, else a 32-bit word of
-    SeedSequence(S, spawn_key=(UNIT_KEY, k))."""
+    """The root seed of unit k (module docstring): S for k = 0, else the 128-bit integer of
+    the four 32-bit words of SeedSequence(S, spawn_key=(UNIT_KEY, k)) (its whole entropy
+    pool: no two units share a seed by a 32-bit collision)."""
     if k == 0:
         return int(seed)
-    return int(np.random.SeedSequence(int(seed), spawn_key=(UNIT_KEY, k))
-               .generate_state(1, np.uint32)[0])
+    w = np.random.SeedSequence(int(seed), spawn_key=(UNIT_KEY, k)).generate_state(4, np.uint32)
+    return sum(int(x) << (32 * i) for i, x in enumerate(w))
 
 
 def next_total(n: int, rse: float, target: float, unit: int, cap: int) -> int:
