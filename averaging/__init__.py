@@ -7,6 +7,7 @@ averaged-SDE Monte Carlo use.
 """
 
 from .solve import NoClosedForm, build_model, has_closed_form, solve
-from .stationary import NoStationaryDensity
+from .stationary import DensityDoesNotDecay, NoStationaryDensity
 
-__all__ = ["NoClosedForm", "NoStationaryDensity", "build_model", "has_closed_form", "solve"]
+__all__ = ["DensityDoesNotDecay", "NoClosedForm", "NoStationaryDensity", "build_model",
+           "has_closed_form", "solve"]

@@ -32,6 +32,11 @@ class NoStationaryDensity(RuntimeError):
     """The averaged FPK has no normalisable stationary solution for this scene."""
 
 
+class DensityDoesNotDecay(NoStationaryDensity):
+    """No stationary density because the density does not decay up to A_LIMIT (energy input
+    exceeds dissipation at large amplitude); callers tell it by type, not by its words."""
+
+
 class StationaryModel(Protocol):
     def log_stationary_parts(self, A: Array) -> tuple[Array, Array, Array]: ...
     def period(self, A: Array) -> Array: ...
@@ -96,7 +101,7 @@ def amplitude_density(model: StationaryModel, *, points: int = 801, tail: float 
             break
         hi *= 2.0
         if hi > A_LIMIT:
-            raise NoStationaryDensity(
+            raise DensityDoesNotDecay(
                 f"the amplitude density does not decay up to A = {A_LIMIT:g}: energy input "
                 "exceeds dissipation at large amplitude, so there is no stationary density")
     lo, hi, _ = _support(edges, lp, tail)

@@ -167,6 +167,25 @@ pytest_plugins = ["pytester"]
 
 
 @pytest.fixture
+def pytester(pytester, monkeypatch):
+    """pytester, keeping the modules its in-process runs import. pytester restores
+    ``sys.modules`` after each inline run (and at teardown), unloading what the run imported; a
+    C extension or numba's registries imported first inside one (numpy.fft, scipy's, numba's
+    typing of np.polynomial) then cannot be imported again in this worker ("cannot load module
+    more than once per process", "duplicate registration"), and a later test fails depending
+    on the order xdist gives. Only the inner runs' own test modules and conftests are dropped."""
+    from _pytest.pytester import SysModulesSnapshot
+
+    def keep(name: str) -> bool:
+        return not name.startswith(("test_", "conftest"))
+
+    monkeypatch.setattr(pytester, "_Pytester__take_sys_modules_snapshot",
+                        lambda: SysModulesSnapshot(preserve=keep))
+    monkeypatch.setattr(pytester, "_sys_modules_snapshot", SysModulesSnapshot(preserve=keep))
+    return pytester
+
+
+@pytest.fixture
 def no_computation(monkeypatch):
     """Replace every entry point of real work by one that fails the test (the catalogues of
     bad input in test_cli_validation.py and test_edges.py: refused before any work)."""

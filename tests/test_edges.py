@@ -869,6 +869,7 @@ def test_a_blow_up_leads_with_energy_growth(capsys):
 
 # --------------------------------------------------------------------------------------------
 # D: the automatic burn-in priced again after the relaxation pilot
+@pytest.mark.slow
 @pytest.mark.parametrize("command", ["solve", "check"])
 def test_auto_burn_in_is_priced_after_the_relaxation_pilot(command, tmp_path, monkeypatch,
                                                            capsys):

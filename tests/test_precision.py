@@ -43,12 +43,46 @@ def test_the_transient_line_says_within_the_error_bar():
         assert needle in transient_verdict("exact", e, measured)
 
 
+@pytest.mark.parametrize("e", [0.1, -0.1])
+def test_the_default_target_tells_a_ten_percent_error_from_noise(e):
+    """Finding 4 of REVIEW1: at the default relative SE R of the original system's MFPT, a
+    model off by +/-10% (the small/moderate boundary) is a model error, not "within the error
+    bar": its bar is (1 + e) R by the delta method (survival.relative_mfpt_error, an
+    independent formula), 1.1 R at +10%, so R must be <= 0.1 / 2.2 (0.05 gave 1.8 bars)."""
+    from vifpk.harness.request.timedomain import REL_SE_MFPT, REL_SE_RELAXATION
+    from vifpk.harness.workflows.survival import relative_mfpt_error
+
+    for rse in (REL_SE_MFPT, REL_SE_RELAXATION):
+        err = relative_mfpt_error(1.0 + e, {"value": 1.0, "stderr": rse, "restricted": False})
+        assert err["value"] == pytest.approx(e) and err["err"] == pytest.approx((1 + e) * rse)
+        assert pr.model_error_class(err["value"], err["err"]) != pr.WITHIN
+
+
 # ------------------------------------------------------------------------ growth and seeds
 def test_unit_seeds_start_at_the_root_and_differ():
     seeds = [pr.unit_seed(20190101, k) for k in range(16)]
     assert seeds[0] == 20190101  # unit 0 is the fixed-paths run of the same seed
     assert len(set(seeds)) == 16
     assert seeds == [pr.unit_seed(20190101, k) for k in range(16)]  # reproducible
+
+
+def test_the_seed_scheme_is_written_from_the_unit_key(monkeypatch):
+    """REVIEW1 finding 8: metrics' seed_scheme names the spawn key unit_seed uses."""
+    assert f"spawn_key=({pr.UNIT_KEY:#x}, k)" in pr.record(
+        quantity="q", target=0.1, rse=0.1, paths=1, unit=1, max_paths=1, stopped="target met",
+    )["seed_scheme"]
+    w = np.random.SeedSequence(9, spawn_key=(pr.UNIT_KEY, 3)).generate_state(4, np.uint32)
+    assert pr.unit_seed(9, 3) == int(w[0]) + (int(w[1]) << 32) + (int(w[2]) << 64) + (
+        int(w[3]) << 96)
+
+
+def test_unit_seeds_carry_the_whole_entropy_pool():
+    """REVIEW1 finding 9: a unit's seed is 128 bits (not one 32-bit word, where 16 units of
+    many sweep points would meet birthday collisions); each is a valid SeedSequence
+    entropy."""
+    seeds = [pr.unit_seed(20190101, k) for k in range(1, 16)]
+    assert max(seeds) >= 2 ** 96 and all(0 <= s < 2 ** 128 for s in seeds)
+    np.random.default_rng(seeds[0]).random()
 
 
 @pytest.mark.parametrize("n, rse, cap, expected", [
@@ -71,7 +105,7 @@ def _noise_run(c, chi2=None):
         n = 100 * len(units)
         out = {"value": 1.0, "err": c / math.sqrt(n)}
         if chi2 is not None:
-            out["chi2_per_dof"] = chi2 * n / 100
+            out["chi2_per_dof"], out["dof"] = chi2 * n / 100, 2
             out["err"] *= math.sqrt(max(out["chi2_per_dof"], 1.0))
         return out
     return run_unit, measure
@@ -97,6 +131,21 @@ def test_a_stopped_run_holds_the_first_units_of_a_longer_one():
     assert "budget reached" in p["status"]
 
 
+@pytest.mark.parametrize("dof", [1, 2])
+def test_a_misfit_within_noise_does_not_stop_the_run(dof):
+    """Finding 1 of REVIEW1: a correct model's chi2/dof exceeds 1 with probability ~0.3-0.4
+    at 1-2 dof, so chi2/dof = 1.2 (the 99% quantile / dof is 6.6 at dof 1, 4.6 at dof 2) is
+    noise: with the noise part 0.048 (widened 0.048 x sqrt(1.2) = 0.053 > 0.05) the run
+    keeps growing to the target instead of stopping with 'misfit'."""
+    def measure(units):
+        n = 100 * len(units)
+        return {"value": 1.0, "err": 0.048 * math.sqrt(100 / n) * math.sqrt(1.2),
+                "chi2_per_dof": 1.2, "dof": dof}
+    units, p = pr.grow(lambda k, s: s, measure, seed=1, unit=100, target=0.05, max_paths=1600,
+                       budget=0, quantity="relaxation time", misfit=True)
+    assert p["stopped"] == "target met" and p["paths"] == 200, p
+
+
 def test_grow_stops_when_the_misfit_dominates():
     """A fixed misfit: chi2/dof grows as N, the widened bar does not shrink; once the noise
     part alone is at the target the run stops with 'misfit' instead of spending the cap."""
@@ -105,6 +154,31 @@ def test_grow_stops_when_the_misfit_dominates():
                        budget=0, quantity="relaxation time", misfit=True)
     assert p["stopped"] == "misfit" and p["paths"] < 1600
     assert p["achieved_rel_se"] > 0.05
+
+
+def test_the_budget_stop_prices_path_steps_not_wall_seconds(monkeypatch):
+    """Finding 3 of REVIEW1: the budget prices the units' path-steps (info["steps"]) at
+    BUDGET_STEPS_PER_SECOND, so the stop is the same for a seed whatever the wall clock says
+    (here a clock that jumps 1e6 s per call, and one that stands still, give one answer).
+    Units of 100 paths, 1.5e9 path-steps each = 10 s at 1.5e8/s; budget 45 s: the first
+    batch to 400 paths (4 x N, 40 s) fits, the next to 1600 (160 s) would not."""
+    import itertools
+    import time
+
+    def run_unit(k, seed):
+        return Result(data={}, info={"steps": 1.5e9, "seed": seed})
+
+    def measure(units):
+        return {"value": 1.0, "err": 1.0 / math.sqrt(100 * len(units))}
+
+    got = []
+    for clock in (itertools.count(0.0, 1e6), itertools.repeat(0.0)):
+        monkeypatch.setattr(time, "perf_counter", lambda c=clock: float(next(c)))
+        units, p = pr.grow(run_unit, measure, seed=3, unit=100, target=0.01, max_paths=10**6,
+                           budget=45.0, quantity="MFPT")
+        got.append((p["stopped"], p["paths"], p["path_steps"]))
+    assert pr.BUDGET_STEPS_PER_SECOND == 1.5e8
+    assert got == [("budget", 400, 6e9)] * 2
 
 
 # ----------------------------------------------------------------------------- pooling
@@ -120,6 +194,24 @@ def test_pooled_snapshots_average_and_shrink_as_independent():
     np.testing.assert_allclose(a["p"], p)
     np.testing.assert_allclose(a["err"], e / 2)
     assert pooled.info["paths"] == 256 and pooled.info["L1_floor"]["A"] == [0.05]
+
+
+def test_pooled_snapshots_pool_the_moments_from_every_unit():
+    """Finding 5 of REVIEW1: the second moments (value, err, blocks) come from all units'
+    blocks, as one run of those blocks: checked against numpy on the stacked blocks."""
+    rng = np.random.default_rng(5)
+    units, allb = [], []
+    for _ in range(3):
+        b = rng.normal(2.0, 0.3, (8, 2))  # 8 blocks, 2 times
+        allb.append(b)
+        units.append(Result(data={"snapshots": {"t": np.array([1.0, 2.0]), "moments": {
+            "x1x1": {"value": b.mean(0), "err": b.std(0, ddof=1) / math.sqrt(8), "blocks": b}}}},
+            info={"paths": 64, "steps": 1.0, "seed": {"root": 1}}))
+    m = pr.pool_snapshots(units).data["snapshots"]["moments"]["x1x1"]
+    stacked = np.vstack(allb)
+    assert m["blocks"].shape == (24, 2)
+    np.testing.assert_allclose(m["value"], stacked.mean(0), rtol=1e-14)
+    np.testing.assert_allclose(m["err"], stacked.std(0, ddof=1) / math.sqrt(24), rtol=1e-14)
 
 
 def test_pooled_passage_times_are_concatenated():
@@ -168,19 +260,22 @@ def test_precision_defaults():
 
 # --------------------------------------------------------------------- the issue's scene
 @pytest.mark.slow
-def test_issue_case_noise_is_no_longer_reported_as_a_model_error():
+def test_issue_case_grown_paths_agree_with_an_independent_simulation():
     """Issue 39: `vifpk transient paper-base --start 0.2 --times 20,50,100,200` at exactly
-    1024 paths measured tau = 73.7 +/- 7.1 and called the exact model +27.5% +/- 12.3% off
-    (an independent simulation: 91.2 +/- 8.2). With exactly 1024 paths the rule still gives a
-    class (2.2 error bars); the default precision grows the paths (4096: the fit's misfit
-    then dominates its error bar) and the exact model is within the error bar, its measured
-    tau within 2 combined error bars of the independent 91.2 +/- 8.2."""
+    1024 paths measured tau = 73.7 +/- 7.1 and called the exact model +27.5% +/- 12.3% off;
+    an independent simulation gives 91.2 +/- 8.2. Unit 0 of the grown run is that fixed run
+    (its class pinned: the issue's report reproduced). Grown to 4096 paths (the cap given
+    here to keep the test small; the default cap runs on to 16384, docs/passage.md), the
+    measured tau lies within 2 combined error bars of the independent one. No model class is
+    asserted (REVIEW1 finding 7): with no independent truth for the model's error, a class
+    would pin one seed's verdict."""
     from vifpk.harness.request import prepare
     from vifpk.harness.request.timedomain import transient_request
     from vifpk.harness.workflows.transient import _relaxation, run
 
     scene = prepare.concrete("paper-base", [])
-    kw = {"start": 0.2, "times": (20, 50, 100, 200), "models": ("exact",), "sde": False}
+    kw = {"start": 0.2, "times": (20, 50, 100, 200), "models": ("exact",), "sde": False,
+          "max_paths": 4096}
     grown = run(transient_request(scene, **kw))
     prec = grown.metrics["precision"]
     first = prec["history"][0]  # unit 0: exactly the fixed 1024-path run of this seed
@@ -188,12 +283,10 @@ def test_issue_case_noise_is_no_longer_reported_as_a_model_error():
     old = _relaxation(rel["predicted"], {"value": rel["fitted"]}, first)
     assert first["paths"] == 1024
     assert old["class"] == "moderate" and old["error"]["value"] > 0.2, old  # the issue's
-    new = grown.metrics["models"]["exact"]["relaxation"]
-    assert prec["paths"] > 1024 and prec["stopped"] in ("misfit", "target met"), prec
-    assert new["class"] == pr.WITHIN, new
+    assert prec["paths"] == 4096, prec
     tau = grown.metrics["relaxation"]["original_system"]
     assert abs(tau["value"] - 91.2) < 2 * math.hypot(tau["err"], 8.2)
-    assert "within the error bar" in grown.verdicts[0]
+    assert abs(first["value"] - 91.2) < 2 * math.hypot(first["err"], 8.2)  # both: noise
 
 
 # ------------------------------------------------------------ the workflows, on doubles
@@ -225,6 +318,20 @@ def test_api_passage_grows_its_paths_to_the_target(doubles):
     assert fixed.metrics["mfpt"]["original_system"]["paths"] == 64
 
 
+def test_the_plan_of_a_grown_run_counts_all_its_paths(doubles):
+    """REVIEW1 finding 9: metrics' plan gives paths and expected_path_steps for the same
+    paths (the grown total), first_paths the unit's."""
+    import vifpk
+    from tests.conftest import TINY
+
+    kw = {"threshold": 2.0, "start": 0.5, "models": ("exact",), "sde": False}
+    grown = vifpk.passage(str(TINY), **kw).metrics["plan"]
+    one = vifpk.passage(str(TINY), paths=64, **kw).metrics["plan"]
+    assert grown["first_paths"] == 64 < grown["paths"]
+    assert grown["expected_path_steps"] == pytest.approx(
+        one["expected_path_steps"] * grown["paths"] / 64, rel=1e-12)
+
+
 def test_an_unmeasured_mfpt_does_not_grow(doubles, monkeypatch):
     """Every path censored (P49): more paths of the same question do not make an estimate."""
     import vifpk
@@ -235,3 +342,67 @@ def test_an_unmeasured_mfpt_does_not_grow(doubles, monkeypatch):
                         sde=False)
     assert res.metrics["precision"]["stopped"] == "not measured"
     assert res.metrics["precision"]["paths"] == 64
+
+
+def test_the_guard_prices_the_growth_at_its_paths_cap(doubles):
+    """Finding 2 of REVIEW1: with a precision target the workflow's price (the cost guard's
+    and a sweep point's) sees the worst case, the paths cap, not the first unit: the grown
+    paths run in the original system and in every averaged SDE."""
+    from vifpk.harness.request.timedomain import passage_request
+    from vifpk.harness.workflows.passage import run
+
+    import vifpk
+    from tests.conftest import TINY
+    from vifpk.core.scene import load_scene
+
+    seen = []
+    req = passage_request(load_scene(TINY), threshold=2.0, start=0.5, models=("exact",),
+                          max_paths=256)
+    run(req, price=seen.append)
+    fixed = vifpk.passage(str(TINY), threshold=2.0, start=0.5, models=("exact",), paths=64,
+                          sde=False)  # one unit of 64 paths: its plan's path-steps
+    assert seen[0]["paths"] == 256
+    assert seen[0]["expected_path_steps"] == pytest.approx(
+        4 * fixed.metrics["plan"]["expected_path_steps"])
+
+
+def test_a_paths_cap_beyond_memory_is_refused(monkeypatch):
+    """Finding 2 of REVIEW1: the memory check holds at --max-paths (the most any run of the
+    growth holds), not only at the first unit; named by its option."""
+    import os
+
+    from vifpk.harness.request import cost
+    from vifpk.harness.request.errors import InputError
+    from vifpk.harness.request.timedomain import transient_request
+
+    from tests.conftest import TINY
+    from vifpk.core.scene import load_scene
+
+    total = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    monkeypatch.setattr(cost, "memory_bytes", lambda sc: total * sc.montecarlo.paths / 128)
+    kw = {"start": 0.5, "times": (1, 2, 4)}
+    sc = load_scene(TINY)  # 64 paths a unit: 128 fits exactly, 192 does not
+    assert transient_request(sc, max_paths=128, **kw).max_paths == 128
+    with pytest.raises(InputError, match="^--max-paths 192: the simulation needs"):
+        transient_request(sc, max_paths=192, **kw)
+
+
+def test_unit_zero_is_the_fixed_run_of_the_seed(doubles):
+    """Finding 6 of REVIEW1: the grown run's first history entry is exactly the fixed
+    --paths U run of the same seed (value and error bar, bit for bit), for the MFPT and for
+    the relaxation time; the doubles draw from the seed they are given, as the doors do."""
+    import vifpk
+    from tests.conftest import TINY
+
+    kw = {"threshold": 2.0, "start": 0.5, "models": ("exact",), "sde": False}
+    grown = vifpk.passage(str(TINY), **kw).metrics
+    fixed = vifpk.passage(str(TINY), paths=64, **kw).metrics["mfpt"]["original_system"]
+    first = grown["precision"]["history"][0]
+    assert grown["precision"]["paths"] > 64 and first["paths"] == 64
+    assert (first["value"], first["err"]) == (fixed["value"], fixed["stderr"])
+    kw = {"start": 0.5, "times": (2, 6, 12, 24), "models": ("exact",), "sde": False}
+    grown = vifpk.transient(str(TINY), rel_se=0.01, max_paths=128, **kw).metrics
+    fixed = vifpk.transient(str(TINY), paths=64, **kw).metrics["relaxation"]["original_system"]
+    first = grown["precision"]["history"][0]
+    assert grown["precision"]["paths"] == 128 and first["paths"] == 64
+    assert (first["value"], first["err"]) == (fixed["value"], fixed["err"])

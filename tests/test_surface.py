@@ -76,6 +76,7 @@ def _scores(noise: float, seed: int, resolution: int = 61) -> dict[str, float]:
             "band": surf.band_area}
 
 
+@pytest.mark.slow
 def test_surface_recovers_known_boundary_and_shrinks_with_noise():
     """The misclassified area falls as the noise falls (3 seeds a level, means), and with
     little noise the estimated boundary is close to the true one. Noise levels 0.3, 0.1, 0.03

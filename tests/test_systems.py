@@ -105,6 +105,7 @@ def test_shipped_scenes_of_new_families_load():
 
 
 # ----------------------------------------------------------------------------- orbit
+@pytest.mark.slow
 @pytest.mark.parametrize("k", [(1.0, 0.3, 0.2),
                                pytest.param((1.0, -0.3, 0.03), marks=pytest.mark.slow),
                                pytest.param((0.0, 1.0), marks=pytest.mark.slow),
@@ -113,7 +114,7 @@ def test_period_and_sigma2_of_the_general_orbit(k):
     """T(A) against solve_ivp; sigma_E^2 (OU, sgn form) against the FFT of the simulated
     G = f sgn(y) y' (2^16 samples; tolerance 5e-8: the FFT's N^-2 convergence on the kink of
     sgn(y) y', 2e-8 measured at 2^15 in tests/test_averaging.py, x 2.5 here for the
-    stiffer springs). The quintic spring runs in the fast tier, the others in the slow one."""
+    stiffer springs). All four in the slow tier (the quintic one took 21 s of the fast tier)."""
     from vifpk.averaging.exact import ExactModel
 
     sc = scene_from_dict({"system": {"restoring": list(k), "damping": [0.05]},

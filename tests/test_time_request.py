@@ -219,6 +219,10 @@ def test_the_door_uses_a_given_quadrature_and_does_not_compute_it(monkeypatch):
     ("max-paths-range", ["transient", "paper-base", "--start", "1.0", "--times", "5,10,20",
                          "--max-paths", "100"], "--max-paths 100: out of range; allowed: a "
                                                 "whole number >= montecarlo.paths = 1024"),
+    ("max-paths-units", ["transient", "paper-base", "--start", "1.0", "--times", "5,10,20",
+                         "--max-paths", "1500"], "--max-paths 1500: not a whole number of "
+                                                 "units; allowed: a multiple of "
+                                                 "montecarlo.paths = 1024"),
     ("rel-se-splitting", ["passage", "paper-base", "--threshold", "0.6", "--method",
                           "splitting", "--rel-se", "0.1"],
      "--rel-se: does not apply to --method splitting"),
@@ -485,6 +489,9 @@ def split(monkeypatch):
                                      "target": "reached (double)"})
 
     monkeypatch.setattr(timedomain, "passage_splitting", passage_splitting)
+    # the double has no levels: the workflow's early check of them goes with it
+    monkeypatch.setattr(timedomain, "checked_splitting_levels",
+                        lambda scene, **kw: {"low": None, "entry": None, "source": "double"})
     return calls
 
 

@@ -86,6 +86,7 @@ def test_sde_snapshots_cir_closed_form():
         assert abs(z) < 4, (t, z)
 
 
+@pytest.mark.slow
 def test_sde_passage_censoring_threads_and_input():
     """Same seed, shorter horizon: the same paths, censored exactly where they had not
     crossed; the same numbers on 1 and all threads; bad input is one line (BadInput)."""
@@ -122,6 +123,7 @@ class Rayleigh:
     diffusion = staticmethod(diffusion)
 
 
+@pytest.mark.slow
 def test_doors_passage_sde_and_transient_sde(base):
     """harness.door.timedomain.passage_sde / transient_sde: a model object, the SDE's own dt rule
     (tau / STEPS_PER_TAU; tau = 1 / c for the Rayleigh amplitude, the CIR's slowest rate),

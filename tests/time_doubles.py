@@ -44,13 +44,18 @@ def _fpt(T, paths, horizon, seed):
     return {"time": np.minimum(tau, horizon), "censored": cens}
 
 
-def passage_montecarlo(scene, *, threshold, start, horizon, paths, **kw):
-    f = _fpt(T_ORIGINAL, paths, horizon, scene.montecarlo.seed)
+def _seed(scene, seed):
+    """The door's rule: the seed given, else the scene's montecarlo.seed."""
+    return scene.montecarlo.seed if seed is None else seed
+
+
+def passage_montecarlo(scene, *, threshold, start, horizon, paths, seed=None, **kw):
+    f = _fpt(T_ORIGINAL, paths, horizon, _seed(scene, seed))
     return Result(data={"fpt": f}, info={"solver": "montecarlo", "method": "first_passage",
                                          "threshold": threshold, "horizon": horizon,
                                          "paths": paths, "censored": int(f["censored"].sum()),
                                          "dt": scene.montecarlo.dt,
-                                         "seed": scene.montecarlo.seed})
+                                         "seed": _seed(scene, seed)})
 
 
 def passage_sde(scene, model, *, threshold, start, horizon, paths, seed, **kw):
@@ -86,10 +91,11 @@ def _hists(times, tau, a0, edges, paths, seed):
             "err": np.array(E)}
 
 
-def transient_montecarlo(scene, *, start, times, edges, paths, **kw):
-    h = _hists(times, TAU_ORIGINAL, start, edges["edges_A"], paths, scene.montecarlo.seed)
+def transient_montecarlo(scene, *, start, times, edges, paths, seed=None, **kw):
+    h = _hists(times, TAU_ORIGINAL, start, edges["edges_A"], paths, _seed(scene, seed))
     return Result(data={"snapshots": {"t": np.asarray(times), "A": h}},
-                  info={"solver": "montecarlo", "method": "snapshots", "paths": paths})
+                  info={"solver": "montecarlo", "method": "snapshots", "paths": paths,
+                        "seed": {"root": _seed(scene, seed)}})
 
 
 def transient_sde(scene, model, *, start, times, edges_A, paths, seed, **kw):

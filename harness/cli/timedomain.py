@@ -25,7 +25,12 @@ from pathlib import Path
 from typing import Any
 
 from vifpk.harness.request import cost, validate
-from vifpk.harness.request.timedomain import MAX_PATHS_FACTOR, REL_SE_MFPT, REL_SE_RELAXATION
+from vifpk.harness.request.timedomain import (
+    MAX_PATHS_FACTOR,
+    REL_SE_ALLOWED,
+    REL_SE_MFPT,
+    REL_SE_RELAXATION,
+)
 
 from vifpk.core.defaults import CHECK_MODELS
 
@@ -173,7 +178,8 @@ def cmd_passage(args: argparse.Namespace) -> int:
     def price(p: dict[str, Any]) -> None:
         what = (f"--threshold {req.threshold:g}: the averaged models put the MFPT at up to "
                 f"{p['largest_model_mfpt']:.3g} time units, so the first-passage Monte Carlo "
-                f"({p['paths']} paths to a horizon of {p['horizon']:.3g}, dt "
+                f"({p['paths']} paths{_CAPPED if req.paths is None else ''} to a horizon of "
+                f"{p['horizon']:.3g}, dt "
                 f"{p['dt']:g}) is out of reach as a direct simulation (rare events need "
                 "another method: --method splitting)")
         runs = 1 + len(req.models)
@@ -190,7 +196,7 @@ def cmd_passage(args: argparse.Namespace) -> int:
     if not args.yes:  # priced up front by the quadrature alone (direct or auto), before
         try:  # any R(t) stepping (slow, and fragile, at high thresholds)
             price(plan(scene, {m: float(q["value"]) for m, q in req.quadratures.items()},
-                       paths=req.paths, horizon=req.horizon))
+                       paths=req.paths or req.max_paths, horizon=req.horizon))
         except _Splitting as why:
             return _splitting(args, req, out, prov, str(why))
 
@@ -212,6 +218,9 @@ def _recorded(args: argparse.Namespace) -> list[dict[str, Any]] | None:
     called without it, e.g. directly in a test): metrics.json's ``runtime_warnings``."""
     tally = getattr(args, "run_warnings", None)
     return tally.records() if tally is not None else None
+
+
+_CAPPED = " at most (the --max-paths cap of the --rel-se growth, priced as the worst case)"
 
 
 class _Splitting(Exception):
@@ -259,7 +268,8 @@ def cmd_transient(args: argparse.Namespace) -> int:
     req = check_transient(args)
     scene = req.scene
     runs = 1 + len(req.models)
-    steps = (req.paths or scene.montecarlo.paths) * max(req.times) / req.dt
+    n = req.paths or req.max_paths or scene.montecarlo.paths  # the growth's worst case: its cap
+    steps = n * max(req.times) / req.dt
     cost.refuse_costly(lambda sp: runs * steps / ((sp or cost.MC_STEPS_PER_CORE)
                                                   * _cores(scene)),
                        f"this transient ({runs} Monte Carlo runs to t = {max(req.times):g})",
@@ -333,9 +343,10 @@ def _common(p: argparse.ArgumentParser, quantity: str, default: float) -> None:
                   "scene's montecarlo.paths until --rel-se is met)")
     p.add_argument("--rel-se", type=_number, metavar="R",
                    help=f"target relative standard error of the original system's {quantity}, "
-                        "0 < R < 1: its paths grow in units of the scene's montecarlo.paths "
-                        "until R, --max-paths or the scene's montecarlo.budget (wall seconds) "
-                        f"is reached; the report says which (default {default:g})")
+                        f"{REL_SE_ALLOWED}: its paths grow in units of the scene's "
+                        "montecarlo.paths until R, --max-paths or the scene's montecarlo.budget "
+                        "(seconds, priced in path-steps) is reached; the report says which "
+                        f"(default {default:g})")
     p.add_argument("--max-paths", type=_number_whole, metavar="N",
                    help="the paths cap of --rel-se, >= montecarlo.paths, in whole units of "
                         f"it (default {MAX_PATHS_FACTOR} x the scene's montecarlo.paths)")

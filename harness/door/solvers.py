@@ -108,7 +108,7 @@ def _heavy_tail(scene: Any) -> Iterator[None]:
     except averaging.NoStationaryDensity as exc:
         par = getattr(scene, "parametric", None)
         tail = parametric_tail(scene.system, par)
-        if tail is None or "does not decay" not in str(exc):
+        if tail is None or not isinstance(exc, averaging.DensityDoesNotDecay):
             raise
         if not tail.normalisable:
             raise averaging.NoStationaryDensity(

@@ -252,14 +252,8 @@ def passage_splitting(scene: Any, *, threshold: float, start: float | str,
                 "relaxation_time"])
             burn = {"burn_in": BURN_FACTOR * tau,
                     "rule": f"BURN_FACTOR x the exact model's relaxation time ({tau:.4g})"}
-    chosen = {"low": low, "entry": entry, "source": "given"}
-    if low is None or entry is None:
-        auto = splitting_levels(scene, start=0.0 if stationary else float(start),
-                                threshold=float(threshold))
-        chosen = {"low": low if low is not None else auto["low"],
-                  "entry": entry if entry is not None else auto["entry"],
-                  "source": auto["source"]}
-    _splitting_levels_ok(chosen, threshold, start)
+    chosen = checked_splitting_levels(scene, threshold=threshold, start=start, low=low,
+                                      entry=entry)
     st = _passage_settings(scene, paths=1, horizon=1.0, dt=dt, seed=seed, threads=threads)
     s = SplittingSettings(groups=groups, particles=particles, kill=kill, levels=levels,
                           dt=float(st.dt), seed=int(st.seed), cycles=cycles, paths=paths,
@@ -283,6 +277,23 @@ def passage_splitting(scene: Any, *, threshold: float, start: float | str,
     if burn:
         info["burn_in_rule"] = burn["rule"]
     return Result(data=res.data, info=info)
+
+
+def checked_splitting_levels(scene: Any, *, threshold: float, start: float | str,
+                             low: float | None = None, entry: float | None = None
+                             ) -> dict[str, Any]:
+    """{"low", "entry", "source"}: the levels passage_splitting will use (given, else
+    splitting_levels'), checked (BadInput naming them, _splitting_levels_ok). Cheap (the exact
+    model's stationary density), so a workflow asks it before its first progress line."""
+    chosen = {"low": low, "entry": entry, "source": "given"}
+    if low is None or entry is None:
+        auto = splitting_levels(scene, start=0.0 if start == "stationary" else float(start),
+                                threshold=float(threshold))
+        chosen = {"low": low if low is not None else auto["low"],
+                  "entry": entry if entry is not None else auto["entry"],
+                  "source": auto["source"]}
+    _splitting_levels_ok(chosen, threshold, start)
+    return chosen
 
 
 def _splitting_levels_ok(chosen: dict[str, Any], threshold: float, start: float | str) -> None:

@@ -44,9 +44,10 @@ TIMES_ALLOWED = f"at least {MIN_FIT_TIMES} times > 0 in strictly increasing orde
 #: why, docs/passage.md "Precision" measures it): the target relative standard error of the
 #: original system's MFPT (passage) and of its relaxation time (transient), and the paths cap
 #: as a multiple of the first unit (the scene's montecarlo.paths)
-REL_SE_MFPT = 0.05
-REL_SE_RELAXATION = 0.05
+REL_SE_MFPT = 0.045  # 0.1 / (2 x 1.1): a +/-10% error is 2 error bars (precision.py)
+REL_SE_RELAXATION = 0.045
 MAX_PATHS_FACTOR = 16
+REL_SE_ALLOWED = "a number 0 < R < 1"  # --rel-se's range, as the errors and the help say it
 
 
 @dataclass(frozen=True)
@@ -196,7 +197,7 @@ def precision(scene: Scene, *, paths: int | None, rel_se: Any, max_paths: Any,
     (harness/workflows/precision.py): with ``paths`` given, (None, None) -- exactly that many
     paths, and ``rel_se`` or ``max_paths`` given with it are refused (one line); else the
     target (default ``default``; allowed 0 < R < 1) and the cap (default MAX_PATHS_FACTOR x the
-    scene's montecarlo.paths; allowed: a whole number >= montecarlo.paths)."""
+    scene's montecarlo.paths; allowed: a whole multiple of montecarlo.paths)."""
     unit = int(scene.montecarlo.paths)
     if paths is not None:
         for option, value in (("--rel-se", rel_se), ("--max-paths", max_paths)):
@@ -204,9 +205,9 @@ def precision(scene: Scene, *, paths: int | None, rel_se: Any, max_paths: Any,
                 raise InputError(f"{option}: does not apply with --paths (exactly that many "
                                  f"paths, no target); give --paths or {option}, not both")
         return None, None
-    r = default if rel_se is None else real("--rel-se", rel_se, "a number 0 < R < 1")
+    r = default if rel_se is None else real("--rel-se", rel_se, REL_SE_ALLOWED)
     if not (0.0 < r < 1.0):
-        raise InputError(f"--rel-se {r:g}: out of range; allowed: a number 0 < R < 1 (the "
+        raise InputError(f"--rel-se {r:g}: out of range; allowed: {REL_SE_ALLOWED} (the "
                          "target relative standard error)")
     if max_paths is None:
         return r, MAX_PATHS_FACTOR * unit
@@ -214,6 +215,11 @@ def precision(scene: Scene, *, paths: int | None, rel_se: Any, max_paths: Any,
             or max_paths < unit:
         raise InputError(f"--max-paths {max_paths!r}: out of range; allowed: a whole number "
                          f">= montecarlo.paths = {unit} (the paths come in units of {unit})")
+    if max_paths % unit:
+        lo = max_paths // unit * unit
+        raise InputError(f"--max-paths {max_paths}: not a whole number of units; allowed: a "
+                         f"multiple of montecarlo.paths = {unit} (the paths come in units of "
+                         f"{unit}; e.g. {lo} or {lo + unit})")
     return r, int(max_paths)
 
 
@@ -308,18 +314,21 @@ def passage_request(scene: Scene, *, threshold: Any, start: Any = "stationary",
                          horizon=h, paths=n, sde=flag("sde", sde), method=method,
                          at=times, rel_se=target, max_paths=cap, **knobs)
     if method != "splitting":
-        _fits_in_memory(scene, req.paths)
+        _fits_in_memory(scene, req.paths, req.max_paths)
     return req
 
 
-def _fits_in_memory(scene: Scene, paths: int | None) -> None:
+def _fits_in_memory(scene: Scene, paths: int | None, max_paths: int | None = None) -> None:
     """Memory is a hard limit for every front end (time is the caller's: the command line's
-    cost guard prices it): cost.refuse_oversized at the run's paths."""
+    cost guard prices it): cost.refuse_oversized at the run's paths, or with a precision
+    target at its paths cap (the grown paths are pooled and the averaged SDEs run with them:
+    the cap is the most any run holds)."""
     from vifpk.harness.request import cost
 
-    if paths is not None and paths != scene.montecarlo.paths:
-        scene = scene.with_values({"montecarlo.paths": paths})
-    cost.refuse_oversized(scene)
+    n, option = (paths, "--paths") if paths is not None else (max_paths, "--max-paths")
+    if n is not None and n != scene.montecarlo.paths:
+        scene = scene.with_values({"montecarlo.paths": n})
+    cost.refuse_oversized(scene, option)
 
 
 def with_quadratures(req: PassageRequest) -> PassageRequest:
@@ -391,7 +400,7 @@ def transient_request(scene: Scene, *, start: Any, times: Any, models: Any = Non
                             default=REL_SE_RELAXATION)
     req = TransientRequest(scene=scene, start=a0, times=t, models=models_of(scene, models),
                            paths=n, sde=flag("sde", sde), rel_se=target, max_paths=cap)
-    _fits_in_memory(scene, req.paths)
+    _fits_in_memory(scene, req.paths, req.max_paths)
     return req
 
 

@@ -9,7 +9,7 @@
     sde = false                  # optional: also the averaged SDEs' Monte Carlo (default off)
     method = "direct"            # or "splitting": the MFPT only, at thresholds direct
                                  # simulation cannot reach (no horizon; particles, groups)
-    rel_se = 0.05                # optional: the MFPT's target relative standard error
+    rel_se = 0.045               # optional: the MFPT's target relative standard error
     max_paths = 16384            # optional: its paths cap (docs/passage.md, "Precision")
 
     workflow = "transient"

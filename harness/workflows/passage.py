@@ -142,6 +142,16 @@ def stationary_numbers(scene: Any, model: Any, threshold: float) -> tuple[float,
     return tau, below
 
 
+def worst_case(p: dict[str, Any], max_paths: int | None) -> dict[str, Any]:
+    """The plan as the cost guard prices it: with a precision target (``max_paths`` given), at
+    the paths cap, the most the growth can run (the original system and each averaged SDE);
+    else ``p`` itself."""
+    if not max_paths or int(max_paths) <= p["paths"]:
+        return p
+    return dict(p, paths=int(max_paths),
+                expected_path_steps=p["expected_path_steps"] * int(max_paths) / p["paths"])
+
+
 def run_seconds(p: dict[str, Any], runs: int, speed: float, cores: int) -> float:
     """Wall seconds of ``runs`` Monte Carlo runs of the plan at ``speed`` path-steps per second
     per core (the original system's; the averaged SDE is faster: a bound)."""
@@ -193,14 +203,15 @@ def passage(scene: Any, *, threshold: float, start: float | str = "stationary",
         relax, inside = max(n[0] for n in nums), min(n[1] for n in nums)
     p = plan(scene, {m: v["value"] for m, v in mfpt.items()}, paths=paths, horizon=horizon,
              relaxation=relax, inside=inside)
-    if price is not None:
-        price(p)
+    if price is not None:  # the worst case: the growth may run up to the paths cap
+        price(worst_case(p, max_paths if rel_se is not None else None))
     stages("Monte Carlo of the original system (first passage)")
     burn = {"burn_in": p["burn_in"]} if isinstance(p.get("burn_in"), float) else {}
     mc, prec = precision.original_system(scene, threshold=threshold, start=start, plan=p,
                                          burn=burn, rel_se=rel_se, max_paths=max_paths,
                                          quiet=quiet, reference=reference)
-    p = dict(p, paths=int(prec["paths"]), first_paths=p["paths"])
+    p = dict(p, paths=int(prec["paths"]), first_paths=p["paths"],  # the plan of all paths run
+             expected_path_steps=p["expected_path_steps"] * int(prec["paths"]) / p["paths"])
     sol["mc:original"] = mc
     t_mc, cens = _fpt(mc)
     km = survival.kaplan_meier(t_mc, cens)

@@ -5,11 +5,12 @@ budget is reached; and the rule that says when a model's error is an error at al
 
 **Units and seeds.** The paths come in units of U paths (the first run's: ``--paths`` is not
 given, so U is the scene's montecarlo.paths). Unit 0 is seeded with the root seed S itself, so
-that it is exactly the run of U paths a fixed-paths command makes; unit k >= 1 with the 32-bit
-word ``numpy.random.SeedSequence(S, spawn_key=(UNIT_KEY, k)).generate_state(1)[0]``
-(:func:`unit_seed`). Each unit is one Monte Carlo call; the estimate after K units pools units
-0..K-1, so the result for a seed does not depend on when the run stopped: a run that stopped at
-K units holds the same paths as the first K units of a longer one.
+that it is exactly the run of U paths a fixed-paths command makes; unit k >= 1 with the
+128-bit integer of the words ``numpy.random.SeedSequence(S, spawn_key=(UNIT_KEY, k))
+.generate_state(4, uint32)`` (:func:`unit_seed`). Each unit is one Monte Carlo call; the
+estimate after K units pools units 0..K-1, so the result for a seed does not depend on when
+the run stopped: a run that stopped at K units holds the same paths as the first K units of a
+longer one.
 
 **Growth.** After each batch the needed paths are predicted from SE ~ 1/sqrt(N):
 N_needed = N (rse / target)^2 x GROWTH_MARGIN; the next batch brings N to that many, in whole
@@ -18,12 +19,17 @@ cannot send the run far), and never past the cap. The run stops when
 
 - ``target met``: the relative standard error is at most the target;
 - ``paths cap``: N reached ``max_paths`` (default MAX_PATHS_FACTOR x U);
-- ``budget``: the next batch, priced at the units' measured wall seconds, would take the run past
-  the scene's montecarlo.budget (wall seconds, as ``vifpk check``'s floor; 0: no limit);
+- ``budget``: the units' path-steps so far plus the next batch's (at the units' path-steps a
+  path), at BUDGET_STEPS_PER_SECOND (one core at cost.MC_STEPS_PER_CORE), would pass the
+  scene's montecarlo.budget seconds (0: no limit). Path-steps, not wall seconds: the stop is
+  the same for a seed whatever the machine, its load, numba's cache or the executor;
 - ``misfit`` (relaxation time only): the fit's error bar is widened by sqrt(chi2/dof) (the
-  Birge ratio: the mean amplitude need not decay with one rate); once the noise part alone is
-  at the target, more paths shrink the noise but chi2/dof grows as N, so the widened bar stays:
-  more paths cannot meet the target (give snapshot times around the relaxation time);
+  Birge ratio: the mean amplitude need not decay with one rate); once chi2/dof is significant
+  (above its MISFIT_LEVEL = 99% quantile under a correct model, chi2.ppf(0.99, dof) / dof: 4.6
+  at dof 2, 6.6 at dof 1; :func:`significant_misfit`) and the noise part alone is at the
+  target, more paths shrink the noise but chi2/dof grows as N, so the widened bar stays: more
+  paths cannot meet the target (give snapshot times around the relaxation time). A chi2/dof
+  above 1 but within noise does not stop the run: the widened bar still shrinks as 1/sqrt(N);
 - ``not measured``: the quantity is not an estimate (every path censored, no fit): more paths
   of the same question do not make it one.
 
@@ -38,22 +44,33 @@ alike).
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+from vifpk.harness.request.cost import MC_STEPS_PER_CORE
 
-# The defaults (harness/request/timedomain.py) and why: REL_SE_MFPT (0.05) is the largest target at
-# which a model error of MFPT_SMALL (10%, the small/moderate boundary) lies 2 error bars from
-# zero; the scene's 1024 paths meet it for a near-exponential FPT (1/sqrt(1024) = 3%).
-# REL_SE_RELAXATION (0.05), the same reasoning; on paper-base from 0.2 at times 20,50,100,200
-# the scene's 1024 paths give 9-14% over 4 seeds and the fit's misfit limits it near 7% from
-# 4096 paths on (docs/passage.md, "Precision"). MAX_PATHS_FACTOR (16): the paths cap is 16
-# units (16384 paths at the scene's 1024).
+# The defaults (harness/request/timedomain.py) and why: REL_SE_MFPT (0.045) is the largest target
+# at which a model error of MFPT_SMALL (10%, the small/moderate boundary) lies 2 error bars
+# from zero on either side: the error bar of e = T_M / T_MC - 1 is (1 + e) x rse, so at
+# e = +10% it is 1.1 rse, and 2 x 1.1 rse <= 0.1 needs rse <= 0.1 / 2.2 = 0.0455 (at 0.05 a
+# +10% error was only 1.8 bars); the scene's 1024 paths meet it for a near-exponential FPT
+# (1/sqrt(1024) = 3%). REL_SE_RELAXATION (0.045), the same reasoning; on paper-base from 0.2
+# at times 20,50,100,200 the scene's 1024 paths give 9-14% over 4 seeds and the fit's misfit
+# limits it near 7% from 4096 paths on (docs/passage.md, "Precision"). MAX_PATHS_FACTOR (16):
+# the paths cap is 16 units (16384 paths at the scene's 1024).
 GROWTH_MARGIN = 1.1  # 10% more paths than the 1/sqrt(N) law predicts
 GROWTH_MAX = 4.0  # a batch at most brings N to 4 x N
+# the budget stop prices path-steps, not wall seconds, so that it is the same for a seed on
+# any machine, load, cache state or executor: seconds = path-steps / MC_STEPS_PER_CORE (one
+# core at the cost guard's reference speed, faster than every kernel measured: a lower bound
+# of the wall time, which is up to ~2.2x it at the measured 69-124 M path-steps/s a core)
+BUDGET_STEPS_PER_SECOND = MC_STEPS_PER_CORE
 UNIT_KEY = 0x7D5E  # the spawn key's first word of the units k >= 1
+MISFIT_LEVEL = 0.99  # the misfit stop: chi2/dof beyond its 99% quantile under a correct fit
+SEED_SCHEME = ("unit 0: the root seed S; unit k >= 1: sum_i w_i 2^(32 i) of the words w = "
+               f"numpy.random.SeedSequence(S, spawn_key=({UNIT_KEY:#x}, k))"
+               ".generate_state(4, uint32)")  # metrics' seed_scheme
 ERROR_BAR_FACTOR = 2.0  # a model error is one when |e| >= 2 error bars
 MFPT_SMALL = 0.1
 MFPT_LARGE = 0.3
@@ -61,12 +78,13 @@ WITHIN = "within the error bar"
 
 
 def unit_seed(seed: int, k: int) -> int:
-    """The root seed of unit k (module docstring): S for k = 0, else a 32-bit word of
-    SeedSequence(S, spawn_key=(UNIT_KEY, k))."""
+    """The root seed of unit k (module docstring): S for k = 0, else the 128-bit integer of
+    the four 32-bit words of SeedSequence(S, spawn_key=(UNIT_KEY, k)) (its whole entropy
+    pool: no two units share a seed by a 32-bit collision)."""
     if k == 0:
         return int(seed)
-    return int(np.random.SeedSequence(int(seed), spawn_key=(UNIT_KEY, k))
-               .generate_state(1, np.uint32)[0])
+    w = np.random.SeedSequence(int(seed), spawn_key=(UNIT_KEY, k)).generate_state(4, np.uint32)
+    return sum(int(x) << (32 * i) for i, x in enumerate(w))
 
 
 def next_total(n: int, rse: float, target: float, unit: int, cap: int) -> int:
@@ -99,15 +117,14 @@ def grow(run_unit: Callable[[int, int], Any], measure: Callable[[list[Any]], dic
     chi2_per_dof) after each batch; its first entry is the fixed-paths run of the seed)."""
     units: list[Any] = []
     history: list[dict[str, Any]] = []  # the estimate after each batch
-    spent = 0.0
+    spent = 0.0  # path-steps of the units so far (their info["steps"])
     cap = max(unit, (int(max_paths) // unit) * unit)
     n_target = unit
     stopped = ""
     while True:
         while len(units) * unit < n_target:
-            t0 = time.perf_counter()
             units.append(run_unit(len(units), unit_seed(seed, len(units))))
-            spent += time.perf_counter() - t0
+            spent += path_steps(units[-1])
         m = measure(units)
         n = len(units) * unit
         rse = _rse(m)
@@ -119,22 +136,43 @@ def grow(run_unit: Callable[[int, int], Any], measure: Callable[[list[Any]], dic
         if rse <= target:
             stopped = "target met"
             break
-        chi2 = m.get("chi2_per_dof")
-        if misfit and chi2 is not None and chi2 > 1.0 and rse / math.sqrt(chi2) <= target:
+        if misfit and significant_misfit(m) and rse / math.sqrt(m["chi2_per_dof"]) <= target:
             stopped = "misfit"
             break
         if n >= cap:
             stopped = "paths cap"
             break
         nxt = next_total(n, rse, target, unit, cap)
-        if budget > 0 and spent + spent / n * (nxt - n) > budget:
+        if budget > 0 and (spent + spent / n * (nxt - n)) / BUDGET_STEPS_PER_SECOND > budget:
             stopped = "budget"
             break
         n_target = nxt
     out = record(quantity=quantity, target=target, rse=_rse(m), paths=n, unit=unit,
                  max_paths=cap, stopped=stopped, budget=budget, units=len(units))
     out["history"] = history
+    out["path_steps"] = float(spent)
     return units, out
+
+
+def path_steps(unit: Any) -> float:
+    """A unit's path-steps (its Result's info["steps"]: deterministic for its seed); 0 when
+    it has none (then the budget does not price it)."""
+    s = getattr(unit, "info", {}).get("steps") if hasattr(unit, "info") else None
+    return float(s) if isinstance(s, float | int) and math.isfinite(s) else 0.0
+
+
+def significant_misfit(m: dict[str, Any]) -> bool:
+    """True when the fit's chi2/dof is beyond noise: above chi2.ppf(MISFIT_LEVEL, dof) / dof
+    (a correct one-rate model exceeds it with probability 1 - MISFIT_LEVEL = 1%; chi2/dof > 1
+    alone happens with probability ~0.3-0.4 at the 1-2 dof of 3-4 snapshot times). ``m``:
+    {"chi2_per_dof", "dof"} (dof 1 when not given: the strictest bound)."""
+    from scipy.special import chdtri  # the chi2 law's inverse survival function
+
+    c = m.get("chi2_per_dof")
+    if c is None or not math.isfinite(c):
+        return False
+    dof = max(int(m.get("dof") or 1), 1)
+    return bool(c > float(chdtri(dof, 1.0 - MISFIT_LEVEL)) / dof)
 
 
 def _rse(m: dict[str, Any]) -> float:
@@ -146,8 +184,10 @@ def _rse(m: dict[str, Any]) -> float:
 
 _WHY = {"target met": "target met",
         "paths cap": "budget reached: the paths cap (--max-paths)",
-        "budget": "budget reached: the scene's montecarlo.budget (wall seconds)",
-        "misfit": "target not reachable by more paths: the one-rate fit's misfit (chi2/dof > 1) "
+        "budget": "budget reached: the scene's montecarlo.budget (seconds, priced in path-steps "
+                  "at cost.MC_STEPS_PER_CORE on one core)",
+        "misfit": "target not reachable by more paths: the one-rate fit's misfit (chi2/dof "
+                  "beyond its 99% noise quantile) "
                   "dominates the error bar; give snapshot times around the relaxation time",
         "not measured": "not measured: more paths of the same question do not make it an "
                         "estimate",
@@ -165,9 +205,7 @@ def record(*, quantity: str, target: float | None, rse: float, paths: int, unit:
             "unit_paths": int(unit), "units": int(units), "max_paths": max_paths,
             "budget_seconds": budget, "stopped": stopped,
             "status": _WHY[stopped],
-            "seed_scheme": "unit 0: the root seed S; unit k >= 1: "
-                           "numpy.random.SeedSequence(S, spawn_key=(0x7D5E, k))"
-                           ".generate_state(1, uint32)[0]"}
+            "seed_scheme": SEED_SCHEME}
 
 
 def line(p: dict[str, Any]) -> str:
@@ -256,7 +294,8 @@ def pool_snapshots(results: list[Any]) -> Any:
     """One snapshot Result from K units of equal paths (transient_montecarlo's): per
     observable the densities averaged, their standard errors combined as independent
     (sqrt(sum err_k^2) / K), the L1 floors scaled by 1/sqrt(K) (a floor goes as
-    1/sqrt(paths)); the info of unit 0 with the pooled paths and steps."""
+    1/sqrt(paths)); the second moments from all units' blocks (:func:`_pooled_moment`); the
+    info of unit 0 with the pooled paths and steps."""
     from vifpk.core.result import Result
 
     if len(results) == 1:
@@ -266,6 +305,9 @@ def pool_snapshots(results: list[Any]) -> Any:
     out: dict[str, Any] = {"t": snaps[0]["t"]}
     for name, first in snaps[0].items():
         if name == "t":
+            continue
+        if name == "moments":
+            out[name] = {m: _pooled_moment([s[name][m] for s in snaps]) for m in first}
             continue
         d = dict(first)
         for key in ("p", "atom_weight"):
@@ -282,6 +324,16 @@ def pool_snapshots(results: list[Any]) -> Any:
                                          for r in results], axis=0) / math.sqrt(k)).tolist()
                             for o in info["L1_floor"]}
     return Result(data={"snapshots": out}, info=info)
+
+
+def _pooled_moment(parts: list[dict[str, Any]]) -> dict[str, Any]:
+    """One moment record (montecarlo.transient's "moments": value, err, blocks[blocks, n])
+    from units of equal paths and blocks: the blocks stacked, the value their mean, the
+    standard error of the block means std(ddof=1) / sqrt(all blocks), as one run of those
+    blocks would give it."""
+    blk = np.vstack([np.asarray(p["blocks"], float) for p in parts])
+    return {"value": blk.mean(axis=0),
+            "err": blk.std(axis=0, ddof=1) / math.sqrt(blk.shape[0]), "blocks": blk}
 
 
 def _summed(results: list[Any], *keys: str) -> dict[str, Any]:

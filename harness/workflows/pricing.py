@@ -23,7 +23,7 @@ def refuse_costly_direct(req: Any, *, override: str) -> None:
     what else the caller can do, said at the end (e.g. "or yes=True to run it anyway")."""
     sc = req.scene
     p = plan(sc, {m: float(q["value"]) for m, q in req.quadratures.items()},
-             paths=req.paths, horizon=req.horizon)
+             paths=req.paths or req.max_paths, horizon=req.horizon)  # growth: its cap
     cores = sc.montecarlo.threads or min(cost.numba_threads_available(), os.cpu_count() or 1)
     what = (f"threshold {req.threshold:g}: the averaged models put the MFPT at up to "
             f"{p['largest_model_mfpt']:.3g} time units, so the first-passage Monte Carlo "

@@ -57,6 +57,8 @@ def run(req: Any, *, reason: str, quiet: bool = True) -> SplittingResult:
 
     t0 = time.perf_counter()
     scene, threshold, start = req.scene, req.threshold, req.start
+    # the levels are a caller's choice: refused (one line) before the first progress line
+    timedomain.checked_splitting_levels(scene, threshold=threshold, start=start)
     names = tuple(m for m in req.models if isinstance(m, str))
     kept = registry.applicable(scene, names)[0]  # the models that apply to the scene
     stages = _Stages(len(kept) + 2, quiet)

@@ -261,6 +261,7 @@ def fit_relaxation(times: tuple[float, ...], means: list[tuple[float, float]], s
     if chi2 is not None and chi2 > 1.0:
         err *= math.sqrt(chi2)
     return {"value": tau, "err": err, "a_inf": float(popt[0]), "chi2_per_dof": chi2,
+            "dof": int(max(t.size - 2, 1)),
             "method": "fit of the mean amplitude a(t) = a_inf + (A0 - a_inf) exp(-t/tau), "
                       "error bar widened by sqrt(chi2/dof) when above 1"}
 

@@ -58,7 +58,9 @@ _EPS = 1e-12  # exponents are ratios of small integers: equal when within this
 class Tail:
     """The averaged energy's law at large E: ``p(E) ~ E^-kappa`` (``kappa``), ``gamma`` the
     drift's top exponent, ``normalisable`` (kappa > 1: a stationary law exists), ``mean_finite``
-    (kappa > 2: E[H] finite, mean-square stability), ``top_losses`` the loss fields of degree
+    (kappa > 2: the averaged law's E[H] finite; for the linear oscillator exactly its
+    mean-square stability, for a nonlinear scene only the averaged mean energy),
+    ``top_losses`` the loss fields of degree
     gamma (empty: the parametric noise outgrows every loss), ``bounds`` {field: D above which
     kappa <= 1} and ``mean_bounds`` {field: D above which kappa <= 2} (each key varied alone,
     the other held; a key absent has no bound), ``crossover``: with no loss at the top, the
@@ -311,7 +313,8 @@ def _decided(tail: Tail, degree: int, gains: tuple[str, ...], losses: tuple[str,
              terms: tuple[tuple[str, int, int], ...]) -> EnergyBalance:
     """The verdict of a parametric tie from its tail (vifpk.core.energy)."""
     law = f"the averaged energy's law decays as E^-{tail.kappa:.3g} at large E"
-    mean = "" if tail.mean_finite else "; its mean energy is infinite (past mean-square stability)"
+    mean = "" if tail.mean_finite else ("; its mean energy is infinite (the averaged law's E[H]: "
+                                        "kappa <= 2)")
     if not tail.top_losses:
         where = (f"beyond E ~ {tail.crossover:.3g}" if tail.crossover
                  else "beyond an energy too small for double precision" if tail.crossover == 0.0
