@@ -41,10 +41,11 @@ its quadratic variation rate is (docs/averaging.md section 12, sigma_H^2 before 
 
 the first term for white external noise only (OU noise is continuous: it adds nothing to the
 quadratic variation, and with OU noise alone, D_k = D_c = 0, E is C^1 and no bridge is drawn).
-``_variance`` freezes it over the step at the velocity at the kick (the middle of the step)
-and at x = x_n: sigma_H^2 h = v^2 (P.bridge h + 2 pk^2 g^2 + 2 pc^2 d^2 v^2) with P.bridge =
-2 D f^2 (None for OU), pk^2 = D_k h, pc^2 = D_c h (pieces.record; None when off). With both
-parametric intensities off the test is the additive-noise one, bit for bit.
+``passage_kernels.energy_variance`` freezes it over the step at the velocity at the kick (the
+middle of the step) and at x = x_n: sigma_H^2 h = v^2 (P.bridge h + 2 pk^2 g^2 + 2 pc^2 d^2
+v^2) with P.bridge = 2 D f^2 (None for OU), pk^2 = D_k h, pc^2 = D_c h (pieces.record; None
+when off). With both parametric intensities off the test is the additive-noise one, bit for
+bit.
 
 **Starts.** ``start = A0``: energy U(A0), a phase uniform in time along that conservative
 orbit (geometry.orbit_start; folded onto x >= 0 with the barrier), xi from its stationary law
