@@ -158,11 +158,22 @@ def assemble(system: Any, noise: Any, plan: RunPlan, clock: Clock, run: Started,
                                                  "energy")},
             hist=dict(arr.hist), windows=windows, run_to=run_to, n_burn=n_burn, stride=stride,
             spw=spw, h=h, steps=steps, relax=relax)
-    info["status"] = Status.SIMULATED.record()
+    info["status"] = _status(info["convergence"])
     cfg = info["settings"]
     return Result(data=data, info=info, resolved=Resolved(
         dt=cfg["dt"], burn_in=cfg["burn_in"], time=cfg["time"], paths=cfg["paths"],
         blocks=cfg["blocks"], sample_every=cfg["sample_every"]))
+
+
+def _status(conv: dict[str, Any]) -> dict[str, Any]:
+    """The run's outcome (vifpk.core.result.Status) from its convergence record: a failed
+    certificate first, then a budget that stopped it short of its floor, else simulated."""
+    if conv.get("equilibrated") is False:
+        return Status.NOT_EQUILIBRATED.record(conv.get("reason", ""))
+    if conv.get("reached") is False:
+        return Status.STOPPED.record(f"L1 floor {conv['floor']:.4g} against the target "
+                                     f"{conv['target_floor']:.4g}")
+    return Status.SIMULATED.record()
 
 
 def _convergence(plan: RunPlan, run: Started, done: Sampled, samples: np.ndarray

@@ -318,7 +318,8 @@ def first_passage(system: Any, noise: Any, settings: PassageSettings, *, thresho
         "effects": effects(system, noise),
         "crossing": _crossing_words(B[0] is not None, B[1] is not None or B[2] is not None),
         "start_law": _start_words(stationary, a_burn, n_burn * h, st.max_restarts),
-        "status": Status.SIMULATED.record(),
+        "status": (Status.CENSORED.record(f"{int(censored.sum())} of {censored.size} paths")
+                   if censored.any() else Status.SIMULATED.record()),
     }
     if stationary:
         info["stationary"] = {"burn_in": n_burn * h, "burn_start": a_burn,

@@ -181,7 +181,7 @@ def sde_escape_probability(drift: Callable, diffusion: Callable, *, low: float,
                   q_lo=low**2, q_hi=threshold**2, levels=s.levels, kill=s.kill, seed=s.seed)
     est = mean_ci(out["p"])
     est["runs"] = out["p"].tolist()
-    status = Status.SIMULATED if out["timeouts"] == 0 else Status.NOT_FINITE
+    status = Status.SIMULATED if out["timeouts"] == 0 else Status.TIMED_OUT
     info = {"solver": "averaged-sde", "method": "splitting", "low": low, "threshold": threshold,
             "start": start, "settings": asdict(s), "kill": out["kill"],
             "iterations": out["iterations"].tolist(), "extinct": int(out["extinct"].sum()),

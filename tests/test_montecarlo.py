@@ -531,6 +531,7 @@ def test_certificate_fails_with_its_reason_when_burn_in_is_far_too_short(base):
     conv = res.info["convergence"]
     assert conv["equilibrated"] is False
     assert "R-hat" in conv["reason"] and conv["rhat"] > conv["rhat_limit"]
+    assert res.info["status"]["code"] == "not_equilibrated"  # named (issue 38)
 
 
 @pytest.mark.slow
@@ -598,6 +599,10 @@ def test_a_budget_too_small_says_so(base):
     res = run(base, time=400, floor=1e-4, budget=3.0, **kw)
     c = res.info["convergence"]
     assert c["reached"] is False and c["stopped"] == "budget" and "budget" in c["reason"]
+    # the outcome is named (issue 38): stopped short of its floor, unless the certificate
+    # failed too (a failed certificate is said first)
+    want = "not_equilibrated" if c["equilibrated"] is False else "stopped"
+    assert res.info["status"]["code"] == want and res.info["status"]["ok"] is True
 
 
 # ------------------------------------------------------------------------------- command line

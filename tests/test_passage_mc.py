@@ -134,6 +134,8 @@ def test_censoring_is_exact(base):
     assert c[~inside].all() and np.all(t[~inside] == 40.0)
     assert short.info["censored"] == int((~inside).sum())
     assert np.all(T[C] == 400.0) and np.all(T[~C] <= 400.0) and np.all(T > 0)
+    assert short.info["status"]["code"] == "censored"  # the outcome named (issue 38)
+    assert long.info["status"]["code"] == ("censored" if C.any() else "simulated")
 
 
 def test_stationary_start_is_below_threshold(base):

@@ -60,14 +60,17 @@ class Status(Enum):
     """How a solver run ended: ``code`` (a stable word), ``message`` (for people), ``ok`` (the
     numbers asked for exist and may be used as what they say they are).
 
-    Set where the outcome is decided: ``CENSORED`` by the averaged SDE's first passage
-    (montecarlo/sde_time.py) when paths reach the horizon without passing (its mean is then a
-    restricted mean, ``info["censored"]`` says how many). Not yet members (issue 38): a
-    diverged simulation and a budget spent before the first sampled window are the exceptions
-    ``SimulationDiverged`` and ``BudgetExhausted`` (exit 3, montecarlo/simulate.py); a budget
-    that stops a run short of its floor is ``info["convergence"]["stopped"]``; an equilibration
-    that fails is ``info["convergence"]["equilibrated"]`` (montecarlo/certificate.py); the original
-    system's censored paths are ``info["censored"]`` (montecarlo/passage.py)."""
+    Set where the outcome is decided: ``CENSORED`` by the first passage of the original system
+    (montecarlo/passage.py) and of the averaged SDE (montecarlo/sde_time.py) when paths reach
+    the horizon without passing (the mean is then a restricted mean, ``info["censored"]`` says
+    how many); ``NOT_EQUILIBRATED`` and ``STOPPED`` by the stationary Monte Carlo
+    (montecarlo/assemble.py) when its equilibration certificate fails
+    (``info["convergence"]["equilibrated"]`` False) or its budget ends the run before the
+    target floor (``info["convergence"]["reached"]`` False); ``TIMED_OUT`` by the averaged SDE's
+    splitting (montecarlo/splitting.py) when AMS runs reach their time limit. Outcomes that
+    leave no numbers stay exceptions, mapped to exit 3 at the door: a diverged simulation
+    (``SimulationDiverged``) and a budget spent before the first sampled window
+    (``BudgetExhausted``, montecarlo/failures.py)."""
 
     DENSITY = ("density", "stationary density computed", True)
     SNAPSHOTS = ("snapshots", "transient snapshots computed", True)
@@ -75,6 +78,12 @@ class Status(Enum):
     PASSAGE = ("passage", "first passage computed", True)
     CENSORED = ("censored", "simulated; some paths did not pass within the horizon (censored): "
                 "the mean first-passage time is a restricted mean", True)
+    NOT_EQUILIBRATED = ("not_equilibrated", "simulated; the equilibration certificate failed: "
+                        "the densities may still carry the start", True)
+    STOPPED = ("stopped", "simulated; the budget ended the run before its target noise floor",
+               True)
+    TIMED_OUT = ("timed_out", "some splitting runs reached their time limit before the "
+                 "threshold or the low level: the estimate is biased low", False)
     NOT_FINITE = ("not_finite", "density is negative or not finite", False)
 
     def __init__(self, code: str, message: str, ok: bool):
