@@ -163,15 +163,17 @@ def test_solve_a_shipped_scene_from_an_empty_directory(installed):
 
 
 def test_small_check_and_figure_from_an_empty_directory(installed):
+    """The installed package runs a cross-check (its Monte Carlo kernels compiled from the
+    wheel's files) and renders its report's figures, from a folder holding nothing of vifpk's.
+    One model: the wheel's files are the subject, not the physics (every model, and `vifpk
+    figures`, are checked on the source tree; before 2026-11-28 this test also ran `vifpk
+    figures --figure 2`, 20 s of CI for the same installed code)."""
     small = ["--paths", "64", "--time", "50", "--seed", "1"]
-    res = run(installed, installed["vifpk"], "check", "paper-base", "--out", "out", "--quiet",
-              *small)
+    res = run(installed, installed["vifpk"], "check", "paper-base", "--model", "exact",
+              "--out", "out", "--quiet", *small)
     assert res.returncode == 0, res.stderr
     assert (installed["cwd"] / "out" / "report.html").is_file()
-    res = run(installed, installed["vifpk"], "figures", "--figure", "2", "--out", "figs",
-              "--quiet", *small)
-    assert res.returncode == 0, res.stderr
-    assert list((installed["cwd"] / "figs").glob("paper-fig2*.png"))
+    assert list((installed["cwd"] / "out").rglob("*.png"))  # the report's figures rendered
 
 
 def test_a_plugin_package_is_listed_solved_and_checked(installed, tmp_path):
