@@ -11,7 +11,6 @@ block in report.html and report.md, ``run_id`` in arrays.npz and a text chunk in
 from __future__ import annotations
 
 import base64
-import dataclasses
 import html
 import math
 from pathlib import Path
@@ -452,10 +451,7 @@ def write_report(res: CheckResult, out_dir: str | Path, *,
     with the run's provenance ``prov`` (default: :func:`provenance.collect` for this process).
     ``runtime_warnings``: the run's counted RuntimeWarnings (harness/outputs/runwarnings.py),
     stored in metrics.json; None: not recorded, no key."""
-    if prov is None:
-        prov = provenance.collect(scene_path=provenance.scene_file(res.scene.source)
-                                  if res.scene.source else None)
-    res = dataclasses.replace(res, provenance=prov)
+    res, prov = provenance.stamped(res, prov)
     run_id = prov["run_id"]
 
     def fill(tmp: Path) -> None:

@@ -9,7 +9,6 @@ no R(t), FPT density, figures, passage.npz or CSV files.
 
 from __future__ import annotations
 
-import dataclasses
 from pathlib import Path
 from typing import Any
 
@@ -46,10 +45,7 @@ def write_splitting_report(res: Any, out_dir: str | Path, *, prov: dict[str, Any
                            ) -> dict[str, Path]:
     """Write DIR/report.html, report.md and metrics.json of a SplittingResult as a unit;
     ``runtime_warnings``: the run's counted RuntimeWarnings, stored in metrics.json."""
-    if prov is None:
-        prov = provenance.collect(scene_path=provenance.scene_file(res.scene.source)
-                                  if res.scene.source else None)
-    res = dataclasses.replace(res, provenance=prov)
+    res, prov = provenance.stamped(res, prov)
     met = res.metrics
     sp = met["splitting"]
     title = f"First passage: {res.scene.name}, Ac = {res.threshold:g} (method: splitting)"

@@ -10,7 +10,6 @@ folder is built beside DIR and swapped in, every file stamped with the run id.
 from __future__ import annotations
 
 import base64
-import dataclasses
 import html
 from pathlib import Path
 from typing import Any
@@ -390,10 +389,7 @@ def write_time_report(res: Any, out_dir: str | Path, *, prov: dict[str, Any] | N
                       ) -> dict[str, Path]:
     """Write the report folder of a PassageResult or a TransientResult as a unit;
     ``runtime_warnings``: the run's counted RuntimeWarnings, stored in metrics.json."""
-    if prov is None:
-        prov = provenance.collect(scene_path=provenance.scene_file(res.scene.source)
-                                  if res.scene.source else None)
-    res = dataclasses.replace(res, provenance=prov)
+    res, prov = provenance.stamped(res, prov)
     run_id = prov["run_id"]
     kind = res.metrics["workflow"]
     files = PASSAGE_FILES if kind == "passage" else TRANSIENT_FILES

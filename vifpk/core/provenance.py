@@ -20,6 +20,7 @@ which is why metrics.json keeps this block apart (issue 11: byte-identical metri
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import os
 import platform
@@ -161,3 +162,13 @@ def summary(prov: Mapping[str, Any]) -> str:
     git = prov.get("git")
     tail = f" (git {git['commit'][:10]}{'+dirty' if git['dirty'] else ''})" if git else ""
     return f"run {prov['run_id']}, {prov['created']}, vifpk {prov['vifpk']}{tail}"
+
+
+def stamped(res: Any, prov: dict[str, Any] | None = None) -> tuple[Any, dict[str, Any]]:
+    """(the result carrying ``prov``, prov): a report writer's provenance, ``prov`` when given,
+    else :func:`collect` for this process with the result's scene file (``res.scene.source``).
+    ``res`` is a dataclass with a ``provenance`` field (the check, passage, transient and
+    splitting results)."""
+    if prov is None:
+        prov = collect(scene_path=scene_file(res.scene.source) if res.scene.source else None)
+    return dataclasses.replace(res, provenance=prov), prov
