@@ -28,12 +28,6 @@ from vifpk.core.scene import Scene, load_scene
 ROOT = Path(__file__).resolve().parent.parent
 TINY = ROOT / "tests" / "data" / "tiny.toml"
 
-if os.environ.get("PYTEST_XDIST_WORKER") and os.environ.get("VIFPK_COMPILE_ONCE") != "0":
-    # one compile of each kernel for all workers (VIFPK_COMPILE_ONCE=0: off, to compare)
-    from tests.compile_once import install
-
-    install(os.environ.get("PYTEST_XDIST_TESTRUNUID", "run"))
-
 # Property tests explore new random examples on every local run (that is how they find cases);
 # in CI (CI=true) they draw a fixed sequence, so a landing is judged on the same examples every
 # time and a new counterexample shows up first where someone can look at it.
