@@ -102,6 +102,7 @@ def test_bad_input_is_one_line(base):
         first_passage(base.system, base.noise, settings(), threshold=1.2, start="stationary")
 
 
+@pytest.mark.xdist_group("passage-paper-base")
 @pytest.mark.slow
 def test_same_seed_same_numbers_any_threads_and_cut(base, monkeypatch):
     """Bit-identical first-passage times on 1 and 2 threads, and when the run is cut into
@@ -122,6 +123,7 @@ def test_same_seed_same_numbers_any_threads_and_cut(base, monkeypatch):
     assert not np.array_equal(f1["time"], other.data["fpt"]["time"])
 
 
+@pytest.mark.xdist_group("passage-paper-base")
 def test_censoring_is_exact(base):
     """A short horizon cuts the same paths: every path that crossed before it has the very
     same time as with a long horizon, every other one is censored at exactly the horizon."""
@@ -141,6 +143,7 @@ def test_censoring_is_exact(base):
     assert long.info["status"]["code"] == ("censored" if C.any() else "simulated")
 
 
+@pytest.mark.xdist_group("passage-paper-base")
 def test_stationary_start_is_below_threshold(base):
     """'stationary': every clock starts below Ac, after the burn-in, and info says how."""
     res = first_passage(base.system, base.noise, settings(horizon=20.0, burn_in=50.0),
@@ -193,6 +196,7 @@ def test_crossing_time_second_order_against_solve_ivp(base):
     assert errs[-1] < 0.05 * 0.01  # a crossing at the grid times errs by up to dt
 
 
+@pytest.mark.xdist_group("passage-paper-base")
 def test_door_turns_failures_into_one_line(base, monkeypatch):
     """harness.door.timedomain.passage_montecarlo: scene -> settings -> solver, with the scene's dt
     and seed; the solver's failures (a blow-up, a stationary start it cannot place) become
@@ -280,6 +284,7 @@ def test_white_noise_bridge_keeps_coarse_steps_unbiased(base):
     assert abs(m1 - m2) < 4 * math.hypot(e1, e2), out
 
 
+@pytest.mark.xdist_group("passage-paper-base")
 def test_switched_off_effects_reach_the_kernel_as_none(base):
     """The scene's switches reach run_passage as simulate's reach run_paths: an effect the
     scene does not have is None (numba prunes its branches, tests/test_montecarlo.py), here
@@ -301,6 +306,7 @@ def test_switched_off_effects_reach_the_kernel_as_none(base):
                for sig in P.run_passage.signatures)
 
 
+@pytest.mark.xdist_group("passage-paper-base")
 def test_paths_not_a_multiple_of_blocks_finish(base):
     """Found by the splitting helper: with 100 paths in 32 blocks some blocks have a padding
     lane the kernel never advances; counted as active, it kept the driver's loop going for
