@@ -53,8 +53,8 @@ def bridge_hit(B, level, E, E1, x, vc, h, P, s0, s1, s2, s3):
 def run_passage(arrs, count, run, h, B, P):
     """Advance every unfinished path by at most ``budget`` steps (its state machine: NEW ->
     [BURN ->] RUN -> CROSSED | CENSORED, or DIVERGED / REFUSED) with the physics record P
-    (plan.Record for this h) and the bridge test's B = (P.bridge, P.pk, P.pc) (all None: no
-    bridge test, discrete monitoring only); ``arrs`` = (rng, state, init, phase, steps, tries,
+    (plan.Record for this h) and the bridge test's B = (P.bridge, P.pk, P.pc) (all None or 0:
+    no bridge test, discrete monitoring only); ``arrs`` = (rng, state, init, phase, steps, tries,
     fpt), per-path arrays [b, p] updated in place (``init``: the state at which the path's
     clock started); ``run`` = (budget, n_max, n_burn, horizon, Ec, a_start, a_burn, max_tries).
     One block per thread at a time (``_passage_block`` by ``_jit.over_blocks``)."""
