@@ -217,3 +217,29 @@ def no_computation(monkeypatch):
             for name, value in list(vars(mod).items()):
                 if id(value) in targets:
                     monkeypatch.setattr(mod, name, forbidden)
+
+
+def blank_png(res=None, text: dict[str, str] | None = None) -> bytes:
+    """A 1 x 1 PNG carrying the text chunks a report figure carries (its run id): stands in
+    for harness/outputs/report.py's figures where their drawing is not the subject (drawing
+    both costs ~2 s of CPU; tests/test_report_output.py reads the real ones)."""
+    import io
+
+    from PIL import Image, PngImagePlugin
+
+    info = PngImagePlugin.PngInfo()
+    for k, v in (text or {}).items():
+        info.add_text(k, v)
+    buf = io.BytesIO()
+    Image.new("L", (1, 1)).save(buf, format="PNG", pnginfo=info)
+    return buf.getvalue()
+
+
+@pytest.fixture
+def blank_figures(monkeypatch):
+    """The check report's two figures replaced by :func:`blank_png` (tests of options, folders
+    and interruption, which do not look at the figures)."""
+    from vifpk.harness.outputs import report
+
+    monkeypatch.setattr(report, "_figure_densities", blank_png)
+    monkeypatch.setattr(report, "_figure_decomposition", blank_png)

@@ -73,10 +73,11 @@ def test_exact_is_measured_the_same_whatever_else_is_checked(white_envelope):
 
 
 @pytest.mark.slow
-def test_check_tolerance_verdict_end_to_end(tmp_path, capsys, canned_check):
+def test_check_tolerance_verdict_end_to_end(tmp_path, capsys, canned_check, blank_figures):
     """`vifpk check --tolerance`: metrics.json keeps every old key and adds per model the
     tolerance verdict (estimate, interval, P, class), the question asked, and a recommendation
-    that names it; a tolerance out of range exits 2 before any work."""
+    that names it; a tolerance out of range exits 2 before any work. Figures blank
+    (tests/conftest.py ``blank_png``): the tolerance does not draw."""
     import json
 
     from vifpk.harness.cli.app import main

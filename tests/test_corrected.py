@@ -219,15 +219,19 @@ def test_corrected_tends_to_the_white_noise_model_as_the_band_widens():
     / S(0) = 1 - O(Omega^2 / alpha1^2), the fast fluctuation and the wall offset O(1/alpha1)).
     Before the wall offset resolved the covariance's cusp (alpha1 h <= 0.1) its trapezoid gave
     delta of the wrong sign from alpha1 tau ~ 20: L1 1.16 at alpha1 = 20 and no stationary
-    density at 40. Bound: the L1 gap shrinks by at least 2 from alpha1 = 10 to 40 (first
-    order: 4; measured 3.7)."""
+    density at 40. Bounds, at alpha1 = 5 and 20 (alpha1 tau up to 16 and 63 on the wall
+    table: both take the resolved path, more than 120 steps a flight; alpha1 = 40 cost 12 s of
+    CPU for the same check): the L1 gap shrinks by at least 2 over the factor 4 in alpha1
+    (first order: 4; measured 4.4, gaps 0.193 and 0.044; 10 -> 40 measured 3.7), and at
+    alpha1 = 20 it is below 0.1, i.e. alpha1 x gap < 2 (first order: a constant; measured
+    0.96, 0.89, 0.88 at alpha1 = 5, 10, 20; the old wrong sign gave a gap of 1.16 at 20)."""
     white = averaging.solve(BASE.with_values({"noise.kind": "white"}), model="compounded")
     ref = white.data["A"]
     gaps = []
-    for a1 in (10.0, 40.0):
+    for a1 in (5.0, 20.0):
         sc = BASE.with_values({"noise.alpha1": a1, "noise.D": BASE.noise.D * a1**2})
         r = averaging.solve(sc, model="corrected").data["A"]
         p = np.interp(ref["x"], r["x"], r["p"], right=0.0)
         gaps.append(float(np.trapezoid(np.abs(p - ref["p"]), ref["x"])))
-    assert np.isfinite(gaps).all() and gaps[1] < 0.05, gaps
+    assert np.isfinite(gaps).all() and gaps[1] < 0.1, gaps
     assert gaps[0] / gaps[1] >= 2.0, gaps

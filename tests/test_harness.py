@@ -144,7 +144,10 @@ def test_check_end_to_end(tmp_path: Path, capsys, canned_check, monkeypatch):
 
 
 def test_interrupted_report_leaves_no_complete_looking_file(tmp_path: Path, monkeypatch,
-                                                           canned_check):
+                                                           canned_check, blank_figures):
+    """Interrupted while writing report.html (report.md written in the partial folder): no
+    file of the set in the folder. Figures blank (tests/conftest.py ``blank_png``): drawing
+    them is not the subject."""
     from vifpk.harness.outputs import report
 
     def boom(*a, **k):

@@ -58,7 +58,11 @@ def test_xdist_groups_keep_their_tests_on_one_worker(tmp_path):
     """`--dist loadgroup` (the fast tier's and CI's) keeps an xdist_group on one worker, so a
     group's shared fixture (the wheel, the adaptive sweep, the CLI catalogue) is built once.
     pytest 9.2 broke this silently (pytest-dev/pytest-xdist#1386): CI then built the adaptive
-    sweep twice (80 s each) and took 897 s; pyproject.toml pins pytest < 9.2 for it."""
+    sweep twice (80 s each) and took 897 s; pyproject.toml pins pytest < 9.2 for it.
+    pytest and xdist alone (no plugin autoloading): the grouping is theirs, and each of the
+    three processes imported every installed plugin (vifpk's, hypothesis, ...) for 8 s of CPU
+    in all, against 1.4 s without."""
+    import os
     import re
     import subprocess
     import sys
@@ -67,8 +71,10 @@ def test_xdist_groups_keep_their_tests_on_one_worker(tmp_path):
         "import pytest\n"
         + "".join(f"@pytest.mark.xdist_group('g')\ndef test_g{i}(): pass\n" for i in range(6))
         + "".join(f"def test_free{i}(): pass\n" for i in range(6)))
-    res = subprocess.run([sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "-n", "2",
-                          "--dist", "loadgroup", "-v", "test_g.py"], cwd=tmp_path,
+    env = {**os.environ, "PYTEST_DISABLE_PLUGIN_AUTOLOAD": "1"}
+    res = subprocess.run([sys.executable, "-m", "pytest", "-p", "no:cacheprovider",
+                          "-p", "xdist.plugin", "-n", "2", "--dist", "loadgroup", "-v",
+                          "test_g.py"], cwd=tmp_path, env=env,
                          capture_output=True, text=True, timeout=120)
     assert res.returncode == 0, res.stdout[-2000:]
     workers = set(re.findall(r"\[(gw\d)\].*PASSED test_g\.py::test_g\d", res.stdout))

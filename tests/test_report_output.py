@@ -4,7 +4,9 @@ the folder swap under SIGKILL, byte-identical metrics.json for one seed, modes u
 One cross-check of the tiny scene (tests/data/tiny.toml) is computed for the session
 (tests/conftest.py ``tiny_check``) and reused; the kill tests re-write its report in
 subprocesses that pause at a named moment of the writing (``VIFPK_TEST_PAUSE``,
-harness/outputs/outdir.py) and are SIGKILLed there. The byte-identical test is in the slow tier.
+harness/outputs/outdir.py) and are SIGKILLed there, their figures blank PNGs carrying the run
+id (tests/conftest.py ``blank_png``; the swap is their subject, the run fixture's report has
+the real figures). The byte-identical test is in the slow tier.
 """
 
 from __future__ import annotations
@@ -116,10 +118,24 @@ def test_metrics_byte_identical_across_runs_and_modes_follow_umask(run, tmp_path
         assert p.stat().st_mode & 0o777 == want, p
 
 
+# the figures are 1 x 1 PNGs carrying the run id (tests/conftest.py blank_png): the swap is the
+# subject, drawing them cost ~2 s of CPU a kill (the real ones: the run fixture's report)
 _KILLED = textwrap.dedent("""
-    import pickle, sys
+    import io, pickle, sys
+    from PIL import Image, PngImagePlugin
     from vifpk.core import provenance
+    from vifpk.harness.outputs import report
     from vifpk.harness.outputs.report import write_report
+
+    def blank_png(res=None, text=None):
+        info = PngImagePlugin.PngInfo()
+        for k, v in (text or {}).items():
+            info.add_text(k, v)
+        buf = io.BytesIO()
+        Image.new("L", (1, 1)).save(buf, format="PNG", pnginfo=info)
+        return buf.getvalue()
+
+    report._figure_densities = report._figure_decomposition = blank_png
     res = pickle.loads(open(sys.argv[1], "rb").read())
     prov = provenance.collect(argv=["vifpk", "check"], run_id=sys.argv[3])
     write_report(res, sys.argv[2], prov=prov)
@@ -128,7 +144,7 @@ _KILLED = textwrap.dedent("""
 
 @pytest.mark.slow
 @pytest.mark.parametrize("moment", ["fill", "before-swap", "after-swap"])
-def test_sigkill_while_writing_leaves_one_whole_set(run, tmp_path: Path, moment):
+def test_sigkill_while_writing_leaves_one_whole_set(run, tmp_path: Path, moment, blank_figures):
     import shutil
 
     out = tmp_path / "rep"
@@ -156,7 +172,8 @@ def test_sigkill_while_writing_leaves_one_whole_set(run, tmp_path: Path, moment)
 
 
 def test_overrides_name_the_title_and_the_default_folder(run, tmp_path: Path, monkeypatch,
-                                                         capsys):
+                                                         capsys, blank_figures):
+    """Figures blank (tests/conftest.py ``blank_png``): names and overrides are the subject."""
     import vifpk.harness.workflows.check
 
     monkeypatch.setattr(vifpk.harness.workflows.check, "cross_check",

@@ -5,7 +5,8 @@ The venv sees the site-packages of the interpreter running the tests (numpy, num
 ... are not reinstalled): a ``.pth`` file lists them, because ``system_site_packages`` would
 show the base interpreter's instead, which inside a virtualenv lacks them. vifpk itself must
 come from the wheel: the test checks where ``harness`` is imported from and runs with no
-PYTHONPATH, from a directory with no scenes/ in it.
+PYTHONPATH, from a directory with no scenes/ in it. The venv has no pip of its own: the
+running interpreter's pip installs into it (``pip --python``, pip >= 22.3).
 """
 
 from __future__ import annotations
@@ -37,12 +38,12 @@ def installed(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
                     str(src)], check=True, timeout=600)
     (wheel,) = dist.glob("vifpk-*.whl")
     env_dir = tmp / "venv"
-    venv.create(env_dir, system_site_packages=False, with_pip=True)
+    # no pip of its own (ensurepip cost ~6 s of CPU): the running pip installs into it
+    venv.create(env_dir, system_site_packages=False, with_pip=False)
     bin_dir = env_dir / ("Scripts" if os.name == "nt" else "bin")
     py = bin_dir / "python"
     _see_running_packages(py)
-    subprocess.run([str(py), "-m", "pip", "install", "-q", "--no-deps", "--force-reinstall",
-                    str(wheel)], check=True, timeout=600, env=_env(bin_dir))
+    _pip_install(py, "--force-reinstall", wheel)
     empty = tmp / "empty"
     empty.mkdir()
     return {"python": py, "vifpk": bin_dir / "vifpk", "bin": bin_dir, "cwd": empty,
@@ -66,6 +67,14 @@ def _see_running_packages(py: Path) -> None:
     site = subprocess.run([str(py), "-c", "import sysconfig; print(sysconfig.get_path('purelib'))"],
                           capture_output=True, text=True, check=True).stdout.strip()
     (Path(site) / "_vifpk_test_deps.pth").write_text("\n".join(running_site_dirs()) + "\n")
+
+
+def _pip_install(py: Path, *args: str | Path) -> None:
+    """``pip install --no-deps ARGS`` into the venv of ``py``: the running interpreter's pip
+    with ``--python`` (pip >= 22.3), so the venv needs no pip of its own."""
+    subprocess.run([sys.executable, "-m", "pip", "--python", str(py), "install", "-q",
+                    "--no-deps", *map(str, args)], check=True, timeout=600,
+                   env=_env(py.parent))
 
 
 def _env(bin_dir: Path) -> dict[str, str]:
@@ -155,46 +164,60 @@ def test_shipped_scenes_carry_their_provenance(installed):
 
 
 def test_solve_a_shipped_scene_from_an_empty_directory(installed):
+    """The summary on the terminal (hard/r-low, a shipped scene in a subfolder, is solved from
+    the wheel by test_shipped_scenes_carry_their_provenance)."""
     res = run(installed, installed["vifpk"], "solve", "paper-base", "--solver", "averaging")
     assert res.returncode == 0, res.stderr
     assert "mass check" in res.stdout
-    res = run(installed, installed["vifpk"], "solve", "hard/r-low", "--solver", "averaging")
-    assert res.returncode == 0, res.stderr
 
 
-def test_small_check_and_figure_from_an_empty_directory(installed):
+# The two tests below share one `vifpk check` run (the fixture ``checked``): each cold check
+# compiles the wheel's Monte Carlo kernels (~20 s of CPU), and a second process was ~10 s more
+# for the same installed code. They come last in the file: the plugin is installed before the
+# check, so every test above (run in file order) sees the wheel alone.
+
+
+@pytest.fixture(scope="module")
+def checked(installed, tmp_path_factory: pytest.TempPathFactory
+            ) -> subprocess.CompletedProcess[str]:
+    """docs/examples/plugin installed with pip beside the wheel, then one small cross-check of
+    a shipped scene with the plugin's model and a built-in one, from the empty folder, into
+    ``out``. Small: 64 paths of 50 time units, and ``montecarlo.budget`` so small that the
+    check does not extend the run (harness/workflows/check.py; as tests/conftest.py
+    TINY_CHECK_SET): the installed files are the subject, not the physics."""
+    src = tmp_path_factory.mktemp("plugin") / "plugin"
+    shutil.copytree(ROOT / "docs" / "examples" / "plugin", src)
+    _pip_install(installed["python"], src)
+    small = ["--paths", "64", "--time", "50", "--seed", "1", "--set", "montecarlo.budget=0.001"]
+    return run(installed, installed["vifpk"], "check", "paper-base", "--model",
+               "white-envelope", "--model", "exact", "--out", "out", "--quiet", *small)
+
+
+def test_small_check_and_figure_from_an_empty_directory(installed, checked):
     """The installed package runs a cross-check (its Monte Carlo kernels compiled from the
     wheel's files) and renders its report's figures, from a folder holding nothing of vifpk's.
-    One model: the wheel's files are the subject, not the physics (every model, and `vifpk
-    figures`, are checked on the source tree; before 2026-11-28 this test also ran `vifpk
-    figures --figure 2`, 20 s of CI for the same installed code)."""
-    small = ["--paths", "64", "--time", "50", "--seed", "1"]
-    res = run(installed, installed["vifpk"], "check", "paper-base", "--model", "exact",
-              "--out", "out", "--quiet", *small)
-    assert res.returncode == 0, res.stderr
+    The wheel's files are the subject, not the physics (every model, and `vifpk figures`, are
+    checked on the source tree; before 2026-11-28 this test also ran `vifpk figures --figure
+    2`, 20 s of CI for the same installed code). The check is the plugin test's (``checked``):
+    the built-in model ``exact`` is computed by the wheel's code as it would be alone."""
+    assert checked.returncode == 0, checked.stderr
+    assert "\nexact model:" in checked.stdout, checked.stdout
     assert (installed["cwd"] / "out" / "report.html").is_file()
     assert list((installed["cwd"] / "out").rglob("*.png"))  # the report's figures rendered
 
 
-def test_a_plugin_package_is_listed_solved_and_checked(installed, tmp_path):
-    """docs/examples/plugin installed with pip beside the wheel: its model works like a
-    built-in one, without editing vifpk (issue 19.2). Runs last: it adds to the venv."""
-    src = tmp_path / "plugin"
-    shutil.copytree(ROOT / "docs" / "examples" / "plugin", src)
-    subprocess.run([str(installed["python"]), "-m", "pip", "install", "-q", "--no-deps",
-                    str(src)], check=True, timeout=600, env=_env(installed["bin"]))
+def test_a_plugin_package_is_listed_solved_and_checked(installed, checked):
+    """docs/examples/plugin installed with pip beside the wheel (``checked``): its model works
+    like a built-in one, without editing vifpk (issue 19.2)."""
     res = run(installed, installed["vifpk"], "models")
     assert res.returncode == 0, res.stderr
     assert "white-envelope" in res.stdout and "vifpk-white-envelope" in res.stdout
     res = run(installed, installed["vifpk"], "solve", "paper-base", "--model", "white-envelope")
     assert res.returncode == 0, res.stderr
     assert "FPK direct solve" in res.stdout
-    small = ["--paths", "64", "--time", "50", "--seed", "1"]
-    res = run(installed, installed["vifpk"], "check", "paper-base", "--model", "white-envelope",
-              "--model", "exact", "--out", "plugin-check", "--quiet", *small)
-    assert res.returncode == 0, res.stderr
-    assert res.stdout.startswith("white-envelope model:")
-    metrics = (installed["cwd"] / "plugin-check" / "metrics.json").read_text()
+    assert checked.returncode == 0, checked.stderr
+    assert checked.stdout.startswith("white-envelope model:")
+    metrics = (installed["cwd"] / "out" / "metrics.json").read_text()
     assert '"white-envelope"' in metrics
     res = run(installed, installed["python"], "-c", "import vifpk; "
               "print(vifpk.model_names())")
