@@ -516,12 +516,7 @@ def test_the_monte_carlo_uses_the_physics_u():
 @pytest.mark.slow
 def test_numpy_reference_is_the_same_scheme(base):
     """The benchmark's NumPy implementation must simulate the same scheme: stuck fraction and
-    impact rate agree within 4 combined batch standard errors (friction-heavy scene). The
-    NumPy runs (4 seeds, their spread the error bar) are 1024 paths x 25 time units after a
-    burn-in of 50: the same sampled path-time per seed as the former 256 x 100 at about half
-    the cost (a NumPy step costs about the same for 256 or 1024 paths); the seeds' standard
-    errors came out 6.7e-4 (stuck fraction 0.762) and 1.9e-3 (impact rate 0.106), against
-    1.5e-3 and 2.8e-3 with 256 x 100: the check is no less sharp."""
+    impact rate agree within 4 combined batch standard errors (friction-heavy scene)."""
     from vifpk.montecarlo.plan import physics as _params
     from vifpk.montecarlo.reference import simulate_numpy
 
@@ -529,7 +524,7 @@ def test_numpy_reference_is_the_same_scheme(base):
     r = run(sc, paths=256, blocks=16, dt=0.01, time=200, burn_in=50,
                     progress=False, edges=FIXED, observables=("events",))
     ev = r.info["events"]
-    runs = [simulate_numpy(_params(sc.system, sc.noise), paths=1024, steps=7500, burn=5000,
+    runs = [simulate_numpy(_params(sc.system, sc.noise), paths=256, steps=15000, burn=5000,
                            stride=50, h=0.01, edges_A=FIXED["edges_A"], seed=s) for s in range(4)]
     for key, num in (("stuck_fraction", "stuck_time"), ("impacts_per_time", "impacts")):
         vals = np.array([o[num] / o["time"] for o in runs])
