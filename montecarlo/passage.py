@@ -235,7 +235,9 @@ def first_passage(system: Any, noise: Any, settings: PassageSettings, *, thresho
     threads = st.threads or numba.config.NUMBA_NUM_THREADS
     numba.set_num_threads(threads)
     P = record(phys, h)  # bridge: None, or 2 D f^2 (white noise; 0 -> None: E is C^1)
-    B = (P.bridge, P.pk, P.pc) if bridge else (None, None, None)  # the bridge test's terms
+    # the bridge test's terms; bridge=False keeps their types with the value 0 (a variance 0:
+    # never a crossing, no draw, as with None), so it runs the kernel the bridged run compiled
+    B = tuple(t if bridge or t is None else 0.0 for t in (P.bridge, P.pk, P.pc))
 
     def arrays(blocks: int, per_block: int, seed: int) -> dict[str, np.ndarray]:
         return {"rng": block_seeds(seed, blocks, per_block),
@@ -316,7 +318,8 @@ def first_passage(system: Any, noise: Any, settings: PassageSettings, *, thresho
         "steps": path_steps,
         "steps_per_second": path_steps / run_s if run_s > 0 else math.nan,
         "effects": effects(system, noise),
-        "crossing": _crossing_words(B[0] is not None, B[1] is not None or B[2] is not None),
+        "crossing": _crossing_words(bridge and B[0] is not None,
+                                    bridge and (B[1] is not None or B[2] is not None)),
         "start_law": _start_words(stationary, a_burn, n_burn * h, st.max_restarts),
         "status": (Status.CENSORED.record(f"{int(censored.sum())} of {censored.size} paths")
                    if censored.any() else Status.SIMULATED.record()),

@@ -9,6 +9,9 @@ import pytest
 
 from tests import time_doubles as td
 
+# xdist_group: tests that run the same compiled kernel shape go to one worker (CI's --dist
+# loadgroup), so it is compiled once rather than by both workers at the same time.
+
 #: the models' MFPTs to Ac = 2.0 from the stationary law on paper-base, by their Pontryagin
 #: quadratures (measured 2026-11-28, harness.request.timedomain.with_quadratures)
 MFPT_AT_2 = {"paper": 1.18e46, "exact": 9.16e114, "corrected": 4.20e118}
@@ -179,6 +182,7 @@ def test_x12_assert_mfpt_close_out_of_direct_reach_is_a_usage_error(far_tail):
     assert far_tail == []
 
 
+@pytest.mark.xdist_group("splitting-paper-base")
 @pytest.mark.slow
 def test_x13_real_splitting_that_dies_out_exits_3(tmp_path, capsys):
     """X13 on the real splitting: two particles in two groups to Ac = 1.2 from A0 = 0.3 on

@@ -93,6 +93,9 @@ def test_the_closed_form_boundary():
         assert abs(window_slope(D_k) - growth_rate(D_k)) < 1e-3
 
 
+# one xdist worker for the tests that run this scene's kernel shape (CI's --dist loadgroup):
+# compiled once, not by both workers at the same time (tests/test_parametric_mc.py runs it too)
+@pytest.mark.xdist_group("parametric-white")
 @pytest.mark.parametrize("D_k", [0.1, 0.25])
 def test_the_mean_square_growth_rate(D_k):
     """Below (D_k = 0.1: lambda = -0.0913) and above (D_k = 0.25: lambda = +0.0564) the

@@ -19,6 +19,9 @@ from vifpk.montecarlo import PassageSettings, first_passage, sample_starts
 from tests.conftest import vary
 from vifpk.core.result import BadInput
 
+# xdist_group: tests that run the same compiled kernel shape go to one worker (CI's --dist
+# loadgroup), so it is compiled once rather than by both workers at the same time.
+
 
 def settings(**kw) -> PassageSettings:
     return PassageSettings(**{"paths": 64, "blocks": 4, "dt": 0.01, "horizon": 100.0,
@@ -99,6 +102,7 @@ def test_bad_input_is_one_line(base):
         first_passage(base.system, base.noise, settings(), threshold=1.2, start="stationary")
 
 
+@pytest.mark.xdist_group("passage-paper-base")
 @pytest.mark.slow
 def test_same_seed_same_numbers_any_threads_and_cut(base, monkeypatch):
     """Bit-identical first-passage times on 1 and 2 threads, and when the run is cut into
@@ -119,6 +123,7 @@ def test_same_seed_same_numbers_any_threads_and_cut(base, monkeypatch):
     assert not np.array_equal(f1["time"], other.data["fpt"]["time"])
 
 
+@pytest.mark.xdist_group("passage-paper-base")
 def test_censoring_is_exact(base):
     """A short horizon cuts the same paths: every path that crossed before it has the very
     same time as with a long horizon, every other one is censored at exactly the horizon."""
@@ -138,6 +143,7 @@ def test_censoring_is_exact(base):
     assert long.info["status"]["code"] == ("censored" if C.any() else "simulated")
 
 
+@pytest.mark.xdist_group("passage-paper-base")
 def test_stationary_start_is_below_threshold(base):
     """'stationary': every clock starts below Ac, after the burn-in, and info says how."""
     res = first_passage(base.system, base.noise, settings(horizon=20.0, burn_in=50.0),
@@ -148,13 +154,21 @@ def test_stationary_start_is_below_threshold(base):
     assert "rejection" in res.info["start_law"]
 
 
+@pytest.mark.xdist_group("passage-white")
 @pytest.mark.slow
 def test_crossing_time_second_order_against_solve_ivp(base):
-    """Noise-free van der Pol-Duffing paths (f = 0; no barrier, no friction: the smooth
-    sub-system): the interpolated crossing time against solve_ivp's event location from the
-    same start. The error falls by 4 per halving of dt (CROSSING_ORDER = 2); a crossing at
-    the grid times would fall by 2 only."""
-    sc = vary(base, f=0.0, mu=0.0, barrier=False, c1=0.2, c2=0.2, alpha=0.6)
+    """Noise-free van der Pol-Duffing paths (no barrier, no friction: the smooth sub-system):
+    the interpolated crossing time against solve_ivp's event location from the same start.
+    The error falls by 4 per halving of dt (CROSSING_ORDER = 2); a crossing at the grid times
+    would fall by 2 only. Noise-free to double precision: white noise of D = 1e-30, whose kicks
+    (sqrt(2 D dt) <= 3e-16 a step, ~1e-14 summed over a path) are 10 orders below the errors
+    (measured 2.4e-3, 5.9e-4, 1.5e-4 at dt = 0.04, 0.02, 0.01: orders 2.01, 2.00); so the
+    kernel is the white-noise tests' (the same record type as
+    test_white_noise_bridge_keeps_coarse_steps_unbiased), not one compiled for this test
+    alone; its bridge test runs on every step but cannot fire unless a step ends within
+    ~1e-15 of Ec (its variance is ~1e-30: passage_kernels.BRIDGE_FLOOR)."""
+    sc = vary(base, mu=0.0, barrier=False, c1=0.2, c2=0.2, alpha=0.6, f=1.0, kind="white",
+              D=1e-30)
     k1, k3, c1, c2 = 1.0, 0.6, 0.2, 0.2
     Ac = 1.5
     Ec = 0.5 * k1 * Ac**2 + 0.25 * k3 * Ac**4
@@ -182,6 +196,7 @@ def test_crossing_time_second_order_against_solve_ivp(base):
     assert errs[-1] < 0.05 * 0.01  # a crossing at the grid times errs by up to dt
 
 
+@pytest.mark.xdist_group("passage-paper-base")
 def test_door_turns_failures_into_one_line(base, monkeypatch):
     """harness.door.timedomain.passage_montecarlo: scene -> settings -> solver, with the scene's dt
     and seed; the solver's failures (a blow-up, a stationary start it cannot place) become
@@ -206,6 +221,7 @@ def test_door_turns_failures_into_one_line(base, monkeypatch):
             passage_montecarlo(base, threshold=1.05, start=1.0, horizon=10.0, paths=4)
 
 
+@pytest.mark.xdist_group("passage-white")
 @pytest.mark.slow
 def test_stationary_start_is_the_restricted_stationary_law(base):
     """'stationary' on a linear oscillator under white noise, x'' + c x' + x = f W: its
@@ -245,6 +261,7 @@ def test_stationary_start_is_the_restricted_stationary_law(base):
     assert abs(restarts - expect) < 4 * math.sqrt(expect / (1 - above))
 
 
+@pytest.mark.xdist_group("passage-white")
 @pytest.mark.slow
 def test_white_noise_bridge_keeps_coarse_steps_unbiased(base):
     """White noise: the energy may cross Ec and come back inside a step; the bridge
@@ -267,27 +284,30 @@ def test_white_noise_bridge_keeps_coarse_steps_unbiased(base):
     assert abs(m1 - m2) < 4 * math.hypot(e1, e2), out
 
 
+@pytest.mark.xdist_group("passage-paper-base")
 def test_switched_off_effects_reach_the_kernel_as_none(base):
     """The scene's switches reach run_passage as simulate's reach run_paths: an effect the
     scene does not have is None (numba prunes its branches, tests/test_montecarlo.py), here
     the higher spring, damping and velocity terms and the white-noise bridge (OU noise)."""
     first_passage(base.system, base.noise, settings(paths=4, blocks=2, horizon=1.0),
                   threshold=1.05, start=1.0)
+    from vifpk.montecarlo import passage_kernels
     from vifpk.montecarlo.pieces import record_class
 
     names = ("mu", "lo", "up", "khi", "dhi", "ev", "bridge")
     # the last argument is the physics record (plan.record): its fields' numba types
     sigs = [{n: str(t) for n, t in zip(sig[-1].instance_class._fields, sig[-1].types,
                                        strict=True)}
-            for sig in P.run_passage.signatures]
+            for sig in passage_kernels._passage_block.signatures]
     want = {"mu": "float64", "lo": "float64", "up": "none", "khi": "none", "dhi": "none",
             "ev": "none", "bridge": "none"}
     assert any({n: s[n] for n in names} == want for s in sigs), sigs
     # the record is the OU kind's with one Newton wall: their pieces are the ones compiled
     assert any(sig[-1].instance_class is record_class("ou", "newton", None)
-               for sig in P.run_passage.signatures)
+               for sig in passage_kernels._passage_block.signatures)
 
 
+@pytest.mark.xdist_group("passage-paper-base")
 def test_paths_not_a_multiple_of_blocks_finish(base):
     """Found by the splitting helper: with 100 paths in 32 blocks some blocks have a padding
     lane the kernel never advances; counted as active, it kept the driver's loop going for

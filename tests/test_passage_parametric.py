@@ -8,8 +8,9 @@ written here in plain Python; the MFPT's convergence in dt (the bridge-corrected
 not move between dt and dt/2, the discretely monitored one is biased by O(dt^1/2)); intensity
 0 is the additive code path, bit for bit.
 
-Slow tier: one compilation of the passage kernel per record type (~20 s from a cold cache),
-runs of ~1 s each.
+Slow tier: one compilation of the passage kernel per record type (~10 s from a cold cache; the
+discretely monitored run, bridge=False, runs the bridged run's kernel with its terms set to 0),
+runs of ~1 s each; the parametric scene's runs are computed once for the module (_ou_parametric).
 """
 
 from __future__ import annotations
@@ -28,6 +29,8 @@ from vifpk.core.scene import scene_from_dict
 
 pytestmark = pytest.mark.slow
 
+# xdist_group: tests that run the same compiled kernel shape go to one worker (CI's --dist
+# loadgroup), so it is compiled once rather than by both workers at the same time.
 K, W = 0.2, 1.0
 
 
@@ -46,6 +49,19 @@ def _mfpt(sc, dt, par, bridge=True, paths=8000):
     t = res.data["fpt"]["time"]
     assert res.info["censored"] == 0
     return res, t.mean(), t.std(ddof=1) / math.sqrt(t.size)
+
+
+_RUNS: dict[tuple[float, bool], tuple] = {}
+
+
+def _ou_parametric(dt, bridge=True):
+    """_mfpt of the parametric scene of the convergence test (OU external noise, D_k = 0.15,
+    D_c = 0.1), once per (dt, bridge) for the module: the convergence test and the splitting
+    test read the same run at dt = 0.05."""
+    if (dt, bridge) not in _RUNS:
+        _RUNS[dt, bridge] = _mfpt(_scene("ou", 0.1), dt,
+                                  SimpleNamespace(stiffness=0.15, damping=0.1), bridge=bridge)
+    return _RUNS[dt, bridge]
 
 
 def test_variance_is_the_ito_quadratic_variation():
@@ -69,6 +85,7 @@ def test_variance_is_the_ito_quadratic_variation():
     assert energy_variance(P.bridge, None, None, x, vc, h, P) == P.bridge * vc * vc * h
 
 
+@pytest.mark.xdist_group("passage-parametric")
 def test_bridge_with_parametric_noise_converges_in_dt():
     """A linear oscillator (k = 0.2, w = 1) under OU external noise (D = 0.1, alpha1 = 2: E is
     C^1 without the parametric noises, so the bridge has only their terms) and parametric noises
@@ -78,17 +95,17 @@ def test_bridge_with_parametric_noise_converges_in_dt():
     bias halves as dt quarters, O(dt^1/2). Asserted: the corrected MFPT at dt and dt/2 within
     3 combined standard errors; the uncorrected one at dt above the corrected at dt/2 by more
     than 4 (measured 6.4)."""
-    sc = _scene("ou", 0.1)
-    par = SimpleNamespace(stiffness=0.15, damping=0.1)
-    res, m1, e1 = _mfpt(sc, 0.1, par)
+    res, m1, e1 = _ou_parametric(0.1)
     assert "2 D_k g(x)^2" in res.info["crossing"]["method"]
     assert "2 D f^2" not in res.info["crossing"]["method"]  # OU: no additive term
-    _, m2, e2 = _mfpt(sc, 0.05, par)
-    _, u1, f1 = _mfpt(sc, 0.1, par, bridge=False)
+    _, m2, e2 = _ou_parametric(0.05)
+    off, u1, f1 = _ou_parametric(0.1, bridge=False)
+    assert "Brownian-bridge" not in off.info["crossing"]["method"]
     assert abs(m1 - m2) < 3 * math.hypot(e1, e2), (m1, m2)
     assert u1 - m2 > 4 * math.hypot(f1, e2), (u1, m2)
 
 
+@pytest.mark.xdist_group("passage-white")
 def test_zero_intensity_is_the_additive_path_bit_for_bit():
     """Parametric intensities 0 reach the kernel as None: the same numbers as no parametric
     noise at all, with white external noise (the bridge's additive term on)."""
@@ -99,6 +116,7 @@ def test_zero_intensity_is_the_additive_path_bit_for_bit():
     assert a.info["crossing"] == b.info["crossing"]
 
 
+@pytest.mark.xdist_group("passage-parametric")
 def test_splitting_with_parametric_noise_meets_direct_simulation():
     """The cycle decomposition (splitting_kernels.cycles_orig, advance_orig) with the same bridge
     test at its boundaries, on the scene of the convergence test at dt = 0.05: its MFPT within
@@ -108,7 +126,7 @@ def test_splitting_with_parametric_noise_meets_direct_simulation():
 
     sc = _scene("ou", 0.1)
     par = SimpleNamespace(stiffness=0.15, damping=0.1)
-    _, m, e = _mfpt(sc, 0.05, par)
+    _, m, e = _ou_parametric(0.05)
     ss = SplittingSettings(groups=40, particles=100, levels=50, dt=0.05, seed=5, cycles=10,
                            paths=10, threads=1)
     r = passage_splitting(sc.system, sc.noise, ss, threshold=1.0, start=0.3, low=0.4,

@@ -1,5 +1,6 @@
 """The time-domain workflows end to end with the real solvers (slow tier, tens of seconds each):
-`vifpk passage` and `vifpk transient` on paper-base, `vifpk passage` on a user-defined system.
+`vifpk passage` and `vifpk transient` on paper-base, `vifpk passage` on a user-defined system
+(a scene file of the user's).
 
 Tolerances come from the runs' own error bars (the averaged SDE's Monte Carlo against its
 model's quadrature: 3 standard errors, harness.workflows.passage.SAMPLING_Z) or from check's
@@ -17,6 +18,8 @@ from vifpk.harness.workflows.passage import CENSORED_WARN
 from vifpk.harness.workflows.verdict import SAMPLING_FACTOR
 
 pytestmark = pytest.mark.slow
+# xdist_group "passage-paper-base": the tests that run paper-base's passage kernel shape go to
+# one worker (CI's --dist loadgroup), so it is compiled once (tests/test_passage_mc.py too)
 
 
 def _run(args, capsys):
@@ -26,6 +29,7 @@ def _run(args, capsys):
     return cap
 
 
+@pytest.mark.xdist_group("passage-paper-base")
 def test_passage_paper_base(tmp_path, capsys):
     """Ac = 0.5 from the stationary law: MFPT ~ 1e2 time units (docs/passage.md). The two
     routes of each model agree within the quadrature's error plus the FPK's grid error
@@ -65,11 +69,36 @@ def test_transient_paper_base(tmp_path, capsys):
         assert s["L1"] <= SAMPLING_FACTOR * s["L1_floor"], row
 
 
+#: a user's own scene file: a pure cubic spring (k1 = 0: outside the paper's family, which needs
+#: omega0 > 0), OU noise, the paper's friction and one Newton wall at 0. Its Monte Carlo record
+#: has paper-base's shape (a cubic spring, one damping term, friction on), so its kernels are
+#: the ones the paper-base tests compile (a quintic spring compiled two more, ~16 s cold).
+USER_SCENE = """name = "user-cubic"
+description = "a user's system outside the paper's family: x'' + 0.01 x' + x^3 + mu sgn(x')"
+[system]
+restoring = [0.0, 1.0]
+damping = [0.01]
+mu = 0.001
+r = 0.98
+f = 1.0
+[noise]
+kind = "ou"
+D = 0.05
+alpha1 = 2.0
+"""
+
+
+@pytest.mark.xdist_group("passage-paper-base")
 def test_passage_user_defined_system(tmp_path, capsys):
-    """scenes/systems/quintic.toml (outside the paper's family: exact and corrected only)."""
+    """A scene file of the user's (USER_SCENE, outside the paper's family): exact and corrected
+    only, the paper model named absent with the reason, and the original system's MFPT (64
+    paths: no number is compared, the workflow's precision is test_passage_paper_base's)."""
+    scene = tmp_path / "user.toml"
+    scene.write_text(USER_SCENE)
     out = tmp_path / "q"
-    _run(["passage", "systems/quintic", "--threshold", "0.9", "--paths", "256", "--out",
-          str(out), "--quiet"], capsys)
+    cap = _run(["passage", str(scene), "--threshold", "0.9", "--paths", "64", "--out",
+                str(out), "--quiet"], capsys)
+    assert "paper model: not checked, the paper's model needs omega0 > 0" in cap.out
     doc = json.loads((out / "metrics.json").read_text())
     assert set(doc["models"]) == {"exact", "corrected"} and "paper" in doc["models_absent"]
     assert doc["mfpt"]["original_system"]["value"] > 0

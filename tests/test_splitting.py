@@ -26,6 +26,8 @@ from vifpk.montecarlo.splitting import (
     sde_passage_splitting,
 )
 
+# xdist_group: tests that run the same compiled kernel shape go to one worker (CI's --dist
+# loadgroup), so it is compiled once rather than by both workers at the same time.
 BETA, S2 = 1.0, 0.5
 C = BETA / (2 * S2)
 
@@ -50,6 +52,7 @@ def z_score(est, truth):
     return (est["value"] - truth) / est["stderr"]
 
 
+@pytest.mark.xdist_group("splitting-sde")
 @pytest.mark.slow  # numba compilation: ~10 s on a fresh clone
 def test_escape_probability_matches_the_scale_function():
     s = SplittingSettings(groups=10, particles=50, levels=50, dt=2e-3, seed=3)
@@ -60,6 +63,7 @@ def test_escape_probability_matches_the_scale_function():
     assert r.info["timeouts"] == 0
 
 
+@pytest.mark.xdist_group("splitting-sde")
 @pytest.mark.slow  # numba compilation: ~10 s on a fresh clone
 def test_same_seed_same_answer_for_any_thread_count():
     s = dict(groups=4, particles=40, levels=40, dt=2e-3, seed=11)
@@ -126,6 +130,7 @@ def test_bad_levels_raise():
                                settings=SplittingSettings(groups=2, particles=10, kill=10))
 
 
+@pytest.mark.xdist_group("splitting-sde")
 @pytest.mark.slow
 def test_escape_probability_of_1e_minus_8():
     """p = 1.3e-8, 20 AMS runs of 100 particles (~10 s)."""
@@ -136,6 +141,7 @@ def test_escape_probability_of_1e_minus_8():
     assert abs(z_score(r.data["p"], truth)) < 4
 
 
+@pytest.mark.xdist_group("splitting-sde")
 @pytest.mark.slow
 def test_mfpt_by_cycles_matches_pontryagin():
     """MFPT from A = 0.4 to Ac = 4.7 (1.9e8 time units; the cycle's success probability is
@@ -151,6 +157,7 @@ def test_mfpt_by_cycles_matches_pontryagin():
     assert m["stderr"] / m["value"] < 0.15
 
 
+@pytest.mark.xdist_group("splitting-sde")
 @pytest.mark.slow
 def test_groups_give_the_same_numbers_in_one_batch_or_several():
     """rel_ci > 0 adds batches of groups; group g's streams are keyed by g, so 2 batches of 2
@@ -166,6 +173,7 @@ def test_groups_give_the_same_numbers_in_one_batch_or_several():
     assert one.info["mfpt"]["value"] == two.info["mfpt"]["value"]
 
 
+@pytest.mark.xdist_group("splitting-sde")
 @pytest.mark.slow
 def test_mfpt_by_cycles_at_a_threshold_direct_cycles_reach():
     """At Ac = 2.5 (p ~ 2e-2, T ~ 100) some direct cycles succeed: the cycle bookkeeping of
@@ -185,6 +193,7 @@ def paper_base():
     return load_scene("paper-base")
 
 
+@pytest.mark.xdist_group("splitting-paper-base")
 @pytest.mark.slow
 def test_original_system_splitting_agrees_with_direct_first_passage(paper_base):
     """Threshold A = 0.9 on paper-base (a cycle succeeds with p ~ 3e-2; MFPT ~ 5e3): the MFPT
@@ -210,6 +219,7 @@ def test_original_system_splitting_agrees_with_direct_first_passage(paper_base):
     assert abs(m["value"] - t.mean()) < 4 * np.hypot(m["stderr"], se)
 
 
+@pytest.mark.xdist_group("splitting-paper-base")
 @pytest.mark.slow
 def test_original_system_same_seed_same_answer_for_any_thread_count(paper_base):
     from vifpk.montecarlo.splitting import passage_splitting
