@@ -29,7 +29,9 @@ from vifpk.montecarlo.simulate import Settings, simulate
 
 from vifpk.core.scene import scene_from_dict
 
-pytestmark = pytest.mark.slow
+# one xdist worker with tests/test_parametric_growth.py's tests of the same kernel shape (white
+# noise, no wall, parametric on; CI's --dist loadgroup): compiled once, not by both workers at once
+pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("parametric-white")]
 
 K, W, D, DK, DC = 0.2, 1.0, 0.05, 0.05, 0.1
 PAR = SimpleNamespace(stiffness=DK, damping=DC)
