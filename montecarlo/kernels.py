@@ -49,10 +49,7 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-from numba import prange
-
-from ._jit import jit
+from ._jit import jit, over_blocks
 from .geometry import amplitude_general, poly_x2
 from .pieces import (
     noise_advance,
@@ -274,7 +271,6 @@ def strang_step(x, v, xi, s0, s1, s2, s3, h, half, P):
              loss2, wp1 + wp2))
 
 
-@jit(parallel=True)
 def run_paths(rng, state, n_steps, step0, n_burn, stride, h, P, bins, out, spw):
     """Advance every path of every block by ``n_steps`` steps (global step indices
     ``step0 .. step0 + n_steps - 1``) with the physics record P (plan.Record; its noise
@@ -282,13 +278,10 @@ def run_paths(rng, state, n_steps, step0, n_burn, stride, h, P, bins, out, spw):
     = (hist_A, hist_x, hist_v, hist_joint, moments, events, stuck_time, energy, windows). Each
     path has its own generator state rng[b, p] and its own (x, v, xi) in state[b, p], both
     updated in place, so a run cut into any number of calls gives bit-identical results, for
-    any thread count (one block per prange iteration: ``_block``). The docstring of ``_block``
-    says what is accumulated where."""
-    n_blocks = state.shape[0]
-    for b in prange(n_blocks):
-        # the index as int64: numba types prange's index uint64 in the parallel lowering and
-        # int64 in its sequential typing, which compiled _block twice per specialisation
-        _block(np.int64(b), rng, state, n_steps, step0, n_burn, stride, h, P, bins, out, spw)
+    any thread count (one block per thread at a time: ``_block`` by ``_jit.over_blocks``). The
+    docstring of ``_block`` says what is accumulated where."""
+    over_blocks(_block, state.shape[0], rng, state, n_steps, step0, n_burn, stride, h, P, bins,
+                out, spw)
 
 
 @jit(inline="always")
@@ -309,10 +302,10 @@ def _put(rng, state, stuck_time, b, p, x, v, xi, s0, s1, s2, s3, rest):
 LANES = 4  # paths one thread advances together, step by step in turn (_block)
 
 
-@jit
+@jit(nogil=True)
 def _block(b, rng, state, n_steps, step0, n_burn, stride, h, P, bins, out, spw):
-    """run_paths for the paths of block b. (A serial function of its own: numba's parallel
-    array analysis fails on the nested tuple ``strang_step`` returns.)
+    """run_paths for the paths of block b (``_jit.over_blocks`` runs the blocks on threads;
+    compiled ``nogil``).
 
     The paths are advanced LANES = 4 at a time, the four paths' steps in turn (paths p .. p + 3
     at step n, then at step n + 1; when fewer than four are left, the missing lanes run

@@ -7,9 +7,7 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-from numba import prange
-from vifpk.montecarlo._jit import jit
+from vifpk.montecarlo._jit import jit, over_blocks
 from vifpk.montecarlo.geometry import energy, orbit_start
 from vifpk.montecarlo.kernels import damping_k, spring_g, strang_step
 from vifpk.montecarlo.rng import uniform
@@ -52,22 +50,21 @@ def bridge_hit(B, level, E, E1, x, vc, h, P, s0, s1, s2, s3):
     return -1.0, s0, s1, s2, s3
 
 
-@jit(parallel=True)
 def run_passage(arrs, count, run, h, B, P):
     """Advance every unfinished path by at most ``budget`` steps (its state machine: NEW ->
     [BURN ->] RUN -> CROSSED | CENSORED, or DIVERGED / REFUSED) with the physics record P
     (plan.Record for this h) and the bridge test's B = (P.bridge, P.pk, P.pc) (all None: no
     bridge test, discrete monitoring only); ``arrs`` = (rng, state, init, phase, steps, tries,
     fpt), per-path arrays [b, p] updated in place (``init``: the state at which the path's
-    clock started); ``run`` = (budget, n_max, n_burn, horizon, Ec, a_start, a_burn, max_tries)."""
-    for b in prange(arrs[1].shape[0]):
-        # the index as int64 (one compiled _passage_block, not two: kernels.run_paths)
-        _passage_block(np.int64(b), arrs, count[b], run, h, B, P)
+    clock started); ``run`` = (budget, n_max, n_burn, horizon, Ec, a_start, a_burn, max_tries).
+    One block per thread at a time (``_passage_block`` by ``_jit.over_blocks``)."""
+    over_blocks(_passage_block, arrs[1].shape[0], arrs, count, run, h, B, P)
 
 
-@jit
-def _passage_block(b, arrs, n_paths, run, h, B, P):
-    """run_passage for the paths of block b, one path after the other."""
+@jit(nogil=True)
+def _passage_block(b, arrs, count, run, h, B, P):
+    """run_passage for the ``count[b]`` paths of block b, one path after the other."""
+    n_paths = count[b]
     rng, state, init, phase, steps, tries, fpt = arrs
     budget, n_max, n_burn, horizon, Ec, a_start, a_burn, max_tries = run
     w0sq, alpha, khi, xi_sd = P.w0sq, P.alpha, P.khi, P.xi_sd

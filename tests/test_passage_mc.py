@@ -273,19 +273,20 @@ def test_switched_off_effects_reach_the_kernel_as_none(base):
     the higher spring, damping and velocity terms and the white-noise bridge (OU noise)."""
     first_passage(base.system, base.noise, settings(paths=4, blocks=2, horizon=1.0),
                   threshold=1.05, start=1.0)
+    from vifpk.montecarlo import passage_kernels
     from vifpk.montecarlo.pieces import record_class
 
     names = ("mu", "lo", "up", "khi", "dhi", "ev", "bridge")
     # the last argument is the physics record (plan.record): its fields' numba types
     sigs = [{n: str(t) for n, t in zip(sig[-1].instance_class._fields, sig[-1].types,
                                        strict=True)}
-            for sig in P.run_passage.signatures]
+            for sig in passage_kernels._passage_block.signatures]
     want = {"mu": "float64", "lo": "float64", "up": "none", "khi": "none", "dhi": "none",
             "ev": "none", "bridge": "none"}
     assert any({n: s[n] for n in names} == want for s in sigs), sigs
     # the record is the OU kind's with one Newton wall: their pieces are the ones compiled
     assert any(sig[-1].instance_class is record_class("ou", "newton", None)
-               for sig in P.run_passage.signatures)
+               for sig in passage_kernels._passage_block.signatures)
 
 
 def test_paths_not_a_multiple_of_blocks_finish(base):

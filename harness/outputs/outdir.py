@@ -117,15 +117,22 @@ def hold(folder: str | Path, *, run_id: str = "", allowed: Collection[str] | Non
     except OSError as exc:
         raise FolderRefused(f"{folder}: cannot create its parent folder ({exc.strerror})"
                             ) from None
-    fd = _acquire(target, run_id)
-    _held[target] = fd
+    # the lock's state lives in ``box`` from the moment its file is opened, and the lines
+    # that open, lock and record it are a critical section (a signal inside it is raised
+    # when it ends): the cleanup below always finds what to undo (a SIGHUP that landed
+    # between the file's creation and its recording left an empty .DIR.lock)
+    box: dict[str, Any] = {}
 
     def emergency() -> None:  # the watchdog's forced exit: leave no lock, no partial set
         shutil.rmtree(target.parent / f".{target.name}.partial-{run_id}", ignore_errors=True)
-        lock_path(target).unlink(missing_ok=True)
+        if box.get("locked"):
+            lock_path(target).unlink(missing_ok=True)
 
     handle = signals.on_interrupt(emergency)
     try:
+        with signals.deferred():
+            _acquire(target, run_id, box)
+            _held[target] = box["fd"]
         recover(target)
         # again under the lock, on what recovery restored: a run killed between its two
         # renames left DIR absent and its old set at .DIR.old-*, which the check above could
@@ -134,13 +141,8 @@ def hold(folder: str | Path, *, run_id: str = "", allowed: Collection[str] | Non
         yield target
     finally:
         signals.forget(handle)
-        del _held[target]
-        lp = lock_path(target)
-        try:
-            lp.unlink()  # while still locked: a waiter that opened it retries on the new file
-        except FileNotFoundError:
-            pass
-        os.close(fd)
+        _held.pop(target, None)
+        _release(target, box)
         if made_parent and not target.exists():
             try:
                 target.parent.rmdir()  # nothing was written: leave no empty parent behind
@@ -148,20 +150,44 @@ def hold(folder: str | Path, *, run_id: str = "", allowed: Collection[str] | Non
                 pass
 
 
-def _acquire(target: Path, run_id: str) -> int:
+def _release(target: Path, box: dict[str, Any]) -> None:
+    """Undo what ``_acquire`` got into ``box``: the lock file removed while still locked (a
+    waiter that opened it retries on the new file), or, never locked, removed if this run
+    created it; the descriptor closed."""
+    fd = box.pop("fd", None)
+    if fd is None:
+        return
+    if box.get("locked") or box.get("created"):
+        lock_path(target).unlink(missing_ok=True)
+    os.close(fd)
+
+
+def _acquire(target: Path, run_id: str, box: dict[str, Any]) -> None:
+    """Take the folder's lock into ``box`` (``fd``; ``created`` once this run made the file,
+    ``locked`` once it holds the flock), so a cleanup interrupted at any point knows what to
+    undo; refuse if a live run holds it."""
     lp = lock_path(target)
     while True:
+        box.pop("created", None)
         try:
-            fd = os.open(lp, os.O_RDWR | os.O_CREAT, 0o666)
+            try:
+                box["fd"] = os.open(lp, os.O_RDWR | os.O_CREAT | os.O_EXCL, 0o666)
+                box["created"] = True
+            except FileExistsError:
+                box["fd"] = os.open(lp, os.O_RDWR)
+        except FileNotFoundError:
+            continue  # its holder removed it between the two opens: try again
         except OSError as exc:
             raise FolderRefused(f"{target}: cannot create the lock file {lp.name} beside it "
                                 f"({exc.strerror})") from None
+        fd = box["fd"]
         if fcntl is not None:
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except BlockingIOError:
                 h = _holder(fd)
-                os.close(fd)
+                box.pop("created", None)  # a live run's file: never ours to remove
+                os.close(box.pop("fd"))
                 who = f"pid {h['pid']}" if "pid" in h else "pid unknown"
                 if h.get("run_id"):
                     who += f", run {h['run_id']}"
@@ -173,8 +199,10 @@ def _acquire(target: Path, run_id: str) -> int:
         except FileNotFoundError:
             same = False
         if not same:
-            os.close(fd)
+            box.pop("created", None)  # that file is gone or replaced: not ours to remove
+            os.close(box.pop("fd"))
             continue
+        box["locked"] = True
         stale = _holder(fd)
         if stale.get("pid"):
             print(f"vifpk: note: {lp} was left by pid {stale['pid']}"
@@ -184,7 +212,7 @@ def _acquire(target: Path, run_id: str) -> int:
         os.lseek(fd, 0, os.SEEK_SET)
         os.write(fd, (json.dumps({"pid": os.getpid(), "run_id": run_id,
                                   "host": socket.gethostname()}) + "\n").encode())
-        return fd
+        return
 
 
 #: the outputs vifpk writes into a folder, each told by the entries it always holds (any one)

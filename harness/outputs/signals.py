@@ -21,7 +21,8 @@ import os
 import signal
 import sys
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from typing import Any
 
 GRACE = 1.5  # seconds the main thread gets to unwind before the watchdog exits
@@ -29,6 +30,7 @@ GRACE = 1.5  # seconds the main thread gets to unwind before the watchdog exits
 _state: dict[str, Any] = {"message": lambda: "vifpk: interrupted; nothing was written",
                           "announced": False, "signum": signal.SIGINT, "grace": GRACE}
 _cleanups: dict[int, Callable[[], None]] = {}
+_deferred: dict[str, Any] = {"depth": 0, "pending": None}  # see deferred()
 _lock = threading.Lock()
 _keep: list[Any] = []
 
@@ -104,12 +106,36 @@ def fresh_line() -> str:
 
 def _term_handler(signum: int, frame: Any) -> None:
     _state["signum"] = signum
+    if _deferred["depth"]:
+        _deferred["pending"] = Terminated
+        return
     raise Terminated
 
 
 def _int_handler(signum: int, frame: Any) -> None:
     _state["signum"] = signum
+    if _deferred["depth"]:
+        _deferred["pending"] = KeyboardInterrupt
+        return
     raise KeyboardInterrupt
+
+
+@contextmanager
+def deferred() -> Iterator[None]:
+    """A critical section: a signal of :func:`install`'s handlers that arrives inside it is
+    raised when it ends, not between two of its instructions. For the few lines whose state
+    a cleanup must see whole (an output folder's lock file: opened, locked, recorded). The
+    watchdog still forces the exit ``GRACE`` seconds after the signal, so a section must be
+    short. Without ``install()`` (in-process callers) Python's own handler is not deferred."""
+    _deferred["depth"] += 1
+    try:
+        yield
+    finally:
+        _deferred["depth"] -= 1
+    pending = _deferred["pending"] if _deferred["depth"] == 0 else None
+    if pending is not None:
+        _deferred["pending"] = None
+        raise pending
 
 
 def install() -> None:
