@@ -15,6 +15,7 @@ from tests.conftest import ROOT
 
 DATA = ROOT / "tests" / "data"
 BAND_SWEEP = DATA / "sweep-band.toml"
+BAND_RUN = DATA / "sweep-band-run.toml"  # the same sweep with cheaper points, for the slow test
 
 
 def _write(tmp_path, extra: str, tolerance: bool = True):
@@ -68,7 +69,8 @@ def test_band_sweep_extends_from_the_checkpoint_and_resumes(tmp_path, monkeypatc
         return real(sf, cands, size, **kw)
 
     monkeypatch.setattr(band, "choose", forced)
-    sweep = load_sweep(BAND_SWEEP)
+    sweep = load_sweep(BAND_RUN)
+    assert sweep.adaptive["method"] == "band"
     out = tmp_path / "out"
     first = run_sweep(sweep, out, quiet=True, report=False)
     pts = out / "points"

@@ -24,7 +24,7 @@ from vifpk.core.defaults import CHECK_MODELS as MODELS
 
 DATA = ROOT / "tests" / "data"
 CHECK = DATA / "sweep-check.toml"
-AVERAGING = DATA / "sweep-averaging.toml"
+AVERAGING = DATA / "sweep-averaging-fast.toml"  # every point computed: the cheaper grid
 
 
 def _write(tmp_path: Path, text: str, name: str = "s.toml") -> Path:
@@ -137,7 +137,9 @@ def serial_check(tmp_path_factory):
     return out
 
 
+# the tests of serial_check on one xdist worker (CI: --dist loadgroup): the sweep is made once
 @pytest.mark.slow  # eight real check points (Monte Carlo), serial and on a LocalCluster
+@pytest.mark.xdist_group("check-sweep")
 def test_local_cluster_equals_serial_bit_for_bit(serial_check, tmp_path):
     """A real LocalCluster on loopback (2 worker processes, 1 numba thread each) against the
     serial run: every variable identical, NaN for NaN (the check workflow: Monte Carlo with
@@ -179,6 +181,7 @@ def test_check_sweep_writes_every_variable_of_every_point(canned_check_sweep):
 
 
 @pytest.mark.parametrize("source", ["canned", pytest.param("computed", marks=pytest.mark.slow)])
+@pytest.mark.xdist_group("check-sweep")
 def test_sde_check_only_at_sampled_points(source, request):
     """The averaged SDEs' Monte Carlo runs at the first point and where the key is divisible by
     SDE_CHECK_EVERY (chosen by the parameters alone); sampling_ok is -1 elsewhere. On the
