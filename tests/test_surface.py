@@ -95,32 +95,26 @@ def test_surface_recovers_known_boundary_and_shrinks_with_noise():
 
 @pytest.mark.slow
 def test_band_covers_true_boundary_at_nominal_rate():
-    """Coverage of the true boundary by the 5-95% band over 26 independent synthetic maps, 13
-    seeds at the highest and 13 at the lowest noise level, against the nominal 90% (module
-    docstring: a boundary point is in the band iff the pointwise 90% interval of log L covers
-    the truth).
+    """Coverage of the true boundary by the 5-95% band over 25 seeds at the highest and the
+    lowest noise level, against the nominal 90% (module docstring: a boundary point is in the
+    band iff the pointwise 90% interval of log L covers the truth).
 
-    Tolerance: each map's coverage is a fraction of the boundary (201 points, strongly
-    correlated along it), the maps are independent, so a mean over n maps has the standard
-    error SE = sd(per-map coverage) / sqrt(n). The assertion is |mean - 0.90| < 3 SE + 0.03:
-    3 SE for the sampling of maps, and 0.03 for what the method knowingly neglects (the
-    hyperparameters' uncertainty, type-II ML, which narrows the band; the linearisation of
-    exp(g) at the surface). It is made on the mean over all 26 maps (n = 26: the SE of the
-    former per-level tests of 25 seeds, at half their cost: a GP fit with restarts is about
-    0.5 s, 50 of them were this test's 28 s in CI), and per level on its 13 maps (n = 13: SE
-    sqrt(2) wider), so a level whose band is off alone still fails. The SE is measured, not
-    assumed: the mixture's sd also holds any difference between the levels, which only widens
-    it. Measured (2026-11-24, seeds 0-39, 21 x 21 grid): coverage 0.951 (SE 0.020) at noise
-    0.3 T, 0.935 (0.023) at 0.1 T, 0.934 (0.022) at 0.03 T: the band is a little wider than
-    nominal, on the safe side; the worst seed's band held 39% of the boundary; the middle
-    level is left out (the levels behave alike, and the test above covers all three).
-    Measured (2026-11-28, seeds 0-12 a level): 0.898 (SE 0.056) at 0.3 T, 0.921 (SE
-    0.051) at 0.03 T, 0.910 (SE 0.037) over both; the worst map's band held 41%."""
-    cov = {noise: np.array([_scores(noise, seed, resolution=21)["coverage"]
-                            for seed in range(13)]) for noise in (0.3, 0.03)}
-    for noise, c in [*cov.items(), ("both", np.concatenate(list(cov.values())))]:
-        se = c.std(ddof=1) / math.sqrt(c.size)
-        assert abs(c.mean() - NOMINAL) < 3 * se + 0.03, (noise, c.mean(), se)
+    Tolerance: each seed's coverage is a fraction of the boundary (201 points, strongly
+    correlated along it), the seeds are independent, so the mean over seeds has the standard
+    error SE = sd(per-seed coverage) / sqrt(25) (measured 0.025-0.05). The assertion is
+    |mean - 0.90| < 3 SE + 0.03: 3 SE for the sampling of seeds, and 0.03 for what the
+    method knowingly neglects (the hyperparameters' uncertainty, type-II ML, which narrows
+    the band; the linearisation of exp(g) at the surface). Measured (2026-11-24, seeds 0-39,
+    21 x 21 grid, about 8 s a level): coverage 0.951 (SE 0.020) at noise 0.3 T, 0.935
+    (0.023) at 0.1 T, 0.934 (0.022) at 0.03 T: the band is a little wider than nominal, on the
+    safe side; the worst seed's band held 39% of the boundary. Since 2026-11-28 the middle
+    level and seeds 25-39 are left out to halve the suite's longest test (59 s in CI): the
+    three levels behaved alike, and the fast test above covers all three. Measured then (seeds
+    0-24): 0.932 (SE 0.031) at 0.3 T, 0.917 (SE 0.032) at 0.03 T."""
+    for noise in (0.3, 0.03):
+        cov = np.array([_scores(noise, seed, resolution=21)["coverage"] for seed in range(25)])
+        se = cov.std(ddof=1) / math.sqrt(cov.size)
+        assert abs(cov.mean() - NOMINAL) < 3 * se + 0.03, (noise, cov.mean(), se)
 
 
 def test_one_dimension_and_log_axis():
