@@ -9,6 +9,7 @@ time, so a kernel for mu = 0 contains no friction code (checked in tests/test_mo
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any, TypeVar
@@ -32,23 +33,37 @@ def jit(fn: F | None = None, *, parallel: bool = False, inline: str = "never",
 
 
 def over_blocks(kernel: Callable[..., Any], n_blocks: int, *args: Any) -> None:
-    """``kernel(b, *args)`` for every block b (an int64) on ``numba.get_num_threads()``
-    threads, each block whole on one thread. ``kernel`` is a ``jit(nogil=True)`` function
-    that writes only its own block's rows, so the result is the same for any thread count
-    and any order. Plain threads instead of a ``prange`` wrapper: the wrapper's parallel
-    compile cost ~3.6 s of the ~12 s each new kernel specialisation took (docs/performance.md);
-    the blocks' work is the same either way."""
+    """``kernel(first, every, *args)`` on ``n = min(numba.get_num_threads(), n_blocks)``
+    threads, first = 0 .. n - 1 and every = n: thread t runs blocks t, t + n, ..., each block
+    whole on one thread. ``kernel`` is a ``jit(nogil=True)`` function that writes only its
+    blocks' rows, so the result is the same for any thread count. Plain threads instead of a
+    ``prange`` wrapper: the wrapper's parallel compile cost ~3.6 s of the ~12 s each new
+    kernel specialisation took (docs/performance.md). One call costs n kernel dispatches and,
+    with n > 1, one hand-over to a pool kept for this process (the blocks run in the caller's
+    thread when n = 1)."""
     n = min(numba.get_num_threads(), n_blocks)
     if n <= 1:
-        for b in range(n_blocks):
-            kernel(np.int64(b), *args)
+        kernel(np.int64(0), np.int64(1), *args)
         return
-    with ThreadPoolExecutor(n, thread_name_prefix="vifpk-block") as pool:
-        futures = [pool.submit(kernel, np.int64(b), *args) for b in range(n_blocks)]
-        try:
-            for f in futures:
-                f.result()
-        except BaseException:  # Ctrl-C while waiting: start no further block
-            for f in futures:
-                f.cancel()
-            raise
+    pool = _pool(n)
+    futures = [pool.submit(kernel, np.int64(t), np.int64(n), *args) for t in range(n)]
+    try:
+        for f in futures:
+            f.result()
+    except BaseException:  # Ctrl-C while waiting: start no further call
+        for f in futures:
+            f.cancel()
+        raise
+
+
+_POOLS: dict[tuple[int, int], ThreadPoolExecutor] = {}
+
+
+def _pool(n: int) -> ThreadPoolExecutor:
+    """The process's pool of n threads (made once; keyed by pid too: a forked child, e.g. a
+    sweep's process-pool worker, inherits the parent's pool object but not its threads)."""
+    key = (os.getpid(), n)
+    pool = _POOLS.get(key)
+    if pool is None:
+        pool = _POOLS[key] = ThreadPoolExecutor(n, thread_name_prefix="vifpk-blocks")
+    return pool

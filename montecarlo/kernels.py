@@ -303,9 +303,9 @@ LANES = 4  # paths one thread advances together, step by step in turn (_block)
 
 
 @jit(nogil=True)
-def _block(b, rng, state, n_steps, step0, n_burn, stride, h, P, bins, out, spw):
-    """run_paths for the paths of block b (``_jit.over_blocks`` runs the blocks on threads;
-    compiled ``nogil``).
+def _block(first, every, rng, state, n_steps, step0, n_burn, stride, h, P, bins, out, spw):
+    """run_paths for the paths of blocks first, first + every, ... (``_jit.over_blocks`` runs
+    one such call per thread; compiled ``nogil``).
 
     The paths are advanced LANES = 4 at a time, the four paths' steps in turn (paths p .. p + 3
     at step n, then at step n + 1; when fewer than four are left, the missing lanes run
@@ -343,128 +343,129 @@ def _block(b, rng, state, n_steps, step0, n_burn, stride, h, P, bins, out, spw):
     half = 0.5 * h
     with_energy = energy.shape[2] > 0  # the power balance asked for (an empty array: not)
     n_paths = state.shape[1]
-    for p0 in range(0, n_paths, LANES):
-        lanes = min(LANES, n_paths - p0)  # the lanes beyond are throwaway copies of the last
-        p1, p2, p3 = p0 + min(1, lanes - 1), p0 + min(2, lanes - 1), p0 + min(3, lanes - 1)
-        x0, v0, xi0, a0, a1, a2, a3, rest0 = _lane(rng, state, stuck_time, b, p0)
-        x1, v1, xi1, b0, b1, b2, b3, rest1 = _lane(rng, state, stuck_time, b, p1)
-        x2, v2, xi2, c0, c1_, c2_, c3, rest2 = _lane(rng, state, stuck_time, b, p2)
-        x3, v3, xi3, d0, d1, d2, d3, rest3 = _lane(rng, state, stuck_time, b, p3)
-        impacts = 0
-        chatter = 0
-        steps = 0
-        left = -1  # steps until the next sample (a counter: no integer division per step)
-        for n in range(step0, step0 + n_steps):
-            x0, v0, xi0, a0, a1, a2, a3, o0 = strang_step(
-                x0, v0, xi0, a0, a1, a2, a3, h, half, P)
-            x1, v1, xi1, b0, b1, b2, b3, o1 = strang_step(
-                x1, v1, xi1, b0, b1, b2, b3, h, half, P)
-            x2, v2, xi2, c0, c1_, c2_, c3, o2 = strang_step(
-                x2, v2, xi2, c0, c1_, c2_, c3, h, half, P)
-            x3, v3, xi3, d0, d1, d2, d3, o3 = strang_step(
-                x3, v3, xi3, d0, d1, d2, d3, h, half, P)
-            if n < n_burn:
-                continue
-            # o[0], o[2]: impacts, o[1], o[3]: chatter entries, o[4]: time at rest
-            impacts += o0[0] + o0[2]
-            chatter += o0[1] + o0[3]
-            rest0 += o0[4]
-            if lanes > 1:
-                impacts += o1[0] + o1[2]
-                chatter += o1[1] + o1[3]
-                rest1 += o1[4]
-            if lanes > 2:
-                impacts += o2[0] + o2[2]
-                chatter += o2[1] + o2[3]
-                rest2 += o2[4]
-            if lanes > 3:
-                impacts += o3[0] + o3[2]
-                chatter += o3[1] + o3[3]
-                rest3 += o3[4]
-            steps += lanes
-            if left < 0:  # the first step after the burn-in in this call
-                left = (stride - (n - n_burn + 1) % stride) % stride
-            sample = left == 0  # i.e. (n - n_burn + 1) % stride == 0
-            left = stride - 1 if sample else left - 1
-            if not with_energy and not sample:
-                continue
-            for j in range(lanes):
-                p = p0 + j
-                if j == 0:
-                    x, v, o = x0, v0, o0
-                elif j == 1:
-                    x, v, o = x1, v1, o1
-                elif j == 2:
-                    x, v, o = x2, v2, o2
-                else:
-                    x, v, o = x3, v3, o3
-                if with_energy:
-                    (imp1, ch1, imp2, ch2, st, k, va, vb, vc, vk, vd, ve, xi_used, dv1, dv2,
-                     loss1, loss2, wpar) = o
-                    # (a switched-off effect adds +0.0: the sums are unchanged, bit for bit)
-                    energy[b, p, EN_DAMP] += dv1
-                    energy[b, p, EN_DAMP] += dv2
-                    e_in, e_damp, e_fric = noise_energy(P, h, half, k, P.mu, vb, vc, vk,
-                                                        vd, ve, xi_used)
-                    energy[b, p, EN_INPUT] += e_in
-                    energy[b, p, EN_INPUT] += wpar  # the parametric noises' work (0: off)
-                    energy[b, p, EN_DAMP] += e_damp
-                    energy[b, p, EN_FRICTION] += e_fric
-                    energy[b, p, EN_IMPACT] += loss1  # each wall's loss by its own law
-                    energy[b, p, EN_IMPACT] += loss2
-                if not sample:
+    for b in range(first, state.shape[0], every):  # this thread's blocks
+        for p0 in range(0, n_paths, LANES):
+            lanes = min(LANES, n_paths - p0)  # the lanes beyond are throwaway copies of the last
+            p1, p2, p3 = p0 + min(1, lanes - 1), p0 + min(2, lanes - 1), p0 + min(3, lanes - 1)
+            x0, v0, xi0, a0, a1, a2, a3, rest0 = _lane(rng, state, stuck_time, b, p0)
+            x1, v1, xi1, b0, b1, b2, b3, rest1 = _lane(rng, state, stuck_time, b, p1)
+            x2, v2, xi2, c0, c1_, c2_, c3, rest2 = _lane(rng, state, stuck_time, b, p2)
+            x3, v3, xi3, d0, d1, d2, d3, rest3 = _lane(rng, state, stuck_time, b, p3)
+            impacts = 0
+            chatter = 0
+            steps = 0
+            left = -1  # steps until the next sample (a counter: no integer division per step)
+            for n in range(step0, step0 + n_steps):
+                x0, v0, xi0, a0, a1, a2, a3, o0 = strang_step(
+                    x0, v0, xi0, a0, a1, a2, a3, h, half, P)
+                x1, v1, xi1, b0, b1, b2, b3, o1 = strang_step(
+                    x1, v1, xi1, b0, b1, b2, b3, h, half, P)
+                x2, v2, xi2, c0, c1_, c2_, c3, o2 = strang_step(
+                    x2, v2, xi2, c0, c1_, c2_, c3, h, half, P)
+                x3, v3, xi3, d0, d1, d2, d3, o3 = strang_step(
+                    x3, v3, xi3, d0, d1, d2, d3, h, half, P)
+                if n < n_burn:
                     continue
-                events[b, EV_SAMPLES] += 1.0
-                A = amplitude_general(x, v, w0sq, alpha, khi)
-                if windows.shape[2] > 0:
-                    w = ((n - n_burn + 1) // stride - 1) // spw
-                    if w < windows.shape[2]:
-                        windows[b, p, w] += A
-                if hist_A.shape[1] > 0:
-                    i = math.floor((A - a_lo) * a_inv)
-                    if 0 <= i < hist_A.shape[1]:
-                        hist_A[b, i] += 1.0
+                # o[0], o[2]: impacts, o[1], o[3]: chatter entries, o[4]: time at rest
+                impacts += o0[0] + o0[2]
+                chatter += o0[1] + o0[3]
+                rest0 += o0[4]
+                if lanes > 1:
+                    impacts += o1[0] + o1[2]
+                    chatter += o1[1] + o1[3]
+                    rest1 += o1[4]
+                if lanes > 2:
+                    impacts += o2[0] + o2[2]
+                    chatter += o2[1] + o2[3]
+                    rest2 += o2[4]
+                if lanes > 3:
+                    impacts += o3[0] + o3[2]
+                    chatter += o3[1] + o3[3]
+                    rest3 += o3[4]
+                steps += lanes
+                if left < 0:  # the first step after the burn-in in this call
+                    left = (stride - (n - n_burn + 1) % stride) % stride
+                sample = left == 0  # i.e. (n - n_burn + 1) % stride == 0
+                left = stride - 1 if sample else left - 1
+                if not with_energy and not sample:
+                    continue
+                for j in range(lanes):
+                    p = p0 + j
+                    if j == 0:
+                        x, v, o = x0, v0, o0
+                    elif j == 1:
+                        x, v, o = x1, v1, o1
+                    elif j == 2:
+                        x, v, o = x2, v2, o2
                     else:
-                        events[b, EV_OUT_A] += 1.0
-                ix = -1
-                iv = -1
-                if hist_x.shape[1] > 0 or hist_joint.shape[1] > 0:
-                    ix = math.floor((x - x_lo) * x_inv)
-                if hist_v.shape[1] > 0 or hist_joint.shape[1] > 0:
-                    iv = math.floor((v - v_lo) * v_inv)
-                    if v == 0.0:
-                        iv = -2
-                        events[b, EV_ATOM] += 1.0
-                if hist_x.shape[1] > 0:
-                    if 0 <= ix < hist_x.shape[1]:
-                        hist_x[b, ix] += 1.0
-                    else:
-                        events[b, EV_OUT_X] += 1.0
-                if hist_v.shape[1] > 0:
-                    if 0 <= iv < hist_v.shape[1]:
-                        hist_v[b, iv] += 1.0
-                    elif iv != -2:
-                        events[b, EV_OUT_V] += 1.0
-                if hist_joint.shape[1] > 0:
-                    if 0 <= ix < hist_joint.shape[1] and 0 <= iv < hist_joint.shape[2]:
-                        hist_joint[b, ix, iv] += 1.0
-                if moments.shape[2] > 0:
-                    moments[b, p, MO_A] += A
-                    moments[b, p, MO_A2] += A * A
-                    moments[b, p, MO_X] += x
-                    moments[b, p, MO_X2] += x * x
-                    moments[b, p, MO_V] += v
-                    moments[b, p, MO_V2] += v * v
-                    moments[b, p, MO_MAXA] = max(moments[b, p, MO_MAXA], A)
-                    moments[b, p, MO_MAXX] = max(moments[b, p, MO_MAXX], abs(x))
-                    moments[b, p, MO_MAXV] = max(moments[b, p, MO_MAXV], abs(v))
-        events[b, EV_IMPACTS] += impacts
-        events[b, EV_CHATTER] += chatter
-        events[b, EV_TIME] += steps
-        _put(rng, state, stuck_time, b, p0, x0, v0, xi0, a0, a1, a2, a3, rest0)
-        if lanes > 1:
-            _put(rng, state, stuck_time, b, p1, x1, v1, xi1, b0, b1, b2, b3, rest1)
-        if lanes > 2:
-            _put(rng, state, stuck_time, b, p2, x2, v2, xi2, c0, c1_, c2_, c3, rest2)
-        if lanes > 3:
-            _put(rng, state, stuck_time, b, p3, x3, v3, xi3, d0, d1, d2, d3, rest3)
+                        x, v, o = x3, v3, o3
+                    if with_energy:
+                        (imp1, ch1, imp2, ch2, st, k, va, vb, vc, vk, vd, ve, xi_used, dv1, dv2,
+                         loss1, loss2, wpar) = o
+                        # (a switched-off effect adds +0.0: the sums are unchanged, bit for bit)
+                        energy[b, p, EN_DAMP] += dv1
+                        energy[b, p, EN_DAMP] += dv2
+                        e_in, e_damp, e_fric = noise_energy(P, h, half, k, P.mu, vb, vc, vk,
+                                                            vd, ve, xi_used)
+                        energy[b, p, EN_INPUT] += e_in
+                        energy[b, p, EN_INPUT] += wpar  # the parametric noises' work (0: off)
+                        energy[b, p, EN_DAMP] += e_damp
+                        energy[b, p, EN_FRICTION] += e_fric
+                        energy[b, p, EN_IMPACT] += loss1  # each wall's loss by its own law
+                        energy[b, p, EN_IMPACT] += loss2
+                    if not sample:
+                        continue
+                    events[b, EV_SAMPLES] += 1.0
+                    A = amplitude_general(x, v, w0sq, alpha, khi)
+                    if windows.shape[2] > 0:
+                        w = ((n - n_burn + 1) // stride - 1) // spw
+                        if w < windows.shape[2]:
+                            windows[b, p, w] += A
+                    if hist_A.shape[1] > 0:
+                        i = math.floor((A - a_lo) * a_inv)
+                        if 0 <= i < hist_A.shape[1]:
+                            hist_A[b, i] += 1.0
+                        else:
+                            events[b, EV_OUT_A] += 1.0
+                    ix = -1
+                    iv = -1
+                    if hist_x.shape[1] > 0 or hist_joint.shape[1] > 0:
+                        ix = math.floor((x - x_lo) * x_inv)
+                    if hist_v.shape[1] > 0 or hist_joint.shape[1] > 0:
+                        iv = math.floor((v - v_lo) * v_inv)
+                        if v == 0.0:
+                            iv = -2
+                            events[b, EV_ATOM] += 1.0
+                    if hist_x.shape[1] > 0:
+                        if 0 <= ix < hist_x.shape[1]:
+                            hist_x[b, ix] += 1.0
+                        else:
+                            events[b, EV_OUT_X] += 1.0
+                    if hist_v.shape[1] > 0:
+                        if 0 <= iv < hist_v.shape[1]:
+                            hist_v[b, iv] += 1.0
+                        elif iv != -2:
+                            events[b, EV_OUT_V] += 1.0
+                    if hist_joint.shape[1] > 0:
+                        if 0 <= ix < hist_joint.shape[1] and 0 <= iv < hist_joint.shape[2]:
+                            hist_joint[b, ix, iv] += 1.0
+                    if moments.shape[2] > 0:
+                        moments[b, p, MO_A] += A
+                        moments[b, p, MO_A2] += A * A
+                        moments[b, p, MO_X] += x
+                        moments[b, p, MO_X2] += x * x
+                        moments[b, p, MO_V] += v
+                        moments[b, p, MO_V2] += v * v
+                        moments[b, p, MO_MAXA] = max(moments[b, p, MO_MAXA], A)
+                        moments[b, p, MO_MAXX] = max(moments[b, p, MO_MAXX], abs(x))
+                        moments[b, p, MO_MAXV] = max(moments[b, p, MO_MAXV], abs(v))
+            events[b, EV_IMPACTS] += impacts
+            events[b, EV_CHATTER] += chatter
+            events[b, EV_TIME] += steps
+            _put(rng, state, stuck_time, b, p0, x0, v0, xi0, a0, a1, a2, a3, rest0)
+            if lanes > 1:
+                _put(rng, state, stuck_time, b, p1, x1, v1, xi1, b0, b1, b2, b3, rest1)
+            if lanes > 2:
+                _put(rng, state, stuck_time, b, p2, x2, v2, xi2, c0, c1_, c2_, c3, rest2)
+            if lanes > 3:
+                _put(rng, state, stuck_time, b, p3, x3, v3, xi3, d0, d1, d2, d3, rest3)

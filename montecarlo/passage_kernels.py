@@ -62,93 +62,95 @@ def run_passage(arrs, count, run, h, B, P):
 
 
 @jit(nogil=True)
-def _passage_block(b, arrs, count, run, h, B, P):
-    """run_passage for the ``count[b]`` paths of block b, one path after the other."""
-    n_paths = count[b]
+def _passage_block(first, every, arrs, count, run, h, B, P):
+    """run_passage for the ``count[b]`` paths of each block b = first, first + every, ..., one
+    path after the other (``_jit.over_blocks`` runs one such call per thread)."""
     rng, state, init, phase, steps, tries, fpt = arrs
     budget, n_max, n_burn, horizon, Ec, a_start, a_burn, max_tries = run
     w0sq, alpha, khi, xi_sd = P.w0sq, P.alpha, P.khi, P.xi_sd
     half = 0.5 * h
-    for p in range(n_paths):
-        ph = phase[b, p]
-        if ph >= CROSSED:
-            continue
-        x, v, xi = state[b, p, 0], state[b, p, 1], state[b, p, 2]
-        s0, s1, s2, s3 = rng[b, p, 0], rng[b, p, 1], rng[b, p, 2], rng[b, p, 3]
-        n = steps[b, p]
-        left = budget
-        while left > 0:
-            if ph == NEW:
-                amp = a_burn if n_burn > 0 else a_start
-                x, v, xi, s0, s1, s2, s3 = orbit_start(amp, w0sq, alpha, khi, P.fold, P.x_lo,
-                                                       P.x_hi, xi_sd, s0, s1, s2, s3)
-                n = 0
-                ph = BURN if n_burn > 0 else RUN
-                if ph == RUN:
-                    init[b, p, 0], init[b, p, 1], init[b, p, 2] = x, v, xi
+    for b in range(first, state.shape[0], every):  # this thread's blocks
+        n_paths = count[b]
+        for p in range(n_paths):
+            ph = phase[b, p]
+            if ph >= CROSSED:
                 continue
-            # BURN and RUN share one loop (one copy of the inlined step: half the compile
-            # time): a burn-in tests against Ec = inf, which never fires (nor the bridge)
-            burning = ph == BURN
-            level = math.inf if burning else Ec
-            E = energy(x, v, w0sq, alpha, khi)
-            k = min(left, (n_burn if burning else n_max) - n)
-            hit = -1.0
-            i = 0
-            while i < k:
-                x0 = x
-                x, v, xi, s0, s1, s2, s3, o = strang_step(x, v, xi, s0, s1, s2, s3, h, half, P)
-                E1 = energy(x, v, w0sq, alpha, khi)
-                i += 1
-                if E1 >= level:
-                    hit = (level - E) / (E1 - E)
+            x, v, xi = state[b, p, 0], state[b, p, 1], state[b, p, 2]
+            s0, s1, s2, s3 = rng[b, p, 0], rng[b, p, 1], rng[b, p, 2], rng[b, p, 3]
+            n = steps[b, p]
+            left = budget
+            while left > 0:
+                if ph == NEW:
+                    amp = a_burn if n_burn > 0 else a_start
+                    x, v, xi, s0, s1, s2, s3 = orbit_start(amp, w0sq, alpha, khi, P.fold, P.x_lo,
+                                                           P.x_hi, xi_sd, s0, s1, s2, s3)
+                    n = 0
+                    ph = BURN if n_burn > 0 else RUN
+                    if ph == RUN:
+                        init[b, p, 0], init[b, p, 1], init[b, p, 2] = x, v, xi
+                    continue
+                # BURN and RUN share one loop (one copy of the inlined step: half the compile
+                # time): a burn-in tests against Ec = inf, which never fires (nor the bridge)
+                burning = ph == BURN
+                level = math.inf if burning else Ec
+                E = energy(x, v, w0sq, alpha, khi)
+                k = min(left, (n_burn if burning else n_max) - n)
+                hit = -1.0
+                i = 0
+                while i < k:
+                    x0 = x
+                    x, v, xi, s0, s1, s2, s3, o = strang_step(x, v, xi, s0, s1, s2, s3, h, half, P)
+                    E1 = energy(x, v, w0sq, alpha, khi)
+                    i += 1
+                    if E1 >= level:
+                        hit = (level - E) / (E1 - E)
+                        break
+                    # o[8]: the velocity at the kick
+                    hb, s0, s1, s2, s3 = bridge_hit(B, level, E, E1, x0, o[8], h, P, s0, s1, s2,
+                                                    s3)
+                    if hb >= 0.0:
+                        hit = hb
+                        break
+                    E = E1
+                if not (math.isfinite(x) and math.isfinite(v)):
+                    ph = DIVERGED
+                    n += i
                     break
-                # o[8]: the velocity at the kick
-                hb, s0, s1, s2, s3 = bridge_hit(B, level, E, E1, x0, o[8], h, P, s0, s1, s2,
-                                                s3)
-                if hb >= 0.0:
-                    hit = hb
+                if burning:
+                    n += k
+                    left -= k
+                    if n == n_burn:
+                        if E < Ec:
+                            ph = RUN
+                            n = 0
+                            init[b, p, 0], init[b, p, 1], init[b, p, 2] = x, v, xi
+                        else:
+                            tries[b, p] += 1
+                            if tries[b, p] > max_tries:
+                                ph = REFUSED
+                                break
+                            ph = NEW
+                    continue
+                if hit >= 0.0:
+                    t = (n + i - 1 + hit) * h
+                    n += i
+                    if t <= horizon:
+                        ph = CROSSED
+                        fpt[b, p] = t
+                    else:
+                        ph = CENSORED
+                        fpt[b, p] = horizon
                     break
-                E = E1
-            if not (math.isfinite(x) and math.isfinite(v)):
-                ph = DIVERGED
-                n += i
-                break
-            if burning:
                 n += k
                 left -= k
-                if n == n_burn:
-                    if E < Ec:
-                        ph = RUN
-                        n = 0
-                        init[b, p, 0], init[b, p, 1], init[b, p, 2] = x, v, xi
-                    else:
-                        tries[b, p] += 1
-                        if tries[b, p] > max_tries:
-                            ph = REFUSED
-                            break
-                        ph = NEW
-                continue
-            if hit >= 0.0:
-                t = (n + i - 1 + hit) * h
-                n += i
-                if t <= horizon:
-                    ph = CROSSED
-                    fpt[b, p] = t
-                else:
+                if n >= n_max:
                     ph = CENSORED
                     fpt[b, p] = horizon
-                break
-            n += k
-            left -= k
-            if n >= n_max:
-                ph = CENSORED
-                fpt[b, p] = horizon
-                break
-        state[b, p, 0], state[b, p, 1], state[b, p, 2] = x, v, xi
-        rng[b, p, 0], rng[b, p, 1], rng[b, p, 2], rng[b, p, 3] = s0, s1, s2, s3
-        steps[b, p] = n
-        phase[b, p] = ph
+                    break
+            state[b, p, 0], state[b, p, 1], state[b, p, 2] = x, v, xi
+            rng[b, p, 0], rng[b, p, 1], rng[b, p, 2], rng[b, p, 3] = s0, s1, s2, s3
+            steps[b, p] = n
+            phase[b, p] = ph
 
 
 @jit
