@@ -121,19 +121,11 @@ def test_metrics_byte_identical_across_runs_and_modes_follow_umask(run, tmp_path
 # the figures are 1 x 1 PNGs carrying the run id (tests/conftest.py blank_png): the swap is the
 # subject, drawing them cost ~2 s of CPU a kill (the real ones: the run fixture's report)
 _KILLED = textwrap.dedent("""
-    import io, pickle, sys
-    from PIL import Image, PngImagePlugin
+    import pickle, sys
+    from tests.conftest import blank_png
     from vifpk.core import provenance
     from vifpk.harness.outputs import report
     from vifpk.harness.outputs.report import write_report
-
-    def blank_png(res=None, text=None):
-        info = PngImagePlugin.PngInfo()
-        for k, v in (text or {}).items():
-            info.add_text(k, v)
-        buf = io.BytesIO()
-        Image.new("L", (1, 1)).save(buf, format="PNG", pnginfo=info)
-        return buf.getvalue()
 
     report._figure_densities = report._figure_decomposition = blank_png
     res = pickle.loads(open(sys.argv[1], "rb").read())
