@@ -388,7 +388,11 @@ def _sde_check(survival: Any, s: Any, r: Any, mf: dict[str, Any], horizon: float
     target = restricted_model_mean(r, horizon) if frac > CENSORED_WARN else mf["value"]
     se = float(rm["stderr"])
     unmeasured = bool(cs.size == 0 or np.all(cs) or not se > 0)  # nothing to sample-check
-    z = (float(rm["value"]) - target) / se if se > 0 else math.nan
+    # no z-score where nothing is measured (every path censored on a wall scene gave se > 0
+    # from the Kaplan-Meier tail and a NaN value: "not finite: models.exact.sde.z", exit 3)
+    z = None if unmeasured or not math.isfinite(float(rm["value"])) else (
+        (float(rm["value"]) - target) / se)
+    unmeasured = unmeasured or z is None
     sup = survival.sup_distance(np.asarray(r.data["R"]["t"], float),
                                 np.asarray(r.data["R"]["R"], float), km)
     return {"mfpt": {"value": float(rm["value"]), "stderr": se, "paths": int(ts.size),
