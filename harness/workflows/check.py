@@ -42,6 +42,7 @@ from vifpk.harness.workflows.tolerance import line as tolerance_line
 from vifpk.harness.workflows.tolerance import model_verdicts
 from vifpk.harness.workflows.verdict import (
     _evidence,
+    assumptions_failing,
     observable_classes,
     recommend,
     sampling_failures,
@@ -265,6 +266,9 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
         metrics["models"][m]["verdict_class"] = cls
         metrics["models"][m]["verdict_cause"] = cause
         metrics["models"][m]["verdict_by_observable"] = observable_classes(metrics["models"][m])
+        # beside the class, never instead of it (issue 45): the assumptions that fail here
+        metrics["models"][m]["verdict_assumptions"] = (
+            [w.kind for w in assumptions_failing(warnings)] if cls != "not an estimate" else [])
     metrics["tolerance"] = tol.record()
     # the jackknife over the blocks has blocks - 1 degrees of freedom; a step bias the run's
     # check could not rule out is carried by the interval and the class (tolerance.py)

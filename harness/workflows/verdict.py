@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from vifpk.harness.workflows.assumptions import ADVISORY, WALL_MAX
+from vifpk.harness.workflows.assumptions import ADVISORY, ASSUMPTION_KINDS, WALL_MAX
 
 from vifpk.core.result import WarningRecord
 
@@ -103,21 +103,20 @@ def verdict_class(entry: dict[str, Any], warnings: list[WarningRecord], *,
                   convergence: dict[str, Any] | None = None) -> tuple[str, str]:
     """(class, dominant cause) of one model's averaging error, over EVERY observable measured.
 
-    Class: "not an estimate" when the Monte Carlo has not converged or an averaging assumption
-    fails (the distance is then not an approximation error); else the worst class among the
-    observables (p(A), p(x1), p(x2)), each "indistinguishable" when L1 < 2 x its noise floor,
-    "small" when L1 < 0.1, "moderate" when L1 < 0.3, "large" above. Cause: what the
+    Class: "not an estimate" only when the distance is not measured (:func:`unmeasured`: the
+    Monte Carlo has not converged, or its own checks say the distance is the run's); else the
+    worst class among the observables (p(A), p(x1), p(x2)), each "indistinguishable" when
+    L1 < 2 x its noise floor, "small" when L1 < 0.1, "moderate" when L1 < 0.3, "large" above.
+    A failing averaging assumption does NOT change the class (issue 45: the distance measured
+    is the model's error on that scene; independent simulations of three wall scenes agreed
+    with it): :func:`assumptions_failing` names it beside the class. Cause: what the
     decomposition of that worst observable says the distance comes from (the averaged model
     itself when its averaging error is 3 x the FPK discretisation and the sampling errors and
     floors), naming the observable when it is not p(A).
     """
-    conv = convergence or {}
-    if conv.get("equilibrated") is False or entry.get("sampling_ok") is False:
-        return "not an estimate", "the Monte Carlo has not converged"
-    failing = [w for w in warnings if w.kind not in ADVISORY]
-    if failing:
-        names = [w.title for w in failing]
-        return "not an estimate", "failing averaging assumptions (" + ", ".join(names) + ")"
+    why = unmeasured(entry, warnings, convergence)
+    if why:
+        return "not an estimate", why
     o = worst_observable(entry)
     e = entry["averaging_error"][o]
     l1, floor = e["L1"], e["L1_floor"]
@@ -146,6 +145,48 @@ def verdict_class(entry: dict[str, Any], warnings: list[WarningRecord], *,
     return cls, cause + where
 
 
+#: warnings of the run, not of the model, that leave the distance unmeasured (assumptions.py)
+RUN_KINDS = ("outside_range", "dt_bias")
+
+
+def unmeasured(entry: dict[str, Any], warnings: list[WarningRecord],
+               convergence: dict[str, Any] | None = None) -> str:
+    """Why this model's distance is NOT a measurement of its error ('' when it is): the Monte
+    Carlo of the original system has not converged (its certificate), the model's averaged
+    SDE is off its closed form (its sampling check: the closed form or the machinery is in
+    doubt), the simulation puts its mass outside the range (not converged, or another state),
+    or its step check found a bias (the distance would be the step's). Nothing else: a failing
+    averaging assumption leaves the distance measured (:func:`assumption_words`)."""
+    conv = convergence or {}
+    if conv.get("equilibrated") is False:
+        return "the simulation has not converged: " + (conv.get("reason")
+                                                        or "the certificate failed")
+    if entry.get("sampling_ok") is False:
+        return "the simulation has not converged: " + (entry.get("sampling_reason")
+                                                        or "the averaged-SDE check failed")
+    run = [w for w in warnings if w.kind in RUN_KINDS]
+    if run:
+        return "the run's own check failed (" + ", ".join(w.title for w in run) + ")"
+    return ""
+
+
+def assumptions_failing(warnings: list[WarningRecord]) -> list[WarningRecord]:
+    """The averaging assumptions that fail here (the warnings that are not ADVISORY, nor
+    diagnostics of the run): said beside a verdict's class, never instead of it."""
+    return [w for w in warnings if w.kind in ASSUMPTION_KINDS and w.kind not in ADVISORY]
+
+
+def assumption_words(warnings: list[WarningRecord]) -> str:
+    """'' or the words said beside a class where an averaging assumption fails."""
+    failing = assumptions_failing(warnings)
+    if not failing:
+        return ""
+    what = ("an averaging assumption fails" if len(failing) == 1
+            else "averaging assumptions fail")
+    return (f"measured where {what} (" + ", ".join(w.title for w in failing)
+            + ", see warnings): this is the model's error on this scene, not a trend beyond it")
+
+
 def verdict(model: str, entry: dict[str, Any], warnings: list[WarningRecord], *,
             convergence: dict[str, Any] | None = None) -> str:
     """One line: the class (the worst over the observables), the averaging error of p(A) with
@@ -168,19 +209,15 @@ def verdict(model: str, entry: dict[str, Any], warnings: list[WarningRecord], *,
         others.append(f"p({o}) {per[o]} (L1 {eo['L1']:.3f}, {r:.1f} x floor)")
     if others:
         line += f"; p(A) {per['A']}, " + ", ".join(others)
-    conv = convergence or {}
-    if cls == "not an estimate" and (conv.get("equilibrated") is False
-                                     or entry.get("sampling_ok") is False):
-        line += (" -- the simulation has not converged, so this is NOT an estimate of the "
-                 "averaging error: " + (conv.get("reason") or entry.get("sampling_reason")
-                                        or "the averaged-SDE check failed"))
-    elif cls == "not an estimate":
-        line += (" -- NOT an estimate of an approximation error: the averaging assumptions do "
-                 "not hold here (see warnings)")
+    if cls == "not an estimate":
+        line += (" -- NOT an estimate of the averaging error: "
+                 + unmeasured(entry, warnings, convergence))
     elif cls == "indistinguishable":
         line += " -- indistinguishable from the original system at this sample size"
     else:
         line += f"; dominant cause: {cause}"
+    if cls != "not an estimate" and (words := assumption_words(warnings)):
+        line += f" -- {words}"
     return line
 
 
@@ -235,7 +272,7 @@ def recommend(metrics: dict[str, Any], warnings: list[WarningRecord], val: dict[
     desc = ", ".join(f"{m} {tv[m]['error_estimate']:.3f} (P = "
                      f"{tv[m]['p_within_tolerance']:.2f}, {tv[m]['class']})" for m in cand)
     floor = max(tv[m]["floor"] for m in cand)
-    failing = [w for w in warnings if w.kind not in ADVISORY]
+    failing = assumptions_failing(warnings)
     advisory = [w for w in warnings if w.kind in ADVISORY]
     advice = ""
     if failing:
