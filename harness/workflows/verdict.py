@@ -222,32 +222,83 @@ def verdict(model: str, entry: dict[str, Any], warnings: list[WarningRecord], *,
 
 
 # ------------------------------------------------------------------ which model to trust
-#: the order of preference between models whose errors agree within the noise (the derived
-#: O(eps) terms first); any checked model whose error is measured is a candidate
+#: the order of preference between models a paired comparison cannot tell apart (the derived
+#: O(eps) terms first), said as such; any checked model whose error is measured is a candidate
 RECOMMENDABLE = ("corrected", "exact")
+
+#: said of every recommendation: it reads the stationary densities only (issue 45: corrected's
+#: MFPT far in the tail can be off where its p(A) is the best, docs/passage.md)
+STATIONARY = ("; this is about the stationary law (p(A), p(x1), p(x2)): first-passage times "
+              "and transients are checked by vifpk passage and vifpk transient")
+
+
+def pair(metrics: dict[str, Any], a: str, b: str) -> dict[str, Any]:
+    """The paired comparison of models a and b (compare.paired: metric(a) - metric(b) against
+    the same Monte Carlo sample, with the error bar of the DIFFERENCE) from
+    ``metrics["paired"]``; without it (canned or older metrics) the two distances' own bars
+    combined as if independent, which overstates the bar where both share the noise."""
+    tol = metrics.get("tolerance") or {}
+    k, o = tol.get("metric", "L1"), tol.get("observable", "A")
+    table = metrics.get("paired") or {}
+    for pr in table.get("pairs", []) if (table.get("metric"), table.get("observable")) == (
+            k, o) else []:
+        if (pr["a"], pr["b"]) == (a, b):
+            return pr
+        if (pr["a"], pr["b"]) == (b, a):
+            return {**pr, "a": a, "b": b, "diff": -pr["diff"]}
+    ea, eb = (metrics["models"][m]["averaging_error"][o] for m in (a, b))
+    return {"a": a, "b": b, "diff": ea[k] - eb[k], "dof": None, "paired": False,
+            "diff_err": math.hypot(ea.get(f"{k}_err", 0.0), eb.get(f"{k}_err", 0.0))}
+
+
+def apart(pr: dict[str, Any], confidence: float) -> bool:
+    """Whether the paired difference is told from 0 at the (two-sided) confidence: |diff| >
+    t x its error bar (Student's t with the jackknife's dof; normal without). A noise-free
+    truth (error bar 0) tells any non-zero difference."""
+    from vifpk.harness.workflows.tolerance import _quantile
+
+    z = _quantile(0.5 + confidence / 2, pr.get("dof"))
+    return abs(pr["diff"]) > z * pr["diff_err"]
+
+
+def floor_to_tell(pr: dict[str, Any], floor: float, confidence: float) -> float:
+    """The Monte Carlo noise floor at which a difference as large as the one measured would be
+    told apart: the error bar and the floor both scale as 1 / sqrt(samples), so the floor
+    needed is floor x |diff| / (t x diff_err) (0 when the difference is 0: no floor tells
+    identical distances apart)."""
+    from vifpk.harness.workflows.tolerance import _quantile
+
+    z = _quantile(0.5 + confidence / 2, pr.get("dof"))
+    if pr["diff_err"] <= 0 or pr["diff"] == 0:
+        return 0.0
+    return floor * abs(pr["diff"]) / (z * pr["diff_err"])
+
+
+def _pair_words(pr: dict[str, Any]) -> str:
+    k = "paired" if pr.get("paired", True) else "unpaired (bars combined)"
+    return f"{pr['a']} - {pr['b']} = {pr['diff']:+.4f} +/- {pr['diff_err']:.4f} ({k})"
 
 
 def recommend(metrics: dict[str, Any], warnings: list[WarningRecord], val: dict[str, Any], *,
               convergence: dict[str, Any] | None = None) -> tuple[str, str]:
     """(model, one line): the averaged model to trust for this scene and why, or "none".
 
-    The recommendation follows the tolerance verdict (harness/workflows/tolerance.py; the question
-    is
-    ``metrics["tolerance"]``, default L1(A) <= 0.02 at 95%): (1) the Monte Carlo of the original
-    system must have converged, else "none"; a model whose averaged-SDE check failed is no
-    candidate; (2) of the models checked (plugins and ``paper`` included: the measured error
-    decides, not the name), the ones INSIDE the tolerance at the stated confidence are
-    candidates, and the one with the lowest error estimate (noise removed) is recommended;
-    models within the noise floor of the lowest are tied, and a tie goes to the model with the
-    most derived terms (RECOMMENDABLE's order: ``corrected``, then ``exact``), except that
-    ``corrected`` yields to ``exact`` where its wall-energy term is outside its derivation over
-    the bulk of p(E) (delta / E above WALL_MAX at the 10% energy); (3) "none" only when no model
-    is inside, saying which are undecided (a longer run decides) and which outside; with no
-    model inside, the best undecided one whose P(error <= tolerance) is at least 1/2 is
-    recommended *provisionally* (the line says so: more likely within than not, not yet at the
-    confidence). Warnings no longer veto a model whose measured error is small: they are named
-    as advice (the assumptions that fail here, so the measured error holds for this scene, not
-    as a trend). The line names the tolerance used.
+    The recommendation follows the tolerance verdict (harness/workflows/tolerance.py; the
+    question is ``metrics["tolerance"]``, default L1(A) <= 0.02 at 95%): (1) the Monte Carlo of
+    the original system must have converged, else "none"; a model whose averaged-SDE check
+    failed is no candidate; (2) of the models checked (plugins and ``paper`` included: the
+    measured error decides, not the name), the ones INSIDE the tolerance at the stated
+    confidence are the candidates; with none inside, the undecided ones more likely within than
+    not (P >= 1/2) are, *provisionally* (a longer run decides); "none" when neither exists;
+    (3) between candidates the lowest error wins only where a PAIRED comparison on the same
+    Monte Carlo sample tells it from the others (:func:`pair`, :func:`apart`: the difference
+    of their distances with the jackknife bar of the difference, at the tolerance's
+    confidence); the candidates it cannot tell from the best are a tie, and the line says so,
+    with the floor that would tell them apart (:func:`floor_to_tell`); the model then named is
+    by the declared order (RECOMMENDABLE: ``corrected``, then ``exact``; ``exact`` where
+    corrected's wall term is outside its derivation, delta / E > WALL_MAX at the 10% energy),
+    said as an order, not as a measured preference. Failing assumptions are advice, not a
+    veto. Every line names the tolerance and says it is about the stationary law.
     """
     from vifpk.harness.request.tolerance import Tolerance
     from vifpk.harness.workflows.tolerance import tolerance_verdict
@@ -284,43 +335,53 @@ def recommend(metrics: dict[str, Any], warnings: list[WarningRecord], val: dict[
     inside = [m for m in cand if tv[m]["class"] == "inside"]
     likely = [m for m in cand if tv[m]["class"] == "undecided"
               and tv[m]["p_within_tolerance"] >= 0.5]
-    if not inside and likely:
-        pick = min(likely, key=lambda m: tv[m]["error_estimate"])
-        return pick, (head + f"{pick} -- provisionally: no model is within the {used} at this "
-                      f"sample size, and {pick}'s error is more likely within it than not "
-                      f"(error estimates with the noise removed: {desc}; floor {floor:.3f}); "
-                      f"a longer run (a smaller floor) decides{advice}")
-    if not inside:
+    pool = inside or likely
+    if not pool:
         undecided = [m for m in cand if tv[m]["class"] == "undecided"]
         more = (f"; {' and '.join(undecided)} undecided: a longer run (a smaller floor) "
                 "decides" if undecided else "")
         return "none", (head + f"none -- no model is within the {used} (error estimates with "
                         f"the noise removed: {desc}; floor {floor:.3f}){more}{advice}")
+    est = {m: tv[m]["error_estimate"] for m in pool}
+    best = min(pool, key=lambda m: (est[m], tv[m]["measured"]))
+    pairs = {m: pair(metrics, best, m) for m in pool if m != best}
+    tied = [best] + [m for m in pool if m != best and not apart(pairs[m], tol.confidence)]
     wall = (val.get("wall") or [0.0])[0]  # at the 10% energy, where delta / E is largest
-    est = {m: tv[m]["error_estimate"] for m in inside}
-    best = min(est.values())
-    tied = {m for m in inside if est[m] - best <= floor}  # equal within the noise
-    if {"exact", "corrected"} <= tied:
-        if wall > WALL_MAX:
-            pick = "exact"
-            why = (f"exact and corrected are both within the {used} and agree within the "
-                   f"noise ({desc}; floor {floor:.3f}); corrected's energy-at-the-wall term is "
-                   f"outside its derivation here (delta/E = {wall:.2f} at the 10% energy > "
-                   f"{WALL_MAX:g})")
-        else:
-            pick = "corrected"
-            why = (f"exact and corrected are both within the {used} and agree within the "
-                   f"noise ({desc}; floor {floor:.3f}); corrected keeps the derived O(eps) "
-                   "impact terms")
+    if len(tied) == 1:
+        pick = best
+        vs = ("; nearer than " + ", ".join(
+            f"{m} by a paired comparison on the same sample ({_pair_words(pairs[m])})"
+            for m in pairs)) if pairs else ""
     else:
-        # within the noise of each other, a model with the derived O(eps) terms first
+        # a tie: the declared order names one, and the line says that it is the order
         pick = min(tied, key=lambda m: (RECOMMENDABLE.index(m) if m in RECOMMENDABLE
                                         else len(RECOMMENDABLE), est[m]))
-        why = (f"within the {used}, lowest error estimate with the noise removed ({desc}; "
-               f"floor {floor:.3f})" if len(tied) == 1 else
-               f"within the {used}; {', '.join(sorted(tied))} agree within the noise "
-               f"({desc}; floor {floor:.3f}) and {pick} keeps the most derived terms")
-        if pick == "exact" and "corrected" in cand and wall > WALL_MAX:
-            why += (f"; corrected's energy-at-the-wall term is outside its derivation here "
-                    f"(delta/E = {wall:.2f} at the 10% energy > {WALL_MAX:g})")
-    return pick, head + f"{pick} -- {why}{advice}"
+        order = f"{pick} keeps the most derived terms"
+        if {"exact", "corrected"} <= set(tied) and wall > WALL_MAX:
+            pick = "exact"
+            order = (f"corrected's energy-at-the-wall term is outside its derivation here "
+                     f"(delta/E = {wall:.2f} at the 10% energy > {WALL_MAX:g})")
+        elif pick == "corrected":
+            order = "corrected keeps the derived O(eps) impact terms"
+        need = max(floor_to_tell(pairs[m], floor, tol.confidence) for m in tied if m != best)
+        tell = (f"a noise floor of about {need:.2g} (now {floor:.3f}, "
+                f"{(floor / need) ** 2:.0f} x the samples) would tell a difference that large "
+                "apart" if need > 0 else "their distances are equal, so no floor tells them "
+                "apart")
+        vs = (f"; {' and '.join(tied)} cannot be told apart on this sample: they agree within "
+              "the noise of a paired comparison ("
+              + "; ".join(_pair_words(pairs[m]) for m in tied if m != best)
+              + f"); {tell}; {pick} is named by the declared order ({order}), not by a "
+              "measured difference")
+    if pick == "exact" and "corrected" in cand and wall > WALL_MAX and len(tied) == 1:
+        vs += (f"; corrected's energy-at-the-wall term is outside its derivation here "
+               f"(delta/E = {wall:.2f} at the 10% energy > {WALL_MAX:g})")
+    if inside:
+        why = (f"within the {used} (error estimates with the noise removed: {desc}; floor "
+               f"{floor:.3f}){vs}")
+    else:
+        why = (f"provisionally: no model is within the {used} at this sample size, and "
+               f"{pick}'s error is more likely within it than not (error estimates with the "
+               f"noise removed: {desc}; floor {floor:.3f}){vs}; a longer run (a smaller "
+               "floor) decides")
+    return pick, head + f"{pick} -- {why}{advice}{STATIONARY}"
