@@ -76,3 +76,16 @@ def test_ctrl_c_before_the_first_point_leaves_no_empty_folders(tmp_path, monkeyp
     with pytest.raises(KeyboardInterrupt):
         runs.run_sweep(sweep, mine, quiet=True, report=False)
     assert mine.is_dir() and list(mine.iterdir()) == []
+
+
+def test_a_bifurcation_sweep_finding_r_on_wall_tables_is_refused_before_work(tmp_path):
+    """`workflow = "bifurcation"` with `find = "r"` on a scene whose walls are tables: every
+    point failed at run time (exit 3, "2 of 2 points failed"); the workflow's own refusal now
+    comes when the file is read."""
+    p = tmp_path / "s.toml"
+    p.write_text(HEAD.format(set="", wf="bifurcation",
+                             extra='[bifurcation]\nfind = "r"\n').replace(
+        'models = ["exact"]\n', ""))
+    with pytest.raises(SweepError, match=r"\[bifurcation\] find = 'r': r is the restitution "
+                                         r"of the paper's wall .* allowed here: find = 'mu'"):
+        load_sweep(p)

@@ -212,6 +212,13 @@ def _validate_point(scene: Scene, workflow: str, bifurcation: Mapping[str, Any],
             from vifpk.harness.sweeps import timesweep
 
             timesweep.check_point(workflow, bifurcation, scene)  # the request's checks
+        if workflow == "bifurcation" and bifurcation.get("find"):
+            from vifpk.harness.workflows.bifurcation import vary_problem
+
+            why = vary_problem(scene, str(bifurcation["find"]))
+            if why is not None:  # failed at every point at run time (round 7b, "not tried")
+                raise BadInput(why.replace("--vary r", "[bifurcation] find = 'r'").replace(
+                    "allowed here: --vary mu", "allowed here: find = 'mu'"))
         if workflow in ("check", "passage", "transient") or (workflow == "bifurcation"
                                                              and bifurcation.get("mc")):
             # with a fixed step the checks depend on [montecarlo] and omega0 only: once each
