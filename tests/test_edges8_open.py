@@ -17,8 +17,9 @@ BD = "systems/bilateral-duffing"
 def test_assert_averaging_error_refuses_a_bound_that_can_never_pass(monkeypatch, below):
     """``below=float("nan")`` ran the Monte Carlo, then failed as an AssertionError ("is not
     below nan"): a usage error, BadInput before any work."""
-    import vifpk
     import vifpk.harness.testing as testing
+
+    import vifpk
     from vifpk.core.result import BadInput
 
     monkeypatch.setattr(testing, "mc_reference", lambda *a, **k: pytest.fail("MC ran"))
