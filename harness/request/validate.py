@@ -44,12 +44,14 @@ from vifpk.harness.request import cost
 from vifpk.harness.request.cost import numba_threads_available
 from vifpk.harness.request.errors import InputError
 
-from vifpk.core.scene import SECTIONS, Scene
+from vifpk.core.scene import SECTIONS, Scene, declared_params
 
 MAGNITUDE = (1e-100, 1e100)  # allowed |value| of a non-zero physical parameter (module doc)
 
 
-PHYSICAL = {"system": ("c1", "c2", "omega0", "alpha", "mu", "f"), "noise": ("D", "alpha1"),
+#: the physical numbers of the fixed sections; the noise kind's and the walls' laws' come
+#: from their declarations (vifpk.core.protocols.Param.physical)
+PHYSICAL = {"system": ("c1", "c2", "omega0", "alpha", "mu", "f"),
             "parametric": ("stiffness", "damping")}
 
 
@@ -135,9 +137,10 @@ def scene_magnitudes(scene: Scene) -> None:
                 raise InputError(f"{sec}.{key} = {v:g} is out of range; allowed: 0 or "
                                  f"{lo:g} <= |coefficient| <= {hi:g} (beyond, the model's "
                                  "coefficients over- or underflow double precision)")
-            zero = fields_of(sec)[key].metadata["check"](0.0) is None  # 0 allowed there?
+            zero = _field(scene, sec, key).metadata["check"](0.0) is None  # 0 allowed?
             raise InputError(f"{sec}.{key} = {v:g} is out of range; allowed: "
-                             f"{'0 or ' if zero else ''}{lo:g} <= |{key}| <= {hi:g} "
+                             f"{'0 or ' if zero else ''}{lo:g} <= "
+                             f"|{key.rpartition('.')[2]}| <= {hi:g} "
                              "(beyond, the model's coefficients over- or underflow double "
                              "precision)")
 
@@ -178,7 +181,14 @@ def _physical(scene: Scene) -> list[tuple[str, str, float]]:
     for law in ("restoring", "damping", "velocity_damping"):
         for i, c in enumerate(getattr(scene.system, law)):
             out.append(("system", f"{law}[{i}]", float(c)))
+    out += [(sec, key, value) for sec, key, param, value in declared_params(scene)
+            if param.physical]
     return out
+
+
+def _field(scene: Scene, sec: str, key: str) -> Any:
+    found = [p for s, k, p, _ in declared_params(scene) if (s, k) == (sec, key)]
+    return found[0] if found else fields_of(sec)[key]
 
 
 def finite_result(result: Any, scene: Scene) -> None:
@@ -480,6 +490,10 @@ def refuse_unreachable_floor(scene: Scene, options: Mapping[str, str] | None = N
 
 
 def fields_of(section: str) -> dict[str, Any]:
+    """The fields of a scene section by name (``noise``: vifpk.core.sections.noise_fields)."""
     from dataclasses import fields
 
-    return {f.name: f for f in fields(SECTIONS[section])}
+    from vifpk.core.sections import noise_fields
+
+    return noise_fields() if section == "noise" else {f.name: f for f in fields(
+        SECTIONS[section])}

@@ -9,7 +9,7 @@ from typing import Any
 from vifpk.harness.sweeps.errors import SweepError
 
 from vifpk.core.scene import INDEXED, MAX_TERMS, SECTIONS, WALL_TABLES
-from vifpk.core.walls import WALL_KEYS
+from vifpk.core.walls import wall_keys
 
 #: keys a sweep may not vary or set: the seed comes from the sweep's seed; a wall-clock
 #: budget would make a point depend on the machine's speed
@@ -30,12 +30,12 @@ def key_field(where: str, path: str) -> Any:
     if section not in SECTIONS or not key:
         raise SweepError(f"{where} {path!r}: unknown key; use section.key with a section in "
                          f"{sorted(SECTIONS)}")
-    known = {f.name: f for f in fields(SECTIONS[section])}
+    known = _known(section)
     table, dot, sub = key.partition(".")
     if section == "system" and dot and table in WALL_TABLES:  # system.lower_wall.r, ...
-        if sub not in WALL_KEYS:
+        if sub not in wall_keys():
             raise SweepError(f"{where} {path!r}: unknown key; allowed: "
-                             + ", ".join(f"system.{table}.{k}" for k in WALL_KEYS))
+                             + ", ".join(f"system.{table}.{k}" for k in wall_keys()))
         return WallKey() if sub == "law" else Coefficient()
     m = INDEXED.fullmatch(key) if section == "system" else None
     if m and m.group(1) in known and known[m.group(1)].type.startswith("tuple"):
@@ -51,6 +51,16 @@ def key_field(where: str, path: str) -> Any:
     if path in RESERVED:
         raise SweepError(f"{where} {path!r}: not allowed in a sweep; {RESERVED[path]}")
     return known[key]
+
+
+def _known(section: str) -> dict[str, Any]:
+    """The fields of a section by name; ``noise``: every registered kind's declared
+    parameters (and ``kind``), as harness.request.validate.fields_of gives them."""
+    if section != "noise":
+        return {f.name: f for f in fields(SECTIONS[section])}
+    from vifpk.core.sections import noise_fields
+
+    return {"kind": WallKey(), **noise_fields()}
 
 
 class Coefficient:
