@@ -292,13 +292,24 @@ class MonteCarloNoise:
     state_start: Callable[..., Any]
 
 
+@dataclass(frozen=True, kw_only=True)
+class FPK2DNoise:
+    """A noise kind's piece for the original system's own Fokker-Planck solver in (x, v)
+    (vifpk.fpk2d, issue 46): ``velocity_diffusion(params, f)``, the constant B0 of the
+    diffusion B0 d^2p/dv^2 the excitation f xi adds (white: D f^2). A kind with a state of its
+    own (OU) has none: that solver refuses it."""
+
+    velocity_diffusion: Callable[..., float]
+
+
 @runtime_checkable
 class NoiseKind(Protocol):
     """A kind of excitation xi(t) (the scene's ``[noise] kind``), registered in the
     ``vifpk.noise_kinds`` entry-point group (vifpk.core.registry.noise_kind). ``params``: its
     keys in the ``[noise]`` table; ``averaging`` and ``montecarlo``: its pieces for those
     solvers (None: that solver refuses a scene of this kind, in one line, before any work).
-    The scene's excitation is f xi(t) for every kind."""
+    The scene's excitation is f xi(t) for every kind. Optional (read with ``getattr``, added
+    in protocol version 1 without a bump): ``fpk2d``, a :class:`FPK2DNoise`."""
 
     name: str
     summary: str
@@ -316,6 +327,7 @@ class NoiseKindSpec:
     params: tuple[Param, ...]
     averaging: AveragingNoise | None = None
     montecarlo: MonteCarloNoise | None = None
+    fpk2d: FPK2DNoise | None = None
 
 
 @runtime_checkable

@@ -105,6 +105,16 @@ class Wall:
         return out
 
 
+#: a number as the user wrote it (vifpk.core.protocols.show: 1.0000001 is not "1"; -0 is 0)
+shown = show
+
+
+def unknown_key(where: str, key: str, known: tuple[str, ...]) -> str:
+    """The one line for an unknown key of a table: the nearest known key (case ignored:
+    "AT" is "at"), else the list (vifpk.core.protocols.suggest)."""
+    return f"{where}.{key}: unknown key; {suggest(key, known)}"
+
+
 def _number(where: str, value: Any, allowed: str) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
         raise BadInput(f"{where} = {value!r} must be a finite number; allowed: {allowed}")
@@ -137,7 +147,7 @@ def wall_from_table(where: str, side: str, table: Any) -> Wall:
         if takes:
             raise BadInput(f"{where}.{key} applies to law = "
                            f"{' | '.join(repr(t) for t in takes)} only, not {name!r}")
-        raise BadInput(f"{where}.{key}: unknown key; {suggest(key, keys)}")
+        raise BadInput(unknown_key(where, key, keys))
     if "at" not in table:
         raise BadInput(f"{where}.at is missing: the wall's position ({SIDES[side][1]})")
     sign, _ = SIDES[side]

@@ -18,7 +18,8 @@ from vifpk.core.result import BadInput
 
 #: what each solver calls of a law (``limit``: the scene's energy balance, every run)
 REQUIRED = {"montecarlo": ("restitution", "limit"),
-            "averaging": ("restitution", "energy_loss", "limit")}
+            "averaging": ("restitution", "energy_loss", "limit"),
+            "fpk2d": ("restitution", "limit")}
 
 
 class NoLaw(BadInput):

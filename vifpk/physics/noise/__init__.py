@@ -18,7 +18,7 @@ from dataclasses import fields
 from typing import Any
 
 from vifpk.core import registry
-from vifpk.core.protocols import AveragingNoise, MonteCarloNoise
+from vifpk.core.protocols import AveragingNoise, FPK2DNoise, MonteCarloNoise
 from vifpk.core.result import BadInput
 
 #: the record each solver reads of a kind, and the pieces of it that solver cannot do without
@@ -26,6 +26,7 @@ SOLVERS: dict[str, tuple[str, type, tuple[str, ...]]] = {
     "averaging": ("averaging", AveragingNoise, ("spectral_density",)),
     "montecarlo": ("montecarlo", MonteCarloNoise,
                    tuple(f.name for f in fields(MonteCarloNoise))),
+    "fpk2d": ("fpk2d", FPK2DNoise, ("velocity_diffusion",)),
 }
 
 
@@ -61,7 +62,7 @@ def _pieces(name: str, solver: str) -> Any:
 
 
 def pieces(name: str, solver: str) -> Any:
-    """The kind's pieces for ``solver`` ("averaging" or "montecarlo"), checked once; NoPiece
+    """The kind's pieces for ``solver`` ("averaging", "montecarlo" or "fpk2d"), checked; NoPiece
     naming kind and solver when it has none or lacks a required one."""
     if solver not in SOLVERS:
         raise ValueError(f"solver must be one of {tuple(SOLVERS)}, not {solver!r}")

@@ -19,7 +19,13 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from vifpk.core.protocols import AveragingNoise, MonteCarloNoise, NoiseKindSpec, Param
+from vifpk.core.protocols import (
+    AveragingNoise,
+    FPK2DNoise,
+    MonteCarloNoise,
+    NoiseKindSpec,
+    Param,
+)
 
 
 class MCRecord(NamedTuple):
@@ -91,6 +97,13 @@ def mc_energy(rec, h, half, k, mu, vb, vc, vk, vd, ve, xi):
             fric)
 
 
+# --------------------------------------------------- the original system's FPK (fpk2d)
+def fp_velocity_diffusion(p: Any, f: float) -> float:
+    """D f^2: the diffusion coefficient of the force f xi in v (the FPK term
+    D f^2 d^2p/dv^2, E[xi(t) xi(t+s)] = 2 D delta(s))."""
+    return float(p["D"]) * f ** 2
+
+
 # ------------------------------------------------------------------ averaged models
 def avg_flat_level(*, D: float) -> float:
     """S(w) = D / pi, the same at every frequency."""
@@ -112,4 +125,5 @@ KIND = NoiseKindSpec(
                                input_power=mc_input_power, press=mc_press,
                                velocity=mc_velocity, advance=mc_advance, energy=mc_energy,
                                state_start=mc_state_start),
+    fpk2d=FPK2DNoise(velocity_diffusion=fp_velocity_diffusion),
 )
