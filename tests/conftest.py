@@ -130,7 +130,8 @@ def canned_check(tiny_check, monkeypatch):
 
 def vary(scene: Scene, **kw: float | str | bool) -> Scene:
     """A copy of ``scene`` with system/noise/averaging fields replaced by name (the noise: its
-    ``kind`` and that kind's declared parameters, the others kept or defaulted)."""
+    ``kind`` and that kind's declared parameters, the others kept or defaulted; a parameter of
+    another kind only, e.g. alpha1 with kind = "white", does not apply and is dropped)."""
     from vifpk.core import registry
     from vifpk.core.scene import Noise
 
@@ -147,7 +148,9 @@ def vary(scene: Scene, **kw: float | str | bool) -> Scene:
         (p.name, float(kw.get(p.name, scene.noise.values.get(p.name, p.default))))
         for p in declared))
     used |= {"kind", *(p.name for p in declared)}
-    unknown = set(kw) - used
+    from vifpk.core.sections import noise_fields
+
+    unknown = set(kw) - used - set(noise_fields())  # another kind's parameter: not this one's
     assert not unknown, unknown
     return replace(scene, **parts)
 
