@@ -231,3 +231,34 @@ def test_a_law_without_a_yield_speed_is_never_taken_for_newton_s(plugins, base):
     assert m_fix.barrier and m_fix.r == 0.9
     np.testing.assert_array_equal(m_fix.drift(A), m_newt.drift(A))
     np.testing.assert_array_equal(m_fix.diffusion(A), m_newt.diffusion(A))
+
+
+#: white noise's declared object under a second name, as another package would register it
+WHITE_TWIN = NoiseKindSpec(name="white2", summary="white noise, registered again",
+                           params=white.KIND.params, averaging=white.KIND.averaging,
+                           montecarlo=white.KIND.montecarlo)
+
+
+@pytest.mark.slow
+def test_a_kind_registered_under_a_second_name_gives_bit_identical_results(register_physics,
+                                                                           base):
+    """The registry adds nothing of its own: the built-in white noise's object registered by
+    entry point as "white2" (another distribution's) gives the same bits in the exact model
+    and in a Monte Carlo run (a new record class, the same compiled pieces)."""
+    from vifpk.averaging.exact import ExactModel
+    from vifpk.montecarlo.simulate import Settings, simulate
+
+    register_physics("vifpk.noise_kinds", "white2", "tests.test_physics_plugins:WHITE_TWIN")
+    one = base.with_values({"noise.kind": "white"})
+    two = base.with_values({"noise.kind": "white2"})
+    A = np.linspace(0.05, 2.0, 40)
+    m1, m2 = ExactModel.from_scene(one), ExactModel.from_scene(two)
+    np.testing.assert_array_equal(m1.drift(A), m2.drift(A))
+    np.testing.assert_array_equal(m1.diffusion(A), m2.diffusion(A))
+    st = Settings(paths=16, blocks=4, dt=0.01, time=20.0, burn_in=5.0, seed=11, bins=20,
+                  threads=1, floor=0.0, budget=0.0, sample_every=0.5, progress=False,
+                  certificate=False, observables=("A", "moments", "energy"))
+    r1, r2 = simulate(one.system, one.noise, st), simulate(two.system, two.noise, st)
+    for key in ("A",):
+        np.testing.assert_array_equal(r1.data[key]["p"], r2.data[key]["p"])
+    assert r1.info["summary"] == r2.info["summary"]
