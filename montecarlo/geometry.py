@@ -150,6 +150,19 @@ def orbit_point(A, w0sq, alpha, khi, s0, s1, s2, s3):
 
 
 @jit
+def orbit_position(A, w0sq, alpha, khi, fold, lo, up, s0, s1, s2, s3):
+    """(y, y', generator state): orbit_start's point of the orbit, without the noise state
+    (the averaged SDE's phase points)."""
+    y, yp, s0, s1, s2, s3 = orbit_point(A, w0sq, alpha, khi, s0, s1, s2, s3)
+    if fold and y < 0.0:
+        y = -y
+        yp = -yp
+    while y < lo or y > up:  # lo <= 0 <= up: the orbit passes inside, so this ends
+        y, yp, s0, s1, s2, s3 = orbit_point(A, w0sq, alpha, khi, s0, s1, s2, s3)
+    return y, yp, s0, s1, s2, s3
+
+
+@jit
 def orbit_start(A, w0sq, alpha, khi, fold, lo, up, P, s0, s1, s2, s3):
     """(x, v, xi, generator state): a start on the conservative orbit of amplitude A at a
     phase uniform IN TIME (``orbit_point``), on the elastic impacting orbit when walls keep x
@@ -159,11 +172,6 @@ def orbit_start(A, w0sq, alpha, khi, fold, lo, up, P, s0, s1, s2, s3):
     orbit truncated at the walls spends the free orbit's time at each x inside: the free law
     conditioned on [lo, up]); and xi from the noise state's stationary law (the kind of the
     kernels' record P: noise_start, its ``state_start``; OU draws xi_sd N, white nothing)."""
-    y, yp, s0, s1, s2, s3 = orbit_point(A, w0sq, alpha, khi, s0, s1, s2, s3)
-    if fold and y < 0.0:
-        y = -y
-        yp = -yp
-    while y < lo or y > up:  # lo <= 0 <= up: the orbit passes inside, so this ends
-        y, yp, s0, s1, s2, s3 = orbit_point(A, w0sq, alpha, khi, s0, s1, s2, s3)
+    y, yp, s0, s1, s2, s3 = orbit_position(A, w0sq, alpha, khi, fold, lo, up, s0, s1, s2, s3)
     xi, s0, s1, s2, s3 = noise_start(P, s0, s1, s2, s3)
     return y, yp, xi, s0, s1, s2, s3

@@ -45,7 +45,8 @@ from vifpk.harness.request.cost import numba_threads_available
 from vifpk.harness.request.errors import InputError
 
 from vifpk.core.protocols import show as shown
-from vifpk.core.scene import SECTIONS, Scene, declared_params
+from vifpk.core.scene import Scene, declared_params
+from vifpk.core.scene import section_fields as fields_of
 
 MAGNITUDE = (1e-100, 1e100)  # allowed |value| of a non-zero physical parameter (module doc)
 
@@ -496,13 +497,3 @@ def refuse_unreachable_floor(scene: Scene, options: Mapping[str, str] | None = N
                          f"{mc.budget:g} s allows; "
                          "raise the floor or the budget (0: no limit, then the cost limit "
                          "applies)")
-
-
-def fields_of(section: str) -> dict[str, Any]:
-    """The fields of a scene section by name (``noise``: vifpk.core.sections.noise_fields)."""
-    from dataclasses import fields
-
-    from vifpk.core.sections import noise_fields
-
-    return noise_fields() if section == "noise" else {f.name: f for f in fields(
-        SECTIONS[section])}

@@ -37,6 +37,7 @@ from .sections import (
     Noise,
     Observables,
     _check_harmonics,
+    noise_fields,
     noise_from_table,
     noise_keys,
     noise_kind,
@@ -58,9 +59,8 @@ __all__ = [
     "WALL_TABLES", "AveragingSettings", "Check", "EnergyBalance", "MonteCarloSettings", "Noise",
     "Observables", "Parametric", "Scene", "SceneError", "Sweep", "System", "Wall",
     "check_value", "declared_params", "energy_balance", "find_scene", "is_toml_file",
-    "law_term", "load_scene",
-    "no_noise", "read_toml", "restoring_problem", "scene_from_dict", "shared_term",
-    "shipped_name", "shipped_names", "shipped_scenes",
+    "law_term", "load_scene", "no_noise", "read_toml", "restoring_problem", "scene_from_dict",
+    "section_fields", "shared_term", "shipped_name", "shipped_names", "shipped_scenes",
 ]
 
 
@@ -151,6 +151,14 @@ class Scene:
             d["sweep"] = {"field": self.sweep.path, "values": list(self.sweep.values)}
             d[self.sweep.section][self.sweep.key] = list(self.sweep.values)
         return d
+
+
+def section_fields(section: str) -> dict[str, Any]:
+    """The fields of a scene section by name (``noise``: every registered kind's declared
+    parameters, vifpk.core.sections.noise_fields)."""
+    if section == "noise":
+        return noise_fields()
+    return {f.name: f for f in fields(SECTIONS[section])}
 
 
 def declared_params(scene: Scene) -> list[tuple[str, str, Any, float]]:
