@@ -52,13 +52,16 @@ from vifpk.harness.request.outpaths import (  # noqa: F401
     run_inputs,
 )
 
-from vifpk.core.scene import SECTIONS, Scene
-from vifpk.core.walls import shown
+from vifpk.core.protocols import show as shown
+from vifpk.core.scene import Scene, declared_params
+from vifpk.core.scene import section_fields as fields_of
 
 MAGNITUDE = (1e-100, 1e100)  # allowed |value| of a non-zero physical parameter (module doc)
 
 
-PHYSICAL = {"system": ("c1", "c2", "omega0", "alpha", "mu", "f"), "noise": ("D", "alpha1"),
+#: the physical numbers of the fixed sections; the noise kind's and the walls' laws' come
+#: from their declarations (vifpk.core.protocols.Param.physical)
+PHYSICAL = {"system": ("c1", "c2", "omega0", "alpha", "mu", "f"),
             "parametric": ("stiffness", "damping")}
 
 
@@ -155,9 +158,10 @@ def scene_magnitudes(scene: Scene) -> None:
                 raise InputError(f"{sec}.{key} = {v:g} is out of range; allowed: 0 or "
                                  f"{lo:g} <= |coefficient| <= {hi:g} (beyond, the model's "
                                  "coefficients over- or underflow double precision)")
-            zero = fields_of(sec)[key].metadata["check"](0.0) is None  # 0 allowed there?
+            zero = _field(scene, sec, key).metadata["check"](0.0) is None  # 0 allowed?
             raise InputError(f"{sec}.{key} = {v:g} is out of range; allowed: "
-                             f"{'0 or ' if zero else ''}{lo:g} <= |{key}| <= {hi:g} "
+                             f"{'0 or ' if zero else ''}{lo:g} <= "
+                             f"|{key.rpartition('.')[2]}| <= {hi:g} "
                              "(beyond, the model's coefficients over- or underflow double "
                              "precision)")
 
@@ -200,9 +204,14 @@ def _physical(scene: Scene) -> list[tuple[str, str, float]]:
             out.append(("system", f"{law}[{i}]", float(c)))
     for w in getattr(scene.system, "walls", ()):  # a wall's position is a length like any
         out.append(("system", f"{w.side}_wall.at", float(w.at)))
-        if w.v_yield is not None:  # and its yield speed a speed
-            out.append(("system", f"{w.side}_wall.v_yield", float(w.v_yield)))
+    out += [(sec, key, value) for sec, key, param, value in declared_params(scene)
+            if param.physical]
     return out
+
+
+def _field(scene: Scene, sec: str, key: str) -> Any:
+    found = [p for s, k, p, _ in declared_params(scene) if (s, k) == (sec, key)]
+    return found[0] if found else fields_of(sec)[key]
 
 
 def finite_result(result: Any, scene: Scene) -> None:
@@ -352,9 +361,3 @@ def refuse_unreachable_floor(scene: Scene, options: Mapping[str, str] | None = N
                          f"{mc.budget:g} s allows; "
                          "raise the floor or the budget (0: no limit, then the cost limit "
                          "applies)")
-
-
-def fields_of(section: str) -> dict[str, Any]:
-    from dataclasses import fields
-
-    return {f.name: f for f in fields(SECTIONS[section])}
