@@ -184,6 +184,7 @@ def stationary(system: Any, noise: Any, parametric: Any = None, *, accuracy: flo
         "order": ORDER,
         "grid": {"cells": [nx, nv], "x": [float(fine.grid.xe[0]), float(fine.grid.xe[-1])],
                  "v": [float(fine.grid.ve[0]), float(fine.grid.ve[-1])], "E_max": E_max,
+                 "A_max": float(A[-1]),
                  "walls_inside": [w.at for w in fine.grid.walls]},
         "discretisation_error": {
             **{f"L1_{k}": v for k, v in est.items()},
