@@ -22,11 +22,11 @@ from pathlib import Path
 import numpy as np
 from scipy.integrate import quad
 from scipy.special import erf
+from vifpk.fpk2d.observables import marginals
+from vifpk.harness.workflows.compare import bin_average
 
 import vifpk
 from vifpk import fpk2d
-from vifpk.fpk2d.observables import marginals
-from vifpk.harness.workflows.compare import bin_average
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENE = "systems/gibbs-quintic"

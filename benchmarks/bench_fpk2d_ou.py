@@ -35,12 +35,12 @@ from types import SimpleNamespace as NS
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import LinearOperator, gmres, spilu, splu
-
-from vifpk.core.walls import Wall
 from vifpk.fpk2d.observables import marginals
 from vifpk.fpk2d.physics import Coefficients, coefficients
 from vifpk.fpk2d.scheme import make_grid, operator
 from vifpk.fpk2d.solve import box
+
+from vifpk.core.walls import Wall
 
 ROOT = Path(__file__).resolve().parents[1]
 D, ALPHA1, R = 0.01, 2.0, 0.96

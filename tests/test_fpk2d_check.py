@@ -66,8 +66,9 @@ def test_two_models_within_one_floor_are_told_apart_by_the_fpk():
     paired difference 0.0055 +/- 0.0023); against the FPK 0.0086 and 0.0030 (both "inside",
     the difference 0.0056 +/- 0.0003); the FPK and the Monte Carlo 1.2, 1.1, 0.9 floors
     apart."""
-    import vifpk
     from vifpk.harness.workflows.check import cross_check
+
+    import vifpk
 
     sc = vifpk.scene("systems/gibbs-quintic", **{"system.r": 0.95, "montecarlo.paths": 128,
                                                  "montecarlo.time": 300.0})
