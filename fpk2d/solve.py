@@ -205,8 +205,9 @@ def stationary(system: Any, noise: Any, parametric: Any = None, *, accuracy: flo
     }
     if not reached:
         info["warnings"] = [f"the discretisation error of p(A) is estimated at "
-                            f"{est['A']:.2g}, above the accuracy asked ({accuracy:g}), at "
-                            f"the most cells allowed ({nx} x {nv}; max_cells)"]
+                            f"{est['A']:.2g}, above the accuracy asked ({accuracy:g}), on "
+                            + (f"the grid given ({nx} x {nv} cells)" if cells is not None else
+                               f"the most cells allowed ({nx} x {nv}; max_cells)")]
     return Result(data=dens["data"], info=info)
 
 
