@@ -359,6 +359,10 @@ def check_point(job: Job) -> dict[str, Any]:
                              error_estimate_err=tv["error_estimate_err"],
                              p_within_tolerance=tv["p_within_tolerance"],
                              tolerance_class=tv["class"])
+        te = res.metrics["models"][m].get("truth_error")
+        if te is not None:  # against the original system's FPK (issue 46): no floor
+            models[m].update(truth_error_A=te["A"]["L1"],
+                             truth_error_A_err=te["A"]["L1_truth_err"])
         if job.sde:  # only where the averaged SDE ran (SDE_CHECK_EVERY); -1 elsewhere
             models[m]["sampling_ok"] = bool(res.metrics["models"][m]["sampling_ok"])
     # the simulation's mean amplitude from its histogram of A with an exactly rounded sum, its
@@ -373,7 +377,9 @@ def check_point(job: Job) -> dict[str, Any]:
     return {"models": models, "mean_A_simulation": mean["value"],
             "mean_A_simulation_err": mean["err"], "converged": converged,
             "extensions": conv.get("extensions", 0),
-            "flags": {**_flags(res.warnings), "warn_not_converged": not converged},
+            "flags": {**_flags(res.warnings), "warn_not_converged": not converged,
+                      **({"truth_agrees": bool(res.metrics["truth"]["agrees"])}
+                         if res.metrics["truth"].get("solver") else {})},
             "recommended_model": res.metrics["recommended_model"],
             "warnings": [w.text for w in res.warnings], "verdicts": res.verdicts,
             **_mc_cost(mc.info), **({"state": run.state} if run.keep_state else {})}
