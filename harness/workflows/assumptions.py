@@ -228,7 +228,7 @@ def compounded_tail(scene: Any, threshold: float) -> str | None:
         if K <= 0:
             continue
         v = math.sqrt(2.0 * K)
-        e = float(impact.law(w.law).restitution(v, w.r, w.v_yield or math.inf))
+        e = float(impact.law(w.law).restitution(v, *(val for _, val in w.params)))
         if not 0.0 < e < 1.0:
             continue
         lam = -math.log(e * e)
