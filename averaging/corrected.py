@@ -271,13 +271,22 @@ class CorrectedModel(CompoundedModel):
 
     @staticmethod
     def applies(scene: Any) -> str | None:
-        """None unless a wall meets a correlated (OU) noise with walls other than the paper's
-        or with parametric noise: the energy at the wall (section 10.3) is derived for one
-        wall at 0 and the external noise only (for white noise it vanishes and the model is
-        the compounded one on any walls, parametric noise included)."""
+        """None unless a wall meets a correlated noise whose wall offset is not derived: a
+        spectrum other than OU's (the offset's linear response, section 10.3, is written with
+        the OU covariance (D / alpha1) e^{-alpha1 |s|}), or OU with walls other than the
+        paper's or with parametric noise (derived for one wall at 0 and the external noise
+        only). A flat spectrum has no offset (the model is the compounded one on any walls,
+        parametric noise included), and without walls the model is the exact one, for any
+        spectrum."""
         walls = walls_of(scene.system)
-        if not (walls and Spectrum.from_scene(scene).rational):
+        if not walls:
             return None
+        spectrum = Spectrum.from_scene(scene)
+        if spectrum.flat:
+            return None
+        if not spectrum.rational:
+            return ("the wall offset of correlated noise (docs/averaging.md 10.3) is derived "
+                    f"for the OU covariance, not noise kind {spectrum.kind!r}'s")
         if not is_paper_wall(walls):
             return ("the wall offset of correlated noise (docs/averaging.md 10.3) is derived "
                     "for one lower wall at x = 0 with Newton's law only")
