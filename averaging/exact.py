@@ -312,12 +312,15 @@ class ExactModel:
         hit = self.reached(A)
         if not np.any(hit):
             return sigma2_harmonic(self, A, self.orbit(A) if orbit is None else orbit)
-        free = sigma2_harmonic(self, A, self.free_orbit(A))
+        out = np.empty(A.shape)
+        if not np.all(hit):
+            free = A[~hit]
+            out[~hit] = sigma2_harmonic(self, free, self.free_orbit(free))
         a, b = span(self.walls)
-        trunc = sigma2_harmonic_truncated(
-            np.where(hit, A, 1.0), self.restoring, a, b, f=self.f, spectrum=self.spectrum,
+        out[hit] = sigma2_harmonic_truncated(
+            A[hit], self.restoring, a, b, f=self.f, spectrum=self.spectrum,
             count=2 * self.harmonics, nodes=2 * self.theta_nodes)
-        return np.where(hit, trunc, free)
+        return out
 
     def _sigma2_truncated(self, A: Array) -> Array:
         """sigma_E^2 of a rational (OU) spectrum on the truncated orbit (truncated.sigma2)."""

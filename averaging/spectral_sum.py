@@ -222,7 +222,7 @@ def sigma2_harmonic_truncated(A: Array, k: tuple[float, ...], lower: float, uppe
 
     A = np.asarray(A, dtype=float)
     o = truncated.orbit(A, k, lower, upper, n_damping=0, n_velocity=0, nodes=nodes)
-    _, Xn = truncated.harmonics(A, o["T"], k, lower, upper, count=count, nodes=nodes)
+    Xn = _truncated_harmonics(A, o["T"], k, lower, upper, count=count, nodes=nodes)
     Omega = 2.0 * np.pi / o["T"]
     u = Omega[..., None] * np.arange(1, Xn.shape[-1] + 1)
     total = np.sum(u**2 * Xn**2 * spectrum(u), axis=-1)
@@ -243,6 +243,34 @@ def sigma2_harmonic_truncated(A: Array, k: tuple[float, ...], lower: float, uppe
 
         total = total + tail_sum(spectrum, Omega, o["T"], float(first), 2, P2)
     return 4.0 * np.pi * f**2 * total
+
+
+def _truncated_harmonics(A: Array, T: Array, k: tuple[float, ...], lower: float, upper: float,
+                         *, count: int, nodes: int) -> Array:
+    """X_n, n = 1..count, of x(t) on the truncated orbit: truncated.harmonics's quadrature
+    with cos(n Omega t) by the Chebyshev recurrence c_{n+1} = 2 cos(Omega t) c_n - c_{n-1}
+    (one cosine a node, not one a harmonic: the same numbers to ~1e-14 of the largest, 4x
+    faster on the walls' orbits, as exact.harmonics_of_Y does)."""
+    from vifpk.physics import spring as spring_
+
+    from . import truncated
+    from .geometry import nu_k, time_of_theta_k
+
+    th, w, _, x_hi = truncated.theta_nodes(A, lower, upper, nodes)
+    nu = nu_k(A[..., None], th, k)
+    th_p = np.arccos(np.clip(spring_.turning_points(A, lower, upper)[1]
+                             / np.where(A > 0, A, 1.0), -1.0, 1.0))
+    t = time_of_theta_k(A, th, k) - time_of_theta_k(A, th_p[..., None], k)
+    base = (2.0 / T)[..., None] * w * A[..., None] * np.cos(th) / nu
+    c1 = np.cos((2.0 * np.pi / T)[..., None] * t)
+    two = 2.0 * c1
+    prev, cur = np.ones_like(c1), c1
+    out = np.empty(A.shape + (count,))
+    for j in range(count):
+        if j:
+            prev, cur = cur, two * cur - prev
+        out[..., j] = np.einsum("...k,...k->...", base, cur)
+    return out
 
 
 def spring_potential(x: Array, k: tuple[float, ...]) -> Array:

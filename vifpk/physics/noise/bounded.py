@@ -39,11 +39,83 @@ the input f a cos(psi) v by the trapezoid over the stage, as OU's.
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
 TWO_PI = 2.0 * math.pi
+
+
+# ------------------------------------------------------------------ Monte Carlo
+class MCRecord(NamedTuple):
+    bounded_a: float      # a
+    bounded_drift: float  # Omega h: the phase's deterministic advance over a step
+    bounded_diff: float   # sigma sqrt(h): its random one's standard deviation
+
+
+def mc_record(p: Any, f: float, h: float) -> MCRecord:
+    return MCRecord(float(p["amplitude"]), float(p["frequency"]) * h,
+                    float(p["sigma"]) * math.sqrt(h))
+
+
+def mc_start(p: Any, f: float, gen: Any, n: Any) -> np.ndarray:
+    """The phase, uniform on [0, 2 pi) (its stationary law mod 2 pi)."""
+    return gen.uniform(0.0, TWO_PI, n)
+
+
+def mc_start_sd(p: Any) -> None:
+    """None: the state (a phase) is not Gaussian; its start is :func:`mc_state_start`."""
+    return None
+
+
+def mc_state_start(normal: Any, uniform: Any) -> Any:
+    """psi = 2 pi U, U uniform on (0, 1)."""
+    def start(rec, s0, s1, s2, s3):
+        u, s0, s1, s2, s3 = uniform(s0, s1, s2, s3)
+        return TWO_PI * u, s0, s1, s2, s3
+    return start
+
+
+def mc_bridge(p: Any, f: float) -> None:
+    """None: the force is bounded and continuous, the energy C^1 between impacts."""
+    return None
+
+
+def mc_input_power(p: Any, f: float) -> None:
+    """None: the mean input power depends on the response."""
+    return None
+
+
+def mc_press(rec, xi):
+    return -rec.f * rec.bounded_a * math.cos(xi)
+
+
+def mc_velocity(flow: Any, normal: Any) -> Any:
+    """B(h) with the force -g + f a cos(psi) held, psi at the middle of the step (one exact
+    sub-flow: no random number), as OU's xi."""
+    def stage(rec, v, xi, g, k, mu, at_wall, h, half, s0, s1, s2, s3):
+        v, stuck = flow(v, h, -g + rec.f * rec.bounded_a * math.cos(xi), k, mu, at_wall)
+        return v, stuck, v, v, v, s0, s1, s2, s3
+    return stage
+
+
+def mc_advance(normal: Any) -> Any:
+    """psi <- psi + Omega h + sigma sqrt(h) N (exact: psi is a Brownian motion with drift),
+    wrapped into [0, 2 pi) so that a long run keeps cos(psi) to full precision."""
+    def advance(rec, xi, s0, s1, s2, s3):
+        z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
+        psi = xi + rec.bounded_drift + rec.bounded_diff * z
+        return psi - TWO_PI * math.floor(psi / TWO_PI), s0, s1, s2, s3
+    return advance
+
+
+def mc_energy(rec, h, half, k, mu, vb, vc, vk, vd, ve, xi):
+    """Trapezoid over B(h): input f a cos(psi) v, damping k v^2, friction mu |v|."""
+    fric = 0.0
+    if mu is not None:
+        fric = mu * h * 0.5 * (abs(vb) + abs(ve))
+    force = rec.f * rec.bounded_a * math.cos(xi)
+    return force * h * 0.5 * (vb + ve), k * h * 0.5 * (vb * vb + ve * ve), fric
 
 
 # ------------------------------------------------------------------ averaged models
