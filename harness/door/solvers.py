@@ -66,6 +66,10 @@ def run_solver(scene: Any, solver: str, *, model: str = "paper", grid: int | Non
         return closed_form(scene, model=model, **options)
     if solver == registry.ORIGINAL:
         return montecarlo_solution(scene, **options)
+    if solver == registry.ORIGINAL_FPK:
+        from vifpk.harness.door.original import original_fpk_solution
+
+        return original_fpk_solution(scene, cells=grid, **options)
     return model_solution(scene, model=model, solver=solver, cells=grid or FPK_CELLS,
                           **options)
 

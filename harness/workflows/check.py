@@ -37,11 +37,12 @@ from vifpk.harness.door.solvers import (
 )
 from vifpk.harness.request.tolerance import Tolerance
 from vifpk.harness.workflows.assumptions import assumption_warnings
-from vifpk.harness.workflows.compare import compare
+from vifpk.harness.workflows.compare import compare, paired
 from vifpk.harness.workflows.tolerance import line as tolerance_line
 from vifpk.harness.workflows.tolerance import model_verdicts
 from vifpk.harness.workflows.verdict import (
     _evidence,
+    assumptions_failing,
     observable_classes,
     recommend,
     sampling_failures,
@@ -265,6 +266,9 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
         metrics["models"][m]["verdict_class"] = cls
         metrics["models"][m]["verdict_cause"] = cause
         metrics["models"][m]["verdict_by_observable"] = observable_classes(metrics["models"][m])
+        # beside the class, never instead of it (issue 45): the assumptions that fail here
+        metrics["models"][m]["verdict_assumptions"] = (
+            [w.kind for w in assumptions_failing(warnings)] if cls != "not an estimate" else [])
     metrics["tolerance"] = tol.record()
     # the jackknife over the blocks has blocks - 1 degrees of freedom; a step bias the run's
     # check could not rule out is carried by the interval and the class (tolerance.py)
@@ -272,6 +276,7 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
                                dt_check=mc.info.get("dt_check"))
     for m, v in tverdicts.items():
         metrics["models"][m]["tolerance"] = v
+    metrics["paired"] = paired_table(closed, sol["mc:original"], models, tol)
     stages.done()
     rec_model, rec_line = recommend(metrics, warnings, val, convergence=conv)
     metrics["recommended_model"] = rec_model
@@ -300,6 +305,24 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
     return CheckResult(scene=scene, solutions=sol, metrics=metrics, warnings=warnings,
                        verdicts=verdicts, recommendation=rec_line, models=models,
                        tolerance_lines=tuple(metrics["tolerance_verdicts"]))
+
+
+def paired_table(closed: dict[str, Any], truth: Any, models: tuple[str, ...],
+                 tol: Tolerance) -> dict[str, Any]:
+    """Every pair of models compared on the SAME sample (compare.paired): the difference of
+    their distances to the truth in the tolerance's metric and observable, with the error bar
+    of the difference (the recommendation decides between models by it). ``truth``: a Result
+    whose data holds the observable (a Monte Carlo histogram; a smooth, noise-free density
+    gives error bars 0)."""
+    o, k = tol.observable, tol.metric
+    ref = truth.data[o]
+    pairs = []
+    for i, a in enumerate(models):
+        for b in models[i + 1:]:
+            pr = paired(closed[a].data[o], closed[b].data[o], ref, metric=k)
+            pairs.append({"a": a, "b": b, "diff": pr["diff"], "diff_err": pr["diff_err"],
+                          "dof": pr["dof"]})
+    return {"observable": o, "metric": k, "pairs": pairs}
 
 
 def _sde_run(scene: Any, model: str, closed: Any, edges: dict[str, np.ndarray],
