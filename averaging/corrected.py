@@ -286,7 +286,7 @@ class CorrectedModel(CompoundedModel):
             return None
         if not spectrum.rational:
             return ("the wall offset of correlated noise (docs/averaging.md 10.3) is derived "
-                    f"for the OU covariance, not noise kind {spectrum.kind!r}'s")
+                    f"for the OU covariance, not for noise kind {spectrum.kind!r}")
         if not is_paper_wall(walls):
             return ("the wall offset of correlated noise (docs/averaging.md 10.3) is derived "
                     "for one lower wall at x = 0 with Newton's law only")
