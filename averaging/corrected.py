@@ -271,16 +271,25 @@ class CorrectedModel(CompoundedModel):
 
     @staticmethod
     def applies(scene: Any) -> str | None:
-        """None unless a wall meets a correlated (OU) noise with walls other than the paper's
-        or with parametric noise: the energy at the wall (section 10.3) is derived for one
-        wall at 0 and the external noise only (for white noise it vanishes and the model is
-        the compounded one on any walls, parametric noise included)."""
-        why = problem(scene)  # the kind's and laws' averaging pieces (averaging.noise)
+        """None unless a wall meets a correlated noise whose wall offset is not derived: a
+        spectrum other than OU's (the offset's linear response, section 10.3, is written with
+        the OU covariance (D / alpha1) e^{-alpha1 |s|}), or OU with walls other than the
+        paper's or with parametric noise (derived for one wall at 0 and the external noise
+        only). A flat spectrum has no offset (the model is the compounded one on any walls,
+        parametric noise included), and without walls the model is the exact one, for any
+        spectrum. First, the kind's and laws' averaging pieces (averaging.noise.problem)."""
+        why = problem(scene)
         if why is not None:
             return why
         walls = walls_of(scene.system)
-        if not (walls and Spectrum.from_scene(scene).rational):
+        if not walls:
             return None
+        spectrum = Spectrum.from_scene(scene)
+        if spectrum.flat:
+            return None
+        if not spectrum.rational:
+            return ("the wall offset of correlated noise (docs/averaging.md 10.3) is derived "
+                    f"for the OU covariance, not for noise kind {spectrum.kind!r}")
         if not is_paper_wall(walls):
             return ("the wall offset of correlated noise (docs/averaging.md 10.3) is derived "
                     "for one lower wall at x = 0 with Newton's law only")

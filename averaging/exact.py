@@ -66,7 +66,7 @@ from .geometry import (
     time_of_theta_k,
 )
 from .noise import Spectrum, problem
-from .spectral_sum import sigma2_rational
+from .spectral_sum import sigma2_harmonic, sigma2_harmonic_truncated, sigma2_rational
 from .walls import WallSpec, is_paper_wall, loss_rate, reached, span, walls_of
 
 NOISE_FORMS = ("sgn", "additive")
@@ -299,11 +299,34 @@ class ExactModel:
         S = self.spectrum
         if S.flat:
             return 2.0 * np.pi * self.f**2 * S.level() * o["v2"]
+        if not S.rational:
+            return self.sigma2_general(A, o)
         hit = self.reached(A)
         if not np.any(hit):
             return sigma2_rational(self, A, o)
         free = sigma2_rational(self, A, self.free_orbit(A))
         return np.where(hit, self._sigma2_truncated(np.where(hit, A, 1.0)), free)
+
+    def sigma2_general(self, A: Array, orbit: dict[str, Array] | None = None) -> Array:
+        """sigma_E^2 of the external noise by the general harmonic sum, for ANY spectrum:
+        4 pi f^2 sum_n u_n^2 Y_n^2 S(u_n) with S evaluated at the orbit's harmonics and the
+        kinks' tails from their asymptotics (spectral_sum.sigma2_harmonic on the free orbit or
+        the paper's wall, spectral_sum.sigma2_harmonic_truncated where walls are reached).
+        The path of every kind that is neither flat nor rational; flat and OU keep their
+        fast paths, which agree with this one (tests/test_bounded_averaging.py)."""
+        A = np.asarray(A, dtype=float)
+        hit = self.reached(A)
+        if not np.any(hit):
+            return sigma2_harmonic(self, A, self.orbit(A) if orbit is None else orbit)
+        out = np.empty(A.shape)
+        if not np.all(hit):
+            free = A[~hit]
+            out[~hit] = sigma2_harmonic(self, free, self.free_orbit(free))
+        a, b = span(self.walls)
+        out[hit] = sigma2_harmonic_truncated(
+            A[hit], self.restoring, a, b, f=self.f, spectrum=self.spectrum,
+            count=2 * self.harmonics, nodes=2 * self.theta_nodes)
+        return out
 
     def _sigma2_truncated(self, A: Array) -> Array:
         """sigma_E^2 of a rational (OU) spectrum on the truncated orbit (truncated.sigma2)."""

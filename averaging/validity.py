@@ -4,21 +4,26 @@ Each number is evaluated at the 10%, 50% and 90% quantiles of the amplitude dens
 first-order model (``exact``), i.e. at the energies the answer is made of, not at one
 amplitude (docs/report.md, "Warnings", gives the curves behind the thresholds that use them):
 
-    band      alpha1 / Omega(E)            noise bandwidth against the oscillation frequency
-                                           Omega = 2 pi / T(E) (OU noise only)
+    band      rate / Omega(E)              noise bandwidth against the oscillation frequency
+                                           Omega = 2 pi / T(E), rate the kind's declared
+                                           correlation rate (OU: alpha1; bounded: sigma^2 / 2,
+                                           the decay rate of its covariance's envelope; None
+                                           for a kind without one: white noise)
     wall      delta(E) / E                 the energy-at-the-wall offset of ``corrected``
                                            against the energy (its linear response needs << 1)
     noise     sigma_E^2 T / E^2            relative energy variance the noise adds per period
-    correlation  sigma_E^2 / (alpha1 E^2)  ... per correlation time 1/alpha1 of the noise: the
+    correlation  sigma_E^2 / (rate E^2)    ... per correlation time 1/rate of the noise: the
                                            small parameter of the O(D / alpha1) terms (the wall
-                                           offset, the fast fluctuation) (OU noise only)
+                                           offset, the fast fluctuation) (kinds with a rate)
     lambda    -ln r^2                      the jump of ln E at an impact (0 without a wall;
                                            with walls other than the paper's, the largest
                                            -ln r^2 of them: the jump of ln K, K the kinetic
                                            energy at the wall, below v_yield)
 
 ``wall`` is None where ``corrected`` does not apply (walls other than the paper's under OU
-noise: its offset is derived for the paper's wall only).
+noise, or walls under a correlated kind other than OU: its offset is derived for the paper's
+wall and the OU covariance only). The exact model behind every number takes any spectrum (the
+general harmonic sum), so every registered kind with a spectral density is checkable.
 """
 
 from __future__ import annotations
