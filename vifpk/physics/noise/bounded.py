@@ -34,6 +34,9 @@ started uniform on [0, 2 pi) (the stationary law of the phase mod 2 pi, so xi is
 from t = 0). The force f a cos(psi) is held over the velocity stage with psi at the middle of
 the step, as OU's xi (ou.py): B(h; F = -g + f a cos(psi)) in one piece. Energy bookkeeping:
 the input f a cos(psi) v by the trapezoid over the stage, as OU's.
+
+``KIND`` is the declared object (vifpk.core.protocols.NoiseKind), registered in vifpk's
+pyproject.toml (``vifpk.noise_kinds``) as any other package's kind would be.
 """
 
 from __future__ import annotations
@@ -42,6 +45,8 @@ import math
 from typing import Any, NamedTuple
 
 import numpy as np
+
+from vifpk.core.protocols import AveragingNoise, MonteCarloNoise, NoiseKindSpec, Param
 
 TWO_PI = 2.0 * math.pi
 
@@ -139,3 +144,21 @@ def covariance(s: Any, *, amplitude: float, frequency: float, sigma: float) -> n
     """R(s) = E[xi(t) xi(t + s)] = (a^2 / 2) cos(Omega s) exp(-sigma^2 |s| / 2)."""
     s = np.asarray(s, dtype=float)
     return 0.5 * amplitude**2 * np.cos(frequency * s) * np.exp(-0.5 * sigma**2 * np.abs(s))
+
+
+KIND = NoiseKindSpec(
+    name="bounded",
+    summary="bounded noise: xi = a cos(Omega t + sigma W + theta), theta uniform, W Wiener",
+    params=(Param(name="amplitude", default=None, low=0.0, doc="a: |xi| <= a, E[xi^2] = a^2/2"),
+            Param(name="frequency", default=None, low=0.0, low_closed=True,
+                  doc="Omega: the centre frequency (0: a random-walk phase)"),
+            Param(name="sigma", default=None, low=0.0,
+                  doc="sigma: the phase's diffusion, bandwidth sigma^2 / 2")),
+    averaging=AveragingNoise(spectral_density=avg_spectral_density,
+                             correlation_rate=avg_correlation_rate),
+    montecarlo=MonteCarloNoise(Record=MCRecord, record=mc_record, start=mc_start,
+                               start_sd=mc_start_sd, bridge=mc_bridge,
+                               input_power=mc_input_power, press=mc_press,
+                               velocity=mc_velocity, advance=mc_advance, energy=mc_energy,
+                               state_start=mc_state_start),
+)
