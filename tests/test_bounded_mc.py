@@ -14,14 +14,12 @@ Slow tier: one kernel shape (bounded noise, no wall; ~20 s cold), runs of a few 
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
 from scipy.integrate import quad
+from vifpk.montecarlo.simulate import Settings, simulate
 
 from vifpk.core.scene import scene_from_dict
-from vifpk.montecarlo.simulate import Settings, simulate
 from vifpk.physics.noise import bounded
 
 pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("bounded-linear")]
