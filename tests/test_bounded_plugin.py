@@ -18,7 +18,8 @@ import pytest
 from vifpk.core import registry
 from vifpk.core.scene import scene_from_dict
 
-COPY = "bounded-copy"
+#: an identifier: a hyphenated kind name breaks the Monte Carlo record class (plugins43 WIP)
+COPY = "boundedcopy"
 NOISE = {"amplitude": 0.3, "frequency": 1.2, "sigma": 1.0}
 
 
@@ -93,6 +94,8 @@ def test_the_monte_carlo_gives_the_same_bits(second_name) -> None:
         sc = _scene(kind)
         out.append(simulate(sc.system, sc.noise, st))
     a, b = out
-    for key in ("A", "x1", "x2"):
-        assert np.array_equal(a.densities[key].p, b.densities[key].p)
+    assert a.data.keys() == b.data.keys()
+    for key, arrays in a.data.items():
+        for name, value in arrays.items():
+            assert np.array_equal(np.asarray(value), np.asarray(b.data[key][name])), (key, name)
     assert a.info["moments"] == b.info["moments"]
