@@ -58,7 +58,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
     conv = result.info.get("convergence", {}) if args.solver == "montecarlo" else {}
     stuck = _not_equilibrated(conv) if not args.allow_unequilibrated else ""
     if args.json:
-        model = None if args.solver == "montecarlo" else model
+        model = None if args.solver in (registry.ORIGINAL, registry.ORIGINAL_FPK) else model
         write_json(args.json, solution_record(scene, args.solver, model, result,
                                               joint=args.joint, provenance=_provenance(args)))
         if not stuck:
