@@ -92,7 +92,7 @@ def held_out_bias(simulate: Callable[..., Result], system: Any, noise: Any, st: 
     L1 > sqrt((1 - fine^-p)^2 a^2 + floor^2) + z sigma: the promise a = BIAS_FRACTION F
     exceeded beyond the noise at ``confidence``, one-sided (sigma: the delete-one-block
     jackknife of both runs, as in step_check)."""
-    pilot = simulate(system, noise, replace(st, dt="auto", dt_check=False, floor=0.0,
+    pilot = simulate(system, noise, replace(st, dt="auto", dt_check=False,
                                             time=16 * st.sample_every, certificate=False),
                      parametric=parametric)
     rule = pilot.info["dt_rule"]
