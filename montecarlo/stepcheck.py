@@ -8,6 +8,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import replace
+from statistics import NormalDist
 from typing import Any
 
 import numpy as np
@@ -15,9 +16,12 @@ from vifpk.montecarlo.failures import BudgetExhausted, SimulationDiverged
 from vifpk.montecarlo.runplan import Settings
 from vifpk.montecarlo.tuning import (
     BIAS_FRACTION,
+    BIAS_P,
     CHECK_FACTOR,
     CHECK_FLOOR_RATIO,
     DEFAULT_FLOOR,
+    _jackknife_l1,
+    split_floor,
     step_check,
 )
 
@@ -73,3 +77,46 @@ def run_step_check(simulate: Callable[..., Result], system: Any, noise: Any, st:
         out["message"] += (": the step rule does not hold here and p(A) carries a step bias; "
                            f"run again with --dt {h / 4:.3g} or smaller")
     return out
+
+
+def held_out_bias(simulate: Callable[..., Result], system: Any, noise: Any, st: Settings, *,
+                  sample_floor: float, fine: int = 4, confidence: float = 0.99,
+                  parametric: Any = None) -> dict[str, Any]:
+    """Does the step rule keep its promise on a scene? (the held-out check of issue 44:
+    tests/test_dt_heldout.py, benchmarks/bench_dt_heldout.py). The rule's step dt for the
+    target floor F = st.floor (a short run at dt "auto" settles it: its scale pilot's Omega),
+    then two independent runs to the noise floor ``sample_floor``, one at dt and one at
+    dt / ``fine`` on its edges; b(dt) is estimated from their L1 distance on p(A) with the
+    pair's noise floor measured on the blocks (tuning.split_floor) removed in quadrature,
+    divided by 1 - fine^-BIAS_P (the fine run's own bias at the model's order). "held" unless
+    L1 > sqrt((1 - fine^-p)^2 a^2 + floor^2) + z sigma: the promise a = BIAS_FRACTION F
+    exceeded beyond the noise at ``confidence``, one-sided (sigma: the delete-one-block
+    jackknife of both runs, as in step_check)."""
+    pilot = simulate(system, noise, replace(st, dt="auto", dt_check=False,
+                                            time=16 * st.sample_every, certificate=False),
+                     parametric=parametric)
+    rule = pilot.info["dt_rule"]
+    h = float(pilot.info["settings"]["dt"])
+    run_st = replace(st, dt=h, dt_check=False, floor=sample_floor)
+    run = simulate(system, noise, run_st, parametric=parametric)
+    A = run.data["A"]
+    edges = {"edges_A": A["edges"], "edges_x": run.data["x1"]["edges"],
+             "edges_v": run.data["x2"]["edges"]}
+    seed = int(np.random.SeedSequence(st.seed, spawn_key=(1 << 26,)).generate_state(1)[0])
+    ref = simulate(system, noise, replace(run_st, dt=h / fine, seed=seed, edges=edges),
+                   parametric=parametric).data["A"]
+    w = np.diff(np.asarray(A["edges"], float))
+    p, q = np.asarray(A["p"]), np.asarray(ref["p"])
+    L1 = float(np.sum(np.abs(p - q) * w))
+    floor = math.hypot(split_floor(np.asarray(A["p_blocks"]), w),
+                       split_floor(np.asarray(ref["p_blocks"]), w))
+    sigma = math.hypot(_jackknife_l1(np.asarray(A["p_blocks"]), q, w),
+                       _jackknife_l1(np.asarray(ref["p_blocks"]), p, w))
+    gain = 1.0 - fine ** -BIAS_P
+    allowance = BIAS_FRACTION * st.floor
+    limit = math.hypot(gain * allowance, floor) + NormalDist().inv_cdf(confidence) * sigma
+    return {"dt": h, "omega": rule.get("omega"), "omega_dt": (rule.get("omega") or 0) * h,
+            "fine_dt": h / fine, "floor_target": st.floor, "allowance": allowance,
+            "L1": L1, "L1_floor": floor, "L1_err": sigma,
+            "bias": math.sqrt(max(L1 * L1 - floor * floor, 0.0)) / gain,
+            "limit_L1": limit, "held": bool(L1 <= limit)}

@@ -2,6 +2,7 @@
 
     python docs/scripts/doc_numbers.py            # run `vifpk check scenes/paper-base.toml`, write
                                               # docs/numbers.json, rewrite the marked blocks
+                                              # (first cold: numba's cache empty, then warm)
     python docs/scripts/doc_numbers.py --from DIR --seconds S   # reuse a report folder of that run
     python docs/scripts/doc_numbers.py --render   # rewrite the blocks from the recorded files
     python docs/scripts/doc_numbers.py --check    # exit 1 if a marked block differs from what
@@ -40,7 +41,8 @@ BLOCK = re.compile(
 
 
 def collect(metrics: dict[str, Any], seconds: float, load: float | None,
-            cpu: float | None = None) -> dict[str, Any]:
+            cpu: float | None = None, cold: tuple[float, float] | None = None
+            ) -> dict[str, Any]:
     """The recorded numbers: per model the averaging error of p(A) with its error bar, floor
     and class; the ranges of the discretisation and sampling errors; the verdict lines."""
     models = {}
@@ -58,6 +60,7 @@ def collect(metrics: dict[str, Any], seconds: float, load: float | None,
     return {"scene": SCENE, "command": f"vifpk check {SCENE}",
             "date": datetime.now(UTC).strftime("%Y-%m-%d"), "seconds": seconds,
             "cpu_seconds": cpu,
+            **({"cold_seconds": cold[0], "cold_cpu_seconds": cold[1]} if cold else {}),
             "cpus": os.cpu_count(), "load_average_1min": load,
             "models": models, "discretisation_L1": [min(disc), max(disc)],
             "sampling_L1": [min(samp), max(samp)],
@@ -81,9 +84,14 @@ def render(n: dict[str, Any]) -> dict[str, str]:
             f"factor of the transformed excitation; the same\naveraging done on the exact orbit "
             f"with that factor kept is off by {e['L1']:.2f} (`vifpk check`, {n['date']}).\n"),
         "check-time": (f"The main job below took {run} (docs/scripts/doc_numbers.py).\n"
-                       "The first run after an install also compiles the numba kernels "
-                       "(cached afterwards), and a\nmachine shared with other work takes "
-                       "longer. vifpk needs Python >= 3.11.\n"),
+                       + (f"The first run after an install took {n['cold_seconds']:.0f} s "
+                          f"wall ({n['cold_cpu_seconds']:.0f} s CPU): it compiles the numba "
+                          "kernels (cached afterwards). A\nmachine shared with other work "
+                          "takes longer. vifpk needs Python >= 3.11.\n"
+                          if n.get("cold_seconds") is not None else
+                          "The first run after an install also compiles the numba kernels "
+                          "(cached afterwards), and a\nmachine shared with other work takes "
+                          "longer. vifpk needs Python >= 3.11.\n")),
         "verdicts": f"\n{v}\n\n",
         "base": (
             f"The base scene ({n['date']}, default settings, `{n['command']}`, {run}):\n\n{v}\n\n"
@@ -121,7 +129,8 @@ def stale(numbers: dict[str, Any]) -> list[str]:
             if rewrite(f.read_text(encoding="utf-8"), blocks) != f.read_text(encoding="utf-8")]
 
 
-def run_check() -> tuple[dict[str, Any], float, float, float]:
+def run_check(env: dict[str, str] | None = None
+              ) -> tuple[dict[str, Any], float, float, float]:
     import resource
 
     with tempfile.TemporaryDirectory() as tmp:
@@ -129,12 +138,23 @@ def run_check() -> tuple[dict[str, Any], float, float, float]:
         c0 = ru.ru_utime + ru.ru_stime
         t0 = time.perf_counter()
         subprocess.run([sys.executable, "-m", "vifpk", "check", SCENE, "--out", tmp,
-                        "--quiet"], cwd=ROOT, check=True, stdout=subprocess.DEVNULL)
+                        "--quiet"], cwd=ROOT, check=True, stdout=subprocess.DEVNULL,
+                       env=env)
         seconds = time.perf_counter() - t0
         load = os.getloadavg()[0]
         ru = resource.getrusage(resource.RUSAGE_CHILDREN)
         cpu = ru.ru_utime + ru.ru_stime - c0
         return json.loads((Path(tmp) / "metrics.json").read_text()), seconds, load, cpu
+
+
+def run_cold_then_warm() -> tuple[dict[str, Any], float, float, float, tuple[float, float]]:
+    """A newcomer's two runs (issue 44): the first with an empty numba cache (a fresh clone:
+    every kernel compiled), then the same again on the cache it filled. Returns the warm
+    run's (metrics, seconds, load, CPU) and the cold one's (seconds, CPU)."""
+    with tempfile.TemporaryDirectory() as cache:
+        env = {**os.environ, "NUMBA_CACHE_DIR": cache}
+        _, cold_s, _, cold_cpu = run_check(env)
+        return (*run_check(env), (cold_s, cold_cpu))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -149,6 +169,8 @@ def main(argv: list[str] | None = None) -> int:
                          "of running it (default: run it)")
     ap.add_argument("--seconds", type=float,
                     help="with --from: the wall seconds that run took (required)")
+    ap.add_argument("--no-cold", action="store_true",
+                    help="skip the first run with an empty numba cache (the cold start)")
     args = ap.parse_args(argv)
     if args.check:
         bad = stale(json.loads(NUMBERS.read_text()))
@@ -164,10 +186,12 @@ def main(argv: list[str] | None = None) -> int:
         if args.seconds is None:
             ap.error("--from needs --seconds")
         metrics = json.loads((Path(args.src) / "metrics.json").read_text())
-        seconds, load, cpu = args.seconds, None, None
+        seconds, load, cpu, cold = args.seconds, None, None, None
+    elif args.no_cold:
+        (metrics, seconds, load, cpu), cold = run_check(), None
     else:
-        metrics, seconds, load, cpu = run_check()
-    numbers = collect(metrics, seconds, load, cpu)
+        metrics, seconds, load, cpu, cold = run_cold_then_warm()
+    numbers = collect(metrics, seconds, load, cpu, cold)
     NUMBERS.write_text(json.dumps(numbers, indent=1) + "\n", encoding="utf-8")
     blocks = render(numbers)
     for f in FILES:
