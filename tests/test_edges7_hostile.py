@@ -80,7 +80,7 @@ models = ["exact"]
     # 'system.upper_wall'?" in [vary] and [set], though --set takes them
     ('"system.upper_wall.r" = [0.9, 1.1]', "", "at the point system.upper_wall.r = 1.1"),
     ('"system.upper_wall.at" = [-0.2, 0.5]', "", "upper_wall.at = -0.2 is out of range"),
-    ('"system.upper_wall.rr" = [0.9, 1.0]', "", "allowed: system.upper_wall.at"),
+    ('"system.upper_wall.rr" = [0.9, 1.0]', "", "did you mean 'system.upper_wall.r'?"),
     ('"system.lower_wall.law" = [1, 2]', "", "only numeric parameters can vary"),
     ('"system.upper_wall.r" = [0.9, 0.95]', '"system.lower_wall.law" = "hertz"',
      "impact law must be one of"),

@@ -529,7 +529,8 @@ def test_cli_splitting_takes_particles_and_groups_and_gives_verdict_classes(
 
 def test_api_method_splitting(doubles, split, tiny):
     """vifpk.passage(method="splitting", groups=G): the splitting result with its verdicts;
-    "auto" (the command line's cost guard chooses) and a horizon with splitting refused."""
+    a method that is none of the command's and a horizon with splitting refused ("auto" is
+    accepted since issue 45: tests/test_edges8_time.py)."""
     import vifpk
     from vifpk.core.result import BadInput
 
@@ -540,8 +541,8 @@ def test_api_method_splitting(doubles, split, tiny):
     # 118 / 120 - 1 = -1.7% against an error bar of 1.6% (2 / 120): within 2 bars
     assert res.metrics["models"]["corrected"]["verdict_class"] == "indistinguishable"
     assert res.metrics["recommended_model"] == "corrected"
-    with pytest.raises(BadInput, match="--method 'auto': allowed: direct, splitting"):
-        vifpk.passage(tiny, threshold=2.0, method="auto")
+    with pytest.raises(BadInput, match="--method 'Auto': allowed: auto, direct, splitting"):
+        vifpk.passage(tiny, threshold=2.0, method="Auto")
     with pytest.raises(BadInput, match="--horizon: does not apply to --method splitting"):
         vifpk.passage(tiny, threshold=2.0, method="splitting", horizon=10.0)
 
@@ -584,7 +585,7 @@ def test_sweep_passage_method_splitting(doubles, split, tmp_path, tiny):
     ("groups-bool", lambda v: v.passage("paper-base", threshold=0.6, method="splitting",
                                         groups=True), "--groups True"),
     ("method-case", lambda v: v.passage("paper-base", threshold=0.6, method="Splitting"),
-     "--method 'Splitting': allowed: direct, splitting"),
+     "--method 'Splitting': allowed: auto, direct, splitting"),
     ("models-int", lambda v: v.passage("paper-base", threshold=0.6, models=[42]),
      "--model 42: not a model"),
     ("start-typo", lambda v: v.passage("paper-base", threshold=0.6, start="stationnary"),

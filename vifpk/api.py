@@ -7,6 +7,7 @@ no cost guard, no output unless asked.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -171,7 +172,9 @@ def passage(source: Scene | str | Path, *, threshold: float, start: float | str 
     one line). A direct run is priced as the command prices it, from the models' MFPTs
     before any R(t) stepping or Monte Carlo: one estimated above an hour is BadInput naming
     method="splitting" unless ``yes=True`` (issue 39, X12: threshold 2.0 ran silently for
-    minutes); there is no "auto" (the choice is the caller's)."""
+    minutes). ``method="auto"`` chooses as ``vifpk passage`` does by default: direct where
+    that price is within the hour (or ``yes=True``), else splitting, the reason said in the
+    result's ``reason``."""
     from vifpk.harness.request.timedomain import output, passage_request, with_quadratures
 
     out = output(out)
@@ -179,12 +182,22 @@ def passage(source: Scene | str | Path, *, threshold: float, start: float | str 
                           start=start, models=models, horizon=horizon,
                           paths=options.get("paths"), sde=sde, method=method, at=at,
                           particles=particles, groups=groups, rel_se=rel_se,
-                          max_paths=max_paths, methods=("direct", "splitting"))
+                          max_paths=max_paths)
     req = with_quadratures(req)
+    reason = "asked for: method='splitting'"
+    if req.method == "auto" and not yes:  # the command's default choice (cli/timedomain.py)
+        from vifpk.harness.request.errors import InputError
+        from vifpk.harness.workflows.pricing import refuse_costly_direct
+
+        try:
+            refuse_costly_direct(req, override="method='splitting'")
+        except InputError as exc:
+            reason = f"chosen automatically: {exc}"
+            req = replace(req, method="splitting")
     if req.method == "splitting":
         from vifpk.harness.workflows import rarepassage
 
-        res = rarepassage.run(req, reason="asked for: method='splitting'", quiet=quiet)
+        res = rarepassage.run(req, reason=reason, quiet=quiet)
         if out is not None:
             from vifpk.harness.outputs.splitreport import write_splitting_report
 

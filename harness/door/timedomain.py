@@ -221,14 +221,18 @@ def passage_splitting(scene: Any, *, threshold: float, start: float | str,
                       low: float | None = None,
                       entry: float | None = None, groups: int = SPLITTING_GROUPS,
                       particles: int = SPLITTING_PARTICLES,
-                      levels: int = 200, kill: int = 0, paths: int = 8, cycles: int = 25,
+                      levels: int = 200, kill: int = 0, paths: int | None = None,
+                      cycles: int = 25,
                       dt: float | None = None, seed: int | None = None,
                       threads: int | None = None, rel_ci: float = 0.0, budget: float = 0.0,
                       max_groups: int = 400) -> Result:
     """MFPT of the original system from amplitude ``start`` to ``threshold`` by adaptive
     multilevel splitting on the energy and the cycle decomposition (montecarlo.splitting):
     data["mfpt"] = info["mfpt"] = {"value", "stderr", "ci" (Student-t 95% over ``groups``
-    independent repetitions), ...}. ``start``: an amplitude or "stationary" (the law below the
+    independent repetitions), ...}. ``paths`` direct paths of ``cycles`` cycles each give
+    the AMS runs their starts: by default 8, or as many as ``particles`` needs (paths x
+    cycles >= particles: twice the default particles, 400, died at 8 x 25 = 200 as an internal
+    error, issue 45). ``start``: an amplitude or "stationary" (the law below the
     threshold after a burn-in: the scene's montecarlo.burn_in, or for "auto" BURN_FACTOR x the
     exact model's relaxation time; info["burn_in_rule"]). Levels low < entry default to
     splitting_levels; dt, seed
@@ -255,6 +259,9 @@ def passage_splitting(scene: Any, *, threshold: float, start: float | str,
     chosen = checked_splitting_levels(scene, threshold=threshold, start=start, low=low,
                                       entry=entry)
     st = _passage_settings(scene, paths=1, horizon=1.0, dt=dt, seed=seed, threads=threads)
+    if paths is None:  # the AMS runs start from the direct paths' cycle starts: at least one
+        # start a particle (montecarlo.cycles.groups_direct); 8 paths at the default particles
+        paths = max(8, -(-particles // cycles))
     s = SplittingSettings(groups=groups, particles=particles, kill=kill, levels=levels,
                           dt=float(st.dt), seed=int(st.seed), cycles=cycles, paths=paths,
                           rel_ci=rel_ci, budget=budget, max_groups=max_groups,

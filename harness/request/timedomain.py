@@ -343,6 +343,7 @@ def with_quadratures(req: PassageRequest) -> PassageRequest:
     names = tuple(m for m in req.models if isinstance(m, str))
     kept = set(registry.applicable(req.scene, names)[0])
     out: dict[str, Any] = dict(req.quadratures or {})
+    overflows = []
     for m in req.models:
         label = solvers.model_label(m)
         if label in out or (isinstance(m, str) and m not in kept):
@@ -350,9 +351,23 @@ def with_quadratures(req: PassageRequest) -> PassageRequest:
         try:
             out[label] = timedomain.mfpt_averaged(req.scene, m, threshold=req.threshold,
                                                   start=req.start)
-        except solvers.SolverFailure:
+        except solvers.SolverFailure as exc:
+            if OVERFLOW in str(exc):
+                overflows.append(label)
             continue
+    if overflows and not out:
+        # every model puts the passage beyond 1e308 time units: no method reaches it (the
+        # splitting's answer would overflow as well); refused before any R(t) stepping or
+        # Monte Carlo, as a price above the hour is (issue 45: exit 3 after the closed forms)
+        raise InputError(f"--threshold {req.threshold:g}: the averaged models "
+                         f"({', '.join(overflows)}) put the MFPT beyond 1e308 time units "
+                         "(it overflows a double): no simulation reaches it; allowed: a lower "
+                         "threshold")
     return dataclasses.replace(req, quadratures=out)
+
+
+#: the words of fpk/passage.py's failure when the MFPT overflows a double
+OVERFLOW = "the MFPT overflows"
 
 
 # ----------------------------------------------------------------------------- transient

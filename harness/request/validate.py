@@ -45,6 +45,7 @@ from vifpk.harness.request.cost import numba_threads_available
 from vifpk.harness.request.errors import InputError
 
 from vifpk.core.scene import SECTIONS, Scene
+from vifpk.core.walls import shown
 
 MAGNITUDE = (1e-100, 1e100)  # allowed |value| of a non-zero physical parameter (module doc)
 
@@ -131,6 +132,12 @@ def scene_magnitudes(scene: Scene) -> None:
     lo, hi = MAGNITUDE
     for sec, key, v in _physical(scene):
         if v != 0.0 and not lo <= abs(v) <= hi:
+            if key.endswith("_wall.at"):
+                raise InputError(f"{sec}.{key} = {shown(v)} is out of range; allowed: 0 or "
+                                 f"{lo:g} <= |at| <= {hi:g} (a wall closer to x = 0 than "
+                                 f"{lo:g} is the wall at 0: write at = 0; beyond, the spring's "
+                                 "energy at the wall and the model's coefficients over- or "
+                                 "underflow double precision)")
             if "[" in key:
                 raise InputError(f"{sec}.{key} = {v:g} is out of range; allowed: 0 or "
                                  f"{lo:g} <= |coefficient| <= {hi:g} (beyond, the model's "
@@ -178,6 +185,8 @@ def _physical(scene: Scene) -> list[tuple[str, str, float]]:
     for law in ("restoring", "damping", "velocity_damping"):
         for i, c in enumerate(getattr(scene.system, law)):
             out.append(("system", f"{law}[{i}]", float(c)))
+    for w in getattr(scene.system, "walls", ()):  # a wall's position is a length like any
+        out.append(("system", f"{w.side}_wall.at", float(w.at)))
     return out
 
 

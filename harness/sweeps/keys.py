@@ -9,7 +9,7 @@ from typing import Any
 from vifpk.harness.sweeps.errors import SweepError
 
 from vifpk.core.scene import INDEXED, MAX_TERMS, SECTIONS, WALL_TABLES
-from vifpk.core.walls import WALL_KEYS
+from vifpk.core.walls import WALL_KEYS, unknown_key
 
 #: keys a sweep may not vary or set: the seed comes from the sweep's seed; a wall-clock
 #: budget would make a point depend on the machine's speed
@@ -34,9 +34,14 @@ def key_field(where: str, path: str) -> Any:
     table, dot, sub = key.partition(".")
     if section == "system" and dot and table in WALL_TABLES:  # system.lower_wall.r, ...
         if sub not in WALL_KEYS:
-            raise SweepError(f"{where} {path!r}: unknown key; allowed: "
-                             + ", ".join(f"system.{table}.{k}" for k in WALL_KEYS))
+            hint = unknown_key("", sub, WALL_KEYS).split("; ", 1)[1]
+            hint = (hint.replace("'", f"'system.{table}.", 1) if hint.startswith("did")
+                    else "allowed: " + ", ".join(f"system.{table}.{k}" for k in WALL_KEYS))
+            raise SweepError(f"{where} {path!r}: unknown key; {hint}")
         return WallKey() if sub == "law" else Coefficient()
+    if section == "system" and key in WALL_TABLES:  # the table itself: its keys vary
+        raise SweepError(f"{where} {path!r}: is a table (keys {', '.join(WALL_KEYS)}), not a "
+                         f"value; vary or set one of its keys, e.g. {path}.at")
     m = INDEXED.fullmatch(key) if section == "system" else None
     if m and m.group(1) in known and known[m.group(1)].type.startswith("tuple"):
         if int(m.group(2)) >= MAX_TERMS:

@@ -46,7 +46,7 @@ from .shipped import (
     shipped_scenes,
 )
 from .system import ALIASES, System, _alias_formula, restoring_problem
-from .walls import Parametric, Wall, check_walls, wall_from_table
+from .walls import WALL_KEYS, Parametric, Wall, check_walls, wall_from_table
 
 __all__ = [
     "ALIASES", "AVERAGING_SIZE", "INDEXED", "MAX_TERMS", "SECTIONS", "SWEEPABLE",
@@ -154,6 +154,14 @@ def no_noise(system: Any) -> str | None:
     return None
 
 
+def wall_is_a_table(path: str, value: Any) -> str:
+    """The one line for a wall table given a single value (``--set system.lower_wall=-0.2``,
+    a sweep varying ``system.lower_wall``)."""
+    example = value if isinstance(value, int | float) and not isinstance(value, bool) else "X"
+    return (f"{path} is a table (keys {', '.join(WALL_KEYS)}), not a value; set one of its "
+            f"keys, e.g. {path}.at={example}")
+
+
 def _set_system(raw: dict[str, Any], path: str, key: str, value: Any) -> None:
     """Apply ``system.key = value`` to a raw system table. ``key`` may index a law
     ("restoring[2]": the k5 coefficient; the list grows with zeros) or be a paper name; either
@@ -172,6 +180,8 @@ def _set_system(raw: dict[str, Any], path: str, key: str, value: Any) -> None:
         wall[sub] = value
         raw[table] = wall
         return
+    if key in WALL_TABLES and not isinstance(value, Mapping | Wall):
+        raise SceneError(wall_is_a_table(path, value))
     m = INDEXED.fullmatch(key)
     name, index = (m.group(1), int(m.group(2))) if m else (key, None)
     laws = {law for law, _, _ in ALIASES.values()} | {"velocity_damping"}

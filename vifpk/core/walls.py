@@ -35,6 +35,7 @@ the external excitation and of each other::
 
 from __future__ import annotations
 
+import difflib
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -67,6 +68,25 @@ class Wall:
         return out
 
 
+def shown(v: float) -> str:
+    """A number as the user wrote it: %g where that reads back as the same float and is no
+    longer than Python's shortest round-trip text, else that text (1.0000001 is not "1",
+    5e-324 not "4.94066e-324"); -0 is 0."""
+    if v == 0.0:
+        return "0"
+    g, r = f"{v:g}", repr(float(v))
+    return g if float(g) == v and len(g) <= len(r) else r
+
+
+def unknown_key(where: str, key: str, known: tuple[str, ...]) -> str:
+    """The one line for an unknown key of a table: the nearest known key (case ignored:
+    "AT" is "at"), else the list."""
+    lower = {k.lower(): k for k in known}
+    close = difflib.get_close_matches(str(key).lower(), list(lower), n=1, cutoff=0.5)
+    hint = f"did you mean '{lower[close[0]]}'?" if close else "allowed: " + ", ".join(known)
+    return f"{where}.{key}: unknown key; {hint}"
+
+
 def _number(where: str, value: Any, allowed: str) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
         raise BadInput(f"{where} = {value!r} must be a finite number; allowed: {allowed}")
@@ -84,17 +104,17 @@ def wall_from_table(where: str, side: str, table: Any) -> Wall:
         raise BadInput(f"{where} must be a table with keys {', '.join(WALL_KEYS)}")
     for key in table:
         if key not in WALL_KEYS:
-            raise BadInput(f"{where}.{key}: unknown key; allowed: {', '.join(WALL_KEYS)}")
+            raise BadInput(unknown_key(where, key, WALL_KEYS))
     if "at" not in table:
         raise BadInput(f"{where}.at is missing: the wall's position ({SIDES[side][1]})")
     sign, _ = SIDES[side]
-    at = _number(f"{where}.at", table["at"], f"a number {sign} 0")
+    at = _number(f"{where}.at", table["at"], f"a number {sign} 0") + 0.0  # -0 is 0
     if (side == "lower" and at > 0.0) or (side == "upper" and at < 0.0):
-        raise BadInput(f"{where}.at = {at:g} is out of range; allowed: {sign} 0 (the {side} "
+        raise BadInput(f"{where}.at = {shown(at)} is out of range; allowed: {sign} 0 (the {side} "
                        f"wall keeps {SIDES[side][1]} and the equilibrium x = 0 inside)")
     r = _number(f"{where}.r", table.get("r", 1.0), "0 < r <= 1")
     if not 0.0 < r <= 1.0:
-        raise BadInput(f"{where}.r = {r:g} is out of range; allowed: 0 < r <= 1")
+        raise BadInput(f"{where}.r = {shown(r)} is out of range; allowed: 0 < r <= 1")
     law = table.get("law", "newton")
     if law not in IMPACT_LAW_NAMES:
         raise BadInput(f"{where}.law = {law!r}: impact law must be one of "
@@ -106,7 +126,7 @@ def wall_from_table(where: str, side: str, table: Any) -> Wall:
                            "speed > 0")
         v_yield = _number(f"{where}.v_yield", v_yield, "> 0")
         if v_yield <= 0.0:
-            raise BadInput(f"{where}.v_yield = {v_yield:g} is out of range; allowed: > 0")
+            raise BadInput(f"{where}.v_yield = {shown(v_yield)} is out of range; allowed: > 0")
     elif v_yield is not None:
         takes = " | ".join(f'"{n}"' for n, p in IMPACT_LAW_PARAMS.items() if "v_yield" in p)
         raise BadInput(f"{where}.v_yield applies to law = {takes} only, not {law!r}")
@@ -116,8 +136,8 @@ def wall_from_table(where: str, side: str, table: Any) -> Wall:
 def check_walls(where: str, lower: Wall | None, upper: Wall | None) -> None:
     """Two walls leave room between them: a < b (a <= 0 <= b each)."""
     if lower is not None and upper is not None and not lower.at < upper.at:
-        raise BadInput(f"{where}.lower_wall.at = {lower.at:g} and upper_wall.at = "
-                       f"{upper.at:g} leave no room; allowed: lower at < upper at")
+        raise BadInput(f"{where}.lower_wall.at = {shown(lower.at)} and upper_wall.at = "
+                       f"{shown(upper.at)} leave no room; allowed: lower at < upper at")
 
 
 def _nonneg(v: float) -> str | None:
