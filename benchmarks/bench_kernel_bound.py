@@ -213,6 +213,25 @@ def _lanes_case(scene, h: float, blocks: int = 2):
     return call, blocks * LANES, start
 
 
+def _passage_case(scene, h: float, per: int = 64):
+    """(call, path-steps of a call) of passage_kernels.run_passage on one block of ``per``
+    paths started on the orbit of amplitude 0.4, a threshold (A = 3) no path reaches: the
+    kernel's stepping with its per-step energy test."""
+    from vifpk.montecarlo.passage_kernels import run_passage
+    phys = physics(scene.system, scene.noise)
+    P = record(phys, h)
+    B = (P.bridge, P.pk, P.pc)
+    Ec = 0.5 * 9.0 + 0.25 * phys["alpha"] * 81.0
+
+    def call(n):
+        ints = [np.zeros((1, per), np.int64) for _ in range(3)]
+        arrs = (block_seeds(4, 1, per), np.zeros((1, per, 3)), np.zeros((1, per, 3)), *ints,
+                np.zeros((1, per)))
+        run_passage(arrs, np.array([per]), (n, 10 ** 9, 0, 1e9, Ec, 0.4, 0.0, 0), h, B, P)
+        return arrs
+    return call, per
+
+
 def _ratios(n: int = 20_000, rounds: int = 7) -> dict:
     """ns per path-step: the production kernel against the minimal kernels, alternating."""
     base = load_scene("paper-base")
@@ -232,17 +251,21 @@ def _ratios(n: int = 20_000, rounds: int = 7) -> dict:
     runs = {"minimal SoA (target)": minimal(_minimal_soa),
             "minimal, 4 paths in turn": minimal(_minimal_turn4),
             "kernel (lanes._block), paper-base": call}
+    passage, per_passage = _passage_case(base, h)
     # the same scheme: every kernel ends in the same bits from the same start
     ends = {k: fn(500) for k, fn in runs.items()}
     st_k = ends["kernel (lanes._block), paper-base"][1][0]
     for key in ("minimal SoA (target)", "minimal, 4 paths in turn"):
         assert np.array_equal(ends[key][0], st_k.T), key
+    runs["first passage (passage_kernels.run_passage), paper-base"] = passage
+    passage(10)
+    per = {k: per_passage if k.startswith("first passage") else per_call for k in runs}
     times: dict[str, list[float]] = {k: [] for k in runs}
     for _ in range(rounds):
         for k, fn in runs.items():
             c0 = time.process_time()
             fn(n)
-            times[k].append((time.process_time() - c0) / (n * per_call) * 1e9)
+            times[k].append((time.process_time() - c0) / (n * per[k]) * 1e9)
     med = {k: float(np.median(v)) for k, v in times.items()}
     target = med["minimal SoA (target)"]
     return {"ns_per_path_step_median": med, "rounds": times,
