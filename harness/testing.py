@@ -279,6 +279,7 @@ def assert_averaging_error(scene: Any, model: Any, *, below: float, observable: 
     """
     one_of("metric", metric, METRICS)
     one_of("observable", observable, DENSITY_OBSERVABLES)
+    below = _below(below)
     sc = _scene(scene)
     ref = mc_reference(sc, **montecarlo)
     dens = model_densities(sc, model)
@@ -310,6 +311,23 @@ def _rtol(rtol: Any) -> float:
     if not (math.isfinite(rtol) and rtol >= 0):
         raise InputError(f"rtol {float(rtol):g}: out of range; allowed: a finite number >= 0")
     return float(rtol)
+
+
+def _below(below: Any) -> float:
+    """The bound of assert_averaging_error: a finite number > 0 (BadInput before any Monte
+    Carlo: ``below=float("nan")`` ran the reference, then failed as an AssertionError "is
+    not below nan", issue 45; every distance is >= 0, so a bound <= 0 can never pass)."""
+    import math
+    import numbers
+
+    from vifpk.harness.request.errors import InputError
+
+    if isinstance(below, bool) or not isinstance(below, numbers.Real):
+        raise InputError(f"below {below!r}: not a number; allowed: a finite number > 0")
+    if not (math.isfinite(below) and below > 0):
+        raise InputError(f"below {float(below):g}: out of range; allowed: a finite number > 0 "
+                         "(a distance is >= 0)")
+    return float(below)
 
 
 def _reproduce_passage(sc: Scene, model: str, threshold: float, start: Any,

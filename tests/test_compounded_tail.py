@@ -46,3 +46,4 @@ def test_the_papers_wall_at_r_096_stays_inside_at_any_threshold():
     """lambda = -ln 0.96^2 = 0.082 whatever the speed: ratio 1.04."""
     sc = load_scene("paper-base")
     assert all(compounded_tail(sc, a) is None for a in (0.5, 1.0, 3.0, 10.0))
+

@@ -111,13 +111,18 @@ def main(argv: Sequence[str] | None = None, *,
     from vifpk.harness.outputs import signals
     from vifpk.harness.outputs.runwarnings import RunWarnings
 
+    from_command_line = argv is None  # the console script: Ctrl-C watchdog (not in-process)
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv == ["--version"]:  # before the parser: it imports every workflow plugin, and one
+        from vifpk.core.provenance import vifpk_version  # whose import hangs hung --version
+
+        print(f"vifpk {vifpk_version()}")
+        return 0
     try:
         parser = build_parser()
     except PluginError as exc:  # a registered workflow that does not load: one line, exit 3
         print(f"vifpk: {exc}", file=sys.stderr)
         return EXIT_SOLVER
-    from_command_line = argv is None  # the console script: Ctrl-C watchdog (not in-process)
-    argv = sys.argv[1:] if argv is None else list(argv)
     if not argv:  # `vifpk` alone: the usage and the commands, exit 2
         parser.print_help(sys.stderr)
         return EXIT_BAD_INPUT

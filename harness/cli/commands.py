@@ -6,6 +6,8 @@ run, runs it through the workflows and writes its outputs as units; exit codes a
 from __future__ import annotations
 
 import argparse
+import builtins
+import functools
 import sys
 from typing import Any
 
@@ -27,7 +29,6 @@ from vifpk.core.scene import Scene, load_scene, no_noise
 
 
 def cmd_solve(args: argparse.Namespace) -> int:
-    from vifpk.core.io import write_json
     from vifpk.core.provenance import process_clock
 
     startup = process_clock()  # the interpreter and the imports (the run's timing record)
@@ -59,9 +60,9 @@ def cmd_solve(args: argparse.Namespace) -> int:
     stuck = _not_equilibrated(conv) if not args.allow_unequilibrated else ""
     if args.json:
         model = None if args.solver in (registry.ORIGINAL, registry.ORIGINAL_FPK) else model
-        write_json(args.json, solution_record(scene, args.solver, model, result,
-                                              joint=args.joint, provenance=_provenance(args)))
-        if not stuck:
+        json_out(args.json, solution_record(scene, args.solver, model, result,
+                                            joint=args.joint, provenance=_provenance(args)))
+        if not stuck and args.json != validate.STDOUT:
             print(f"wrote {args.json}", file=sys.stderr)
     else:
         print(_summary(result))
@@ -151,7 +152,6 @@ def cmd_check(args: argparse.Namespace) -> int:
 def cmd_bifurcation(args: argparse.Namespace) -> int:
     from vifpk.harness.workflows.bifurcation import VARIABLES, bifurcation, vary_problem
 
-    from vifpk.core.io import write_json
 
     if args.no_mc:
         validate.refuse_options(_mc_given(args), "with --no-mc (no Monte Carlo is run)")
@@ -191,6 +191,14 @@ def cmd_bifurcation(args: argparse.Namespace) -> int:
               file=sys.stderr, flush=True)
     chosen = {"models": tuple(dict.fromkeys(args.model or default_models))}
     res = bifurcation(scene, args.vary, lo=lo, hi=hi, mc=not args.no_mc, **chosen)
+    if args.json == validate.STDOUT:  # the standard output holds the JSON alone
+        return _bifurcation_lines(args, res, file=sys.stderr)
+    return _bifurcation_lines(args, res, file=sys.stdout)
+
+
+def _bifurcation_lines(args: argparse.Namespace, res: dict[str, Any], *, file: Any) -> int:
+    """The bifurcation's summary lines (to ``file``), then --json."""
+    print = functools.partial(builtins.print, file=file)  # noqa: A001
     fixed = ", ".join(f"{k} = {v:g}" if isinstance(v, float) else f"{k} = {v}"
                       for k, v in res["fixed"].items())
     print(f"varying {args.vary} with {fixed}")
@@ -214,8 +222,20 @@ def cmd_bifurcation(args: argparse.Namespace) -> int:
     if res.get("paper_claim_note") and res.get("paper_claim"):
         print(f"  NOTE: {res['paper_claim_note']}")
     if args.json:
-        write_json(args.json, dict(res, provenance=_provenance(args)))
+        json_out(args.json, dict(res, provenance=_provenance(args)))
     return 0
+
+
+def json_out(path: str, obj: Any) -> None:
+    """--json OUT: the file written as a unit, or with "-" the standard output (issue 45: it
+    wrote a file named "-"); the summary lines then go to the standard error."""
+    from vifpk.core.io import dumps, write_json
+
+    if path == validate.STDOUT:
+        sys.stdout.write(dumps(obj))
+        sys.stdout.flush()
+    else:
+        write_json(path, obj)
 
 
 def cmd_figures(args: argparse.Namespace) -> int:

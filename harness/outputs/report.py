@@ -304,12 +304,16 @@ def _class_legend() -> list[str]:
 
 
 def _scene_rows(res: CheckResult) -> list[list[str]]:
-    d = res.scene.to_dict()
-    rows = []
-    for sec in ("system", "noise"):
-        for k, v in d[sec].items():
-            rows.append([f"{sec}.{k}", str(v)])
-    return rows
+    return scene_rows(res.scene)
+
+
+def scene_rows(scene: Any) -> list[list[str]]:
+    """The report's scene table, [field, value] rows: the system (walls included), the noise
+    and, when a parametric noise is on, its intensities (they are in the scene's dictionary
+    then, Scene.to_dict: the reports listed the walls but not D_k and D_c, issue 45)."""
+    d = scene.to_dict()
+    return [[f"{sec}.{k}", str(v)] for sec in ("system", "noise", "parametric")
+            for k, v in d.get(sec, {}).items()]
 
 
 def _mc_rows(res: CheckResult) -> list[list[str]]:

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 from vifpk.harness.outputs import outdir
-from vifpk.harness.outputs.report import MODEL_COLORS, write_figures
+from vifpk.harness.outputs.report import MODEL_COLORS, scene_rows, write_figures
 from vifpk.harness.outputs.runwarnings import KEY
 
 from vifpk.core import provenance
@@ -317,8 +317,7 @@ def _markdown(title: str, res: Any, figs: dict[str, str], head: list[str],
     for k, f in figs.items():
         out += [f"## {k.replace('_', ' ')}", "", f"![{k}]({f})", ""]
     out += ["## Scene", "", "| field | value |", "|---|---|"]
-    d = res.scene.to_dict()
-    out += [f"| {s}.{k} | {v} |" for s in ("system", "noise") for k, v in d[s].items()]
+    out += [f"| {a} | {b} |" for a, b in scene_rows(res.scene)]
     if res.provenance:
         out += ["", "## Provenance", "", "| field | value |", "|---|---|"]
         out += [f"| {a} | `{b.replace('|', chr(92) + '|')}` |"
@@ -358,10 +357,7 @@ def _html(title: str, res: Any, pngs: dict[str, bytes], head: list[str],
         b64 = base64.b64encode(b).decode("ascii")
         parts += [f"<h2>{e(k.replace('_', ' '))}</h2>",
                   f'<img alt="{e(k)}" src="data:image/png;base64,{b64}">']
-    d = res.scene.to_dict()
-    parts += ["<h2>Scene</h2>", table(["field", "value"], [[f"{s}.{k}", str(v)]
-                                                           for s in ("system", "noise")
-                                                           for k, v in d[s].items()])]
+    parts += ["<h2>Scene</h2>", table(["field", "value"], scene_rows(res.scene))]
     if res.provenance:
         parts += ["<h2>Provenance</h2>",
                   table(["field", "value"], [list(r) for r in provenance.rows(res.provenance)])]

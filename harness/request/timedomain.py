@@ -118,6 +118,11 @@ def flag(option: str, value: Any) -> bool:
     return value
 
 
+#: the smallest non-zero amplitude a time-domain question may name: the 1e-100 of every
+#: physical number (request/validate.py MAGNITUDE)
+TINY_AMPLITUDE = validate.MAGNITUDE[0]
+
+
 def amplitude_ok(scene: Scene, option: str, value: float) -> None:
     """A finite amplitude > 0 inside the oscillation domain: the restoring force g(A) > 0 on
     (0, A] (a softening spring's potential well ends where g turns back), and U(A) finite."""
@@ -126,6 +131,10 @@ def amplitude_ok(scene: Scene, option: str, value: float) -> None:
 
     if not (math.isfinite(value) and value > 0):
         raise InputError(f"{option} {value:g}: out of range; allowed: a finite amplitude > 0")
+    if value < TINY_AMPLITUDE:
+        raise InputError(f"{option} {value:g}: out of range; allowed: an amplitude >= "
+                         f"{TINY_AMPLITUDE:g} (the magnitude rule of every length: below it "
+                         "the averaged drift and diffusion over- or underflow)")
     with np.errstate(all="ignore"):
         u = float(potential_energy(scene, value))
     if not math.isfinite(u):
@@ -240,6 +249,12 @@ def passage_values(scene: Scene, *, threshold: Any, start: Any, horizon: Any = N
     elif not math.isfinite(start) or start < 0:
         raise InputError(f"--start {start:g}: out of range; allowed: an amplitude "
                          f"0 <= A0 < Ac = {ac:g}, or 'stationary'")
+    elif 0 < start < TINY_AMPLITUDE:
+        # issue 45: --start 1e-300 failed after the work ("drift or diffusion is not finite
+        # and positive on [2.99e-301, 0.8]") where --start 0 works
+        raise InputError(f"--start {start:g}: out of range; allowed: 0 (the rest state) or an "
+                         f"amplitude {TINY_AMPLITUDE:g} <= A0 < Ac = {ac:g}, or 'stationary' "
+                         "(below it the averaged drift and diffusion over- or underflow)")
     elif start >= ac:
         raise InputError(f"--start {start:g}: at or above the threshold Ac = {ac:g}; the path "
                          "has already passed; allowed: 0 <= A0 < Ac, or 'stationary'")

@@ -138,6 +138,11 @@ def scene_magnitudes(scene: Scene) -> None:
                                  f"{lo:g} is the wall at 0: write at = 0; beyond, the spring's "
                                  "energy at the wall and the model's coefficients over- or "
                                  "underflow double precision)")
+            if key.endswith("_wall.v_yield"):
+                raise InputError(f"{sec}.{key} = {shown(v)} is out of range; allowed: {lo:g} "
+                                 f"<= v_yield <= {hi:g} (beyond, the law's coefficients over- "
+                                 "or underflow double precision; law = \"newton\" is the limit "
+                                 "of a large v_yield)")
             if "[" in key:
                 raise InputError(f"{sec}.{key} = {v:g} is out of range; allowed: 0 or "
                                  f"{lo:g} <= |coefficient| <= {hi:g} (beyond, the model's "
@@ -187,6 +192,8 @@ def _physical(scene: Scene) -> list[tuple[str, str, float]]:
             out.append(("system", f"{law}[{i}]", float(c)))
     for w in getattr(scene.system, "walls", ()):  # a wall's position is a length like any
         out.append(("system", f"{w.side}_wall.at", float(w.at)))
+        if w.v_yield is not None:  # and its yield speed a speed
+            out.append(("system", f"{w.side}_wall.v_yield", float(w.v_yield)))
     return out
 
 
@@ -366,11 +373,15 @@ def _probe(folder: Path, option: str, path: Path) -> None:
     os.unlink(tmp)
 
 
+STDOUT = "-"  # a file option's name for the standard output (--json -)
+
+
 def output_file(path: str | None, option: str) -> None:
     """A file the run will write as a unit (a temporary file beside it, then a rename): a
     regular file or a new name, never a folder, a device, a pipe or a symbolic link (the
-    rename would replace the link, e.g. /dev/stdout, instead of writing through it)."""
-    if path is None:
+    rename would replace the link, e.g. /dev/stdout, instead of writing through it). "-" is
+    the standard output (:data:`STDOUT`), written whole at the end."""
+    if path is None or path == STDOUT:
         return
     p = Path(path)
     _lengths(p, option)

@@ -79,7 +79,8 @@ SWEEP_LIBRARIES = {"xarray": "xarray", "netCDF4": "netCDF4", "sklearn": "scikit-
 
 def require_output_libraries(*, surface: bool = False) -> None:
     """sweep.nc needs xarray and netCDF4, an error surface (a band sweep, the surface maps)
-    scikit-learn too (the `sweep` extra): say which are missing before any work. Each is
+    scikit-learn too (dependencies of vifpk; the `sweep` extra names them for old install
+    lines): say which are missing before any work. Each is
     imported, not only found: a library that is there but fails to import (a broken
     dependency of its own) is named with the reason."""
     wanted = [m for m in SWEEP_LIBRARIES if surface or m != "sklearn"]
@@ -93,8 +94,9 @@ def require_output_libraries(*, surface: bool = False) -> None:
     if missing:
         need = "sweep.nc and its error surface need" if surface else "sweep.nc needs"
         raise SweepError(f"{need} {', '.join(SWEEP_LIBRARIES[m] for m in wanted)} "
-                         f"({'; '.join(missing)} missing); install the 'sweep' extra: "
-                         "pip install 'vifpk[sweep]'")
+                         f"({'; '.join(missing)} missing): they are vifpk's dependencies; "
+                         "install them: pip install "
+                         + " ".join(SWEEP_LIBRARIES[m] for m in wanted))
 
 
 def threads_per_worker(workers: int) -> int:

@@ -18,6 +18,7 @@ import numbers
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from types import MappingProxyType
 from typing import Any
 
 from vifpk.harness.sweeps.errors import SweepError
@@ -157,15 +158,14 @@ def make_point(base: Scene, fixed: Mapping[str, Any], *, seed: int, workflow: st
     try:
         scene = base.with_values(values)
     except SceneError as exc:
-        at = ", ".join(f"{k} = {v:g}" for k, v in params)
         msg = str(exc).split(": ", 1)[-1] if ": " in str(exc) else str(exc)
-        raise SweepError(f"{where}: at the point {at}: {msg}") from None
+        raise SweepError(fault(where, msg, params, fixed, workflow)) from None
     if scene.sweep is not None:
         raise SweepError(f"{where}: scene: {scene.sweep.path} varies in the base scene; set "
                          "it in [set] or vary it in [vary]")
     if workflow in ("passage", "transient"):  # the point's own threshold, start
         bifurcation = point_options(bifurcation, params)
-    _validate_point(scene, workflow, bifurcation, where, params)
+    _validate_point(scene, workflow, bifurcation, where, params, fixed)
     scene = _named(scene, f"{base.name}[{', '.join(f'{k}={v:g}' for k, v in params)}]")
     key = point_key(params)
     sde = workflow == "check" and sde_check_at(key, first=first)
@@ -174,8 +174,33 @@ def make_point(base: Scene, fixed: Mapping[str, Any], *, seed: int, workflow: st
                                          tolerance=tolerance))
 
 
+def fault(where: str, msg: str, params: tuple[tuple[str, float], ...],
+          fixed: Mapping[str, Any], workflow: str) -> str:
+    """A point's fault named after where it was written (issue 45: a [set] fault read "at the
+    point system.mu = 0", a [transient] start fault named "--start"): the time workflow's
+    options by their sweep-file names ("[transient] start"), and "at the point ..." only when
+    the line names a varied key; else "[set]" when it names a key set there, or nothing (the
+    base scene's own fault, met at every point)."""
+    import re
+
+    from vifpk.harness.sweeps.timesweep import KEYS
+
+    keys = KEYS.get(workflow, ())
+    msg = re.sub(r"--([a-z][a-z-]*)", lambda m: f"[{workflow}] {m.group(1)}"
+                 if m.group(1).replace("-", "_") in keys else m.group(0), msg)
+    varied = [k for k, _ in params]
+    named = [k for k in varied if k in msg or f"[{workflow}] {k.split('.')[-1]}" in msg]
+    if named or not varied:
+        at = ", ".join(f"{k} = {v:g}" for k, v in params)
+        return f"{where}: at the point {at}: {msg}" if params else f"{where}: {msg}"
+    if any(k in msg for k in fixed):
+        return f"{where}: [set]: {msg}"
+    return f"{where}: {msg}"
+
+
 def _validate_point(scene: Scene, workflow: str, bifurcation: Mapping[str, Any], where: str,
-                    params: tuple[tuple[str, float], ...]) -> None:
+                    params: tuple[tuple[str, float], ...],
+                    fixed: Mapping[str, Any] = MappingProxyType({})) -> None:
     """A point's scene checked as `vifpk check` / `solve` check theirs before any work
     (magnitudes; the Monte Carlo settings where the workflow simulates)."""
     from vifpk.harness.request import validate
@@ -187,6 +212,13 @@ def _validate_point(scene: Scene, workflow: str, bifurcation: Mapping[str, Any],
             from vifpk.harness.sweeps import timesweep
 
             timesweep.check_point(workflow, bifurcation, scene)  # the request's checks
+        if workflow == "bifurcation" and bifurcation.get("find"):
+            from vifpk.harness.workflows.bifurcation import vary_problem
+
+            why = vary_problem(scene, str(bifurcation["find"]))
+            if why is not None:  # failed at every point at run time (round 7b, "not tried")
+                raise BadInput(why.replace("--vary r", "[bifurcation] find = 'r'").replace(
+                    "allowed here: --vary mu", "allowed here: find = 'mu'"))
         if workflow in ("check", "passage", "transient") or (workflow == "bifurcation"
                                                              and bifurcation.get("mc")):
             # with a fixed step the checks depend on [montecarlo] and omega0 only: once each
@@ -197,8 +229,7 @@ def _validate_point(scene: Scene, workflow: str, bifurcation: Mapping[str, Any],
                 if key is not None:
                     _CHECKED.add(key)
     except BadInput as exc:  # SceneError, validate.InputError
-        at = ", ".join(f"{k} = {v:g}" for k, v in params)
-        raise SweepError(f"{where}: at the point {at}: {exc}") from None
+        raise SweepError(fault(where, str(exc), params, fixed, workflow)) from None
 
 
 def _named(scene: Scene, name: str) -> Scene:

@@ -92,6 +92,7 @@ def _run_held(sweep: Sweep, out: Path, spec: ExecutorSpec, *, quiet: bool, repor
     handle = signals.on_interrupt(runner.stop) if runner is not None else None
     if spec.kind in ("dask", "tcp"):
         signals.set_grace(20.0)  # closing a client or a local cluster takes seconds
+    made = [f for f in (out, out / "points") if not f.exists()]  # removed again if empty
     try:
         if runner is not None:
             (out / "points").mkdir(parents=True, exist_ok=True)
@@ -112,6 +113,7 @@ def _run_held(sweep: Sweep, out: Path, spec: ExecutorSpec, *, quiet: bool, repor
     except (KeyboardInterrupt, OverTime):  # Ctrl-C, SIGTERM: the message says what was kept
         if runner is not None:
             runner.stop()  # no worker outlives the sweep
+        _remove_empty(made)  # "nothing was kept": no empty out/ and out/points/ (issue 45)
         raise
     finally:
         if handle is not None:
@@ -121,6 +123,15 @@ def _run_held(sweep: Sweep, out: Path, spec: ExecutorSpec, *, quiet: bool, repor
     files = write_results(sweep, out, executor=str(spec), report=report, provenance=provenance)
     return SweepRun(total=total, computed=tuple(computed), skipped=len(done),
                     failed=tuple(failed), seconds=time.perf_counter() - t0, files=files)
+
+
+def _remove_empty(made: list[Path]) -> None:
+    """Remove the folders this run made (``made``, outermost first) that are still empty."""
+    for folder in reversed(made):
+        try:
+            folder.rmdir()  # only an empty folder
+        except OSError:
+            pass
 
 
 def _reusable(rec: dict[str, Any] | None, pt: Point) -> bool:

@@ -416,6 +416,8 @@ def _adaptive_table(src: str, raw: Mapping[str, Any], mode: str, workflow: str, 
         v = table.get(key, default)
         if v is None:
             raise SweepError(f"{src}: [adaptive] {key}: missing (a whole number >= {lo})")
+        if isinstance(v, float) and math.isfinite(v) and v.is_integer():
+            v = int(v)  # 1e9 is a whole number: judged by its size, not refused as a float
         if not isinstance(v, int) or isinstance(v, bool) or v < lo:
             raise SweepError(f"{src}: [adaptive] {key} = {v!r}: must be a whole number >= {lo}")
         return v

@@ -402,8 +402,8 @@ def _hyperparameters(u: np.ndarray, y: np.ndarray, tau: np.ndarray, start: Any, 
         from sklearn.exceptions import ConvergenceWarning
         from sklearn.gaussian_process import GaussianProcessRegressor
         from sklearn.gaussian_process.kernels import ConstantKernel, Matern, WhiteKernel
-    except ImportError:  # pragma: no cover - the sweep extra installs it
-        raise SurfaceError("surface: needs scikit-learn (pip install 'vifpk[sweep]')") from None
+    except ImportError:  # pragma: no cover - a dependency of vifpk
+        raise SurfaceError("surface: needs scikit-learn (pip install scikit-learn)") from None
     yc = y - _centre(y, tau)
     if start is None:
         start = (ConstantKernel(MEAN_VARIANCE, "fixed")

@@ -262,7 +262,7 @@ def with_surfaces(ds: Any) -> Any:
         import sklearn  # noqa: F401
     except ImportError:
         ds.attrs["surface_notes"] = ("no error surface: scikit-learn is not installed (pip "
-                                     "install 'vifpk[sweep]')")
+                                     "install scikit-learn)")
         return ds
     surfaces, notes = dataset_surfaces(ds)
     if surfaces:

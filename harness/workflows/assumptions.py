@@ -176,8 +176,8 @@ def _exchange_warning(scene: Any, A: float, rates: dict[str, float], ratio: floa
         f"strong dissipation: the losses take up to {took} per period over the bulk of "
         f"p(E), mostly {main}, and at stationarity the noise feeds on average what they "
         f"take, so at the mean amplitude the energy changes by {rms:.0f}% (rms) per period; "
-        f"averaging assumes it changes little. The knob is the loss ({knob}) at least as "
-        "much as the noise intensity")
+        f"averaging assumes it changes little. Lowering the loss ({knob}) lowers it, as "
+        "lowering the noise does")
 
 
 #: what lowers each loss, for the strong-dissipation warning's advice

@@ -128,6 +128,18 @@ def transient(scene: Any, *, start: float, times: tuple[float, ...],
         warnings.append("the original system's relaxation time has no error bar (its snapshot "
                         "means have none: each law sits in one or two bins of the shared "
                         "grid): NOT AN ESTIMATE, not reported")
+    elif measured is not None and not (
+            measured["value"] > precision.ERROR_BAR_FACTOR * measured["err"]):
+        # an interval of two error bars that reaches tau <= 0 pins no time scale (issue 45:
+        # "3.232e+04 +/- 9.3e+08 (within the error bar: -99.9% +/- 1617.8%)" was printed as a
+        # measurement): not reported, and the warning says what would pin it
+        warnings.append(f"the original system's relaxation time is not measured: its fit gives "
+                        f"{measured['value']:.4g} +/- {measured['err']:.2g}, an interval of "
+                        f"{precision.ERROR_BAR_FACTOR:g} error bars that reaches 0 (the "
+                        "snapshot times do not resolve the decay: give times around the "
+                        "models' relaxation times, or more paths): NOT AN ESTIMATE, not "
+                        "reported")
+        measured = None
     # a snapshot law narrower than a few bins of the shared grid has an L1 of ~0 whatever the
     # models say (all its mass in one or two bins): not a measurement
     occupied = [int(np.count_nonzero(np.asarray(h["p"]) > 0)) for h in hists]
@@ -157,7 +169,8 @@ def transient(scene: Any, *, start: float, times: tuple[float, ...],
         entries[m] = {"snapshots": rows, "verdict_class": worst["class"],
                       "worst_time": worst["t"],
                       "relaxation": _relaxation(pred, fitted, measured)}
-    if measured is None and not any("no error bar" in w for w in warnings):
+    if measured is None and not any("no error bar" in w or "is not measured: its fit" in w
+                                    for w in warnings):
         warnings.append(f"no relaxation time measured on the original system: the fit of its "
                         f"mean amplitude needs at least {MIN_FIT_TIMES} snapshot times that "
                         "resolve the decay (give times around the models' relaxation times)")

@@ -341,7 +341,8 @@ def recommend(metrics: dict[str, Any], warnings: list[WarningRecord], val: dict[
         more = (f"; {' and '.join(undecided)} undecided: a longer run (a smaller floor) "
                 "decides" if undecided else "")
         return "none", (head + f"none -- no model is within the {used} (error estimates with "
-                        f"the noise removed: {desc}; floor {floor:.3f}){more}{advice}")
+                        f"the noise removed: {desc}; floor {floor:.3f}){more}{advice}"
+                        f"{STATIONARY}")
     est = {m: tv[m]["error_estimate"] for m in pool}
     best = min(pool, key=lambda m: (est[m], tv[m]["measured"]))
     pairs = {m: pair(metrics, best, m) for m in pool if m != best}
