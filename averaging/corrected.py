@@ -45,7 +45,7 @@ from .geometry import (
     restoring_k,
     restoring_slope_k,
 )
-from .noise import Spectrum
+from .noise import Spectrum, problem
 from .walls import is_paper_wall, walls_of
 
 
@@ -275,6 +275,9 @@ class CorrectedModel(CompoundedModel):
         or with parametric noise: the energy at the wall (section 10.3) is derived for one
         wall at 0 and the external noise only (for white noise it vanishes and the model is
         the compounded one on any walls, parametric noise included)."""
+        why = problem(scene)  # the kind's and laws' averaging pieces (averaging.noise)
+        if why is not None:
+            return why
         walls = walls_of(scene.system)
         if not (walls and Spectrum.from_scene(scene).rational):
             return None
@@ -313,7 +316,7 @@ class CorrectedModel(CompoundedModel):
         if not (self.barrier and self.correlated and self.lam > 0):
             return np.zeros_like(A)
         s = self.spectrum
-        la, d = _wall_table(tuple(self.restoring), self.f, s.D, s.alpha1)
+        la, d = _wall_table(tuple(self.restoring), self.f, *s.ou_parameters())
         return np.interp(np.log(np.maximum(A, 1e-300)), la, d)
 
     def energy_terms(self, A: Array) -> dict[str, Array]:
@@ -345,7 +348,7 @@ class CorrectedModel(CompoundedModel):
         if not self.observes:
             return np.zeros_like(A)
         return np.sqrt(self.sigma2_external(np.maximum(A, 1e-12))
-                       / (2.0 * self.spectrum.alpha1))
+                       / (2.0 * self.spectrum.ou_parameters()[1]))
 
     def observation_matrix(self, A_src: Array, edges_dst: Array) -> Array:
         """M[i, j] = P(H in cell i of edges_dst (amplitudes) | slow energy at A_src[j]): the

@@ -52,7 +52,7 @@ from typing import Any
 
 import numpy as np
 
-from vifpk.core.registry import IMPACT_LAWS, one_of
+from vifpk.core.registry import IMPACT_TREATMENTS, one_of
 
 from . import parametric, truncated
 from .geometry import (
@@ -65,7 +65,7 @@ from .geometry import (
     restoring_slope_k,
     time_of_theta_k,
 )
-from .noise import Spectrum
+from .noise import Spectrum, problem
 from .spectral_sum import sigma2_rational
 from .walls import WallSpec, is_paper_wall, loss_rate, reached, span, walls_of
 
@@ -74,7 +74,7 @@ NOISE_FORMS = ("sgn", "additive")
 
 @dataclass(frozen=True, kw_only=True)
 class ExactModel:
-    """Exact orbit averages. Options: ``noise`` in NOISE_FORMS, ``impact`` in IMPACT_LAWS.
+    """Exact orbit averages. Options: ``noise`` in NOISE_FORMS, ``impact`` in IMPACT_TREATMENTS.
 
     The system's laws as coefficient tuples (issue 21): ``restoring`` k = (k1, k3, ...) for
     g(x) = k1 x + k3 x^3 + ...; ``damping`` d = (d0, d2, ...) for the force
@@ -108,15 +108,21 @@ class ExactModel:
 
     def __post_init__(self) -> None:
         one_of("noise", self.noise, NOISE_FORMS)
-        one_of("impact", self.impact, IMPACT_LAWS)
+        one_of("impact", self.impact, IMPACT_TREATMENTS)
         if self.walls and self.barrier:
             raise ValueError("ExactModel: give the paper's wall (barrier, r) or walls, not both")
+
+    @staticmethod
+    def applies(scene: Any) -> str | None:
+        """None when the scene's noise kind and walls' laws have the averaging pieces
+        (averaging.noise.problem), else that one line (vifpk.core.protocols)."""
+        return problem(scene)
 
     @classmethod
     def from_scene(cls, scene: Any, *, noise: str = "sgn", impact: str = "exact",
                    theta_nodes: int | None = None, harmonics: int | None = None) -> ExactModel:
         one_of("noise", noise, NOISE_FORMS)
-        one_of("impact", impact, IMPACT_LAWS)
+        one_of("impact", impact, IMPACT_TREATMENTS)
         s = scene.system
         st = getattr(scene, "averaging", None)
         walls = walls_of(s)
@@ -322,7 +328,7 @@ class ExactModel:
         elif self.impact == "compounded":
             loss = -(2.0 / T) * (-2.0 * np.log(self.r)) * E
         else:
-            one_of("impact", self.impact, IMPACT_LAWS)  # raises: a law without a branch
+            one_of("impact", self.impact, IMPACT_TREATMENTS)  # raises: a law without a branch
         wz, s2p = self.parametric_terms(A)
         return {
             "damping": self.damping_rate(o),

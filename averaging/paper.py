@@ -36,6 +36,7 @@ from vifpk.core.registry import one_of
 
 from .geometry import Array, amplitudes, w1_eta
 from .noise import Spectrum
+from .noise import problem as noise_problem
 from .walls import is_paper_wall, walls_of
 
 B6_COEFFICIENTS = {"printed": 3.0 / 64.0, "taylor": 1.0 / 64.0}
@@ -80,6 +81,9 @@ class PaperModel:
         """None for a system in the paper's family (a cubic spring with k1 > 0, damping
         -c1 + c2 x^2, no velocity damping: System.paper_family_problem), else why not
         (the averaged-model protocol, vifpk.core.protocols)."""
+        pieces = noise_problem(scene)  # the kind's and laws' averaging pieces
+        if pieces is not None:
+            return pieces
         s = scene.system
         problem = s.paper_family_problem() if hasattr(s, "paper_family_problem") else None
         if problem is not None:

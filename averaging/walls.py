@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from vifpk.core.registry import IMPACT_LAWS, one_of
+from vifpk.core.registry import IMPACT_TREATMENTS, one_of
 from vifpk.physics import impact, spring
 
 SOLVER = "averaging"
@@ -26,50 +26,70 @@ SOLVER = "averaging"
 
 @dataclass(frozen=True, kw_only=True)
 class WallSpec:
-    """One wall: ``side`` "lower" (x >= at, at <= 0) or "upper" (x <= at, at >= 0),
-    restitution ``r``, impact ``law`` (vifpk.physics.impact) and its ``v_yield``."""
+    """One wall: ``side`` "lower" (x >= at, at <= 0) or "upper" (x <= at, at >= 0), its
+    impact ``law`` (a registered vifpk.core.protocols.ImpactLaw) and the law's parameter
+    values ``params`` in declared order."""
 
     side: str
     at: float
-    r: float
     law: str = "newton"
-    v_yield: float = math.inf
+    params: tuple[float, ...] = (1.0,)
 
     def __post_init__(self) -> None:
-        self.module()  # a law without a module: one line, now
+        self.module()  # a law that is not registered: one line, now
+
+    @classmethod
+    def of(cls, side: str, at: float, law: str = "newton", **values: float) -> WallSpec:
+        """A wall with its law's parameters by name (declared order; defaults for the
+        others; a name the law does not declare raises ValueError)."""
+        params = impact.law(law, solver=SOLVER).params
+        extra = set(values) - {p.name for p in params}
+        if extra:
+            raise ValueError(f"impact law {law!r} has no parameter {sorted(extra)[0]!r}")
+        return cls(side=side, at=at, law=law,
+                   params=tuple(float(values.get(p.name, p.default)) for p in params))
 
     def module(self) -> Any:
-        """The law's module (vifpk.physics.impact.law); NoLaw naming law and solver."""
-        try:
-            return impact.law(self.law)
-        except impact.NoLaw as e:
-            raise impact.NoLaw(f"{e}: the {SOLVER} solver cannot take it") from None
+        """The law (vifpk.physics.impact.law); NoLaw naming law and solver."""
+        return impact.law(self.law, solver=SOLVER)
+
+    @property
+    def constant(self) -> bool:
+        """Whether the law declares e constant (vifpk.core.protocols.ImpactLaw.constant)."""
+        return bool(self.module().constant)
+
+    @property
+    def r(self) -> float:
+        """e at impact speed 0 (a constant law's e; Newton's and Johnson's r)."""
+        return float(self.module().restitution(0.0, *self.params))
 
     def energy_loss(self, v: Any) -> np.ndarray:
         """(1 - e(v)^2) v^2 / 2 at impact speeds v, elementwise (the law's scalar
-        ``energy_loss``, the Monte Carlo's own, over the array)."""
+        ``energy_loss``, the one the Monte Carlo's walls compile, over the array)."""
         f = np.vectorize(self.module().energy_loss, otypes=[float])
-        return f(v, self.r, self.v_yield)
+        return f(v, *self.params)
 
     def restitution(self, v: Any) -> np.ndarray:
         """e(v) at impact speeds v, elementwise (the law's scalar ``restitution``)."""
         f = np.vectorize(self.module().restitution, otypes=[float])
-        return f(v, self.r, self.v_yield)
+        return f(v, *self.params)
 
 
 def walls_of(system: Any) -> tuple[WallSpec, ...]:
     """The scene's walls, lower first (``system.walls``, vifpk.core.scene: the wall tables of
-    issue 37, or the paper's ``barrier`` with ``r``); a Newton wall's v_yield is inf."""
-    return tuple(WallSpec(side=w.side, at=float(w.at), r=float(w.r), law=w.law,
-                          v_yield=float(w.v_yield) if w.v_yield is not None else math.inf)
+    issue 37, or the paper's ``barrier`` with ``r``), each with its law's parameters."""
+    return tuple(WallSpec(side=w.side, at=float(w.at), law=w.law,
+                          params=tuple(float(v) for _, v in w.params))
                  for w in system.walls)
 
 
 def is_paper_wall(walls: tuple[WallSpec, ...]) -> bool:
-    """One lower wall at x = 0 with a constant restitution (no yield speed: v_yield = inf,
-    Newton's law): the paper's system."""
+    """One lower wall at x = 0 whose law DECLARES a constant restitution
+    (ImpactLaw.constant; Newton's): the paper's system, whose closed forms take e = r.
+    Decided by the declaration, never by a parameter's value or the law's name: a law with
+    a speed-dependent e and no yield speed is not Newton's."""
     return (len(walls) == 1 and walls[0].side == "lower" and walls[0].at == 0.0
-            and walls[0].v_yield == math.inf)
+            and walls[0].constant)
 
 
 def phase_walls(system: Any) -> dict[str, Any]:
@@ -98,7 +118,7 @@ def loss_rate(walls: tuple[WallSpec, ...], A: np.ndarray, E: np.ndarray, T: np.n
               k: tuple[float, ...], treatment: str) -> np.ndarray:
     """-(1/T) sum over the walls reached of the energy one impact takes at the impact speed
     v = sqrt(2 K), K = E - U(at) (each reached wall is hit once per period T of the truncated
-    orbit), in the exact model's ``treatment`` (vifpk.core.registry.IMPACT_LAWS): "exact" the
+    orbit), in the exact model's ``treatment`` (vifpk.core.registry.IMPACT_TREATMENTS): "exact" the
     law's (1 - e(v)^2) K; "transformed" 2 (1 - e(v)) K; "compounded" -ln(e(v)^2) K (the
     continuous limit of K -> e^2 K at each impact). A wall at 0 alone with Newton's law gives
     the paper's (2/T_y)(1 - r^2) E (T_y = 2 T: two impacts per period of y)."""
@@ -113,6 +133,6 @@ def loss_rate(walls: tuple[WallSpec, ...], A: np.ndarray, E: np.ndarray, T: np.n
         elif treatment == "compounded":
             per = -np.log(w.restitution(v) ** 2) * K
         else:
-            one_of("impact", treatment, IMPACT_LAWS)  # raises: a treatment without a branch
+            one_of("impact", treatment, IMPACT_TREATMENTS)  # raises: a treatment without a branch
         loss = loss - np.where(reached(A, w), per / T, 0.0)
     return loss

@@ -74,8 +74,9 @@ def with_ends(centres: np.ndarray, p: np.ndarray, lo: float, hi: float
 
 
 def marginals(c: Coefficients, grid: Grid, p: np.ndarray, A: np.ndarray) -> dict[str, Any]:
-    """The densities the harness compares (smooth records {"x", "p"}, trapezoid mass 1; the
-    mass before that normalisation in ``raw_mass``) and the joint law (cell averages)."""
+    """The densities the harness compares (smooth records {"x", "p"}, non-negative, trapezoid
+    mass 1; the mass before that normalisation in ``raw_mass``) and the joint law (cell
+    averages, as solved: the undershoot below 0 kept, diagnostics.negative_mass)."""
     out: dict[str, Any] = {}
     raw = {}
     pa = amplitude_density(c, grid, p, A)
@@ -84,7 +85,8 @@ def marginals(c: Coefficients, grid: Grid, p: np.ndarray, A: np.ndarray) -> dict
     for name, centres, ends, marg in (
             ("x1", grid.x, grid.xe, p.sum(axis=1) * grid.hv),
             ("x2", grid.v, grid.ve, p.sum(axis=0) * grid.hx)):
-        xs, ps = with_ends(centres, marg, float(ends[0]), float(ends[-1]))
+        # the third-order face values' undershoot (diagnostics.negative_mass) clipped at 0
+        xs, ps = with_ends(centres, np.maximum(marg, 0.0), float(ends[0]), float(ends[-1]))
         raw[name] = float(np.trapezoid(ps, xs))
         out[name] = {"x": xs, "p": ps / raw[name]}
     out["joint"] = {"x1": grid.x, "x2": grid.v, "p": p}

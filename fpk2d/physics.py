@@ -12,7 +12,7 @@ dB/dv = 2 D_c d^2 v is taken out of the diffusive flux, Risken 1989, eq. 4.45)::
     J_v = (a(x, v) - D_c d(x)^2 v) p - B(x, v) dp/dv,
     a = -d(x) v - e(v) v - g(x) - mu sgn(v),   B = D f^2 + D_k g(x)^2 + D_c d(x)^2 v^2.
 
-The excitation's part of B comes from the noise kind's ``fp_velocity_diffusion`` piece
+The excitation's part of B comes from the noise kind's ``fpk2d.velocity_diffusion`` piece
 (vifpk/physics/noise/): a kind without it (OU: its FPK is 3-D in (x, v, xi)) is refused in one
 line naming it, before any work. The impact laws come from vifpk/physics/impact/.
 """
@@ -46,8 +46,7 @@ class WallMap:
     at: float
     side: int
     law: str
-    r: float
-    v_yield: float | None
+    params: tuple[float, ...]  # the law's declared parameters, in order
     rebound: Any
 
     def loss(self, s: np.ndarray) -> np.ndarray:
@@ -119,12 +118,12 @@ def coefficients(system: Any, noise: Any, parametric: Any = None) -> Coefficient
     """The scene's coefficients; Unsupported in one line for a noise kind or impact law this
     solver has no generator for, or a scene with no noise in v at rest."""
     try:
-        piece = noise_kinds.piece(noise.kind, "fpk2d", "velocity_diffusion")
+        piece = noise_kinds.pieces(noise.kind, "fpk2d").velocity_diffusion
     except noise_kinds.NoPiece:
         raise Unsupported(f"noise kind {noise.kind!r}: the {SOLVER} solver has no generator "
                           "for it (white noise only: a coloured noise adds its own state, a "
                           "3-D FPK)") from None
-    B0 = float(piece(noise, float(system.f)))
+    B0 = float(piece(noise.values, float(system.f)))
     Dk = float(getattr(parametric, "stiffness", 0.0) or 0.0)
     Dc = float(getattr(parametric, "damping", 0.0) or 0.0)
     if not B0 > 0.0:
@@ -133,24 +132,22 @@ def coefficients(system: Any, noise: Any, parametric: Any = None) -> Coefficient
     walls = []
     for w in system.walls:
         try:
-            law = impact.module(w.law, solver=SOLVER)
+            law = impact.law(w.law, solver=SOLVER)
         except impact.NoLaw as exc:
             raise Unsupported(str(exc)) from None
+        params = tuple(float(v) for _, v in w.params)
         walls.append(WallMap(at=float(w.at), side=-1 if w.side == "lower" else 1, law=w.law,
-                             r=float(w.r), v_yield=w.v_yield,
-                             rebound=_rebound(law, float(w.r), w.v_yield)))
+                             params=params, rebound=_rebound(law, params)))
     return Coefficients(k=tuple(float(c) for c in system.restoring_law),
                         d=tuple(float(c) for c in system.damping_law),
                         e=tuple(float(c) for c in system.velocity_law), mu=float(system.mu),
                         B0=B0, Dk=Dk, Dc=Dc, walls=tuple(walls))
 
 
-def _rebound(law: Any, r: float, v_yield: float | None) -> Any:
-    vy = 0.0 if v_yield is None else float(v_yield)
-
+def _rebound(law: Any, params: tuple[float, ...]) -> Any:
     def rebound(s: Any) -> Any:
-        """e(s) s for impact speed s >= 0."""
+        """e(s) s for impact speed s >= 0 (the law's restitution with its parameters)."""
         s = np.asarray(s, dtype=float)
-        return law.restitution(s, r, vy) * s
+        return law.restitution(s, *params) * s
 
     return rebound

@@ -184,6 +184,7 @@ def stationary(system: Any, noise: Any, parametric: Any = None, *, accuracy: flo
         "order": ORDER,
         "grid": {"cells": [nx, nv], "x": [float(fine.grid.xe[0]), float(fine.grid.xe[-1])],
                  "v": [float(fine.grid.ve[0]), float(fine.grid.ve[-1])], "E_max": E_max,
+                 "A_max": float(A[-1]),
                  "walls_inside": [w.at for w in fine.grid.walls]},
         "discretisation_error": {
             **{f"L1_{k}": v for k, v in est.items()},
@@ -204,8 +205,9 @@ def stationary(system: Any, noise: Any, parametric: Any = None, *, accuracy: flo
     }
     if not reached:
         info["warnings"] = [f"the discretisation error of p(A) is estimated at "
-                            f"{est['A']:.2g}, above the accuracy asked ({accuracy:g}), at "
-                            f"the most cells allowed ({nx} x {nv}; max_cells)"]
+                            f"{est['A']:.2g}, above the accuracy asked ({accuracy:g}), on "
+                            + (f"the grid given ({nx} x {nv} cells)" if cells is not None else
+                               f"the most cells allowed ({nx} x {nv}; max_cells)")]
     return Result(data=dens["data"], info=info)
 
 

@@ -42,7 +42,7 @@ from vifpk.core.defaults import BURN_FACTOR, FPK_CELLS
 from vifpk.core.result import Resolved, Result, Status
 
 from ._jit import jit
-from .geometry import amplitude_general, orbit_start, potential
+from .geometry import amplitude_general, orbit_position, potential
 from .rng import normal, states_from_seed
 
 ORDER = 1
@@ -159,7 +159,7 @@ def run_sde_blocks(states, n_paths, n_burn, n_samples, stride, h, a_tab, b_tab, 
     """Per block: histogram of A and sums (A, A^2, samples, reflections) after burn-in.
     a_tab = 2 A m(A) - sigma^2 on the grid A_j = j dA_tab, b_tab = sigma(A) there.
     With hist_x / hist_v, each sample also records a time-uniform point of the orbit of
-    amplitude A as the system moves on it (geometry.orbit_start, the original system's starts):
+    amplitude A as the system moves on it (geometry.orbit_position, the original system's starts):
     with the paper's ``barrier`` folded, x1 = |y|, x2 = y' sgn(y); with walls at
     w_lo <= 0 <= w_up (+-inf: none) the elastic orbit cut at them (impacts on alternate
     walls), i.e. the free orbit's time-uniform law conditioned on [w_lo, w_up]: the averaged
@@ -212,8 +212,8 @@ def run_sde_blocks(states, n_paths, n_burn, n_samples, stride, h, a_tab, b_tab, 
                 sums[b, 1] += A * A
                 sums[b, 2] += 1.0
                 if hist_x is not None:  # on the orbit as it is: folded, or cut at walls
-                    y, yp, _xi, s0, s1, s2, s3 = orbit_start(A, w0sq, alpha, khi, barrier,
-                                                             w_lo, w_up, 0.0, s0, s1, s2, s3)
+                    y, yp, s0, s1, s2, s3 = orbit_position(A, w0sq, alpha, khi, barrier,
+                                                           w_lo, w_up, s0, s1, s2, s3)
                     ix = math.floor((y - x_lo) * x_inv)
                     if 0 <= ix < hist_x.shape[1]:
                         hist_x[b, ix] += 1.0

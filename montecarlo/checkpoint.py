@@ -36,10 +36,13 @@ def run_key(phys: dict[str, Any], h: float, seed: int, blocks: int, per_block: i
             obs: tuple[str, ...], certificate: bool) -> str:
     """What a run is: sha256 of its physics, step, seed, paths and observables (16 hex)."""
     def plain(v: Any) -> Any:
-        if is_dataclass(v):  # the scene's noise: its kind and parameters
-            return {k: x if isinstance(x, str) else plain(x) for k, x in asdict(v).items()}
-        return None if v is None else [float(x) for x in np.ravel(v)] \
-            if isinstance(v, np.ndarray) else float(v)
+        if is_dataclass(v):  # the scene's noise, a wall: names, numbers, (name, value) pairs
+            return {k: plain(x) for k, x in asdict(v).items()}
+        if isinstance(v, str) or v is None:
+            return v
+        if isinstance(v, tuple | list):
+            return [plain(x) for x in v]
+        return [float(x) for x in np.ravel(v)] if isinstance(v, np.ndarray) else float(v)
 
     text = json.dumps({"phys": {k: plain(v) for k, v in sorted(phys.items())}, "h": float(h),
                        "seed": int(seed), "blocks": int(blocks), "per_block": int(per_block),

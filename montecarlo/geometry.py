@@ -20,7 +20,8 @@ import math
 from vifpk.physics import spring
 
 from ._jit import jit
-from .rng import normal, uniform
+from .noise_start import noise_start
+from .rng import uniform
 
 #: U(x) = w0^2 x^2/2 + alpha x^4/4 + sum_j k_{2j+3} x^{2j+6} / (2j + 6): the physics' one
 #: formula (vifpk.physics.spring.potential_parts), compiled; potential(x, w0sq, alpha, khi)
@@ -149,23 +150,28 @@ def orbit_point(A, w0sq, alpha, khi, s0, s1, s2, s3):
 
 
 @jit
-def orbit_start(A, w0sq, alpha, khi, fold, lo, up, xi_sd, s0, s1, s2, s3):
-    """(x, v, xi, generator state): a start on the conservative orbit of amplitude A at a
-    phase uniform IN TIME (``orbit_point``), on the elastic impacting orbit when walls keep x
-    in [lo, up] (lo = -inf, up = inf without): with ``fold`` (one wall at 0) folded onto
-    x >= 0 (that orbit is the fold of the free one: x = |y|, v = y' sgn(y), the same time
-    spent at each |y|), else the free orbit's points outside [lo, up] rejected (the elastic
-    orbit truncated at the walls spends the free orbit's time at each x inside: the free law
-    conditioned on [lo, up]); and xi from the noise state's stationary law (``xi_sd``; 0: no
-    normal is drawn)."""
+def orbit_position(A, w0sq, alpha, khi, fold, lo, up, s0, s1, s2, s3):
+    """(y, y', generator state): orbit_start's point of the orbit, without the noise state
+    (the averaged SDE's phase points)."""
     y, yp, s0, s1, s2, s3 = orbit_point(A, w0sq, alpha, khi, s0, s1, s2, s3)
     if fold and y < 0.0:
         y = -y
         yp = -yp
     while y < lo or y > up:  # lo <= 0 <= up: the orbit passes inside, so this ends
         y, yp, s0, s1, s2, s3 = orbit_point(A, w0sq, alpha, khi, s0, s1, s2, s3)
-    xi = 0.0
-    if xi_sd > 0.0:
-        z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
-        xi = xi_sd * z
+    return y, yp, s0, s1, s2, s3
+
+
+@jit
+def orbit_start(A, w0sq, alpha, khi, fold, lo, up, P, s0, s1, s2, s3):
+    """(x, v, xi, generator state): a start on the conservative orbit of amplitude A at a
+    phase uniform IN TIME (``orbit_point``), on the elastic impacting orbit when walls keep x
+    in [lo, up] (lo = -inf, up = inf without): with ``fold`` (one wall at 0) folded onto
+    x >= 0 (that orbit is the fold of the free one: x = |y|, v = y' sgn(y), the same time
+    spent at each |y|), else the free orbit's points outside [lo, up] rejected (the elastic
+    orbit truncated at the walls spends the free orbit's time at each x inside: the free law
+    conditioned on [lo, up]); and xi from the noise state's stationary law (the kind of the
+    kernels' record P: noise_start, its ``state_start``; OU draws xi_sd N, white nothing)."""
+    y, yp, s0, s1, s2, s3 = orbit_position(A, w0sq, alpha, khi, fold, lo, up, s0, s1, s2, s3)
+    xi, s0, s1, s2, s3 = noise_start(P, s0, s1, s2, s3)
     return y, yp, xi, s0, s1, s2, s3

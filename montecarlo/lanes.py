@@ -164,12 +164,12 @@ def advance_smooth(rec, xi, s0, s1, s2, s3):  # pragma: no cover
 
 @overload(velocity_smooth)
 def _ol_velocity_smooth(rec, v, xi, g, k, mu, at_wall, h, half, s0, s1, s2, s3):
-    return kind_module(rec).mc_velocity(smooth_flow, fast_normal)
+    return kind_module(rec).velocity(smooth_flow, fast_normal)
 
 
 @overload(advance_smooth)
 def _ol_advance_smooth(rec, xi, s0, s1, s2, s3):
-    return kind_module(rec).mc_advance(fast_normal)
+    return kind_module(rec).advance(fast_normal)
 
 
 @jit(inline="always")

@@ -102,7 +102,6 @@ from .plan import (
     SCALE_SAMPLE_EVERY,
     bounds,
     fold,
-    noise_piece,
     physics,
 )
 
@@ -197,9 +196,9 @@ def sample_starts(system: Any, noise: Any, *, amplitude: float, n: int, seed: in
     phys = physics(system, noise)
     rng = block_seeds(seed, 1, n)[0]
     out = np.empty((n, 3))
-    xi_sd = noise_piece(phys, "start_sd") or 0.0
+    # the record's class picks the kind's state start (its step coefficients are not used)
     starts_loop(rng, out, float(amplitude), phys["w0sq"], phys["alpha"], phys["khi"],
-                (fold(phys), *bounds(phys)), xi_sd)
+                (fold(phys), *bounds(phys)), record(phys, 1.0))
     return out
 
 

@@ -117,7 +117,7 @@ def _passage_block(first, every, arrs, count, run, h, B, P):
     steps, the finiteness test at each chunk's end), so results do not depend on the lanes."""
     rng, state, init, phase, steps, tries, fpt = arrs
     budget, n_max, n_burn, horizon, Ec, a_start, a_burn, max_tries = run
-    w0sq, alpha, khi, xi_sd = P.w0sq, P.alpha, P.khi, P.xi_sd
+    w0sq, alpha, khi = P.w0sq, P.alpha, P.khi
     half = 0.5 * h
     F, S = scratch()
     L = np.zeros((3, LANES))
@@ -149,7 +149,7 @@ def _passage_block(first, every, arrs, count, run, h, B, P):
                     if ph == NEW:
                         amp = a_burn if n_burn > 0 else a_start
                         x, v, xi, S[0, j], S[1, j], S[2, j], S[3, j] = orbit_start(
-                            amp, w0sq, alpha, khi, P.fold, P.x_lo, P.x_hi, xi_sd, S[0, j],
+                            amp, w0sq, alpha, khi, P.fold, P.x_lo, P.x_hi, P, S[0, j],
                             S[1, j], S[2, j], S[3, j])
                         F[L_X, j], F[L_V, j], F[L_XI, j] = x, v, xi
                         Li[_N, j] = 0
@@ -249,11 +249,12 @@ def _passage_block(first, every, arrs, count, run, h, B, P):
 
 
 @jit
-def starts_loop(rng, out, A, w0sq, alpha, khi, walls, xi_sd):
-    """out[i] = orbit_start(A, ...) with path i's generator words; walls = (fold, lo, up)."""
+def starts_loop(rng, out, A, w0sq, alpha, khi, walls, P):
+    """out[i] = orbit_start(A, ...) with path i's generator words; walls = (fold, lo, up); P
+    the kernels' record (its class: the noise kind's state start, pieces.py)."""
     fold_, lo, up = walls
     for i in range(out.shape[0]):
-        x, v, xi, s0, s1, s2, s3 = orbit_start(A, w0sq, alpha, khi, fold_, lo, up, xi_sd,
+        x, v, xi, s0, s1, s2, s3 = orbit_start(A, w0sq, alpha, khi, fold_, lo, up, P,
                                                rng[i, 0], rng[i, 1], rng[i, 2], rng[i, 3])
         out[i, 0], out[i, 1], out[i, 2] = x, v, xi
         rng[i, 0], rng[i, 1], rng[i, 2], rng[i, 3] = s0, s1, s2, s3

@@ -1,11 +1,14 @@
 """The compiled pieces of the physics (vifpk.physics), chosen when a kernel is specialised.
 
-Each noise kind's module (vifpk/physics/noise/<kind>.py) declares its Monte Carlo pieces as
-plain Python; here they become numba overloads of four generic functions keyed by the class of
-the kind's record (``MCRecord``), so a kernel written once calls ``noise_velocity(rec, ...)`` and
-numba compiles the kind the record belongs to (and nothing of the others). A record class
-without pieces fails to compile naming it; ``make_record`` raises before any compilation for a
-kind without Monte Carlo pieces (physics.noise.NoPiece, one line naming kind and solver).
+Each noise kind declares its Monte Carlo pieces as plain Python (its ``montecarlo`` record,
+vifpk.core.protocols.MonteCarloNoise); here they become numba overloads of generic functions
+keyed by the class of the kernels' record, so a kernel written once calls
+``noise_velocity(rec, ...)`` and numba compiles the kind the record belongs to (and nothing of
+the others). The walls' impact laws (vifpk.core.protocols.ImpactLaw) are chosen the same way:
+the record class names the lower and upper laws and carries each law's declared parameters as
+fields ``lo_law_<name>`` / ``up_law_<name>``, whatever the law declares. A record class without
+pieces fails to compile naming it; ``make_record`` raises before any compilation for a kind
+without Monte Carlo pieces (physics.noise.NoPiece, one line naming kind and solver).
 """
 
 from __future__ import annotations
@@ -16,7 +19,7 @@ from typing import Any
 
 from numba.extending import overload
 
-from vifpk.core.registry import IMPACT_LAW_NAMES
+from vifpk.core import registry
 from vifpk.physics import impact
 from vifpk.physics import noise as noise_kinds
 
@@ -25,15 +28,16 @@ from .geometry import restoring
 from .plan import SOLVER, bounds, fold, noise_piece
 
 #: The kernels' physics record, flat (numba's parallel loops take no tuple nested in a tuple):
-#: these fields, then the noise kind's own (its MCRecord's). A switched-off effect is None
-#: (mu, khi, dhi, ev, bridge, lo, up): numba compiles a specialisation per record type and,
-#: where a helper takes the field as an argument, prunes the effect's code.
+#: these fields, then the walls' law parameters (``lo_law_<p>``, ``up_law_<p>``), then the
+#: noise kind's own (its Record's). A switched-off effect is None (mu, khi, dhi, ev, bridge,
+#: lo, up): numba compiles a specialisation per record type and, where a helper takes the
+#: field as an argument, prunes the effect's code.
 BASE_FIELDS = ("c1", "c2", "w0sq", "alpha", "f", "mu", "khi", "dhi", "ev",
-               "bridge",  # first passage's bridge correction (mc_bridge; None: none)
-               "xi_sd",  # the noise state's stationary standard deviation (0: no state)
-               # walls: position (None: no wall), restitution r, the law's yield speed
-               # (None: unused), g at the wall (its spring force, for the chatter guard)
-               "lo", "lo_r", "lo_vy", "lo_g", "up", "up_r", "up_vy", "up_g",
+               "bridge",  # first passage's bridge correction (MonteCarloNoise.bridge)
+               "xi_sd",  # a Gaussian noise state's stationary standard deviation (0: none)
+               # walls: position (None: no wall), g at the wall (its spring force, for the
+               # chatter guard)
+               "lo", "lo_g", "up", "up_g",
                "x_lo", "x_hi",  # the walls' positions, -inf / inf without (orbit starts)
                # parametric Stratonovich white noises over a half step: sqrt(2 D (h/2)) on
                # the spring (pk) and on the damping (pc); None: off
@@ -41,66 +45,92 @@ BASE_FIELDS = ("c1", "c2", "w0sq", "alpha", "f", "mu", "khi", "dhi", "ev",
                "fold")  # orbit starts: fold y -> |y| (one wall at 0: exact), else reject
 
 _CLASSES: dict[tuple[str, str | None, str | None], type] = {}
-_PIECES: dict[type, Any] = {}  # record class -> the noise kind's module
+_PIECES: dict[type, Any] = {}  # record class -> the noise kind's MonteCarloNoise
 _LAWS: dict[type, tuple[str | None, str | None]] = {}  # record class -> (lower, upper) law
+
+
+def _law_fields(prefix: str, law: str | None) -> tuple[str, ...]:
+    if law is None:
+        return ()
+    return tuple(f"{prefix}_law_{p.name}" for p in impact.law(law, solver=SOLVER).params)
 
 
 def record_class(kind: str, lower: str | None = None, upper: str | None = None) -> type:
     """The record class of a noise kind and the walls' impact laws (None: no wall):
-    BASE_FIELDS + the kind's MCRecord fields (a module global ``Record_<kind>_<lower>_<upper>``,
-    so numba's cache can name it). NoPiece for a kind without Monte Carlo pieces, ValueError for
-    a law without a module (ValueError)."""
+    BASE_FIELDS + the laws' parameters + the kind's Record fields (a module global
+    ``Record_<kind>_<lower>_<upper>``, so numba's cache can name it). NoPiece for a kind
+    without Monte Carlo pieces, NoLaw for a law that is not registered (one line each)."""
     key = (kind, lower, upper)
     if key not in _CLASSES:
-        fields = noise_kinds.piece(kind, SOLVER, "MCRecord")._fields
-        for name in (lower, upper):
-            if name is not None:
-                impact.module(name, solver=SOLVER)
+        mc = noise_kinds.pieces(kind, SOLVER)
+        own = tuple(mc.Record._fields)
+        walls = _law_fields("lo", lower) + _law_fields("up", upper)
+        clash = set(own) & set(BASE_FIELDS + walls)
+        if clash:
+            raise noise_kinds.NoPiece(
+                f"noise kind {kind!r}: its Monte Carlo Record field {sorted(clash)[0]!r} "
+                "clashes with the kernels' own; prefix its fields with the kind's name")
         cls = namedtuple(f"Record_{kind}_{lower}_{upper}",  # noqa: PYI024
-                         BASE_FIELDS + tuple(fields))
+                         BASE_FIELDS + walls + own)
         cls.__module__ = __name__
         globals()[cls.__name__] = cls
         _CLASSES[key] = cls
-        _PIECES[cls] = noise_kinds.module(kind)
+        _PIECES[cls] = mc
         _LAWS[cls] = (lower, upper)
     return _CLASSES[key]
 
 
-def make_record(noise: Any, base: dict[str, Any], laws: tuple[str | None, str | None],
-                h: float) -> Any:
-    """The record: ``base`` (BASE_FIELDS' values by name), the walls' ``laws`` (lower, upper;
-    None: no wall) and the kind's coefficients for step h."""
-    return record_class(noise.kind, *laws)(
-        *(base[k] for k in BASE_FIELDS),
-        *noise_kinds.piece(noise.kind, SOLVER, "record")(noise, base["f"], h))
+def make_record(noise: Any, base: dict[str, Any], laws: tuple[Any, Any], h: float) -> Any:
+    """The record: ``base`` (BASE_FIELDS' values by name), the walls (lower, upper:
+    vifpk.core.walls.Wall or None) and the kind's coefficients for step h."""
+    cls = record_class(noise.kind, *(w.law if w is not None else None for w in laws))
+    walls = tuple(float(v) for w in laws if w is not None for _, v in w.params)
+    return cls(*(base[k] for k in BASE_FIELDS), *walls,
+               *noise_kinds.pieces(noise.kind, SOLVER).record(noise.values, base["f"], h))
 
 
 def record(phys: dict[str, Any], h: float) -> Any:
-    """The kernels' one physics record for step h (pieces.BASE_FIELDS, then the noise kind's
-    coefficients from its module): a flat named tuple whose class is the noise kind's."""
+    """The kernels' one physics record for step h (pieces.BASE_FIELDS, the walls' law
+    parameters, then the noise kind's coefficients): a flat named tuple whose class names
+    the noise kind and the laws."""
     base = {k: phys[k] for k in ("c1", "c2", "w0sq", "alpha", "f", "mu", "khi", "dhi", "ev")}
     base["bridge"] = noise_piece(phys, "bridge") or None  # 0 (no noise): E is C^1
     base["xi_sd"] = noise_piece(phys, "start_sd") or 0.0
     for key in ("lo", "up"):
         w = phys["lower" if key == "lo" else "upper"]
         at = float(w.at) if w is not None else None
-        base.update({key: at, f"{key}_r": float(w.r) if w is not None else 0.0,
-                     f"{key}_vy": None if w is None or w.v_yield is None else float(w.v_yield),
+        base.update({key: at,
                      f"{key}_g": float(restoring(at, phys["w0sq"], phys["alpha"], phys["khi"]))
                      if w is not None else 0.0})
     base["x_lo"], base["x_hi"] = bounds(phys)
     base["fold"] = fold(phys)
     for key, name in (("pk", "D_k"), ("pc", "D_c")):
         base[key] = math.sqrt(phys[name] * h) if phys.get(name) is not None else None
-    laws = tuple(w.law if w is not None else None for w in (phys["lower"], phys["upper"]))
-    return make_record(phys["noise"], base, laws, h)
+    return make_record(phys["noise"], base, (phys["lower"], phys["upper"]), h)
 
 
+for _kind in noise_kinds.kinds_with(SOLVER):
+    for _lo in (None, *registry.impact_law_names()):
+        for _up in (None, *registry.impact_law_names()):
+            try:
+                record_class(_kind, _lo, _up)
+            except (noise_kinds.NoPiece, impact.NoLaw):
+                continue  # named when a scene asks for it
 
-for _kind in noise_kinds.kinds_with(SOLVER, "record"):
-    for _lo in (None, *IMPACT_LAW_NAMES):
-        for _up in (None, *IMPACT_LAW_NAMES):
-            record_class(_kind, _lo, _up)
+
+def __getattr__(name: str) -> Any:
+    """A stand-in for a record class this process does not have (PEP 562): numba's on-disk
+    cache index of a kernel lists the record classes it was compiled for in ANY process (a
+    kind or law of a plugin since uninstalled, or installed in another environment sharing the
+    cache), and unpickling that index looks each one up here. Every registered kind's and
+    law's classes exist from import on (above), so a stand-in is never a class this process
+    compiles for: its cached entries are simply not used."""
+    if name.startswith("Record_"):
+        cls = namedtuple(name, ("unavailable",))  # noqa: PYI024
+        cls.__module__ = __name__
+        globals()[name] = cls
+        return cls
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def _module_of(rec_type: Any) -> Any:
@@ -129,36 +159,68 @@ def noise_energy(rec, h, half, k, mu, vb, vc, vk, vd, ve, xi):  # pragma: no cov
 
 @overload(noise_press)
 def _ol_press(rec, xi):
-    return _module_of(rec).mc_press
+    return _module_of(rec).press
 
 
 @overload(noise_velocity)
 def _ol_velocity(rec, v, xi, g, k, mu, at_wall, h, half, s0, s1, s2, s3):
     from .kernels import velocity_flow
     from .rng import normal
-    return _module_of(rec).mc_velocity(velocity_flow, normal)
+    return _module_of(rec).velocity(velocity_flow, normal)
 
 
 @overload(noise_advance)
 def _ol_advance(rec, xi, s0, s1, s2, s3):
     from .rng import normal
-    return _module_of(rec).mc_advance(normal)
+    return _module_of(rec).advance(normal)
 
 
 @overload(noise_energy)
 def _ol_energy(rec, h, half, k, mu, vb, vc, vk, vd, ve, xi):
-    return _module_of(rec).mc_energy
+    return _module_of(rec).energy
 
 
 # ------------------------------------------------------------------------------- walls
 _LAW_FNS: dict[str, Any] = {}
+_AT_WALL: dict[tuple[str, str], Any] = {}
 
 
 def _law_fns(name: str) -> Any:
-    """The law's restitution e(|v|), compiled once."""
+    """The law's restitution e(v, *params), compiled once."""
     if name not in _LAW_FNS:
-        _LAW_FNS[name] = jit(impact.module(name, solver=SOLVER).restitution)
+        _LAW_FNS[name] = jit(impact.law(name, solver=SOLVER).restitution)
     return _LAW_FNS[name]
+
+
+def _at_wall(name: str, prefix: str) -> Any:
+    """``e(rec, v)``: the law's restitution at speed v with its parameters read from the
+    record's fields ``<prefix>_law_<param>`` in declared order (written for the law's own
+    parameters, whatever it declares; numba compiles it into the caller)."""
+    key = (name, prefix)
+    if key not in _AT_WALL:
+        args = "".join(f", rec.{f}" for f in _law_fields(prefix, name))
+        ns: dict[str, Any] = {"e": _law_fns(name)}
+        exec(f"def at_wall(rec, v):\n    return e(v{args})\n", ns)  # noqa: S102
+        _AT_WALL[key] = ns["at_wall"]
+    return _AT_WALL[key]
+
+
+def lower_e(rec, v):  # pragma: no cover
+    raise NotImplementedError
+
+
+def upper_e(rec, v):  # pragma: no cover
+    raise NotImplementedError
+
+
+@overload(lower_e)
+def _ol_lower_e(rec, v):
+    return _at_wall(_LAWS[rec.instance_class][0], "lo")
+
+
+@overload(upper_e)
+def _ol_upper_e(rec, v):
+    return _at_wall(_LAWS[rec.instance_class][1], "up")
 
 
 @jit
@@ -194,34 +256,29 @@ def _ol_wall_drift(rec, x, v, tau, press_lo, press_up, h):
             return x + v * tau, v, 0, 0, 0.0
         return free
     if upper is None:
-        e_lo = _law_fns(lower)
-
         def low(rec, x, v, tau, press_lo, press_up, h):
             xn = x + v * tau
             if xn >= rec.lo:
                 return xn, v, 0, 0, 0.0
-            return reflect(x, v, tau, rec.lo, e_lo(-v, rec.lo_r, rec.lo_vy), press_lo,
+            return reflect(x, v, tau, rec.lo, lower_e(rec, -v), press_lo,
                            h)
         return low
-    e_up = _law_fns(upper)
     if lower is None:
         def high(rec, x, v, tau, press_lo, press_up, h):
             xn = x + v * tau
             if xn <= rec.up:
                 return xn, v, 0, 0, 0.0
-            return reflect(x, v, tau, rec.up, e_up(v, rec.up_r, rec.up_vy), press_up,
+            return reflect(x, v, tau, rec.up, upper_e(rec, v), press_up,
                            h)
         return high
-    e_lo = _law_fns(lower)
-
     def both(rec, x, v, tau, press_lo, press_up, h):
         # one impact per drift sub-step (a flight across the gap inside h/2 is not resolved)
         xn = x + v * tau
         if xn < rec.lo:
-            return reflect(x, v, tau, rec.lo, e_lo(-v, rec.lo_r, rec.lo_vy), press_lo,
+            return reflect(x, v, tau, rec.lo, lower_e(rec, -v), press_lo,
                            h)
         if xn > rec.up:
-            return reflect(x, v, tau, rec.up, e_up(v, rec.up_r, rec.up_vy), press_up,
+            return reflect(x, v, tau, rec.up, upper_e(rec, v), press_up,
                            h)
         return xn, v, 0, 0, 0.0
     return both

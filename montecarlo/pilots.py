@@ -24,7 +24,7 @@ from vifpk.montecarlo.plan import (
     SCALE_SAMPLES,
     bounds,
     fold,
-    noise_piece,
+    noise_start,
 )
 from vifpk.montecarlo.rng import block_seeds
 from vifpk.montecarlo.stepper import DUMMY_EDGES, Stepper, arrays
@@ -54,10 +54,9 @@ def starts(amplitudes: np.ndarray, phys: dict[str, Any], gen: np.random.Generato
     if fold(phys):
         x = np.abs(x)
     x = np.clip(x, *bounds(phys))  # other walls: a pilot's start inside them (burnt in)
-    xi = np.zeros_like(x)
-    sd = noise_piece(phys, "start_sd")  # None: the noise kind has no state
-    if sd is not None:
-        xi = gen.standard_normal(x.shape) * sd
+    xi = noise_start(phys, gen, x.shape)  # the kind's stationary law; None: no state
+    if xi is None:
+        xi = np.zeros_like(x)
     return np.stack([x, v, xi], axis=-1)
 
 

@@ -21,8 +21,8 @@ from typing import Any
 
 import numpy as np
 
-from vifpk.core.registry import NOISE_KINDS, one_of
 from vifpk.core.walls import Wall
+from vifpk.physics import impact
 from vifpk.physics import noise as noise_kinds
 
 from .tuning import auto_dt
@@ -68,15 +68,17 @@ def physics(system: Any, noise: Any, parametric: Any = None) -> dict[str, Any]:
     on the Python side; a switched-off effect is None (a parametric intensity 0 too).
     ``pieces.record(phys, h)`` makes the kernels' record of it. An unknown noise kind, or one
     without Monte Carlo pieces (vifpk.physics.noise), raises in one line."""
-    one_of("noise kind", noise.kind, NOISE_KINDS)
-    noise_kinds.piece(noise.kind, SOLVER, "record")  # NoPiece: one line naming kind and solver
+    noise_kinds.pieces(noise.kind, SOLVER)  # NoPiece: one line naming kind and solver
+    for w in walls(system):
+        if w is not None:
+            impact.law(w.law, solver=SOLVER)  # NoLaw: one line naming law and solver
     k, d, e = _laws(system)
     return {
         "c1": -d[0], "c2": d[1], "w0sq": k[0], "alpha": k[1],
         "khi": np.array(k[2:]) if len(k) > 2 else None,
         "dhi": np.array(d[2:]) if len(d) > 2 else None,
         "ev": np.array(e) if e else None,
-        "f": float(system.f), "D": float(noise.D),
+        "f": float(system.f),
         "mu": float(system.mu) if system.mu > 0 else None,
         **dict(zip(("lower", "upper"), walls(system), strict=True)),
         "noise": noise,
@@ -92,7 +94,7 @@ def walls(system: Any) -> tuple[Wall | None, Wall | None]:
     Newton's law and restitution ``r`` when ``barrier`` (default true)."""
     ws = getattr(system, "walls", None)
     if ws is None:
-        ws = (Wall(side="lower", at=0.0, r=float(system.r)),) \
+        ws = (Wall(side="lower", at=0.0, params=(("r", float(system.r)),)),) \
             if getattr(system, "barrier", True) else ()
     out: dict[str, Wall | None] = {"lower": None, "upper": None}
     for w in ws:
@@ -114,10 +116,19 @@ def fold(phys: dict[str, Any]) -> bool:
 
 
 def noise_piece(phys: dict[str, Any], name: str) -> Any:
-    """The scene's noise kind's Monte Carlo piece ``name`` applied to (noise, f) where it takes
-    them (start_sd: noise only)."""
-    fn = noise_kinds.piece(phys["noise"].kind, SOLVER, name)
-    return fn(phys["noise"]) if name == "start_sd" else fn(phys["noise"], phys["f"])
+    """The scene's noise kind's Monte Carlo piece ``name`` (vifpk.core.protocols.
+    MonteCarloNoise: "start_sd", "bridge", "input_power") applied to the kind's parameter
+    values (and the gain f, where it takes it: all but start_sd)."""
+    fn = getattr(noise_kinds.pieces(phys["noise"].kind, SOLVER), name)
+    values = phys["noise"].values
+    return fn(values) if name == "start_sd" else fn(values, phys["f"])
+
+
+def noise_start(phys: dict[str, Any], gen: Any, shape: Any) -> Any:
+    """``shape`` draws of the noise state from its stationary law with the numpy Generator
+    ``gen`` (the kind's ``start``), or None for a kind without state (xi = 0)."""
+    mc = noise_kinds.pieces(phys["noise"].kind, SOLVER)
+    return mc.start(phys["noise"].values, phys["f"], gen, shape)
 
 
 def step_size(dt: float | str, target: float, phys: dict[str, Any], sample_every: float,

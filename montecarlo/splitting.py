@@ -239,7 +239,7 @@ class _Original:
         ph = self.phys
         out = np.zeros((n, 5))
         SK.orbit_starts(float(A), out, words(seed, (KEY_START + 100, key), n), ph["w0sq"],
-                        ph["alpha"], ph["khi"], (fold(ph), *bounds(ph)), self.rec.xi_sd)
+                        ph["alpha"], ph["khi"], (fold(ph), *bounds(ph)), self.rec)
         return out
 
     def advance(self, q_lo: float, q_hi: float, M: int, t_max: float) -> Callable[..., None]:

@@ -374,13 +374,14 @@ def _cycles_orig(p, starts, s0, s1, s2, s3, cyc, h, B, P, entries, summary):
 
 
 @jit
-def orbit_starts(A, out, rng, w0sq, alpha, khi, walls, xi_sd):
+def orbit_starts(A, out, rng, w0sq, alpha, khi, walls, P):
     """out[p] = (x, v, xi, 0, 0) from geometry.orbit_start (phase uniform in time on the
     conservative orbit of amplitude A, on the walls' elastic orbit, xi from its stationary
-    law), with the generator words rng[p]; walls = (fold, lo, up)."""
+    law: the kind of the kernels' record P), with the generator words rng[p]; walls = (fold,
+    lo, up)."""
     fold, lo, up = walls
     for p in range(out.shape[0]):
-        x, v, xi, _s0, _s1, _s2, _s3 = orbit_start(A, w0sq, alpha, khi, fold, lo, up, xi_sd,
+        x, v, xi, _s0, _s1, _s2, _s3 = orbit_start(A, w0sq, alpha, khi, fold, lo, up, P,
                                                    rng[p, 0], rng[p, 1], rng[p, 2], rng[p, 3])
         out[p, 0] = x
         out[p, 1] = v

@@ -39,7 +39,8 @@ from vifpk.core.result import BadInput, Result, Status
 
 from .geometry import amplitudes
 from .passage import PassageSettings, check_settings, layout
-from .plan import bounds, fold, noise_piece, physics
+from .pieces import record
+from .plan import bounds, fold, physics
 
 EDGE_KEYS = {"A": "edges_A", "x1": "edges_x", "x2": "edges_v"}
 
@@ -88,10 +89,9 @@ def snapshots(system: Any, noise: Any, settings: PassageSettings, *, start: floa
     t0 = time.perf_counter()
     rng = block_seeds(st.seed, st.blocks, per)
     state = np.empty((st.blocks, per, 3))
-    xi_sd = noise_piece(phys, "start_sd") or 0.0
     flat_rng = rng.reshape(-1, 4)  # a view: the starts advance each path's own stream
     starts_loop(flat_rng, state.reshape(-1, 3), float(start), phys["w0sq"], phys["alpha"],
-                phys["khi"], (fold(phys), *bounds(phys)), xi_sd)
+                phys["khi"], (fold(phys), *bounds(phys)), record(phys, h))
     arr = arrays(rng, state, DUMMY_EDGES, ())
     never = np.iinfo(np.int64).max // 2  # a burn-in never reached: nothing is sampled
     bar = progress_bar(st.progress, total=float(st.blocks * per * max(marks[-1], 1)),

@@ -129,13 +129,28 @@ def canned_check(tiny_check, monkeypatch):
 
 
 def vary(scene: Scene, **kw: float | str | bool) -> Scene:
-    """A copy of ``scene`` with system/noise/averaging fields replaced by name."""
-    parts = {}
-    for sec in ("system", "noise", "averaging"):
+    """A copy of ``scene`` with system/noise/averaging fields replaced by name (the noise: its
+    ``kind`` and that kind's declared parameters, the others kept or defaulted; a parameter of
+    another kind only, e.g. alpha1 with kind = "white", does not apply and is dropped)."""
+    from vifpk.core import registry
+    from vifpk.core.scene import Noise
+
+    parts: dict = {}
+    used = set()
+    for sec in ("system", "averaging"):
         obj = getattr(scene, sec)
-        mine = {k: v for k, v in kw.items() if hasattr(obj, k)}
+        mine = {k: v for k, v in kw.items() if k in obj.__dict__}
+        used |= set(mine)
         parts[sec] = replace(obj, **mine)
-    unknown = set(kw) - {k for p in parts.values() for k in p.__dict__}
+    kind = kw.get("kind", scene.noise.kind)
+    declared = registry.noise_kind(kind).params
+    parts["noise"] = Noise(kind=kind, params=tuple(
+        (p.name, float(kw.get(p.name, scene.noise.values.get(p.name, p.default))))
+        for p in declared))
+    used |= {"kind", *(p.name for p in declared)}
+    from vifpk.core.sections import noise_fields
+
+    unknown = set(kw) - used - set(noise_fields())  # another kind's parameter: not this one's
     assert not unknown, unknown
     return replace(scene, **parts)
 
@@ -183,6 +198,30 @@ def pytester(pytester, monkeypatch):
                         lambda: SysModulesSnapshot(preserve=keep))
     monkeypatch.setattr(pytester, "_sys_modules_snapshot", SysModulesSnapshot(preserve=keep))
     return pytester
+
+
+@pytest.fixture
+def register_physics(monkeypatch):
+    """``add(group, name, "module:attribute")``: registers one more entry point (as another
+    distribution "someone" would, e.g. a noise kind in ``vifpk.noise_kinds``) for this test;
+    the registry is read afresh on both sides of the test."""
+    from vifpk.core import registry
+
+    orig = registry._group
+    extra: dict[str, list] = {}
+
+    def group(g):
+        entries, conflicts = orig(g)
+        return (*entries, *extra.get(g, ())), conflicts
+
+    def add(group_name: str, name: str, target: str, dist: str = "someone") -> None:
+        extra.setdefault(group_name, []).append(registry.ModelEntry(name, target, dist))
+        registry.refresh()
+
+    monkeypatch.setattr(registry, "_group", group)
+    yield add
+    monkeypatch.undo()
+    registry.refresh()
 
 
 @pytest.fixture

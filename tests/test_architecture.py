@@ -189,7 +189,7 @@ def _pink(base):
     from dataclasses import replace
     from types import SimpleNamespace
 
-    noise = SimpleNamespace(kind="pink", D=base.noise.D, alpha1=base.noise.alpha1)
+    noise = SimpleNamespace(kind="pink", params=base.noise.params, values=base.noise.values)
     return replace(base, noise=noise)
 
 
@@ -449,9 +449,9 @@ def test_no_branch_on_a_noise_kind_or_an_impact_law_name():
     no solver. Allowed: vifpk/core (the scene's defaults and the paper's own wall: Newton's
     law at x = 0) and montecarlo/reference.py (the NumPy reference of the two kinds, a test
     double)."""
-    from vifpk.core.registry import IMPACT_LAW_NAMES, NOISE_KINDS
+    from vifpk.core.registry import impact_law_names, noise_kind_names
 
-    names = {*NOISE_KINDS, *IMPACT_LAW_NAMES}
+    names = {*noise_kind_names(), *impact_law_names()}
     allowed = ("vifpk/core/", "montecarlo/reference.py")
     bad = []
     for p in _all_sources():

@@ -54,7 +54,7 @@ def run_cli(*args: str) -> subprocess.CompletedProcess[str]:
     ("body", "needle"),
     [
         ("[system]\nr = 1.2\n", "system.r = 1.2 is out of range; allowed: 0 < r <= 1"),
-        ("[noise]\nD = -1\n", "noise.D = -1.0 is out of range"),
+        ("[noise]\nD = -1\n", "noise.D = -1 is out of range"),
         ("[noise]\nD = nan\n", "noise.D = nan"),
         ("[system]\nmuu = 0.1\n", "did you mean 'mu'?"),
         ("[noise]\nkind = 'pink'\n", "noise.kind = 'pink'"),

@@ -915,7 +915,7 @@ def test_unwritable_folder_is_refused_before_any_work(err, command, tmp_path, mo
                                                       capsys, no_computation):
     import tempfile
 
-    import vifpk.harness.request.validate
+    import vifpk.harness.request.outpaths
 
     def refuse(*a, **k):
         raise OSError(err[0], err[1])
@@ -925,11 +925,11 @@ def test_unwritable_folder_is_refused_before_any_work(err, command, tmp_path, mo
     from vifpk.harness.cli.app import main
 
     before = _snapshot(tmp_path)
-    monkeypatch.setattr(vifpk.harness.request.validate.tempfile, "mkstemp", refuse)
+    monkeypatch.setattr(vifpk.harness.request.outpaths.tempfile, "mkstemp", refuse)
     try:
         code = main([*args, "--out", str(tmp_path / "o")])
     finally:
-        monkeypatch.setattr(vifpk.harness.request.validate.tempfile, "mkstemp", tempfile.mkstemp)
+        monkeypatch.setattr(vifpk.harness.request.outpaths.tempfile, "mkstemp", tempfile.mkstemp)
     out = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(out) == 1, out
     assert f"--out {tmp_path / 'o'}: cannot write in {tmp_path} ({err[1]})" in out[0]

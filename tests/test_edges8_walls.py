@@ -20,13 +20,13 @@ D = 0.005
 
 
 @pytest.mark.parametrize("walls, words", [
-    # no did-you-mean inside a wall table ("unknown key; allowed: at, r, law, v_yield"),
+    # no did-you-mean inside a wall table ("unknown key; allowed: at, law, r"),
     # while [parametric] had one; the case of a key is ignored (AT is at)
     ("[system.lower_wall]\nat = -0.6\nrr = 0.9\n", "system.lower_wall.rr: unknown key; did "
                                                     "you mean 'r'?"),
     ("[system.lower_wall]\nAT = -0.6\n", "system.lower_wall.AT: unknown key; did you mean "
                                          "'at'?"),
-    ("[system.lower_wall]\nat = -0.6\nzz = 1\n", "allowed: at, r, law, v_yield"),
+    ("[system.lower_wall]\nat = -0.6\nzz = 1\n", "allowed: at, law, r"),
     # %g rounded 1.0000001 to "1", which then read as "r = 1 is out of range"
     ("[system.lower_wall]\nat = -0.6\nr = 1.0000001\n", "system.lower_wall.r = 1.0000001 is "
                                                          "out of range; allowed: 0 < r <= 1"),

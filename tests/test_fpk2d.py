@@ -37,8 +37,8 @@ def _U(x: float) -> float:
 
 def _gibbs_coeffs(r: float = 1.0, mu: float = 0.0, walls=None):
     sysm = NS(restoring_law=K, damping_law=(D0,), velocity_law=(), mu=mu, f=1.0,
-              walls=walls if walls is not None else (Wall(side="lower", at=0.0, r=r),))
-    return fpk2d.coefficients(sysm, NS(kind="white", D=D))
+              walls=walls if walls is not None else (Wall.of("lower", 0.0, r=r),))
+    return fpk2d.coefficients(sysm, NS(kind="white", values={"D": D}))
 
 
 def _gibbs_cdf(a: np.ndarray) -> np.ndarray:
@@ -105,9 +105,9 @@ def test_the_kink_flux_is_scharfetter_gummel_without_a_jump_and_exact_with_one()
 
 
 @pytest.mark.parametrize("walls", [
-    (Wall(side="lower", at=0.0, r=0.8),),
-    (Wall(side="lower", at=-0.3, r=0.9, law="johnson", v_yield=0.2),
-     Wall(side="upper", at=0.5, r=0.7))])
+    (Wall.of("lower", 0.0, r=0.8),),
+    (Wall.of("lower", -0.3, "johnson", r=0.9, v_yield=0.2),
+     Wall.of("upper", 0.5, r=0.7))])
 def test_the_operator_conserves_mass_with_friction_and_lossy_walls(walls):
     """Every column of the operator sums to zero (the mass a flux takes from one cell it gives
     to another, the impact map included): round-off only."""
@@ -175,9 +175,9 @@ def test_gibbs_converges_at_the_declared_order_and_richardson_bounds_the_error()
 
 @pytest.mark.slow
 @pytest.mark.parametrize("walls", [
-    (Wall(side="lower", at=0.0, r=0.8),),
-    (Wall(side="lower", at=-0.3, r=0.9, law="johnson", v_yield=0.2),
-     Wall(side="upper", at=0.5, r=0.7))])
+    (Wall.of("lower", 0.0, r=0.8),),
+    (Wall.of("lower", -0.3, "johnson", r=0.9, v_yield=0.2),
+     Wall.of("upper", 0.5, r=0.7))])
 def test_the_power_balance_closes_at_the_declared_order(walls):
     """Input D f^2 = damping + friction + the impacts' (1 - e^2) v^2 / 2 at Rice's rate, on
     the discrete law with friction: the residual falls at least as 2^(ORDER - 0.3) a

@@ -23,7 +23,7 @@ W, Z, D, F = 1.3, 0.05, 0.02, 1.0
 
 def linear(D_k=0.0, D_c=0.0):
     return ExactModel(restoring=(W * W,), damping=(2 * Z * W,), mu=0.0, r=1.0, f=F,
-                      barrier=False, spectrum=Spectrum(kind="white", D=D, alpha1=1.0),
+                      barrier=False, spectrum=Spectrum.of("white", D=D),
                       noise="additive", D_k=D_k, D_c=D_c)
 
 

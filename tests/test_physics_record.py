@@ -14,6 +14,7 @@ from types import SimpleNamespace
 import pytest
 
 from tests.conftest import ROOT
+from vifpk.core.protocols import AveragingNoise, NoiseKindSpec, Param
 
 # the spellings of a kind test: ``kind ==`` / ``kind !=`` / ``kind in``, ``alpha1 is (not) None``
 KIND_TEST = re.compile(r"\bkind\s*(==|!=|in\b)|alpha1\"?\]?\s+is\s+(not\s+)?None")
@@ -36,22 +37,27 @@ def test_the_grep_catches_the_old_spellings():
         assert KIND_TEST.search(bad), bad
 
 
-def test_a_kind_without_monte_carlo_pieces_is_refused_in_one_line(monkeypatch):
+#: a kind with averaging pieces only (tests register it as another distribution would)
+HARMONIC = NoiseKindSpec(name="harmonic", summary="averaging pieces only",
+                         params=(Param(name="D", default=0.01, low=0.0, doc="intensity"),),
+                         averaging=AveragingNoise(spectral_density=lambda w, D: D + 0 * w))
+
+
+def test_a_kind_without_monte_carlo_pieces_is_refused_in_one_line(register_physics):
     import importlib
 
-    import vifpk.core.registry as reg
     import vifpk.physics.noise as N
+    from vifpk.core.result import BadInput
 
     plan = importlib.import_module("vifpk.montecarlo.plan")
-
-    monkeypatch.setattr(reg, "NOISE_KINDS", (*reg.NOISE_KINDS, "harmonic"))
-    monkeypatch.setattr(N, "NOISE_KINDS", (*reg.NOISE_KINDS,))
-    monkeypatch.setattr(plan, "NOISE_KINDS", (*reg.NOISE_KINDS,))
+    register_physics("vifpk.noise_kinds", "harmonic", "tests.test_physics_record:HARMONIC")
     system = SimpleNamespace(omega0=1.0, alpha=0.6, c1=0.025, c2=0.05, mu=0.0, r=0.9, f=1.0)
     with pytest.raises(N.NoPiece) as e:
-        plan.physics(system, SimpleNamespace(kind="harmonic", D=0.01))
+        plan.physics(system, SimpleNamespace(kind="harmonic", values={"D": 0.01}))
     msg = str(e.value)
-    assert "harmonic" in msg and "montecarlo" in msg and "\n" not in msg
+    assert isinstance(e.value, BadInput)
+    assert msg == ("noise kind 'harmonic' (from someone) has no montecarlo pieces: the "
+                   "montecarlo solver cannot take it")
 
 
 def test_the_record_is_the_kinds_and_holds_its_closed_forms():
@@ -69,9 +75,24 @@ def test_the_record_is_the_kinds_and_holds_its_closed_forms():
     # the OU update keeps the stationary variance D / alpha1: a^2 D/alpha1 + s^2 = D/alpha1
     assert rec.ou_a ** 2 * D / a1 + rec.ou_s ** 2 == pytest.approx(D / a1, rel=1e-14)
     assert rec.xi_sd == pytest.approx(math.sqrt(D / a1)) and rec.bridge is None
-    white = SimpleNamespace(kind="white", D=0.02, alpha1=1.0)
+    white = SimpleNamespace(kind="white", values={"D": 0.02})
     rec = record(physics(sc.system, white), h)
     assert type(rec) is record_class("white", "newton", None)
     # the kick's variance is 2 D f^2 h (E[W W] = 2 D delta)
     assert rec.kick ** 2 == pytest.approx(2 * 0.02 * sc.system.f ** 2 * h, rel=1e-14)
     assert rec.bridge == pytest.approx(2 * 0.02 * sc.system.f ** 2) and rec.xi_sd == 0.0
+
+
+def test_a_cached_kernel_of_a_kind_this_process_lacks_does_not_break_it():
+    """numba's cache index of a kernel pickles the record classes it was compiled for in any
+    process: one of a plugin kind since uninstalled must load (as a stand-in, never used)."""
+    import pickle
+
+    from vifpk.montecarlo import pieces
+
+    cls = pickle.loads(pickle.dumps(pieces.record_class("ou", "newton", None)))
+    assert cls is pieces.record_class("ou", "newton", None)
+    data = pickle.dumps(cls, protocol=0).replace(b"Record_ou_newton_None",
+                                                  b"Record_gone_newton_None")
+    stand_in = pickle.loads(data)
+    assert stand_in.__name__ == "Record_gone_newton_None" and stand_in not in pieces._PIECES

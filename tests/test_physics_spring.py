@@ -52,19 +52,19 @@ def test_noise_kinds_declare_their_spectra_and_refuse_what_they_lack():
 
     from vifpk.physics import noise
 
-    ou = Spectrum(kind="ou", D=0.02, alpha1=0.7)
+    ou = Spectrum.of("ou", D=0.02, alpha1=0.7)
     w = np.array([0.0, 0.5, 3.0])
     np.testing.assert_allclose(ou(w), 0.02 / (math.pi * (w**2 + 0.49)), rtol=1e-15)
     c, a2 = ou.rational_parts()
     np.testing.assert_allclose(w**2 * ou(w), c - a2 * ou(w), rtol=1e-14)
     assert not ou.flat and ou.correlation_rate() == 0.7
-    white = Spectrum(kind="white", D=0.02, alpha1=0.7)
+    white = Spectrum.of("white", D=0.02)
     assert white.flat and white.level() == 0.02 / math.pi and white.correlation_rate() is None
     np.testing.assert_array_equal(white(w), 0.02 / math.pi)
-    with pytest.raises(ValueError, match="'white' has no averaging piece 'avg_rational_parts'"):
+    with pytest.raises(ValueError, match="'white' declares no rational_parts"):
         white.rational_parts()
-    with pytest.raises(ValueError, match="'harmonic' is not registered .* the averaging solver"):
-        noise.piece("harmonic", "averaging", "spectral_density")
+    with pytest.raises(noise.NoPiece, match="noise kind must be one of .*, not 'harmonic'"):
+        noise.pieces("harmonic", "averaging")
 
 
 @pytest.mark.slow

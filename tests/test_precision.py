@@ -402,7 +402,12 @@ def test_unit_zero_is_the_fixed_run_of_the_seed(doubles):
     assert (first["value"], first["err"]) == (fixed["value"], fixed["stderr"])
     kw = {"start": 0.5, "times": (2, 6, 12, 24), "models": ("exact",), "sde": False}
     grown = vifpk.transient(str(TINY), rel_se=0.01, max_paths=128, **kw).metrics
-    fixed = vifpk.transient(str(TINY), paths=64, **kw).metrics["relaxation"]["original_system"]
+    fixed_run = vifpk.transient(str(TINY), paths=64, **kw).metrics
+    fixed = fixed_run["relaxation"]["original_system"]
     first = grown["precision"]["history"][0]
     assert grown["precision"]["paths"] == 128 and first["paths"] == 64
-    assert (first["value"], first["err"]) == (fixed["value"], fixed["err"])
+    if fixed is None:  # its interval reaches 0 (issue 45): not reported, its fit in the warning
+        said = f"its fit gives {first['value']:.4g} +/- {first['err']:.2g}"
+        assert any(said in w for w in fixed_run["warnings"]), fixed_run["warnings"]
+    else:
+        assert (first["value"], first["err"]) == (fixed["value"], fixed["err"])

@@ -29,13 +29,14 @@ def U(x):
 
 
 def model(kind="white", walls=(), **kw):
+    bandwidth = {"alpha1": 2.0} if kind == "ou" else {}  # white noise has none
     return ExactModel(restoring=K, damping=(D0,), mu=kw.pop("mu", 0.0), r=1.0, f=F,
-                      barrier=False, spectrum=Spectrum(kind=kind, D=D, alpha1=2.0),
+                      barrier=False, spectrum=Spectrum.of(kind, D=D, **bandwidth),
                       noise="additive", walls=walls, **kw)
 
 
 def both(r_lo=1.0, r_hi=1.0, **kw):
-    return (WallSpec(side="lower", at=LO, r=r_lo, **kw), WallSpec(side="upper", at=HI, r=r_hi))
+    return (WallSpec.of("lower", LO, r=r_lo, **kw), WallSpec.of("upper", HI, r=r_hi))
 
 
 @pytest.fixture(scope="module")
@@ -44,7 +45,7 @@ def paper_pair():
 
     mp = ExactModel.from_scene(load_scene("paper-base"))  # OU noise, the paper's wall
     mw = dataclasses.replace(mp, barrier=False, noise="additive", r=1.0,
-                             walls=(WallSpec(side="lower", at=0.0, r=mp.r),))
+                             walls=(WallSpec.of("lower", 0.0, r=mp.r),))
     return mp, mw
 
 
@@ -67,8 +68,8 @@ def test_a_wall_at_zero_on_the_truncated_orbit_is_the_papers_wall(paper_pair):
 
 def test_walls_out_of_reach_are_bit_for_bit_the_wall_free_model():
     free = model("ou")
-    far = model("ou", walls=(WallSpec(side="lower", at=-50.0, r=0.8),
-                             WallSpec(side="upper", at=50.0, r=0.7, law="johnson",
+    far = model("ou", walls=(WallSpec.of("lower", -50.0, r=0.8),
+                             WallSpec.of("upper", 50.0, r=0.7, law="johnson",
                                       v_yield=0.1)))
     A = np.linspace(0.0, 3.0, 13)
     for key, value in free.energy_terms(A).items():
@@ -122,8 +123,8 @@ def test_elastic_walls_phase_marginals_are_gibbs_on_the_interval(gibbs):
 @pytest.mark.parametrize("treatment", ["exact", "transformed", "compounded"])
 def test_loss_per_impact_is_the_laws(treatment):
     r, vy = 0.9, 0.5
-    walls = (WallSpec(side="lower", at=LO, r=0.8),
-             WallSpec(side="upper", at=HI, r=r, law="johnson", v_yield=vy))
+    walls = (WallSpec.of("lower", LO, r=0.8),
+             WallSpec.of("upper", HI, r=r, law="johnson", v_yield=vy))
     m = model("white", walls=walls, impact=treatment)
     A = np.array([0.3, 0.5, 0.8, 1.2, 2.0])
     E = U(A)
@@ -146,9 +147,9 @@ def test_loss_per_impact_is_the_laws(treatment):
 
 
 def test_an_unknown_impact_law_is_refused_in_one_line():
-    with pytest.raises(ValueError, match="impact law 'plastic' has no module .*: the "
+    with pytest.raises(ValueError, match="impact law must be one of .*, not 'plastic'.*: the "
                                          "averaging solver cannot take it"):
-        WallSpec(side="upper", at=1.0, r=0.9, law="plastic")
+        WallSpec(side="upper", at=1.0, law="plastic", params=(0.9,))
 
 
 @pytest.mark.slow
@@ -157,7 +158,7 @@ def test_a_lower_wall_at_zero_minus_tends_to_the_papers(paper_pair):
     ref = amplitude_density(mp, points=401, tail_mass=False)
     l1 = []
     for eps in (1e-3, 1e-4):
-        m = dataclasses.replace(mw, walls=(WallSpec(side="lower", at=-eps, r=mp.r),))
+        m = dataclasses.replace(mw, walls=(WallSpec.of("lower", -eps, r=mp.r),))
         d = amplitude_density(m, points=401, tail_mass=False)
         p = np.interp(ref.A, d.A, d.p, left=0.0, right=0.0)
         l1.append(float(np.trapezoid(np.abs(p - ref.p), ref.A)))
@@ -171,8 +172,8 @@ def test_fpk_on_the_walled_drift_and_diffusion_meets_the_closed_form():
 
     from vifpk import fpk
 
-    m = model("white", walls=(WallSpec(side="lower", at=LO, r=0.85),
-                              WallSpec(side="upper", at=HI, r=0.9, law="johnson",
+    m = model("white", walls=(WallSpec.of("lower", LO, r=0.85),
+                              WallSpec.of("upper", HI, r=0.9, law="johnson",
                                        v_yield=0.5)), mu=0.02)
     cf = amplitude_density(m, points=3201, tail_mass=False)
     res = fpk.stationary(m.drift, m.diffusion, cells=400, method="direct")
@@ -230,8 +231,8 @@ def test_scene_keys_reach_the_models_and_the_refusals_are_one_line():
 
     sc = scene_from_dict({**TWO, "noise": {"kind": "white", "D": D}})
     m = averaging.build_model(sc, "exact")
-    assert m.walls == (WallSpec(side="lower", at=LO, r=0.8),
-                       WallSpec(side="upper", at=HI, r=0.9, law="johnson", v_yield=0.5))
+    assert m.walls == (WallSpec.of("lower", LO, r=0.8),
+                       WallSpec.of("upper", HI, r=0.9, law="johnson", v_yield=0.5))
     assert (m.D_k, m.D_c, m.barrier) == (0.004, 0.01, False)
     why = model_applies("paper", sc)
     assert why is not None and "\n" not in why

@@ -16,8 +16,8 @@ TWO = {"system": {"lower_wall": {"at": -0.3, "r": 0.9},
 def test_wall_tables_parse_and_round_trip():
     s = scene_from_dict(TWO)
     lo, up = s.system.walls
-    assert lo == Wall(side="lower", at=-0.3, r=0.9)
-    assert up == Wall(side="upper", at=0.8, r=0.85, law="johnson", v_yield=0.5)
+    assert lo == Wall.of("lower", -0.3, r=0.9)
+    assert up == Wall.of("upper", 0.8, "johnson", r=0.85, v_yield=0.5)
     assert s.system.r is None and s.system.barrier is None  # the old spelling is off
     assert s.parametric.stiffness == 0.004 and s.parametric.on
     again = scene_from_dict(s.to_dict())
@@ -28,7 +28,7 @@ def test_the_paper_wall_has_one_meaning_in_both_spellings():
     base = load_scene("paper-base")
     table = base.with_values({"system.lower_wall.at": 0.0})
     assert table.system == base.system  # normalised to r, barrier
-    assert base.system.walls == (Wall(side="lower", at=0.0, r=0.96),)
+    assert base.system.walls == (Wall.of("lower", 0.0, r=0.96),)
     assert base.system.walls_problem() is None
     assert "parametric" not in base.to_dict()  # off: the scene's dictionary is unchanged
     assert scene_from_dict({"system": {"barrier": False}}).system.walls == ()
@@ -36,7 +36,7 @@ def test_the_paper_wall_has_one_meaning_in_both_spellings():
 
 def test_set_a_wall_key_on_the_paper_scene_converts_its_wall():
     s = load_scene("paper-base").with_values({"system.lower_wall.at": -0.1})
-    assert s.system.walls == (Wall(side="lower", at=-0.1, r=0.96),)
+    assert s.system.walls == (Wall.of("lower", -0.1, r=0.96),)
     assert "wall at x = 0" in s.system.paper_family_problem()
 
 
@@ -48,9 +48,12 @@ def test_set_a_wall_key_on_the_paper_scene_converts_its_wall():
     ({"lower_wall": {"at": -0.1, "r": 0.0}}, "0 < r <= 1"),
     ({"lower_wall": {"at": -0.1, "r": 1.5}}, "0 < r <= 1"),
     ({"lower_wall": {"at": -0.1, "law": "hertz"}}, "impact law must be one of"),
-    ({"lower_wall": {"at": -0.1, "law": "johnson"}}, "needs a yield speed"),
-    ({"lower_wall": {"at": -0.1, "law": "johnson", "v_yield": -1}}, "allowed: > 0"),
-    ({"lower_wall": {"at": -0.1, "v_yield": 1}}, "v_yield applies to law = \"johnson\""),
+    ({"lower_wall": {"at": -0.1, "law": "johnson"}},
+     "v_yield is missing: the johnson law needs it"),
+    ({"lower_wall": {"at": -0.1, "law": "johnson", "v_yield": -1}},
+     "v_yield = -1 is out of range; allowed: a finite number > 0"),
+    ({"lower_wall": {"at": -0.1, "v_yield": 1}},
+     "v_yield applies to law = 'johnson' only, not 'newton'"),
     ({"lower_wall": {"r": 0.9}}, "at is missing"),
     ({"lower_wall": {"at": -0.1, "rr": 0.9}}, "unknown key"),
     ({"lower_wall": {"at": float("nan")}}, "finite number"),

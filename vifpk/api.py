@@ -48,9 +48,11 @@ def solve(source: Scene | str | Path, solver: str = "averaging", *, model: str |
     """One solver on one scene (``vifpk solve``): ``Result(data, info)``.
 
     ``solver``: "averaging" (the model's closed form, or the FPK direct solve of a model with
-    none), "fpk" (``grid`` cells) or "montecarlo" (the original system; ``model`` and
-    ``grid`` do not apply). ``model``: a registered name (:func:`model_names`; default: the
-    first of the check models that applies, ``paper`` in the paper's family, else ``exact``).
+    none), "fpk" (``grid`` cells), "montecarlo" (the original system; ``model`` and
+    ``grid`` do not apply) or "original-fpk" (the original system's own FPK in (x, v), white
+    noise; ``grid``: cells per axis, default from the accuracy; docs/fpk2d.md). ``model``: a
+    registered name (:func:`model_names`; default: the first of the check models that
+    applies, ``paper`` in the paper's family, else ``exact``).
     ``options``: the Monte Carlo options by the names of the command's flags (``paths``,
     ``dt``, ``time``, ``seed``, ``floor``, ``budget``; montecarlo only) and ``set``, a list of
     ``"section.key=value"`` overrides. Input is checked as the command line checks it, with

@@ -9,7 +9,7 @@ from typing import Any
 from vifpk.harness.sweeps.errors import SweepError
 
 from vifpk.core.scene import INDEXED, MAX_TERMS, SECTIONS, WALL_TABLES
-from vifpk.core.walls import WALL_KEYS, unknown_key
+from vifpk.core.walls import unknown_key, wall_keys
 
 #: keys a sweep may not vary or set: the seed comes from the sweep's seed; a wall-clock
 #: budget would make a point depend on the machine's speed
@@ -30,17 +30,18 @@ def key_field(where: str, path: str) -> Any:
     if section not in SECTIONS or not key:
         raise SweepError(f"{where} {path!r}: unknown key; use section.key with a section in "
                          f"{sorted(SECTIONS)}")
-    known = {f.name: f for f in fields(SECTIONS[section])}
+    known = _known(section)
     table, dot, sub = key.partition(".")
     if section == "system" and dot and table in WALL_TABLES:  # system.lower_wall.r, ...
-        if sub not in WALL_KEYS:
-            hint = unknown_key("", sub, WALL_KEYS).split("; ", 1)[1]
+        keys = wall_keys()
+        if sub not in keys:
+            hint = unknown_key("", sub, keys).split("; ", 1)[1]
             hint = (hint.replace("'", f"'system.{table}.", 1) if hint.startswith("did")
-                    else "allowed: " + ", ".join(f"system.{table}.{k}" for k in WALL_KEYS))
+                    else "allowed: " + ", ".join(f"system.{table}.{k}" for k in keys))
             raise SweepError(f"{where} {path!r}: unknown key; {hint}")
         return WallKey() if sub == "law" else Coefficient()
     if section == "system" and key in WALL_TABLES:  # the table itself: its keys vary
-        raise SweepError(f"{where} {path!r}: is a table (keys {', '.join(WALL_KEYS)}), not a "
+        raise SweepError(f"{where} {path!r}: is a table (keys {', '.join(wall_keys())}), not a "
                          f"value; vary or set one of its keys, e.g. {path}.at")
     m = INDEXED.fullmatch(key) if section == "system" else None
     if m and m.group(1) in known and known[m.group(1)].type.startswith("tuple"):
@@ -56,6 +57,16 @@ def key_field(where: str, path: str) -> Any:
     if path in RESERVED:
         raise SweepError(f"{where} {path!r}: not allowed in a sweep; {RESERVED[path]}")
     return known[key]
+
+
+def _known(section: str) -> dict[str, Any]:
+    """The fields of a section by name; ``noise``: every registered kind's declared
+    parameters (and ``kind``), as harness.request.validate.fields_of gives them."""
+    if section != "noise":
+        return {f.name: f for f in fields(SECTIONS[section])}
+    from vifpk.core.sections import noise_fields
+
+    return {"kind": WallKey(), **noise_fields()}
 
 
 class Coefficient:

@@ -159,13 +159,14 @@ def make_point(base: Scene, fixed: Mapping[str, Any], *, seed: int, workflow: st
         scene = base.with_values(values)
     except SceneError as exc:
         msg = str(exc).split(": ", 1)[-1] if ": " in str(exc) else str(exc)
-        raise SweepError(fault(where, msg, params, fixed, workflow)) from None
+        raise SweepError(fault(where, msg, params, fixed, workflow,
+                               at_point=not _set_alone_fails(base, fixed))) from None
     if scene.sweep is not None:
         raise SweepError(f"{where}: scene: {scene.sweep.path} varies in the base scene; set "
                          "it in [set] or vary it in [vary]")
     if workflow in ("passage", "transient"):  # the point's own threshold, start
         bifurcation = point_options(bifurcation, params)
-    _validate_point(scene, workflow, bifurcation, where, params, fixed)
+    _validate_point(scene, workflow, bifurcation, where, params, fixed, base=base)
     scene = _named(scene, f"{base.name}[{', '.join(f'{k}={v:g}' for k, v in params)}]")
     key = point_key(params)
     sde = workflow == "check" and sde_check_at(key, first=first)
@@ -175,12 +176,13 @@ def make_point(base: Scene, fixed: Mapping[str, Any], *, seed: int, workflow: st
 
 
 def fault(where: str, msg: str, params: tuple[tuple[str, float], ...],
-          fixed: Mapping[str, Any], workflow: str) -> str:
+          fixed: Mapping[str, Any], workflow: str, *, at_point: bool = False) -> str:
     """A point's fault named after where it was written (issue 45: a [set] fault read "at the
     point system.mu = 0", a [transient] start fault named "--start"): the time workflow's
     options by their sweep-file names ("[transient] start"), and "at the point ..." only when
-    the line names a varied key; else "[set]" when it names a key set there, or nothing (the
-    base scene's own fault, met at every point)."""
+    the line names a varied key or the fault is the point's own (``at_point``: the scene with
+    [set] alone passes); else "[set]" when it names a key set there, or nothing (the base
+    scene's own fault, met at every point)."""
     import re
 
     from vifpk.harness.sweeps.timesweep import KEYS
@@ -190,7 +192,8 @@ def fault(where: str, msg: str, params: tuple[tuple[str, float], ...],
                  if m.group(1).replace("-", "_") in keys else m.group(0), msg)
     varied = [k for k, _ in params]
     named = [k for k in varied if k in msg or f"[{workflow}] {k.split('.')[-1]}" in msg]
-    if named or not varied:
+    option = f"[{workflow}] " in msg  # a time option's fault ([passage] start): not the point's
+    if named or (at_point and not option) or not varied:
         at = ", ".join(f"{k} = {v:g}" for k, v in params)
         return f"{where}: at the point {at}: {msg}" if params else f"{where}: {msg}"
     if any(k in msg for k in fixed):
@@ -198,9 +201,27 @@ def fault(where: str, msg: str, params: tuple[tuple[str, float], ...],
     return f"{where}: {msg}"
 
 
+def _set_alone_fails(base: Scene | None, fixed: Mapping[str, Any]) -> bool:
+    """Whether the base scene with [set] alone (no varied value) already fails the scene's
+    checks: then a point's fault is [set]'s, met at every point; else it is the point's own
+    (e.g. system.c2 = 0 with [set] system.c1 = 0.5: no stationary density at that point)."""
+    from vifpk.harness.request import validate
+
+    if base is None:
+        return True
+    try:
+        scene = base.with_values(dict(fixed))
+        validate.scene_magnitudes(scene)
+        validate.stationary_density(scene)
+    except BadInput:  # SceneError, validate.InputError
+        return True
+    return False
+
+
 def _validate_point(scene: Scene, workflow: str, bifurcation: Mapping[str, Any], where: str,
                     params: tuple[tuple[str, float], ...],
-                    fixed: Mapping[str, Any] = MappingProxyType({})) -> None:
+                    fixed: Mapping[str, Any] = MappingProxyType({}), *,
+                    base: Scene | None = None) -> None:
     """A point's scene checked as `vifpk check` / `solve` check theirs before any work
     (magnitudes; the Monte Carlo settings where the workflow simulates)."""
     from vifpk.harness.request import validate
@@ -229,7 +250,8 @@ def _validate_point(scene: Scene, workflow: str, bifurcation: Mapping[str, Any],
                 if key is not None:
                     _CHECKED.add(key)
     except BadInput as exc:  # SceneError, validate.InputError
-        raise SweepError(fault(where, str(exc), params, fixed, workflow)) from None
+        raise SweepError(fault(where, str(exc), params, fixed, workflow,
+                               at_point=not _set_alone_fails(base, fixed))) from None
 
 
 def _named(scene: Scene, name: str) -> Scene:
@@ -337,6 +359,10 @@ def check_point(job: Job) -> dict[str, Any]:
                              error_estimate_err=tv["error_estimate_err"],
                              p_within_tolerance=tv["p_within_tolerance"],
                              tolerance_class=tv["class"])
+        te = res.metrics["models"][m].get("truth_error")
+        if te is not None:  # against the original system's FPK (issue 46): no floor
+            models[m].update(truth_error_A=te["A"]["L1"],
+                             truth_error_A_err=te["A"]["L1_truth_err"])
         if job.sde:  # only where the averaged SDE ran (SDE_CHECK_EVERY); -1 elsewhere
             models[m]["sampling_ok"] = bool(res.metrics["models"][m]["sampling_ok"])
     # the simulation's mean amplitude from its histogram of A with an exactly rounded sum, its
@@ -351,7 +377,9 @@ def check_point(job: Job) -> dict[str, Any]:
     return {"models": models, "mean_A_simulation": mean["value"],
             "mean_A_simulation_err": mean["err"], "converged": converged,
             "extensions": conv.get("extensions", 0),
-            "flags": {**_flags(res.warnings), "warn_not_converged": not converged},
+            "flags": {**_flags(res.warnings), "warn_not_converged": not converged,
+                      **({"truth_agrees": bool(res.metrics["truth"]["agrees"])}
+                         if res.metrics["truth"].get("solver") else {})},
             "recommended_model": res.metrics["recommended_model"],
             "warnings": [w.text for w in res.warnings], "verdicts": res.verdicts,
             **_mc_cost(mc.info), **({"state": run.state} if run.keep_state else {})}

@@ -83,22 +83,25 @@ def assumption_warnings(scene: Any, closed: dict[str, Any], mc_info: dict[str, A
             f"{rate * T:.2f} of itself per period (mostly {main}), so the energy is not "
             "nearly conserved over one cycle, which averaging assumes"))
     band = (val or {}).get("band")
-    # a kind with a correlation time (its module declares avg_correlation_rate: OU, ...), not
-    # a kind named "ou": a third coloured kind is warned about too
+    # a kind with a correlation time (it declares AveragingNoise.correlation_rate: OU, ...),
+    # not a kind named "ou": a third coloured kind is warned about too
     coloured = n.kind in noise_kinds.kinds_with("averaging", "correlation_rate")
+    corr_rate = (float(noise_kinds.pieces(n.kind, "averaging").correlation_rate(**n.values))
+                 if coloured else None)
     if coloured and band is not None and min(band) < BAND_MIN:
         lo, hi = min(band), max(band)
         out.append(WarningRecord(
             "narrow_band",
-            f"narrow-band noise: bandwidth alpha1 = {n.alpha1:g} is {lo:.2g}-{hi:.2g} x "
+            f"narrow-band noise: bandwidth {corr_rate:g} (the {n.kind} noise's correlation "
+            f"rate) is {lo:.2g}-{hi:.2g} x "
             "the oscillation frequency over the bulk of p(E) (10%-90% energies), below "
             f"{BAND_MIN:g}; the noise is not wide-band against the oscillation, which the "
             "Stratonovich-Khasminskii limit requires"))
-    elif coloured and band is None and (corr_rate := float(noise_kinds.piece(
-            n.kind, "averaging", "correlation_rate")(D=n.D, alpha1=n.alpha1))) < BAND_MIN * w:
+    elif coloured and band is None and corr_rate is not None and corr_rate < BAND_MIN * w:
         out.append(WarningRecord(
             "narrow_band",
-            f"narrow-band noise: bandwidth alpha1 = {corr_rate:g} is below {BAND_MIN:g} x "
+            f"narrow-band noise: bandwidth {corr_rate:g} (the {n.kind} noise's correlation "
+            f"rate) is below {BAND_MIN:g} x "
             f"the oscillation frequency ({w:.3g}) at the mean amplitude; the noise is not "
             "wide-band against the oscillation, which the Stratonovich-Khasminskii limit "
             "requires"))
@@ -225,7 +228,7 @@ def compounded_tail(scene: Any, threshold: float) -> str | None:
         if K <= 0:
             continue
         v = math.sqrt(2.0 * K)
-        e = float(impact.law(w.law).restitution(v, w.r, w.v_yield or math.inf))
+        e = float(impact.law(w.law).restitution(v, *(val for _, val in w.params)))
         if not 0.0 < e < 1.0:
             continue
         lam = -math.log(e * e)

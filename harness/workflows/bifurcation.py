@@ -130,7 +130,7 @@ def bifurcation(scene: Any, vary: str, *, lo: float | None = None, hi: float | N
     out["fixed"] = {other: getattr(scene.system, other),
                     **{k: v for k, v in scene.system.to_dict().items()
                        if k not in (*VARIABLES, "barrier")},
-                    "D": scene.noise.D, "alpha1": scene.noise.alpha1, "noise": scene.noise.kind}
+                    **scene.noise.values, "noise": scene.noise.kind}
     claim_at = PAPER_CLAIM_FIXED[vary]
     out["paper_claim_fixed"] = claim_at
     outside = scene.system.paper_family_problem()

@@ -27,6 +27,7 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
+from vifpk.harness.door.original import original_fpk_problem, original_fpk_solution
 from vifpk.harness.door.solvers import (
     MonteCarloRun,
     averaged_sde_solution,
@@ -40,6 +41,7 @@ from vifpk.harness.workflows.assumptions import assumption_warnings
 from vifpk.harness.workflows.compare import compare, paired
 from vifpk.harness.workflows.tolerance import line as tolerance_line
 from vifpk.harness.workflows.tolerance import model_verdicts
+from vifpk.harness.workflows.truth import truth_metrics, truth_verdicts
 from vifpk.harness.workflows.verdict import (
     _evidence,
     assumptions_failing,
@@ -138,7 +140,7 @@ def sde_seed(root: int, model: str) -> int:
 def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool = True,
                 tail_mass: bool = True, models: tuple[str, ...] = CHECK_MODELS,
                 tolerance: Tolerance | None = None,
-                run: MonteCarloRun | None = None) -> CheckResult:
+                run: MonteCarloRun | None = None, truth: bool = True) -> CheckResult:
     """Run every solver on a concrete scene and compute the error decomposition.
 
     ``run``: the cost limit and checkpoint of the original system's Monte Carlo
@@ -163,6 +165,13 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
     p(A)
     <= 0.02 at 95%): each model's entry gets ``tolerance`` (its estimate with the noise
     removed, interval, P(error <= tolerance), class), and the recommendation follows it.
+
+    ``truth`` (default): where the original system's own FPK applies (white noise:
+    harness/door/original.py), each model's error is also measured against it (no sampling
+    noise; its discretisation error stated), the tolerance verdicts and the recommendation are
+    decided on it, and the Monte Carlo is its independent cross-check: where the two disagree
+    beyond the Monte Carlo's floor the run says so loudly and decides on the Monte Carlo
+    (harness/workflows/truth.py). ``truth=False``: the Monte Carlo alone.
     """
     tol = tolerance if tolerance is not None else Tolerance()
     models, absent = models_of(scene, models)
@@ -207,6 +216,11 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
         run_scene = replace(run_scene, montecarlo=replace(
             mcs, time=2 * st.time, burn_in=2 * st.burn_in, dt=st.dt, floor=0.0))
     sol["mc:original"] = mc
+    why_no_truth = original_fpk_problem(scene) if truth else "not asked (truth=False)"
+    if why_no_truth is None:
+        stages.total += 1
+        stages("FPK of the original system (the truth without sampling noise)")
+        sol["fpk2d:original"] = original_fpk_solution(scene)
     edges = mc_edges_of(mc)
     sde_extensions = {}
     for m in models if sde else ():
@@ -277,8 +291,28 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
     for m, v in tverdicts.items():
         metrics["models"][m]["tolerance"] = v
     metrics["paired"] = paired_table(closed, sol["mc:original"], models, tol)
+    fp = sol.get("fpk2d:original")
+    metrics["truth"] = truth_metrics(fp, mc, closed, models, why_no_truth)
+    if fp is not None:
+        for m in models:
+            metrics["models"][m]["truth_error"] = metrics["truth"]["models"][m]
+        if metrics["truth"]["agrees"]:  # decide on the truth; the MC's decision kept beside
+            metrics["paired_mc"] = metrics["paired"]
+            metrics["paired"] = paired_table(closed, fp, models, tol,
+                                             diff_err=metrics["truth"]["error"])
+            for m, v in truth_verdicts(metrics, tol).items():
+                metrics["models"][m]["tolerance_mc"] = metrics["models"][m].get("tolerance")
+                metrics["models"][m]["tolerance"] = v
+                tverdicts[m] = v
+        else:
+            warnings.append(WarningRecord("truth_disagrees", metrics["truth"]["words"]))
+        verdicts.append(metrics["truth"]["line"])
     stages.done()
     rec_model, rec_line = recommend(metrics, warnings, val, convergence=conv)
+    if metrics["truth"].get("agrees"):
+        rec_line += (f" -- decided against the original system's own FPK (no sampling noise; "
+                     f"its discretisation error L1(A) ~{metrics['truth']['error']:.1g}, the "
+                     "error bar of every difference above), with which the Monte Carlo agrees")
     metrics["recommended_model"] = rec_model
     metrics["recommendation"] = rec_line
     metrics["validity"] = val
@@ -308,21 +342,26 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
 
 
 def paired_table(closed: dict[str, Any], truth: Any, models: tuple[str, ...],
-                 tol: Tolerance) -> dict[str, Any]:
+                 tol: Tolerance, *, diff_err: float | None = None) -> dict[str, Any]:
     """Every pair of models compared on the SAME sample (compare.paired): the difference of
     their distances to the truth in the tolerance's metric and observable, with the error bar
     of the difference (the recommendation decides between models by it). ``truth``: a Result
     whose data holds the observable (a Monte Carlo histogram; a smooth, noise-free density
-    gives error bars 0)."""
+    gives error bars 0, or ``diff_err``: the original system's FPK's discretisation error,
+    the most by which it can move a difference of two distances to it, triangle inequality)."""
     o, k = tol.observable, tol.metric
     ref = truth.data[o]
     pairs = []
     for i, a in enumerate(models):
         for b in models[i + 1:]:
             pr = paired(closed[a].data[o], closed[b].data[o], ref, metric=k)
-            pairs.append({"a": a, "b": b, "diff": pr["diff"], "diff_err": pr["diff_err"],
+            pairs.append({"a": a, "b": b, "diff": pr["diff"],
+                          "diff_err": pr["diff_err"] if diff_err is None else diff_err,
                           "dof": pr["dof"]})
-    return {"observable": o, "metric": k, "pairs": pairs}
+    out = {"observable": o, "metric": k, "pairs": pairs}
+    if diff_err is not None:
+        out["truth"] = "original-fpk"
+    return out
 
 
 def _sde_run(scene: Any, model: str, closed: Any, edges: dict[str, np.ndarray],

@@ -47,7 +47,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from .registry import IMPACT_LAW_PARAMS
+from . import registry
 from .system import _trim
 
 KEYS = {"stiffness": "parametric.stiffness", "damping": "parametric.damping"}
@@ -117,7 +117,7 @@ def parametric_tail(system: Any, parametric: Any) -> Tail | None:
         a, p = orbit_average(0, 0.5, q, K)
         drift.append(("system.mu", -system.mu * a, p))
     for w in walls:
-        e = 0.0 if IMPACT_LAW_PARAMS.get(w.law) else w.r
+        e = _limit(w)
         if e < 1.0:
             # 2 (1 - e^2) E / T, T = 4 (q/K)^(1/q) E^(1/q) (2E)^(-1/2) B(1/q, 1/2) / q
             c = 2 * (1 - e * e) * q * math.sqrt(2.0) / (4 * (q / K) ** (1 / q)
@@ -218,8 +218,9 @@ def energy_balance(system: Any, parametric: Any = None) -> EnergyBalance:
 
     Walls on both sides (issue 37) hold x in [a, b]: x stays bounded while x' ~ A^{n+1}, so
     every damping term ~ A^{2n+2}, the period ~ A^{-(n+1)} and the impacts (1 - e^2) H / T ~
-    A^{3n+3}. A wall whose law takes a speed (registry.IMPACT_LAW_PARAMS: "johnson") loses
-    (1 - e^2) -> 1 of the energy at high impact speed even with r = 1. Parametric noises
+    A^{3n+3}. A wall whose law's e tends to a limit below 1 at high
+    impact speed (ImpactLaw.limit; "johnson": 0) loses (1 - limit^2) of the energy there even
+    with r = 1. Parametric noises
     (``parametric``: the scene's section) feed energy that grows with the amplitude
     (D_k <g(x)^2>, D_c <d(x)^2 x'^2>); they are counted as gains of their degree that never
     decide alone: at or above the top loss they make a ``tie`` (the averaged model decides),
@@ -252,7 +253,7 @@ def energy_balance(system: Any, parametric: Any = None) -> EnergyBalance:
     if system.mu > 0:
         terms.append(("system.mu", n + 1, 1))
     for w in walls:
-        if w.r < 1.0 or "v_yield" in IMPACT_LAW_PARAMS.get(w.law, ()):
+        if _limit(w) < 1.0:
             name = "system.r" if getattr(system, "r", None) is not None else (
                 f"system.{w.side}_wall")
             terms.append((name, (3 * n + 3) if bounded else 3 * n + 2, 1))
@@ -332,3 +333,15 @@ def _decided(tail: Tail, degree: int, gains: tuple[str, ...], losses: tuple[str,
     text = (f"the losses ({', '.join(losses)}) hold the parametric noise ({', '.join(gains)}) "
             f"of the same degree: {law} (kappa > 1){mean}")
     return EnergyBalance(False, False, degree, gains, losses, terms, text, tail)
+
+
+def _limit(wall: Any) -> float:
+    """The wall's restitution as |v| -> inf, as its law declares it (ImpactLaw.limit): what
+    impacts do to the energy at large amplitude (below 1: they take energy)."""
+    from .result import BadInput
+
+    law = registry.impact_law(wall.law)
+    if not callable(getattr(law, "limit", None)):
+        raise BadInput(f"impact law {wall.law!r} lacks the piece 'limit' "
+                       "(vifpk.core.protocols.ImpactLaw): its energy balance is unknown")
+    return float(law.limit(*(v for _, v in wall.params)))

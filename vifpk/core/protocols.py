@@ -18,6 +18,8 @@ vifpk tests a model's *name* to decide where it applies.
 
 from __future__ import annotations
 
+import difflib
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cache
@@ -146,3 +148,223 @@ class WorkflowSpec:
     sweep_point: Callable[[Any], dict[str, Any]] | None = None
     api: Callable[..., Any] | None = None
     assertion: Callable[..., Any] | None = None
+
+
+# ------------------------------------------------------------ noise kinds and impact laws
+def show(value: float) -> str:
+    """A number as the user wrote it: %g where that reads back as the same float and is no
+    longer than Python's shortest round-trip text, else that text (1.0000001 is not "1",
+    5e-324 not "4.94066e-324"); -0 is 0."""
+    v = float(value)
+    if v == 0.0:
+        return "0"
+    g, r = f"{v:g}", repr(v)
+    return g if float(g) == v and len(g) <= len(r) else r
+
+
+def suggest(key: str, known: tuple[str, ...] | list[str]) -> str:
+    """"did you mean 'x'?" for the nearest known key (case ignored: "AT" is "at"), else
+    "allowed: a, b, c": the hint of every unknown-key message."""
+    lower = {k.lower(): k for k in known}
+    close = difflib.get_close_matches(str(key).lower(), list(lower), n=1, cutoff=0.5)
+    return f"did you mean '{lower[close[0]]}'?" if close else "allowed: " + ", ".join(known)
+
+
+def _bound(value: float) -> str:
+    """A bound of an allowed range: ``0``, ``1``, ``0.5``."""
+    return show(value)
+
+
+@dataclass(frozen=True, kw_only=True)
+class Param:
+    """One declared parameter of a noise kind or an impact law: a real number in an interval.
+
+    ``low < value`` (``low <= value`` when ``low_closed``) and ``value <= high`` (``< high``
+    when ``high_open``); ``default`` None: the scene must give it. ``physical``: the number is
+    a physical magnitude, so the scene's magnitude rule applies to it (a non-zero value within
+    1e-100..1e100, harness.request.validate). The scene validates every kind's and law's keys
+    from these declarations alone (vifpk.core.sections, vifpk.core.walls)."""
+
+    name: str
+    doc: str
+    default: float | None = None
+    low: float = -math.inf
+    high: float = math.inf
+    low_closed: bool = False
+    high_open: bool = False
+    physical: bool = True
+
+    #: the value's type (only real numbers, for now): what a field's ``type`` says
+    type = "float"
+
+    @property
+    def allowed(self) -> str:
+        """The allowed range in words: '0 < r <= 1', 'a finite number > 0'."""
+        lo_op = "<=" if self.low_closed else "<"
+        hi_op = "<" if self.high_open else "<="
+        if math.isfinite(self.low) and math.isfinite(self.high):
+            return f"{_bound(self.low)} {lo_op} {self.name} {hi_op} {_bound(self.high)}"
+        if math.isfinite(self.low):
+            return f"a finite number {'>=' if self.low_closed else '>'} {_bound(self.low)}"
+        if math.isfinite(self.high):
+            return f"a finite number {hi_op} {_bound(self.high)}"
+        return "a finite number"
+
+    def check(self, value: Any) -> str | None:
+        """None when ``value`` is allowed, else :attr:`allowed` (the scene's Check shape)."""
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            return self.allowed
+        v = float(value)
+        ok = (math.isfinite(v) and (v >= self.low if self.low_closed else v > self.low)
+              and (v < self.high if self.high_open else v <= self.high))
+        return None if ok else self.allowed
+
+    @property
+    def metadata(self) -> dict[str, Any]:
+        """What a scene dataclass field's metadata holds (vifpk.core.checks._meta)."""
+        return {"check": self.check, "doc": self.doc}
+
+
+@dataclass(frozen=True, kw_only=True)
+class AveragingNoise:
+    """A noise kind's pieces for the averaged models (averaging/noise.py reads them). Each
+    takes the kind's parameters as keywords (``**params``, the names its ``params`` declare).
+
+    - ``spectral_density(omega, **params)`` (required): the two-sided spectral density
+      S(w) = (1/pi) int_0^inf R(t) cos(w t) dt of xi, elementwise on an array;
+    - ``flat_level(**params)``: S where S is the same at every w (white); None: not flat;
+    - ``rational_parts(**params)``: (c, a2) with w^2 S(w) = c - a2 S(w) for every w (OU);
+    - ``correlation_rate(**params)``: 1 / correlation time; None: no correlation time.
+    The optional ones are closed-form fast paths: a model that has a general path (the
+    harmonic sum of S) must agree with them."""
+
+    spectral_density: Callable[..., Any]
+    flat_level: Callable[..., float] | None = None
+    rational_parts: Callable[..., tuple[float, float]] | None = None
+    correlation_rate: Callable[..., float] | None = None
+
+
+@dataclass(frozen=True, kw_only=True)
+class MonteCarloNoise:
+    """A noise kind's pieces for the Monte Carlo (montecarlo/pieces.py compiles them; numba
+    inlines them into the kernels' loops). Every compiled piece steps ONE path's scalar state:
+    its velocity ``v``, the kind's noise state ``xi`` (one float; a kind without state leaves
+    it 0) and its generator state ``s0, s1, s2, s3`` (montecarlo/rng.py), returned updated.
+
+    Python side (run once per scene; ``params`` the kind's values by name, f the noise gain):
+
+    - ``Record``: a NamedTuple class of the step's coefficients; its field names must not
+      clash with the kernels' own (montecarlo/pieces.BASE_FIELDS, the walls' ``lo_*``/``up_*``):
+      prefix them with the kind's name;
+    - ``record(params, f, h) -> Record``: the coefficients for step h;
+    - ``start(params, f, gen, n) -> array | None``: n draws of the noise state from its
+      stationary law with the numpy Generator ``gen`` (None: no state, xi = 0 and nothing
+      drawn), for the stationary runs' starts;
+    - ``start_sd(params) -> float | None``: the standard deviation of a Gaussian stationary
+      state (None: none); the compiled orbit starts draw xi = start_sd N when it is given;
+    - ``bridge(params, f) -> float | None``: the variance rate per v^2 of the energy at the kick
+      (first passage's Brownian-bridge correction; white: 2 D f^2), None: E is C^1 in time;
+    - ``input_power(params, f) -> float | None``: the exact mean input power, if any.
+
+    Compiled (no annotations: numba matches the parameters to montecarlo/pieces.py's generic
+    functions by name; ``rec`` is the kernels' whole record, so the pieces may read ``rec.f``):
+
+    - ``press(rec, xi)``: the noise force pressing the mass onto a wall over the step;
+    - ``velocity(flow, normal)`` -> ``stage(rec, v, xi, g, k, mu, at_wall, h, half, s0, s1,
+      s2, s3) -> (v, stuck, vc, vk, vd, s0, s1, s2, s3)``: the velocity stage B of the step;
+    - ``advance(normal)`` -> ``advance(rec, xi, s0, s1, s2, s3) -> (xi, s0, s1, s2, s3)``;
+    - ``energy(rec, h, half, k, mu, vb, vc, vk, vd, ve, xi)`` -> (work of the noise, damping
+      loss, friction loss) over the stage B;
+    - ``state_start(normal, uniform)`` -> ``start(rec, s0, s1, s2, s3) -> (xi, s0, s1, s2,
+      s3)``: one draw of the state from its stationary law (a kind may need a non-Gaussian
+      start: a random phase uniform on [0, 2 pi))."""
+
+    Record: type
+    record: Callable[..., Any]
+    start: Callable[..., Any]
+    start_sd: Callable[..., float | None]
+    bridge: Callable[..., float | None]
+    input_power: Callable[..., float | None]
+    press: Callable[..., Any]
+    velocity: Callable[..., Any]
+    advance: Callable[..., Any]
+    energy: Callable[..., Any]
+    state_start: Callable[..., Any]
+
+
+@dataclass(frozen=True, kw_only=True)
+class FPK2DNoise:
+    """A noise kind's piece for the original system's own Fokker-Planck solver in (x, v)
+    (vifpk.fpk2d, issue 46): ``velocity_diffusion(params, f)``, the constant B0 of the
+    diffusion B0 d^2p/dv^2 the excitation f xi adds (white: D f^2). A kind with a state of its
+    own (OU) has none: that solver refuses it."""
+
+    velocity_diffusion: Callable[..., float]
+
+
+@runtime_checkable
+class NoiseKind(Protocol):
+    """A kind of excitation xi(t) (the scene's ``[noise] kind``), registered in the
+    ``vifpk.noise_kinds`` entry-point group (vifpk.core.registry.noise_kind). ``params``: its
+    keys in the ``[noise]`` table; ``averaging`` and ``montecarlo``: its pieces for those
+    solvers (None: that solver refuses a scene of this kind, in one line, before any work).
+    The scene's excitation is f xi(t) for every kind. Optional (read with ``getattr``, added
+    in protocol version 1 without a bump): ``fpk2d``, a :class:`FPK2DNoise`."""
+
+    name: str
+    summary: str
+    params: tuple[Param, ...]
+    averaging: AveragingNoise | None
+    montecarlo: MonteCarloNoise | None
+
+
+@dataclass(frozen=True, kw_only=True)
+class NoiseKindSpec:
+    """The plain record that satisfies :class:`NoiseKind` (docstring there)."""
+
+    name: str
+    summary: str
+    params: tuple[Param, ...]
+    averaging: AveragingNoise | None = None
+    montecarlo: MonteCarloNoise | None = None
+    fpk2d: FPK2DNoise | None = None
+
+
+@runtime_checkable
+class ImpactLaw(Protocol):
+    """An impact law of a wall (the scene's ``law`` in a wall table), registered in the
+    ``vifpk.impact_laws`` entry-point group (vifpk.core.registry.impact_law): the rebound
+    speed is e(v) times the impact speed v. ``params``: its keys in the wall table (besides
+    ``at`` and ``law``). The functions take the impact speed and the parameters positionally
+    in declared order, plain arithmetic on a float or a numpy array (numba compiles them on
+    scalars: the Monte Carlo's walls):
+
+    - ``restitution(v, *params)``: e(v), 0 <= e <= 1 (both solvers);
+    - ``energy_loss(v, *params)``: the kinetic energy one impact at speed v takes,
+      (1 - e(v)^2) v^2 / 2 (the averaged models);
+    - ``limit(*params)``: e as |v| -> inf (the scene's large-amplitude energy balance:
+      impacts remove energy at large amplitude when it is below 1);
+    - ``constant``: whether e does not depend on v. The averaged models read this declaration
+      (a constant-e wall at 0 is the paper's: its closed forms), never a parameter's value
+      or the law's name."""
+
+    name: str
+    summary: str
+    params: tuple[Param, ...]
+    constant: bool
+    restitution: Callable[..., Any]
+    energy_loss: Callable[..., Any]
+    limit: Callable[..., float]
+
+
+@dataclass(frozen=True, kw_only=True)
+class ImpactLawSpec:
+    """The plain record that satisfies :class:`ImpactLaw` (docstring there)."""
+
+    name: str
+    summary: str
+    params: tuple[Param, ...]
+    constant: bool
+    restitution: Callable[..., Any]
+    energy_loss: Callable[..., Any]
+    limit: Callable[..., float]

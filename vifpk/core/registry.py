@@ -1,4 +1,4 @@
-"""Registries: the names of solvers, noise kinds, impact laws, averaged models and workflows.
+"""Registries: solvers, noise kinds, impact laws, averaged models and workflows.
 
 Each list is written here once; every package reads it from here (a solver checks its input
 against it, the scene schema validates against it, the command line offers it).
@@ -34,23 +34,16 @@ CLOSED_FORM, ORIGINAL = "averaging", "montecarlo"
 #: The original system's own Fokker-Planck equation in (x, v) (vifpk.fpk2d, issue 46): no
 #: averaging and no sampling noise, for the scenes it has generators for (white noise).
 ORIGINAL_FPK = "original-fpk"
-#: Kinds of excitation xi(t): Ornstein-Uhlenbeck ("real") noise, Gaussian white noise.
-NOISE_KINDS = ("ou", "white")
 #: The exact averaged model's treatments of the impact term (averaging/exact.py,
-#: ``energy_terms``): not physical laws (those are IMPACT_LAW_NAMES).
-IMPACT_LAWS = ("exact", "transformed", "compounded")
-#: Physical impact laws a wall can have (vifpk.core.walls; each its module
-#: vifpk/physics/impact/<name>.py) and the wall parameters each takes beyond r: Newton's
-#: constant restitution, and Johnson's elastic-plastic restitution that falls as v^(-1/4)
-#: above a yield speed. A law that takes ``v_yield`` must have e(v) -> 0 as |v| -> inf: its
-#: impacts remove energy at large amplitude even with r = 1 (vifpk.core.energy counts them a
-#: loss, vifpk.core.walls requires the parameter), read from here, not from the law's name.
-IMPACT_LAW_PARAMS: dict[str, tuple[str, ...]] = {"newton": (), "johnson": ("v_yield",)}
-IMPACT_LAW_NAMES = tuple(IMPACT_LAW_PARAMS)
+#: ``energy_terms``; its ``impact`` option): how a wall's energy loss enters the averaged
+#: equation, not physical laws (those are the registered impact laws, :func:`impact_laws`).
+IMPACT_TREATMENTS = ("exact", "transformed", "compounded")
 
 MODEL_GROUP = "vifpk.models"
 WORKFLOW_GROUP = "vifpk.workflows"
 SOLVER_GROUP = "vifpk.solvers"
+NOISE_GROUP = "vifpk.noise_kinds"
+LAW_GROUP = "vifpk.impact_laws"
 DISTRIBUTION = "vifpk"
 
 
@@ -361,3 +354,112 @@ def refresh() -> None:
     _solver_entries.cache_clear()
     solver.cache_clear()
     _workflow_load.cache_clear()
+    _physics_load.cache_clear()
+
+
+# ------------------------------------------------------------ noise kinds and impact laws
+#: what each physics group holds: (entry-point group, protocol name, words for messages)
+_PHYSICS = {"noise kind": NOISE_GROUP, "impact law": LAW_GROUP}
+
+
+@cache
+def _physics_load(what: str) -> tuple[dict[str, tuple[Any, ModelEntry]], dict[str, str]]:
+    """(loaded, failures) of the noise kinds (``what`` "noise kind") or impact laws ("impact
+    law"): name -> (object, entry) for each registered one that loads and is a
+    vifpk.core.protocols.NoiseKind / ImpactLaw of its name with declared Params; for another
+    distribution's that does not, name -> the one line naming it (a broken plugin leaves every
+    other kind, law and command working). vifpk's own that does not load raises PluginError
+    (a bug)."""
+    from .guard import PluginError, describe, plugin_stdout, source_of
+    from .protocols import ImpactLaw, NoiseKind, Param
+
+    proto = NoiseKind if what == "noise kind" else ImpactLaw
+    loaded: dict[str, tuple[Any, ModelEntry]] = {}
+    failures: dict[str, str] = {}
+    for e in _group(_PHYSICS[what])[0]:
+        module = e.value.partition(":")[0].strip()
+        label = f"{what} {e.name!r} ({e.value}, from {e.distribution})"
+        try:
+            if e.builtin:
+                obj = e.load()
+            else:
+                with plugin_stdout():
+                    obj = e.load()
+        except (KeyboardInterrupt, GeneratorExit):
+            raise
+        except BaseException as exc:  # noqa: BLE001 - one line naming the plugin
+            text = f"{label} did not load: {describe(exc, source_of(module))}"
+            if e.builtin:
+                raise PluginError(text) from exc
+            failures[e.name] = text
+            continue
+        problem = None
+        if not isinstance(obj, proto) or obj.name != e.name:
+            problem = f"is not a vifpk.core.protocols.{proto.__name__} named {e.name!r}"
+        elif not all(isinstance(p, Param) for p in obj.params):
+            problem = "declares params that are not vifpk.core.protocols.Param"
+        elif len({p.name for p in obj.params}) != len(obj.params) or any(
+                p.name in ("kind", "at", "law") for p in obj.params):
+            problem = "declares a parameter twice, or one named kind, at or law"
+        if problem is not None:
+            if e.builtin:
+                raise PluginError(f"{label} {problem}")
+            failures[e.name] = f"{label} {problem}"
+            continue
+        loaded[e.name] = (obj, e)
+    return loaded, failures
+
+
+def noise_kind_names() -> tuple[str, ...]:
+    """The registered noise kinds that load (``vifpk.noise_kinds``): vifpk's own first, then
+    other distributions', each by name."""
+    return tuple(_physics_load("noise kind")[0])
+
+
+def impact_law_names() -> tuple[str, ...]:
+    """The registered impact laws that load (``vifpk.impact_laws``), in the same order."""
+    return tuple(_physics_load("impact law")[0])
+
+
+def physics_failures() -> dict[str, str]:
+    """Other distributions' noise kinds and impact laws that did not load: "noise kind NAME"
+    or "impact law NAME" -> the one line naming it."""
+    return {f"{what} {name}": text for what in _PHYSICS
+            for name, text in _physics_load(what)[1].items()}
+
+
+def _physics(what: str, name: Any) -> tuple[Any, ModelEntry]:
+    loaded, failures = _physics_load(what)
+    if isinstance(name, str) and name in failures:
+        raise UnknownName(failures[name])
+    if name not in loaded:
+        import difflib
+
+        close = difflib.get_close_matches(str(name), list(loaded), n=1, cutoff=0.5)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        raise UnknownName(f"{what} must be one of {tuple(loaded)}, not {name!r}{hint}")
+    return loaded[name]
+
+
+def noise_kind(name: Any) -> Any:
+    """The registered noise kind ``name`` (a vifpk.core.protocols.NoiseKind); UnknownName in
+    one line listing the registered ones (or naming the plugin that did not load)."""
+    return _physics("noise kind", name)[0]
+
+
+def impact_law(name: Any) -> Any:
+    """The registered impact law ``name`` (a vifpk.core.protocols.ImpactLaw); UnknownName as
+    for :func:`noise_kind`."""
+    return _physics("impact law", name)[0]
+
+
+def physics_entry(what: str, name: str) -> ModelEntry:
+    """The registry entry of the noise kind or impact law ``name`` (who registered it)."""
+    return _physics(what, name)[1]
+
+
+def impact_law_params() -> dict[str, tuple[str, ...]]:
+    """Each registered impact law's parameter names, in declared order (a view of the
+    registry: the laws declare them)."""
+    return {name: tuple(p.name for p in impact_law(name).params)
+            for name in impact_law_names()}

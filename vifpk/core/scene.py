@@ -28,6 +28,7 @@ from typing import Any
 from .checks import MAX_TERMS, Check, SceneError
 from .energy import EnergyBalance, energy_balance
 from .paths import INDEXED, _field_of, law_term, shared_term
+from .protocols import show
 from .result import BadInput
 from .sections import (
     AVERAGING_SIZE,
@@ -36,6 +37,11 @@ from .sections import (
     Noise,
     Observables,
     _check_harmonics,
+    noise_fields,
+    noise_from_table,
+    noise_keys,
+    noise_kind,
+    noise_value,
 )
 from .shipped import (
     find_scene,
@@ -46,15 +52,15 @@ from .shipped import (
     shipped_scenes,
 )
 from .system import ALIASES, System, _alias_formula, restoring_problem
-from .walls import WALL_KEYS, Parametric, Wall, check_walls, wall_from_table
+from .walls import Parametric, Wall, check_walls, wall_from_table, wall_keys
 
 __all__ = [
     "ALIASES", "AVERAGING_SIZE", "INDEXED", "MAX_TERMS", "SECTIONS", "SWEEPABLE",
     "WALL_TABLES", "AveragingSettings", "Check", "EnergyBalance", "MonteCarloSettings", "Noise",
     "Observables", "Parametric", "Scene", "SceneError", "Sweep", "System", "Wall",
-    "check_value", "energy_balance", "find_scene", "is_toml_file", "law_term", "load_scene",
-    "no_noise", "read_toml", "restoring_problem", "scene_from_dict", "shared_term",
-    "shipped_name", "shipped_names", "shipped_scenes",
+    "check_value", "declared_params", "energy_balance", "find_scene", "is_toml_file",
+    "law_term", "load_scene", "no_noise", "read_toml", "restoring_problem", "scene_from_dict",
+    "section_fields", "shared_term", "shipped_name", "shipped_names", "shipped_scenes",
 ]
 
 
@@ -124,6 +130,8 @@ class Scene:
                                  f"{sorted(SECTIONS)}")
             if section == "system":
                 _set_system(raw.setdefault("system", {}), path, key, value)
+            elif path == "noise.kind":
+                _set_kind(raw.setdefault("noise", {}), value, values)
             else:
                 raw.setdefault(section, {})[key] = value
         if self.sweep is not None and self.sweep.path not in values:
@@ -137,12 +145,35 @@ class Scene:
         for sec in SECTIONS:
             if sec == "parametric" and not self.parametric.on:
                 continue  # off: the paper's scenes keep their dictionary (and hash)
-            d[sec] = (self.system.to_dict() if sec == "system"
+            d[sec] = (getattr(self, sec).to_dict() if sec in ("system", "noise")
                       else dataclasses.asdict(getattr(self, sec)))
         if self.sweep is not None:
             d["sweep"] = {"field": self.sweep.path, "values": list(self.sweep.values)}
             d[self.sweep.section][self.sweep.key] = list(self.sweep.values)
         return d
+
+
+def section_fields(section: str) -> dict[str, Any]:
+    """The fields of a scene section by name (``noise``: every registered kind's declared
+    parameters, vifpk.core.sections.noise_fields)."""
+    if section == "noise":
+        return noise_fields()
+    return {f.name: f for f in fields(SECTIONS[section])}
+
+
+def declared_params(scene: Scene) -> list[tuple[str, str, Any, float]]:
+    """(section, key, Param, value) of the scene's noise kind's parameters ("noise", "D") and
+    of its wall tables' laws' ("system", "lower_wall.v_yield"), as the kind and the laws
+    declare them (vifpk.core.protocols.Param): what the magnitude rules read."""
+    from . import registry
+
+    out = [("noise", p.name, p, scene.noise.values[p.name])
+           for p in registry.noise_kind(scene.noise.kind).params]
+    if scene.system.r is None:  # wall tables (the paper's r is a system key)
+        for w in scene.system.walls:
+            out += [("system", f"{w.side}_wall.{p.name}", p, w.values[p.name])
+                    for p in registry.impact_law(w.law).params]
+    return out
 
 
 def no_noise(system: Any) -> str | None:
@@ -154,11 +185,40 @@ def no_noise(system: Any) -> str | None:
     return None
 
 
+def _set_kind(raw: dict[str, Any], kind: Any, values: Mapping[str, Any]) -> None:
+    """``noise.kind = kind`` on a raw noise table: the old kind's keys the new kind does not
+    declare go (a value the same overrides give stays, and is refused if foreign); an unknown
+    kind is left for the validation to name."""
+    try:
+        new = noise_kind("noise.kind", kind)
+    except SceneError:
+        raw["kind"] = kind
+        return
+    if raw.get("kind", "ou") != kind:
+        for key in list(raw):
+            if key != "kind" and key not in noise_keys(new) and f"noise.{key}" not in values:
+                del raw[key]
+    raw["kind"] = kind
+
+
+def _drop_foreign(wall: dict[str, Any], law: Any) -> None:
+    """A wall table switched to ``law``: the old law's parameters the new one does not
+    declare go (an unknown law is left for the validation to name)."""
+    from . import registry
+
+    try:
+        keep = {"at", "law", *(p.name for p in registry.impact_law(law).params)}
+    except registry.UnknownName:
+        return
+    for key in [k for k in wall if k not in keep]:
+        del wall[key]
+
+
 def wall_is_a_table(path: str, value: Any) -> str:
     """The one line for a wall table given a single value (``--set system.lower_wall=-0.2``,
     a sweep varying ``system.lower_wall``)."""
     example = value if isinstance(value, int | float) and not isinstance(value, bool) else "X"
-    return (f"{path} is a table (keys {', '.join(WALL_KEYS)}), not a value; set one of its "
+    return (f"{path} is a table (keys {', '.join(wall_keys())}), not a value; set one of its "
             f"keys, e.g. {path}.at={example}")
 
 
@@ -177,6 +237,8 @@ def _set_system(raw: dict[str, Any], path: str, key: str, value: Any) -> None:
                 raw["lower_wall"] = {"at": 0.0, "r": raw.pop("r", System.r)}
             raw.pop("r", None)
         wall = dict(raw.get(table) or {})
+        if sub == "law" and value != wall.get("law", "newton"):
+            _drop_foreign(wall, value)
         wall[sub] = value
         raw[table] = wall
         return
@@ -254,7 +316,16 @@ def _coerce(where: str, cls: type, name: str, value: Any) -> Any:
 
 def check_value(where: str, section: str, key: str, value: Any) -> Any:
     """One value of ``section.key`` validated as in a scene file (SceneError naming ``where``,
-    e.g. a command-line option, with the allowed range); the value as the scene stores it."""
+    e.g. a command-line option, with the allowed range); the value as the scene stores it.
+    A ``noise`` key is checked against the declaration of the first kind that has it."""
+    if section == "noise":
+        from . import registry
+
+        for name in registry.noise_kind_names():
+            param = noise_keys(registry.noise_kind(name)).get(key)
+            if param is not None:
+                return noise_value(where, param, value)
+        raise SceneError(f"{where}: noise.{key} is no registered noise kind's parameter")
     return _coerce(where, SECTIONS[section], key, value)
 
 
@@ -280,6 +351,9 @@ def scene_from_dict(raw: Mapping[str, Any], *, source: str = "<dict>") -> Scene:
         table = raw.get(sec, {})
         if not isinstance(table, Mapping):
             raise SceneError(f"{source}: [{sec}] must be a table")
+        if cls is Noise:
+            parts[sec], sweep = _noise_section(f"{source}: noise", table, sweep)
+            continue
         known = [f.name for f in fields(cls)]
         kwargs: dict[str, Any] = {}
         if cls is System:
@@ -332,6 +406,28 @@ def scene_from_dict(raw: Mapping[str, Any], *, source: str = "<dict>") -> Scene:
                  **parts)
 
 
+def _noise_section(where: str, table: Mapping[str, Any], sweep: Sweep | None
+                   ) -> tuple[Noise, Sweep | None]:
+    """The ``[noise]`` table validated from its kind's declaration (sections.noise_from_table),
+    with a list of values for one of its parameters as the scene's sweep."""
+    kind = noise_kind(f"{where}.kind", table.get("kind", "ou"))
+    keys = noise_keys(kind)
+    table = dict(table)
+    for key, value in list(table.items()):
+        if not isinstance(value, list) or key not in keys:
+            continue  # not a list, or an unknown key: noise_from_table names it
+        if sweep is not None:
+            raise SceneError(f"{where}.{key}: only one parameter may vary; "
+                             f"{sweep.path} already does")
+        if not value:
+            raise SceneError(f"{where}.{key}: the list of values is empty")
+        vals = tuple(noise_value(f"{where}.{key}[{i}]", keys[key], v)
+                     for i, v in enumerate(value))
+        sweep = Sweep(section="noise", key=key, values=vals)
+        table[key] = vals[0]
+    return noise_from_table(where, table), sweep
+
+
 def _check_wall_energy(where: str, system: System) -> None:
     """Each wall at a finite spring energy U(at) = sum_j k_(2j+1) at^(2j+2) / (2j+2): a wall
     whose energy overflows a float (at = -1e300) would fail deep in a solver (exit 3)."""
@@ -342,7 +438,7 @@ def _check_wall_energy(where: str, system: System) -> None:
         except OverflowError:
             u = math.inf
         if not math.isfinite(u):
-            raise SceneError(f"{where}.{w.side}_wall.at = {w.at:g}: the spring's energy U(at) "
+            raise SceneError(f"{where}.{w.side}_wall.at = {show(w.at)}: the spring's energy U(at) "
                              "overflows; allowed: a position of finite energy (a wall that "
                              "far is no wall: leave its table out)")
 

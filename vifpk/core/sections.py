@@ -7,6 +7,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
 from typing import Any
 
+from . import registry
 from .checks import (
     SceneError,
     _auto_or,
@@ -16,20 +17,109 @@ from .checks import (
     _int_between,
     _meta,
     _nonneg,
-    _one_of,
     _positive,
     _tail,
 )
-from .registry import NOISE_KINDS
+from .protocols import show, suggest
+
+
+def noise_kind(where: str, name: Any) -> Any:
+    """The registered noise kind ``name`` (vifpk.core.protocols.NoiseKind), or SceneError
+    naming ``where`` ("file: noise.kind") with the registered kinds and a did-you-mean."""
+    try:
+        return registry.noise_kind(name)
+    except registry.UnknownName as e:
+        raise SceneError(f"{where} = {name!r}: {e}") from None
+
+
+def _defaults(kind: str) -> tuple[tuple[str, float], ...]:
+    return tuple((p.name, float(p.default)) for p in registry.noise_kind(kind).params
+                 if p.default is not None)
 
 
 @dataclass(frozen=True, kw_only=True)
 class Noise:
-    """Excitation xi(t): OU ("real") noise with bandwidth alpha1, or Gaussian white noise."""
+    """Excitation xi(t) (the scene's ``[noise]``): a registered ``kind``
+    (vifpk.core.registry.noise_kind) and its declared parameters' values, (name, value) in
+    the kind's declared order (OU: D, alpha1; white: D). A parameter reads as an attribute
+    (``noise.D``); :attr:`values` has them by name."""
 
-    kind: str = field(default="ou", metadata=_meta(_one_of(*NOISE_KINDS), "noise model"))
-    D: float = field(default=0.01, metadata=_meta(_positive, "intensity: E[W W] = 2 D delta"))
-    alpha1: float = field(default=2.0, metadata=_meta(_positive, "OU bandwidth"))
+    kind: str = "ou"
+    params: tuple[tuple[str, float], ...] = ()
+
+    def __post_init__(self) -> None:
+        if not self.params:
+            object.__setattr__(self, "params", _defaults(self.kind))
+
+    @property
+    def values(self) -> dict[str, float]:
+        """The kind's parameters by name."""
+        return dict(self.params)
+
+    def __getattr__(self, name: str) -> float:
+        if name.startswith("__") or name in ("kind", "params"):
+            raise AttributeError(name)
+        for key, value in self.__dict__.get("params", ()):
+            if key == name:
+                return value
+        raise AttributeError(f"noise kind {self.__dict__.get('kind')!r} has no parameter "
+                             f"{name!r}")
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"kind": self.kind, **self.values}
+
+
+def noise_keys(kind: Any) -> dict[str, Any]:
+    """The keys of ``[noise]`` for ``kind`` (its declared Params by name), after ``kind``."""
+    return {p.name: p for p in kind.params}
+
+
+def noise_fields() -> dict[str, Any]:
+    """Every registered kind's declared parameters by name (vifpk.core.protocols.Param: what
+    a dataclass field's ``metadata`` and ``type`` say), the first kind's where two declare one
+    name: the keys ``[noise]`` may have in some kind."""
+    out: dict[str, Any] = {}
+    for name in registry.noise_kind_names():
+        for p in registry.noise_kind(name).params:
+            out.setdefault(p.name, p)
+    return out
+
+
+def noise_value(where: str, param: Any, value: Any) -> float:
+    """One value of a kind's parameter, checked against its declaration (SceneError naming
+    ``where`` with the allowed range)."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise SceneError(f"{where} = {value!r} must be {param.allowed}")
+    if param.check(value) is not None:
+        raise SceneError(f"{where} = {show(float(value))} is out of range; allowed: "
+                         f"{param.allowed}")
+    return float(value)
+
+
+def noise_from_table(where: str, table: Mapping[str, Any]) -> Noise:
+    """A validated Noise from ``[noise]`` (``where``: "file: noise"); every key of the kind
+    is validated from its declaration alone (a plugin's kind as vifpk's own): an unknown key
+    names the kind's keys (did-you-mean), a missing one without default is named, each value
+    in its declared range."""
+    kind = noise_kind(f"{where}.kind", table.get("kind", "ou"))
+    keys = noise_keys(kind)
+    values = []
+    for key in table:
+        if key != "kind" and key not in keys:
+            others = [k for k in registry.noise_kind_names()
+                      if key in noise_keys(registry.noise_kind(k))]
+            hint = (f"it belongs to kind = {' | '.join(repr(k) for k in others)}, not "
+                    f"{kind.name!r}" if others else suggest(key, ["kind", *keys]))
+            raise SceneError(f"{where}.{key}: unknown key for kind = {kind.name!r}; {hint}")
+    for name, p in keys.items():
+        if name in table:
+            values.append((name, noise_value(f"{where}.{name}", p, table[name])))
+        elif p.default is None:
+            raise SceneError(f"{where}.{name} is missing: the {kind.name} noise needs it "
+                             f"({p.doc}); allowed: {p.allowed}")
+        else:
+            values.append((name, float(p.default)))
+    return Noise(kind=kind.name, params=tuple(values))
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -98,7 +98,9 @@ class System:
         """Every wall, lower first: the tables, or the paper's wall at x = 0 (``barrier`` with
         restitution ``r``, Newton's law), or none."""
         if self.r is not None:
-            return (Wall(side="lower", at=0.0, r=self.r),) if self.barrier else ()
+            if not self.barrier:
+                return ()
+            return (Wall(side="lower", at=0.0, params=(("r", self.r),)),)
         return tuple(w for w in (self.lower_wall, self.upper_wall) if w is not None)
 
     def walls_problem(self) -> str | None:

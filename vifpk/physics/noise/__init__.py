@@ -1,86 +1,83 @@
-"""Noise kinds: one module each (``ou.py``, ``white.py``), and the registry.
+"""Noise kinds: declared objects (vifpk.core.protocols.NoiseKind), one module each (``ou.py``,
+``white.py``), registered by entry point (``vifpk.noise_kinds``, vifpk.core.registry) as
+another package's kind is; and the one check of a kind's pieces a solver needs.
 
-A kind's module declares, for the Monte Carlo (solver "montecarlo"), names prefixed ``mc_``:
+A solver asks :func:`pieces` for a kind's pieces: the kind's ``averaging``
+(vifpk.core.protocols.AveragingNoise) or ``montecarlo`` (MonteCarloNoise) record, checked at
+first use for every piece that solver requires; a kind without them raises :class:`NoPiece`
+(a BadInput: exit 2 on the command line) in one line naming the kind and the solver, before
+any work. Nothing here looks a piece up by a name prefix or decides by a kind's name.
 
-- ``MCRecord``: the NamedTuple of the step's coefficients (montecarlo appends its fields, named
-  with the kind's prefix, to the kernels' physics record, whose class then selects the kind's
-  compiled pieces when a kernel is specialised; the pieces' ``rec`` is that whole record, so
-  they may read its ``f``);
-- ``mc_record(noise, f, h)``: the coefficients for excitation amplitude f and step h (written
-  once);
-- ``mc_start_sd(noise)``: the standard deviation of the noise state's stationary law (None: no
-  state);
-- ``mc_bridge(noise, f)``: None, or the variance rate per v^2 of the energy at the kick (the
-  Brownian-bridge crossing correction of first passage: white noise's 2 D f^2);
-- ``mc_input_power(noise, f)``: None, or the exact mean power the noise puts in (white: f^2 D);
-- (the compiled pieces take no annotations: numba matches their parameters to the generic
-  functions of montecarlo/pieces.py by name)
-- ``mc_press(rec, xi)``: the noise force pressing the mass onto a wall over the step (minus the
-  force held on it);
-- ``mc_velocity(flow, normal)`` -> the velocity stage B of the step (see montecarlo/kernels.py);
-- ``mc_advance(normal)`` -> the noise state's update after the step;
-- ``mc_energy(rec, h, half, k, mu, vb, vc, vk, vd, ve, xi)``: (work of the noise, damping loss,
-  friction loss) over the stage B.
-
-For the averaged models (solver "averaging"), names prefixed ``avg_`` (averaging/noise.py):
-``avg_spectral_density(omega, D=, alpha1=)`` (two-sided S(w)); either ``avg_flat_level`` (a
-white spectrum: S the same at every w) or ``avg_rational_parts`` (c, a2 with
-w^2 S = c - a2 S, the OU identity); ``avg_correlation_rate`` (1 / correlation time), if any.
-For the original system's Fokker-Planck solver (solver "fpk2d", issue 46), names prefixed
-``fp_``: ``fp_velocity_diffusion(noise, f)``, the constant B0 of the diffusion B0 d^2p/dv^2
-the excitation adds (white: D f^2); a kind with a state of its own (OU) has none.
 The parametric white noises (``parametric.py``) are no kind of the excitation: the averaged
 models import that module directly.
-
-``piece(kind, solver, name)`` returns one of them or raises ``NoPiece`` in one line.
 """
 
 from __future__ import annotations
 
-from importlib import import_module
-from types import ModuleType
+from dataclasses import fields
 from typing import Any
 
-from vifpk.core.registry import NOISE_KINDS
+from vifpk.core import registry
+from vifpk.core.protocols import AveragingNoise, FPK2DNoise, MonteCarloNoise
+from vifpk.core.result import BadInput
 
-SOLVER_PREFIX = {"montecarlo": "mc_", "averaging": "avg_", "fpk2d": "fp_"}
+#: the record each solver reads of a kind, and the pieces of it that solver cannot do without
+SOLVERS: dict[str, tuple[str, type, tuple[str, ...]]] = {
+    "averaging": ("averaging", AveragingNoise, ("spectral_density",)),
+    "montecarlo": ("montecarlo", MonteCarloNoise,
+                   tuple(f.name for f in fields(MonteCarloNoise))),
+    "fpk2d": ("fpk2d", FPK2DNoise, ("velocity_diffusion",)),
+}
 
 
-class NoPiece(ValueError):
-    """A noise kind without the piece a solver needs. One line."""
+class NoPiece(BadInput):
+    """A noise kind without the pieces a solver needs (or not registered). One line."""
 
 
-def module(kind: str) -> ModuleType:
-    """The module of a registered noise kind (vifpk.physics.noise.<kind>)."""
-    if kind not in NOISE_KINDS:
-        raise NoPiece(f"noise kind {kind!r} is not registered (known: {', '.join(NOISE_KINDS)})")
+def kind(name: str) -> Any:
+    """The registered noise kind ``name`` (NoPiece in one line when there is none)."""
     try:
-        return import_module(f"vifpk.physics.noise.{kind}")
-    except ModuleNotFoundError:
-        raise NoPiece(f"noise kind {kind!r} has no module vifpk.physics.noise.{kind}") from None
+        return registry.noise_kind(name)
+    except registry.UnknownName as e:
+        raise NoPiece(str(e)) from None
 
 
-def piece(kind: str, solver: str, name: str) -> Any:
-    """The piece ``name`` (e.g. "record") of noise kind ``kind`` for ``solver``."""
-    attr = SOLVER_PREFIX.get(solver, "") + name if name != "MCRecord" else name
-    try:
-        got = getattr(module(kind), attr, None)
-    except NoPiece as e:
-        raise NoPiece(f"{e}: the {solver} solver cannot take it") from None
+def _label(name: str) -> str:
+    e = registry.physics_entry("noise kind", name)
+    return f"noise kind {name!r}" + ("" if e.builtin else f" (from {e.distribution})")
+
+
+def _pieces(name: str, solver: str) -> Any:
+    attr, cls, required = SOLVERS[solver]
+    got = getattr(kind(name), attr, None)
     if got is None:
-        raise NoPiece(f"noise kind {kind!r} has no {solver} piece {attr!r}: the {solver} "
-                      "solver cannot take it")
+        raise NoPiece(f"{_label(name)} has no {solver} pieces: the {solver} solver cannot "
+                      "take it")
+    missing = [p for p in required if not callable(getattr(got, p, None))]
+    if missing:
+        raise NoPiece(f"{_label(name)} lacks the {solver} piece {missing[0]!r} "
+                      f"(vifpk.core.protocols.{cls.__name__}): the {solver} solver cannot "
+                      "take it")
     return got
 
 
-def kinds_with(solver: str, name: str) -> tuple[str, ...]:
-    """The registered kinds that have the piece (the Monte Carlo registers their kernels)."""
-    attr = SOLVER_PREFIX.get(solver, "") + name if name != "MCRecord" else name
+def pieces(name: str, solver: str) -> Any:
+    """The kind's pieces for ``solver`` ("averaging", "montecarlo" or "fpk2d"), checked; NoPiece
+    naming kind and solver when it has none or lacks a required one."""
+    if solver not in SOLVERS:
+        raise ValueError(f"solver must be one of {tuple(SOLVERS)}, not {solver!r}")
+    return _pieces(name, solver)
+
+
+def kinds_with(solver: str, piece: str | None = None) -> tuple[str, ...]:
+    """The registered kinds that have ``solver``'s pieces (and the optional ``piece``)."""
     out = []
-    for kind in NOISE_KINDS:
+    for name in registry.noise_kind_names():
         try:
-            if getattr(module(kind), attr, None) is not None:
-                out.append(kind)
+            got = pieces(name, solver)
         except NoPiece:
             continue
+        if piece is None or getattr(got, piece, None) is not None:
+            out.append(name)
     return tuple(out)
+

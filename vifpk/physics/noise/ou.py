@@ -9,6 +9,9 @@ Averaged models: two-sided spectral density S(w) = (1/pi) int_0^inf R(t) cos(w t
 = D / (pi (w^2 + alpha1^2)) (Liu et al., Symmetry 2019, eq. 18), with the rational identity
 w^2 S(w) = c - a2 S(w), c = D / pi, a2 = alpha1^2, that lets a harmonic sum of w^2 S be split
 into a Parseval sum and a fast-decaying remainder (averaging/exact.py).
+
+``KIND`` is the declared object (vifpk.core.protocols.NoiseKind), registered in vifpk's
+pyproject.toml (``vifpk.noise_kinds``) as any other package's kind would be.
 """
 
 from __future__ import annotations
@@ -18,7 +21,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-KIND = "ou"
+from vifpk.core.protocols import AveragingNoise, MonteCarloNoise, NoiseKindSpec, Param
 
 
 class MCRecord(NamedTuple):
@@ -26,21 +29,34 @@ class MCRecord(NamedTuple):
     ou_s: float  # sqrt(D / alpha1 (1 - a^2))
 
 
-def mc_record(noise: Any, f: float, h: float) -> MCRecord:
-    a = math.exp(-float(noise.alpha1) * h)
-    return MCRecord(a, math.sqrt(float(noise.D) / float(noise.alpha1) * (1.0 - a * a)))
+def mc_record(p: Any, f: float, h: float) -> MCRecord:
+    a = math.exp(-float(p["alpha1"]) * h)
+    return MCRecord(a, math.sqrt(float(p["D"]) / float(p["alpha1"]) * (1.0 - a * a)))
 
 
-def mc_start_sd(noise: Any) -> float:
-    return math.sqrt(float(noise.D) / float(noise.alpha1))
+def mc_start_sd(p: Any) -> float:
+    return math.sqrt(float(p["D"]) / float(p["alpha1"]))
 
 
-def mc_bridge(noise: Any, f: float) -> None:
+def mc_start(p: Any, f: float, gen: Any, n: Any) -> np.ndarray:
+    """N(0, D / alpha1) draws (numpy's standard normal times the standard deviation)."""
+    return gen.standard_normal(n) * mc_start_sd(p)
+
+
+def mc_state_start(normal: Any, uniform: Any) -> Any:
+    """xi = sqrt(D / alpha1) N (the record's ``xi_sd``)."""
+    def start(rec, s0, s1, s2, s3):
+        z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
+        return rec.xi_sd * z, s0, s1, s2, s3
+    return start
+
+
+def mc_bridge(p: Any, f: float) -> None:
     """None: the energy is C^1 in time between impacts (no bridge correction)."""
     return None
 
 
-def mc_input_power(noise: Any, f: float) -> None:
+def mc_input_power(p: Any, f: float) -> None:
     """None: no exact mean input power in general (it depends on the response)."""
     return None
 
@@ -88,3 +104,19 @@ def avg_rational_parts(*, D: float, alpha1: float) -> tuple[float, float]:
 def avg_correlation_rate(*, D: float, alpha1: float) -> float:
     """1 / (correlation time) = alpha1: R(t) = (D / alpha1) exp(-alpha1 |t|)."""
     return alpha1
+
+
+KIND = NoiseKindSpec(
+    name="ou",
+    summary="Ornstein-Uhlenbeck (real) noise: xi' = -alpha1 xi + W, E[W W] = 2 D delta",
+    params=(Param(name="D", default=0.01, low=0.0, doc="intensity: E[W W] = 2 D delta"),
+            Param(name="alpha1", default=2.0, low=0.0, doc="OU bandwidth")),
+    averaging=AveragingNoise(spectral_density=avg_spectral_density,
+                             rational_parts=avg_rational_parts,
+                             correlation_rate=avg_correlation_rate),
+    montecarlo=MonteCarloNoise(Record=MCRecord, record=mc_record, start=mc_start,
+                               start_sd=mc_start_sd, bridge=mc_bridge,
+                               input_power=mc_input_power, press=mc_press,
+                               velocity=mc_velocity, advance=mc_advance, energy=mc_energy,
+                               state_start=mc_state_start),
+)

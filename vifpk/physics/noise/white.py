@@ -6,7 +6,10 @@ v += f sqrt(2 D h) N, B(h/2) (Strang). The kick's mean power is exactly f^2 D.
 Averaged models: the flat two-sided spectral density S(w) = D / pi for every w, so a harmonic
 sum of |G_n|^2 S over an orbit is S times Parseval's sum (averaging/exact.py:
 sigma_E^2 = 2 pi f^2 S <v^2> = 2 D f^2 <v^2>). No rational split (w^2 S grows without bound):
-no ``avg_rational_parts``; no correlation time: no ``avg_correlation_rate``.
+no ``rational_parts``; no correlation time: no ``correlation_rate``.
+
+``KIND`` is the declared object (vifpk.core.protocols.NoiseKind), registered in vifpk's
+pyproject.toml (``vifpk.noise_kinds``).
 """
 
 from __future__ import annotations
@@ -16,30 +19,48 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-KIND = "white"
+from vifpk.core.protocols import (
+    AveragingNoise,
+    FPK2DNoise,
+    MonteCarloNoise,
+    NoiseKindSpec,
+    Param,
+)
 
 
 class MCRecord(NamedTuple):
     kick: float  # f sqrt(2 D h)
 
 
-def mc_record(noise: Any, f: float, h: float) -> MCRecord:
-    return MCRecord(f * math.sqrt(2.0 * float(noise.D) * h))
+def mc_record(p: Any, f: float, h: float) -> MCRecord:
+    return MCRecord(f * math.sqrt(2.0 * float(p["D"]) * h))
 
 
-def mc_start_sd(noise: Any) -> None:
+def mc_start_sd(p: Any) -> None:
     """None: no noise state."""
     return None
 
 
-def mc_bridge(noise: Any, f: float) -> float:
+def mc_start(p: Any, f: float, gen: Any, n: Any) -> None:
+    """None: no noise state (xi = 0, nothing drawn)."""
+    return None
+
+
+def mc_state_start(normal: Any, uniform: Any) -> Any:
+    """No state: xi = 0, no random number."""
+    def start(rec, s0, s1, s2, s3):
+        return 0.0, s0, s1, s2, s3
+    return start
+
+
+def mc_bridge(p: Any, f: float) -> float:
     """2 D f^2: the energy's variance rate per v^2 at the kick."""
-    return 2.0 * float(noise.D) * f ** 2
+    return 2.0 * float(p["D"]) * f ** 2
 
 
-def mc_input_power(noise: Any, f: float) -> float:
+def mc_input_power(p: Any, f: float) -> float:
     """f^2 D: the mean power of the kicks (Ito: E[d(v^2/2)] = f^2 D dt)."""
-    return f ** 2 * float(noise.D)
+    return f ** 2 * float(p["D"])
 
 
 def mc_press(rec, xi):
@@ -77,18 +98,32 @@ def mc_energy(rec, h, half, k, mu, vb, vc, vk, vd, ve, xi):
 
 
 # --------------------------------------------------- the original system's FPK (fpk2d)
-def fp_velocity_diffusion(noise: Any, f: float) -> float:
+def fp_velocity_diffusion(p: Any, f: float) -> float:
     """D f^2: the diffusion coefficient of the force f xi in v (the FPK term
     D f^2 d^2p/dv^2, E[xi(t) xi(t+s)] = 2 D delta(s))."""
-    return float(noise.D) * f ** 2
+    return float(p["D"]) * f ** 2
 
 
 # ------------------------------------------------------------------ averaged models
-def avg_flat_level(*, D: float, alpha1: float) -> float:
-    """S(w) = D / pi, the same at every frequency (``alpha1`` unused)."""
+def avg_flat_level(*, D: float) -> float:
+    """S(w) = D / pi, the same at every frequency."""
     return D / math.pi
 
 
-def avg_spectral_density(omega: Any, *, D: float, alpha1: float) -> np.ndarray:
+def avg_spectral_density(omega: Any, *, D: float) -> np.ndarray:
     """S(w) = D / pi, elementwise."""
-    return np.full_like(np.asarray(omega, dtype=float), avg_flat_level(D=D, alpha1=alpha1))
+    return np.full_like(np.asarray(omega, dtype=float), avg_flat_level(D=D))
+
+
+KIND = NoiseKindSpec(
+    name="white",
+    summary="Gaussian white noise: xi = W, E[W W] = 2 D delta",
+    params=(Param(name="D", default=0.01, low=0.0, doc="intensity: E[W W] = 2 D delta"),),
+    averaging=AveragingNoise(spectral_density=avg_spectral_density, flat_level=avg_flat_level),
+    montecarlo=MonteCarloNoise(Record=MCRecord, record=mc_record, start=mc_start,
+                               start_sd=mc_start_sd, bridge=mc_bridge,
+                               input_power=mc_input_power, press=mc_press,
+                               velocity=mc_velocity, advance=mc_advance, energy=mc_energy,
+                               state_start=mc_state_start),
+    fpk2d=FPK2DNoise(velocity_diffusion=fp_velocity_diffusion),
+)
