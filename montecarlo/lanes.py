@@ -7,8 +7,8 @@ at a time, in two loops over the lanes (``lane_step``):
    ``kernels.strang_step`` where it meets no event, with the same arithmetic: the drifts where
    no wall is crossed (``smooth_drift``), the velocity stage where v keeps its sign and k h is
    in exp_phi's series (``smooth_flow``), the ziggurat where it accepts at once
-   (``fast_normal``). The noise kind's own pieces make the step: its ``mc_velocity`` and
-   ``mc_advance`` factories, which step ONE path's scalar state and generator, are compiled
+   (``fast_normal``). The noise kind's own pieces make the step: its ``velocity`` and
+   ``advance`` factories, which step ONE path's scalar state and generator, are compiled
    here with ``smooth_flow`` and ``fast_normal`` in place of ``velocity_flow`` and
    ``rng.normal`` (``velocity_smooth``, ``advance_smooth``). Where an event would happen, these
    return NaN, which the rest of the step carries to the lane's state;
