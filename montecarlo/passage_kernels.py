@@ -7,9 +7,11 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from vifpk.montecarlo._jit import jit, over_blocks
 from vifpk.montecarlo.geometry import energy, orbit_start
-from vifpk.montecarlo.kernels import damping_k, spring_g, strang_step
+from vifpk.montecarlo.kernels import damping_k, spring_g
+from vifpk.montecarlo.lanes import L_V, L_VC, L_X, L_XI, LANES, lane_step, scratch
 from vifpk.montecarlo.rng import uniform
 
 BRIDGE_FLOOR = 1e-14  # below this bridge-crossing probability no uniform is drawn
@@ -61,96 +63,189 @@ def run_passage(arrs, count, run, h, B, P):
     over_blocks(_passage_block, arrs[1].shape[0], arrs, count, run, h, B, P)
 
 
+@jit(inline="always")
+def _take(L, Li, F, S, j, arrs, b, p):
+    """Path p of block b into lane j (its state, generator, phase, steps; a fresh chunk)."""
+    rng, state, init, phase, steps, tries, fpt = arrs
+    F[L_X, j], F[L_V, j], F[L_XI, j] = state[b, p, 0], state[b, p, 1], state[b, p, 2]
+    for w in range(4):
+        S[w, j] = rng[b, p, w]
+    Li[_PATH, j], Li[_PH, j], Li[_N, j] = p, phase[b, p], steps[b, p]
+    Li[_I, j], Li[_K, j] = 0, 0
+
+
+@jit(inline="always")
+def _give(L, Li, F, S, j, arrs, b):
+    """The inverse of ``_take``: lane j's path back to the block's arrays."""
+    rng, state, init, phase, steps, tries, fpt = arrs
+    p = Li[_PATH, j]
+    state[b, p, 0], state[b, p, 1], state[b, p, 2] = F[L_X, j], F[L_V, j], F[L_XI, j]
+    for w in range(4):
+        rng[b, p, w] = S[w, j]
+    steps[b, p], phase[b, p] = Li[_N, j], Li[_PH, j]
+
+
+@jit(inline="always")
+def _move(L, Li, F, S, src, dst):
+    """Lane src's path and its chunk into lane dst (with the velocity at the kick of its last
+    step: the bridge test of a lane moved before its post-step reads it)."""
+    for r in (L_X, L_V, L_XI, L_VC):
+        F[r, dst] = F[r, src]
+    for w in range(4):
+        S[w, dst] = S[w, src]
+    for r in range(L.shape[0]):
+        L[r, dst] = L[r, src]
+    for r in range(Li.shape[0]):
+        Li[r, dst] = Li[r, src]
+
+
+# rows of the passage's own lane scratch: float (energy at the chunk's last step, level, the
+# x before the step), int (path index, phase, steps, steps into the chunk, chunk length, budget
+# left)
+_E, _LEVEL, _XB = range(3)
+_PATH, _PH, _N, _I, _K, _LEFT = range(6)
+
+
 @jit(nogil=True)
 def _passage_block(first, every, arrs, count, run, h, B, P):
-    """run_passage for the ``count[b]`` paths of each block b = first, first + every, ..., one
-    path after the other (``_jit.over_blocks`` runs one such call per thread)."""
+    """run_passage for the ``count[b]`` paths of each block b = first, first + every, ...
+    (``_jit.over_blocks`` runs one such call per thread), LANES unfinished paths of a block at
+    a time in lanes (montecarlo/lanes.py): each lane runs its own path's state machine, and a
+    lane whose path ends (crossed, censored, refused, diverged, or out of budget for this call)
+    takes the block's next unfinished path. Each path's arithmetic, draws and state machine are
+    those of the path advanced alone (chunks of k = min(budget left, steps to the phase's end)
+    steps, the finiteness test at each chunk's end), so results do not depend on the lanes."""
     rng, state, init, phase, steps, tries, fpt = arrs
     budget, n_max, n_burn, horizon, Ec, a_start, a_burn, max_tries = run
     w0sq, alpha, khi = P.w0sq, P.alpha, P.khi
     half = 0.5 * h
+    F, S = scratch()
+    L = np.zeros((3, LANES))
+    Li = np.zeros((6, LANES), dtype=np.int64)
     for b in range(first, state.shape[0], every):  # this thread's blocks
         n_paths = count[b]
-        for p in range(n_paths):
-            ph = phase[b, p]
-            if ph >= CROSSED:
-                continue
-            x, v, xi = state[b, p, 0], state[b, p, 1], state[b, p, 2]
-            s0, s1, s2, s3 = rng[b, p, 0], rng[b, p, 1], rng[b, p, 2], rng[b, p, 3]
-            n = steps[b, p]
-            left = budget
-            while left > 0:
-                if ph == NEW:
-                    amp = a_burn if n_burn > 0 else a_start
-                    x, v, xi, s0, s1, s2, s3 = orbit_start(amp, w0sq, alpha, khi, P.fold, P.x_lo,
-                                                           P.x_hi, P, s0, s1, s2, s3)
-                    n = 0
-                    ph = BURN if n_burn > 0 else RUN
-                    if ph == RUN:
-                        init[b, p, 0], init[b, p, 1], init[b, p, 2] = x, v, xi
-                    continue
-                # BURN and RUN share one loop (one copy of the inlined step: half the compile
-                # time): a burn-in tests against Ec = inf, which never fires (nor the bridge)
-                burning = ph == BURN
-                level = math.inf if burning else Ec
-                E = energy(x, v, w0sq, alpha, khi)
-                k = min(left, (n_burn if burning else n_max) - n)
-                hit = -1.0
-                i = 0
-                while i < k:
-                    x0 = x
-                    x, v, xi, s0, s1, s2, s3, o = strang_step(x, v, xi, s0, s1, s2, s3, h, half, P)
-                    E1 = energy(x, v, w0sq, alpha, khi)
-                    i += 1
-                    if E1 >= level:
-                        hit = (level - E) / (E1 - E)
+        nxt = 0
+        m = 0
+        while True:
+            # fill the free lanes with the block's next unfinished paths
+            while m < LANES and nxt < n_paths:
+                if phase[b, nxt] < CROSSED:
+                    _take(L, Li, F, S, m, arrs, b, nxt)
+                    Li[_LEFT, m] = budget
+                    m += 1
+                nxt += 1
+            if m == 0:
+                break
+            # each lane to the start of a chunk of steps (or its path out: budget spent)
+            j = 0
+            while j < m:
+                p = Li[_PATH, j]
+                done = False
+                while Li[_I, j] == 0 and Li[_K, j] == 0:  # no chunk under way
+                    if Li[_LEFT, j] <= 0:
+                        done = True
                         break
-                    # o[8]: the velocity at the kick
-                    hb, s0, s1, s2, s3 = bridge_hit(B, level, E, E1, x0, o[8], h, P, s0, s1, s2,
-                                                    s3)
+                    ph = Li[_PH, j]
+                    if ph == NEW:
+                        amp = a_burn if n_burn > 0 else a_start
+                        x, v, xi, S[0, j], S[1, j], S[2, j], S[3, j] = orbit_start(
+                            amp, w0sq, alpha, khi, P.fold, P.x_lo, P.x_hi, P, S[0, j],
+                            S[1, j], S[2, j], S[3, j])
+                        F[L_X, j], F[L_V, j], F[L_XI, j] = x, v, xi
+                        Li[_N, j] = 0
+                        Li[_PH, j] = BURN if n_burn > 0 else RUN
+                        if Li[_PH, j] == RUN:
+                            init[b, p, 0], init[b, p, 1], init[b, p, 2] = x, v, xi
+                        continue
+                    burning = ph == BURN
+                    L[_LEVEL, j] = math.inf if burning else Ec
+                    L[_E, j] = energy(F[L_X, j], F[L_V, j], w0sq, alpha, khi)
+                    Li[_K, j] = min(Li[_LEFT, j], (n_burn if burning else n_max) - Li[_N, j])
+                if done:
+                    _give(L, Li, F, S, j, arrs, b)
+                    m -= 1
+                    if j < m:
+                        _move(L, Li, F, S, m, j)
+                    continue  # lane j now holds another path (or none)
+                j += 1
+            if m == 0:
+                continue
+            for j in range(m):
+                L[_XB, j] = F[L_X, j]
+            lane_step(m, F, S, h, half, P, False, False)
+            j = 0
+            while j < m:
+                p = Li[_PATH, j]
+                x, v = F[L_X, j], F[L_V, j]
+                E, level = L[_E, j], L[_LEVEL, j]
+                E1 = energy(x, v, w0sq, alpha, khi)
+                i = Li[_I, j] + 1
+                k = Li[_K, j]
+                hit = -1.0
+                if E1 >= level:
+                    hit = (level - E) / (E1 - E)
+                else:
+                    hb, S[0, j], S[1, j], S[2, j], S[3, j] = bridge_hit(
+                        B, level, E, E1, L[_XB, j], F[L_VC, j], h, P, S[0, j], S[1, j],
+                        S[2, j], S[3, j])
                     if hb >= 0.0:
                         hit = hb
-                        break
-                    E = E1
+                    else:
+                        L[_E, j] = E1
+                if hit < 0.0 and i < k:  # the chunk goes on
+                    Li[_I, j] = i
+                    j += 1
+                    continue
+                # the chunk's end: the path alone's bookkeeping after its inner loop
+                Li[_I, j], Li[_K, j] = 0, 0
+                n = Li[_N, j]
+                finished = True
                 if not (math.isfinite(x) and math.isfinite(v)):
-                    ph = DIVERGED
-                    n += i
-                    break
-                if burning:
+                    Li[_PH, j] = DIVERGED
+                    Li[_N, j] = n + i
+                elif Li[_PH, j] == BURN:
                     n += k
-                    left -= k
+                    Li[_LEFT, j] -= k
+                    finished = False
                     if n == n_burn:
-                        if E < Ec:
-                            ph = RUN
+                        if L[_E, j] < Ec:  # E after the chunk (a hit keeps the one before)
+                            Li[_PH, j] = RUN
                             n = 0
-                            init[b, p, 0], init[b, p, 1], init[b, p, 2] = x, v, xi
+                            init[b, p, 0], init[b, p, 1], init[b, p, 2] = x, v, F[L_XI, j]
                         else:
                             tries[b, p] += 1
                             if tries[b, p] > max_tries:
-                                ph = REFUSED
-                                break
-                            ph = NEW
-                    continue
-                if hit >= 0.0:
+                                Li[_PH, j] = REFUSED
+                                finished = True
+                            else:
+                                Li[_PH, j] = NEW
+                    Li[_N, j] = n
+                elif hit >= 0.0:
                     t = (n + i - 1 + hit) * h
-                    n += i
+                    Li[_N, j] = n + i
                     if t <= horizon:
-                        ph = CROSSED
+                        Li[_PH, j] = CROSSED
                         fpt[b, p] = t
                     else:
-                        ph = CENSORED
+                        Li[_PH, j] = CENSORED
                         fpt[b, p] = horizon
-                    break
-                n += k
-                left -= k
-                if n >= n_max:
-                    ph = CENSORED
-                    fpt[b, p] = horizon
-                    break
-            state[b, p, 0], state[b, p, 1], state[b, p, 2] = x, v, xi
-            rng[b, p, 0], rng[b, p, 1], rng[b, p, 2], rng[b, p, 3] = s0, s1, s2, s3
-            steps[b, p] = n
-            phase[b, p] = ph
+                else:
+                    n += k
+                    Li[_LEFT, j] -= k
+                    Li[_N, j] = n
+                    finished = n >= n_max
+                    if finished:
+                        Li[_PH, j] = CENSORED
+                        fpt[b, p] = horizon
+                if finished:
+                    _give(L, Li, F, S, j, arrs, b)
+                    m -= 1
+                    if j < m:
+                        _move(L, Li, F, S, m, j)
+                        # lane j now holds the last lane's path, not yet post-stepped: it
+                        # must be, so go on with j (not j + 1)
+                    continue
+                j += 1
 
 
 @jit

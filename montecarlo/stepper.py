@@ -1,5 +1,5 @@
 """The stationary run's arrays and how they are advanced: every path's generator and state,
-the histograms, moments, events and energy sums the kernel (kernels.run_paths) fills, and the
+the histograms, moments, events and energy sums the kernel (lanes.run_paths) fills, and the
 ``Stepper`` that calls the kernel in short calls (Ctrl-C is seen between them), checks the
 state for finiteness after each and drives the progress bar.
 
@@ -15,6 +15,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from vifpk.montecarlo import kernels as K
 from vifpk.montecarlo.failures import diverged
+from vifpk.montecarlo.lanes import run_paths
 from vifpk.montecarlo.pieces import record
 from vifpk.montecarlo.timing import Laps
 
@@ -73,7 +74,7 @@ def path_sums(per_path: np.ndarray, max_columns: tuple[int, ...] = ()) -> np.nda
 
 def kernel_call(arr: Arrays, phys: dict[str, Any], h: float, n_steps: int, step0: int,
                 n_burn: int, stride: int, spw: int, windows: np.ndarray | None) -> None:
-    """One call of kernels.run_paths: ``n_steps`` steps from step ``step0`` (the burn-in's
+    """One call of lanes.run_paths: ``n_steps`` steps from step ``step0`` (the burn-in's
     ``n_burn`` steps sample nothing; then every ``stride``-th step is a sample, ``spw``
     samples a certificate window)."""
     hi = arr.hist
@@ -92,7 +93,7 @@ def kernel_call(arr: Arrays, phys: dict[str, Any], h: float, n_steps: int, step0
     out = (given(hi["A"], none1), given(hi["x"], none1), given(hi["v"], none1),
            given(hi["joint"], none2), given(arr.moments, per_path), arr.events, arr.stuck,
            given(arr.energy, per_path), given(windows, per_path))
-    K.run_paths(arr.rng, arr.state, n_steps, step0, n_burn, stride, h, record(phys, h), bins,
+    run_paths(arr.rng, arr.state, n_steps, step0, n_burn, stride, h, record(phys, h), bins,
                 out, spw)
     arr.events[:, K.EV_STUCK] = arr.stuck.sum(axis=1)  # per path first: order-independent
 

@@ -4,7 +4,7 @@ given times from an ensemble started at amplitude A0.
 The start is first_passage's (geometry.orbit_start: energy U(A0), a phase uniform in time
 along that conservative orbit, folded onto x >= 0 with the barrier, xi from its stationary
 law), drawn from each path's own generator (rng.block_seeds). The paths are then
-advanced by the kernel of the stationary run (kernels.run_paths, nothing sampled), from one
+advanced by the kernel of the stationary run (lanes.run_paths, nothing sampled), from one
 snapshot time to the next, in calls of about CHUNK_SECONDS (stepper.Stepper: the progress
 bar, Ctrl-C between calls, a non-finite state raises SimulationDiverged in one line). Each
 time must be a whole number of steps, t_j = k_j dt (BadInput otherwise: a snapshot is never moved).

@@ -36,9 +36,6 @@ PACKAGES = ("vifpk", "averaging", "fpk", "fpk2d", "montecarlo", "harness")
 #: numba-compiled functions (test_kernel_exemptions_are_numba_kernels). Only these: a module
 #: with a kernel or two in it (passage_kernels.py, rng.py, geometry.py) is not exempt.
 KERNEL_MODULES: dict[str, str] = {
-    "montecarlo/kernels.py": "the original system's Strang step and run_paths (471 lines): "
-    "one step inlined into every kernel that advances a path, its pieces chosen when the "
-    "kernel is specialised; cutting it across modules only spreads one function's branches",
     "montecarlo/splitting_kernels.py": "the splitting's kernels of both dynamics (389 lines): "
     "the direct cycles and the AMS advance share the inlined step and the bridge test",
 }

@@ -19,6 +19,7 @@ from scipy import stats
 from scipy.integrate import quad
 from vifpk.montecarlo import kernels as K
 from vifpk.montecarlo.averaged_sde import simulate_sde
+from vifpk.montecarlo.lanes import run_paths
 from vifpk.montecarlo.rng import fill_normals, states_from_seed
 
 from tests.conftest import vary
@@ -224,47 +225,71 @@ def test_same_seed_same_histograms_for_any_thread_count(base):
     assert not np.array_equal(one.data["A"]["p"], other.data["A"]["p"])
 
 
-def _kernel_run(base, per, cuts, seed=5):
-    """The kernel alone (montecarlo.kernels.run_paths) on 2 blocks of ``per`` paths, started at
+def _kernel_run(base, per, cuts, seed=5, energy=True, phys=None):
+    """The kernel alone (montecarlo.lanes.run_paths) on 2 blocks of ``per`` paths, started at
     the same per-path states and generator words whatever ``per``, the steps cut into calls
-    at ``cuts``: (state, moments, energy, windows, stuck time) per path."""
+    at ``cuts``: (state, moments, energy, windows, stuck time) per path. ``energy``: with the
+    energy balance (every lane stepped by kernels.strang_step), else without (the smooth step
+    on every lane, the lanes that met an event stepped again: montecarlo/lanes.py)."""
     from vifpk.montecarlo.pieces import record
     from vifpk.montecarlo.plan import physics
     from vifpk.montecarlo.rng import block_seeds
 
-    phys = physics(base.system, base.noise)
+    phys = phys or physics(base.system, base.noise)
     blocks, h, n_burn, stride, spw = 2, 0.02, 50, 5, 10
-    rng = block_seeds(seed, blocks, 8)[:, :per].copy()
-    start = np.random.default_rng(seed).uniform(0.05, 0.8, (blocks, 8, 3))
+    rng = block_seeds(seed, blocks, 40)[:, :per].copy()
+    start = np.random.default_rng(seed).uniform(0.05, 0.8, (blocks, 40, 3))
     start[..., 2] *= 0.1
     state = start[:, :per].copy()
-    mom, en = np.zeros((blocks, per, K.N_MOMENTS)), np.zeros((blocks, per, K.N_ENERGY))
+    mom = np.zeros((blocks, per, K.N_MOMENTS))
+    en = np.zeros((blocks, per, K.N_ENERGY if energy else 0))
     win, stuck = np.zeros((blocks, per, 4)), np.zeros((blocks, per))
     events = np.zeros((blocks, K.N_EVENTS))
     hists = [np.zeros((blocks, 20)) for _ in range(3)]
     edges = [0, *cuts, 600]
     for a, b in zip(edges[:-1], edges[1:], strict=True):
-        K.run_paths(rng, state, b - a, a, n_burn, stride, h, record(phys, h),
-                    (0.0, 5.0, -2.0, 5.0, -2.0, 5.0),
-                    (hists[0], hists[1], hists[2], np.zeros((blocks, 0, 0)), mom, events, stuck,
-                     en, win), spw)
-    return state, mom, en, win, stuck, events
+        run_paths(rng, state, b - a, a, n_burn, stride, h, record(phys, h),
+                  (0.0, 5.0, -2.0, 5.0, -2.0, 5.0),
+                  (hists[0], hists[1], hists[2], np.zeros((blocks, 0, 0)), mom, events, stuck,
+                   en, win), spw)
+    return state, mom, en, win, stuck, events, rng
 
 
 def test_each_path_is_the_same_in_any_group_of_lanes_and_any_cut_into_calls(base):
-    """The kernel advances four paths of a block together (kernels.LANES; the last group may
-    be short, its missing lanes throwaway copies): a path's arithmetic must not depend on the
+    """The kernel advances LANES = 32 paths of a block together (montecarlo/lanes.py; the
+    last group runs as many lanes as it has paths): a path's arithmetic must not depend on the
     group it runs in nor on where the run is cut into calls. Identity, bit for bit: the first
-    five paths of a block of eight against a block of five (one full group and a group of one)
-    and of three (a short group), each cut differently; the event counts add up exactly."""
-    full = _kernel_run(base, 8, [])
-    for per, cuts in ((5, [77, 300]), (3, [1, 2, 599]), (8, [250])):
+    paths of a block of forty against a block of 33 (one full group and a group of one), of
+    five (a short group) and of forty cut elsewhere; the event counts add up exactly."""
+    full = _kernel_run(base, 40, [])
+    for per, cuts in ((33, [77, 300]), (5, [1, 2, 599]), (40, [250])):
         part = _kernel_run(base, per, cuts)
         for got, want in zip(part[:5], full[:5], strict=True):
             assert np.array_equal(got, want[:, :per])
-        # throwaway lanes are not counted: the path-steps after the burn-in, per block
+        # only the paths there are are counted: the path-steps after the burn-in, per block
         assert part[5][:, K.EV_TIME].tolist() == [per * 550] * 2
     assert np.all(full[3] > 0)  # every path's certificate windows got samples
+
+
+@pytest.mark.parametrize("name", ["hard/mu-large", "hard/white"])
+def test_the_smooth_step_on_every_lane_is_the_strang_step(name):
+    """Without the energy balance the lane kernel steps every lane by the smooth step and
+    steps the lanes that met an event again (montecarlo/lanes.py); with it, every lane by
+    kernels.strang_step. Both must give the same bits: states, generator words, moments,
+    windows, time at rest and event counts, on a scene with impacts and sticking (mu-large)
+    and under white noise (a kick inside the velocity stage)."""
+    from vifpk.montecarlo.plan import physics
+
+    from vifpk.core.scene import load_scene
+
+    sc = load_scene(f"scenes/{name}.toml")
+    phys = physics(sc.system, sc.noise)
+    smooth = _kernel_run(sc, 40, [300], energy=False, phys=phys)
+    full = _kernel_run(sc, 40, [300], energy=True, phys=phys)
+    for i in (0, 1, 3, 4, 5, 6):
+        assert np.array_equal(smooth[i], full[i]), i
+    assert full[5][:, K.EV_IMPACTS].min() > 0  # events were met
+    assert full[4].max() > 0 or name == "hard/white"
 
 
 def fitted_order(dts, bias):

@@ -315,3 +315,48 @@ def test_paths_not_a_multiple_of_blocks_finish(base):
     res = first_passage(base.system, base.noise, settings(paths=40, blocks=32, horizon=5.0),
                         threshold=1.05, start=1.0)
     assert res.data["fpt"]["time"].shape == (40,)
+
+
+@pytest.mark.parametrize("name", [
+    pytest.param("paper-base", marks=pytest.mark.xdist_group("passage-paper-base")),
+    pytest.param("hard/white", marks=pytest.mark.xdist_group("passage-white"))])
+def test_a_path_is_the_same_in_any_lane_and_any_budget(name):
+    """The first-passage kernel runs LANES = 32 paths of a block in lanes and refills a lane
+    whose path ended with the block's next one (montecarlo/passage_kernels.py): a path's
+    result must not depend on that. 70 paths in one block (lanes refilled, budgets of 37
+    steps a call) against the same 70 generators as 70 blocks of one path (one lane each,
+    one call): fpt, phase, steps, tries, the state where the clock started and where the
+    path ended, and its generator words, bit for bit; burn-ins from a stationary start (with
+    restarts), crossings and censored or refused paths all occur."""
+    from vifpk.montecarlo.passage_kernels import run_passage
+    from vifpk.montecarlo.pieces import record
+    from vifpk.montecarlo.plan import physics
+    from vifpk.montecarlo.rng import block_seeds
+
+    from vifpk.core.scene import load_scene
+
+    sc = load_scene(f"scenes/{name}.toml")
+    phys = physics(sc.system, sc.noise)
+    h, n = 0.02, 70
+    rec = record(phys, h)
+    B = (rec.bridge, rec.pk, rec.pc)
+    Ec = 0.5 * 0.35 ** 2 + 0.15 * 0.35 ** 4  # U(0.35), w0 = 1, alpha = 0.6
+    run = (0, 3000, 400, 60.0, Ec, 0.0, 0.2, 3)  # budget set below, n_max, n_burn, ...
+    words = block_seeds(11, 1, n)
+
+    def go(blocks, per, budget):
+        ints = [np.zeros((blocks, per), np.int64) for _ in range(3)]  # phase, steps, tries
+        a = [words.reshape(blocks, per, 4).copy(), np.zeros((blocks, per, 3)),
+             np.zeros((blocks, per, 3)), *ints, np.zeros((blocks, per))]
+        count = np.full(blocks, per, np.int64)
+        while np.any(a[3] < P.CROSSED):
+            run_passage(tuple(a), count, (budget, *run[1:]), h, B, rec)
+        return [x.reshape((n, *x.shape[2:])) for x in a]
+
+    lanes = go(1, n, 37)
+    alone = go(n, 1, 10 ** 6)
+    for got, want in zip(lanes, alone, strict=True):
+        assert np.array_equal(got, want)
+    assert np.sum(lanes[3] == P.CROSSED) > 5  # and paths that ended otherwise:
+    assert np.sum(np.isin(lanes[3], (P.CENSORED, P.REFUSED))) > 0
+    assert np.sum(lanes[5]) > 0  # some burn-ins ended above the threshold: restarts

@@ -1,0 +1,300 @@
+"""Time to a noise floor of 0.005 in L1 of p(A): vifpk's Monte Carlo against an independent
+RK4 simulation of the original system at dt = 0.01 (issue 44, item 5), CPU seconds.
+
+    NUMBA_NUM_THREADS=1 python benchmarks/bench_rk4_floor.py [--before PYTHON] [--rounds 3]
+        # -> benchmarks/results/rk4_floor.json
+
+THE REFERENCE (``rk4_block``, written here, sharing no code with vifpk's kernels): the classical
+fourth-order Runge-Kutta method on (x, v) of
+
+    x'' + d(x) x' + g(x) + mu sgn(x') = f xi(t),   a <= x <= b,   x'(+) = -r x'(-) at a wall,
+
+with the OU noise xi advanced exactly at the step's ends (xi <- e^{-alpha1 dt} xi + sd N) and
+taken linear in between (RK4 of the random ODE between the grid times), and EVENT LOCATION at
+the walls: a step that ends beyond a wall is cut at the crossing, found by bisection on the
+step's cubic Hermite interpolant of x (from x, v at both ends), the velocity there reflected,
+v -> -r v, and the rest of the step integrated again from the wall (up to 8 impacts a step). A
+rebound slower than 1e-9 (an impact cascade, Zeno) leaves the mass resting on the wall while the
+net force presses it there. Paths: 32 blocks x 32, started at rest on x = 0.3, each block from
+its own numpy Generator (SeedSequence(seed).spawn), burned in for the time vifpk's own run used,
+then sampled every 0.5 time units into vifpk's run's bins of p(A), in chunks of 250 time units
+until the L1 noise floor sum sqrt(2/pi) se_i w_i (block means, as montecarlo/summary.py) is
+<= 0.005. The amplitude: U(A) = v^2/2 + U(x), U = w0^2 x^2/2 + alpha x^4/4 (closed form).
+
+vifpk: ``montecarlo.simulate`` with the scene's settings, floor 0.005 and dt "auto" (what
+``vifpk solve SCENE --solver montecarlo --floor 0.005 --dt auto`` runs), one thread, warm
+numba cache; its seconds include its pilots, burn-in, certificate and step check (imports and
+the report are not: fixed costs, issue 44 item 3). Each side's run is a fresh process; rounds
+alternate (before, after, RK4), and the medians' ratios are reported. Accuracy: L1 between
+the RK4 p(A) and vifpk's, beside the two floors in quadrature (they must agree within it).
+
+Scenes: paper-base, and paper-base between two walls (benchmarks/two-wall.toml: the upper wall
+at x = 0.45, r = 0.9, inside the range of A, so both walls are hit).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import math
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+SCENES = {"paper-base": "paper-base", "two-wall": str(ROOT / "benchmarks" / "two-wall.toml")}
+FLOOR = 0.005
+DT_RK4 = 0.01
+
+
+def _rk4_kernels():
+    import numba
+
+    @numba.njit(error_model="numpy")
+    def acc(x, v, xi, c):
+        c1, c2, w0sq, alpha, mu, f = c[0], c[1], c[2], c[3], c[4], c[5]
+        fr = 0.0
+        if v > 0.0:
+            fr = mu
+        elif v < 0.0:
+            fr = -mu
+        return -(c2 * x * x - c1) * v - (w0sq + alpha * x * x) * x - fr + f * xi
+
+    @numba.njit(error_model="numpy")
+    def rk4(x, v, xi0, xi1, tau, c):
+        xim = 0.5 * (xi0 + xi1)
+        k1x, k1v = v, acc(x, v, xi0, c)
+        k2x, k2v = v + 0.5 * tau * k1v, acc(x + 0.5 * tau * k1x, v + 0.5 * tau * k1v, xim, c)
+        k3x, k3v = v + 0.5 * tau * k2v, acc(x + 0.5 * tau * k2x, v + 0.5 * tau * k2v, xim, c)
+        k4x, k4v = v + tau * k3v, acc(x + tau * k3x, v + tau * k3v, xi1, c)
+        return (x + tau / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x),
+                v + tau / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v))
+
+    @numba.njit(error_model="numpy")
+    def hermite(x0, v0, x1, v1, tau, s):
+        """x and x' at the fraction s of the step from the cubic Hermite interpolant."""
+        h00, h10 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s
+        h01, h11 = -2 * s**3 + 3 * s**2, s**3 - s**2
+        d00, d10 = (6 * s**2 - 6 * s) / tau, 3 * s**2 - 4 * s + 1
+        d01, d11 = (-6 * s**2 + 6 * s) / tau, 3 * s**2 - 2 * s
+        return (h00 * x0 + h10 * tau * v0 + h01 * x1 + h11 * tau * v1,
+                d00 * x0 + d10 * v0 + d01 * x1 + d11 * v1)
+
+    @numba.njit(error_model="numpy")
+    def step(x, v, xi0, xi1, h, c, lo, hi, r):
+        """One RK4 step of h with event location at the walls lo < hi (+-inf: none)."""
+        t = 0.0
+        for _ in range(8):
+            tau = h - t
+            if tau <= 0.0:
+                break
+            xa = xi0 + (xi1 - xi0) * t / h
+            resting = (x == lo and v == 0.0) or (x == hi and v == 0.0)
+            if resting:  # on a wall: held while the net force presses it there
+                F = acc(x, 0.0, xa, c)
+                if (x == lo and F <= 0.0) or (x == hi and F >= 0.0):
+                    return x, 0.0
+            xn, vn = rk4(x, v, xa, xi1, tau, c)
+            if lo <= xn <= hi:
+                return xn, vn
+            wall = lo if xn < lo else hi
+            a_, b_ = 0.0, 1.0
+            for _ in range(50):  # the crossing on the Hermite interpolant
+                m = 0.5 * (a_ + b_)
+                xm, _vm = hermite(x, v, xn, vn, tau, m)
+                if (xm - wall) * (x - wall) > 0.0:
+                    a_ = m
+                else:
+                    b_ = m
+            _xm, vh = hermite(x, v, xn, vn, tau, b_)
+            t += b_ * tau
+            x, v = wall, -r * vh
+            if abs(v) < 1e-9:
+                v = 0.0
+        return x, v
+
+    @numba.njit(error_model="numpy", nogil=True)
+    def block(state, xi_state, normals, n_steps, burn, stride, h, c, ou, walls, a_lo, a_inv,
+              hist):
+        """Advance the block's paths n_steps (normals[p, n]: the OU innovations), sampling
+        A every stride steps after ``burn``; returns the samples taken."""
+        ou_a, ou_s = ou
+        lo, hi, r = walls
+        w0sq, alpha = c[2], c[3]
+        samples = 0
+        for p in range(state.shape[0]):
+            x, v, xi = state[p, 0], state[p, 1], xi_state[p]
+            for n in range(n_steps):
+                xi1 = ou_a * xi + ou_s * normals[p, n]
+                x, v = step(x, v, xi, xi1, h, c, lo, hi, r)
+                xi = xi1
+                if n >= burn and (n - burn + 1) % stride == 0:
+                    E = 0.5 * v * v + 0.5 * w0sq * x * x + 0.25 * alpha * x ** 4
+                    # U(A) = E: A^2 = (-w0^2 + sqrt(w0^4 + 4 alpha E)) / alpha
+                    A = math.sqrt((-w0sq + math.sqrt(w0sq * w0sq + 4.0 * alpha * E)) / alpha)
+                    i = int(math.floor((A - a_lo) * a_inv))
+                    if 0 <= i < hist.shape[0]:
+                        hist[i] += 1.0
+                    samples += 1
+            state[p, 0], state[p, 1], xi_state[p] = x, v, xi
+        return samples
+    return block
+
+
+def _coefficients(scene):
+    """The scene's numbers (read through vifpk's physics layer: numbers only, no numerics)."""
+    from vifpk.montecarlo.plan import physics
+    ph = physics(scene.system, scene.noise)
+    nz = scene.noise
+    c = np.array([ph["c1"], ph["c2"], ph["w0sq"], ph["alpha"], ph["mu"] or 0.0, ph["f"]])
+    a = math.exp(-nz.alpha1 * DT_RK4)
+    ou = (a, math.sqrt(nz.D / nz.alpha1 * (1 - a * a)))
+    lo, up = ph["lower"], ph["upper"]
+    rs = {w.r for w in (lo, up) if w is not None}
+    assert len(rs) == 1 and ph["khi"] is None and ph["dhi"] is None and ph["ev"] is None
+    return c, ou, (lo.at if lo else -math.inf, up.at if up else math.inf, rs.pop())
+
+
+def _load(name):
+    from vifpk.core.scene import load_scene
+    return load_scene(SCENES[name])
+
+
+def worker_vifpk(name: str) -> dict:
+    import numba
+
+    from vifpk import montecarlo
+    numba.set_num_threads(1)
+    scene = _load(name)
+    st = montecarlo.Settings(**{**dataclasses.asdict(scene.montecarlo), "dt": "auto",
+                                "floor": FLOOR, "threads": 1},
+                             observables=("A",), progress=False)
+    quick = dataclasses.replace(st, floor=0.0, time=20.0, burn_in=10.0, dt_check=False)
+    montecarlo.simulate(scene.system, scene.noise, quick)  # numba's cache loaded
+    c0 = time.process_time()
+    r = montecarlo.simulate(scene.system, scene.noise, st)
+    cpu = time.process_time() - c0
+    a = r.data["A"]
+    return {"cpu": cpu, "floor": r.info["L1_floor"]["A"], "dt": r.info["settings"]["dt"],
+            "time": r.info["settings"]["time"], "burn_in": r.info["settings"]["burn_in"],
+            "edges": a["edges"].tolist(), "p": a["p"].tolist(), "err": a["err"].tolist()}
+
+
+def worker_rk4(name: str, edges: list, burn_in: float, seed: int = 1) -> dict:
+    block = _rk4_kernels()
+    scene = _load(name)
+    c, ou, walls = _coefficients(scene)
+    e = np.asarray(edges)
+    blocks, per, chunk = 32, 32, 250.0
+    stride = round(0.5 / DT_RK4)
+    hist = np.zeros((blocks, e.size - 1))
+    samples = np.zeros(blocks)
+    gens = [np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(blocks)]
+    state = np.zeros((blocks, per, 2))
+    state[..., 0] = 0.3
+    xi = np.zeros((blocks, per))
+    w = np.diff(e)
+    a_inv = 1.0 / w[0]
+    small = np.zeros((1, 2)), np.zeros(1), np.zeros((1, 10))
+    block(*small, 10, 0, stride, DT_RK4, c, ou, walls, e[0], a_inv, np.zeros(e.size - 1))
+    c0 = time.process_time()
+    burn = round(burn_in / DT_RK4)
+    sampled = 0.0
+    floor = math.inf
+    while floor > FLOOR:
+        n = round(chunk / DT_RK4) + burn
+        for b in range(blocks):
+            normals = gens[b].standard_normal((per, n))
+            samples[b] += block(state[b], xi[b], normals, n, burn, stride, DT_RK4, c, ou,
+                                walls, e[0], a_inv, hist[b])
+        burn = 0
+        sampled += chunk
+        pb = hist / (samples[:, None] * w)
+        se = pb.std(axis=0, ddof=1) / math.sqrt(blocks)
+        floor = float(np.sum(math.sqrt(2 / math.pi) * se * w))
+    cpu = time.process_time() - c0
+    return {"cpu": cpu, "floor": floor, "time": sampled, "burn_in": burn_in,
+            "p": pb.mean(axis=0).tolist(), "edges": list(edges)}
+
+
+def _run(python: str, *args: str) -> dict:
+    env = dict(os.environ, NUMBA_NUM_THREADS="1")
+    out = subprocess.run([python, __file__, "--worker", *args], capture_output=True, text=True,
+                         env=env, check=True, cwd=ROOT).stdout
+    return json.loads(out.strip().splitlines()[-1])
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--before", help="python of an environment with the 'before' checkout")
+    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--worker", nargs="+")
+    ap.add_argument("--scenes", nargs="+", default=list(SCENES))
+    ap.add_argument("--rk4", nargs="*", default=[], metavar="SCENE=JSON",
+                    help="the RK4 reference's run of a scene, made before by this script's "
+                         "worker (--worker rk4 SCENE VIFPK_JSON > JSON), instead of a new one")
+    a = ap.parse_args()
+    if a.worker:
+        kind, name = a.worker[0], a.worker[1]
+        if kind == "vifpk":
+            print(json.dumps(worker_vifpk(name)))
+        else:
+            ref = json.loads(Path(a.worker[2]).read_text())
+            print(json.dumps(worker_rk4(name, ref["edges"], ref["burn_in"])))
+        return
+    load0 = os.getloadavg()
+    res: dict = {"floor": FLOOR, "dt_rk4": DT_RK4, "scenes": {}}
+    for name in a.scenes:
+        runs: dict[str, list] = {"after": [], "rk4": []}
+        given = dict(x.split("=", 1) for x in a.rk4)
+        if name in given:  # the RK4 run is deterministic work: made once
+            runs["rk4"].append(json.loads(Path(given[name]).read_text().strip().splitlines()[-1]))
+        if a.before:
+            runs["before"] = []
+        for i in range(a.rounds):
+            if a.before:
+                runs["before"].append(_run(a.before, "vifpk", name))
+            runs["after"].append(_run(sys.executable, "vifpk", name))
+            if i == 0 and not runs["rk4"]:  # one RK4 run a scene (its work is deterministic)
+                ref = ROOT / "benchmarks" / "results" / f".rk4_edges_{name}.json"
+                ref.write_text(json.dumps(runs["after"][0]))
+                runs["rk4"].append(_run(sys.executable, "rk4", name, str(ref)))
+                ref.unlink()
+            print(name, {k: round(v[-1]["cpu"], 2) for k, v in runs.items()}, flush=True)
+        med = {k: float(np.median([r["cpu"] for r in v])) for k, v in runs.items()}
+        rk = runs["rk4"][0]
+        same = [r for r in runs["after"] + runs.get("before", []) if r["edges"] == rk["edges"]]
+        mine = same[0] if same else None  # a vifpk run on the RK4 run's bins
+        w = np.diff(rk["edges"])
+        l1 = (float(np.sum(np.abs(np.asarray(mine["p"]) - np.asarray(rk["p"])) * w))
+              if mine else None)
+        res["scenes"][name] = {
+            "cpu_seconds_median": med,
+            "rk4_over_after": med["rk4"] / med["after"],
+            **({"rk4_over_before": med["rk4"] / med["before"],
+                "before_over_after": med["before"] / med["after"]} if a.before else {}),
+            "runs": {k: [{kk: r[kk] for kk in ("cpu", "floor", "time", "burn_in", "dt")
+                          if kk in r} for r in v] for k, v in runs.items()},
+            "accuracy": {"L1_rk4_vs_vifpk": l1,
+                         "floors_in_quadrature": math.hypot(mine["floor"], rk["floor"])
+                         if mine else None}}
+    res["machine"] = {"cpus": os.cpu_count(), "load_average_start": load0,
+                      "load_average_end": os.getloadavg(),
+                      "note": "CPU seconds of one thread (process_time), each run a fresh "
+                              "process with a warm numba cache; rounds alternate"}
+    out = ROOT / "benchmarks" / "results" / "rk4_floor.json"
+    if out.exists():  # a run of other scenes: kept beside this one's
+        old = json.loads(out.read_text())
+        res["scenes"] = {**old.get("scenes", {}), **res["scenes"]}
+        res["machine_earlier_scenes"] = old.get("machine")
+    out.write_text(json.dumps(res, indent=1) + "\n")
+    print(json.dumps({k: v for k, v in res["scenes"].items()}, indent=1, default=str)[:3000])
+
+
+if __name__ == "__main__":
+    main()
