@@ -4,10 +4,10 @@ loaded 2-core machine: 3000 amplitudes of the exact model's orbit averages)."""
 
 import numpy as np
 from vifpk.averaging.stationary import _cumulative
-from vifpk.core.energy import parametric_tail
 from vifpk.harness.door.solvers import averaged_model
 
 import vifpk
+from vifpk.core.energy import parametric_tail
 
 s = vifpk.scene("systems/offset-parametric")
 t = parametric_tail(s.system, s.parametric)
