@@ -84,6 +84,7 @@ def assemble(system: Any, noise: Any, plan: RunPlan, clock: Clock, run: Started,
     relax, dt_rule, pilot_s, win_steps = run.relax, run.dt_rule, run.pilot_s, run.win_steps
     windows, run_to, floor, run_s = done.windows, done.run_to, done.floor, done.run_s
     compile_s, deadline = clock.compile_s, clock.deadline
+    laps, check_timing = step.laps, None
     data, floors, samples = densities(arr, edges, obs, h, step.cause)
     ev = arr.events
     sampled = run_to * win_steps * h
@@ -115,7 +116,9 @@ def assemble(system: Any, noise: Any, plan: RunPlan, clock: Clock, run: Started,
         info["relaxation"] = relax
     if dt_rule is not None:
         info["dt_rule"] = dt_rule
+    laps.lap("densities")
     info["convergence"] = _convergence(plan, run, done, samples)
+    laps.lap("certificate")
     if "events" in obs:
         info["events"] = events_summary(ev, ev[:, K.EV_TIME] * h, samples, h)
     if "moments" in obs:
@@ -133,11 +136,14 @@ def assemble(system: Any, noise: Any, plan: RunPlan, clock: Clock, run: Started,
         if chk.get("verdict") == "failed":
             info["warnings"].append(chk["message"])
     elif st.dt == "auto" and st.dt_check and "A" in data:
+        laps.lap("result")
         t3 = time.perf_counter()
         chk = run_step_check(simulate, system, noise, st, data["A"], edges, h, n_burn * h,
                              sampled, floor, target, deadline, (dt_rule or {}).get("omega"))
         info["seconds"]["dt_check"] = time.perf_counter() - t3
         info["seconds"]["total"] = time.perf_counter() - plan.t_start
+        laps.lap("dt_check")
+        check_timing = chk.pop("timing", None)
         info["dt_check"] = chk
         if chk["verdict"] == "failed":
             info["warnings"].append(chk["message"])
@@ -159,6 +165,10 @@ def assemble(system: Any, noise: Any, plan: RunPlan, clock: Clock, run: Started,
             hist=dict(arr.hist), windows=windows, run_to=run_to, n_burn=n_burn, stride=stride,
             spw=spw, h=h, steps=steps, relax=relax)
     info["status"] = _status(info["convergence"])
+    laps.lap("result")
+    info["timing"] = laps.record()
+    if check_timing:  # the coarse run's stages: machine-dependent, so not in info["dt_check"]
+        info["timing"]["dt_check_run"] = check_timing
     cfg = info["settings"]
     return Result(data=data, info=info, resolved=Resolved(
         dt=cfg["dt"], burn_in=cfg["burn_in"], time=cfg["time"], paths=cfg["paths"],

@@ -42,7 +42,7 @@ from vifpk.core.defaults import BURN_FACTOR, FPK_CELLS
 from vifpk.core.result import Resolved, Result, Status
 
 from ._jit import jit
-from .geometry import amplitude_general, orbit_point, potential
+from .geometry import amplitude_general, orbit_start, potential
 from .rng import normal, states_from_seed
 
 ORDER = 1
@@ -154,13 +154,16 @@ def sde_tables(drift: Callable[[np.ndarray], np.ndarray],
 
 @jit(parallel=True)
 def run_sde_blocks(states, n_paths, n_burn, n_samples, stride, h, a_tab, b_tab, dA_tab,
-                   z0, a_lo, a_inv, hist_A, sums, barrier, w0sq, alpha, khi, x_lo, x_inv, hist_x,
-                   v_lo, v_inv, hist_v, obs_tab, ow0sq, oalpha, okhi):
+                   z0, a_lo, a_inv, hist_A, sums, barrier, w_lo, w_up, w0sq, alpha, khi, x_lo,
+                   x_inv, hist_x, v_lo, v_inv, hist_v, obs_tab, ow0sq, oalpha, okhi):
     """Per block: histogram of A and sums (A, A^2, samples, reflections) after burn-in.
-    a_tab = 2 A m(A) - sigma^2(A), b_tab = sigma(A) on the grid A_j = j dA_tab.
+    a_tab = 2 A m(A) - sigma^2 on the grid A_j = j dA_tab, b_tab = sigma(A) there.
     With hist_x / hist_v, each sample also records a time-uniform point of the orbit of
-    amplitude A (x1 = |y|, x2 = y' sgn(y) with the barrier): the averaged model's own
-    phase-space density, p(y, y') = p(E) / T(E).
+    amplitude A as the system moves on it (geometry.orbit_start, the original system's starts):
+    with the paper's ``barrier`` folded, x1 = |y|, x2 = y' sgn(y); with walls at
+    w_lo <= 0 <= w_up (+-inf: none) the elastic orbit cut at them (impacts on alternate
+    walls), i.e. the free orbit's time-uniform law conditioned on [w_lo, w_up]: the averaged
+    model's own phase-space density, p(y, y') = p(E) / T(E), T the truncated period.
     With a non-empty obs_tab (rms fast energy fluctuation on the same grid as a_tab), each
     sampled A is observed as A' = U^{-1}(U(A) + sd(A) z), z ~ N(0, 1) redrawn while the energy
     is negative (U(x) = ow0sq x^2 / 2 + oalpha x^4 / 4): the model's observation map applied
@@ -208,11 +211,9 @@ def run_sde_blocks(states, n_paths, n_burn, n_samples, stride, h, a_tab, b_tab, 
                 sums[b, 0] += A
                 sums[b, 1] += A * A
                 sums[b, 2] += 1.0
-                if hist_x is not None:
-                    y, yp, s0, s1, s2, s3 = orbit_point(A, w0sq, alpha, khi, s0, s1, s2, s3)
-                    if barrier and y < 0.0:
-                        y = -y
-                        yp = -yp
+                if hist_x is not None:  # on the orbit as it is: folded, or cut at walls
+                    y, yp, _xi, s0, s1, s2, s3 = orbit_start(A, w0sq, alpha, khi, barrier,
+                                                             w_lo, w_up, 0.0, s0, s1, s2, s3)
                     ix = math.floor((y - x_lo) * x_inv)
                     if 0 <= ix < hist_x.shape[1]:
                         hist_x[b, ix] += 1.0
@@ -244,8 +245,9 @@ def simulate_sde(drift: Callable[[np.ndarray], np.ndarray],
     """Histogram of A for the averaged SDE with batch error bars (blocks are the batches).
 
     phase: optional ``{"restoring" (k1, k3, ...) or "omega0" and "alpha", "barrier",
-    "edges_x", "edges_v"}`` to also record
-    x1, x2 from time-uniform points of the orbit of each sampled amplitude.
+    "edges_x", "edges_v"[, "lower", "upper"]}`` to also record x1, x2 from time-uniform
+    points of the orbit of each sampled amplitude: folded onto x >= 0 with the paper's
+    ``barrier``, cut at walls ``lower`` <= 0 <= ``upper`` otherwise (default: none).
     burn_in: a time, or "auto": BURN_FACTOR x relaxation_time(drift, diffusion).
     dt: a step, or "auto": the largest sample_every / k not above tau / STEPS_PER_TAU (tau the
     relaxation time; sample_every / 10 when tau is not finite).
@@ -287,11 +289,12 @@ def simulate_sde(drift: Callable[[np.ndarray], np.ndarray],
     if phase is not None:
         ex = np.asarray(phase["edges_x"], dtype=float)
         ev = np.asarray(phase["edges_v"], dtype=float)
-        geo = (bool(phase["barrier"]), *_spring(phase))
+        geo = (bool(phase["barrier"]), float(phase.get("lower", -math.inf)),
+               float(phase.get("upper", math.inf)), *_spring(phase))
         hx, hv = np.zeros((blocks, ex.size - 1)), np.zeros((blocks, ev.size - 1))
     else:
         ex = ev = np.array([0.0, 1.0])
-        geo = (True, 1.0, 0.0, None)
+        geo = (True, -math.inf, math.inf, 1.0, 0.0, None)
         hx = hv = None
 
     def call(st, n_p, n_b, n_s, stride_, hA, sm, hx_, hv_):

@@ -64,6 +64,7 @@ def begin(plan: RunPlan, clock: Clock, step: Stepper, bar: Any) -> Started:
     a_hint = float(edges["edges_A"][-1]) if "edges_A" in edges else 1.0
     path_max: list[float] = []
     a_hi = pilot_scale(phys, h, st.seed, step, a_hint, path_max)
+    step.laps.lap("scale_pilot")
     if st.dt == "auto":  # the step from the orbits the pilot's paths reach (auto_dt)
         a_typ = float(np.median(path_max)) if np.isfinite(path_max).all() else math.nan
         h_pilot, h = h, step_size(st.dt, target, phys, st.sample_every, a_typ)
@@ -78,6 +79,8 @@ def begin(plan: RunPlan, clock: Clock, step: Stepper, bar: Any) -> Started:
         edges = _edges(a_hi, phys, st.bins, h, step.cause)
     relax, burn_in = _burn_in(plan, step, bar, a_hi, h)
     pilot_s = time.perf_counter() - t1
+    if relax is not None:
+        step.laps.lap("relaxation_pilot")
 
     need = float(blocks * per_block) * (burn_in / h + n_win * spw * stride)
     if st.burn_in == "auto" and need > st.max_path_steps:

@@ -34,6 +34,7 @@ from vifpk.montecarlo.rng import block_seeds
 from vifpk.montecarlo.runplan import OBSERVABLES, Settings, compile_kernel, effects, resolve
 from vifpk.montecarlo.sampling import sample
 from vifpk.montecarlo.stepper import CHUNK_SECONDS, Stepper
+from vifpk.montecarlo.timing import Laps
 
 from vifpk.core.result import Result
 
@@ -61,13 +62,19 @@ def simulate(system: Any, noise: Any, settings: Settings, *, parametric: Any = N
     checkpoint's paths (burnin.begin, burnin.resume), the sampled windows toward a target
     floor (sampling.sample), the result (assemble.assemble).
     """
+    laps = Laps()  # info["timing"] (timing.py): each stage's wall and CPU seconds
     plan = resolve(system, noise, replace(settings, **overrides), parametric)
+    laps.lap("plan")
     clock = compile_kernel(plan)
+    laps.lap("kernel")
     bar = progress_bar(plan.settings.progress)
     step = Stepper(plan.phys, plan.h, plan.threads, bar, growth(system, parametric))
+    step.laps = laps
     try:
         run = begin(plan, clock, step, bar) if plan.resume is None else resume(plan, clock, bar)
+        laps.lap("burn_in")
         done = sample(plan, clock, run, step, bar)
+        laps.lap("sampling")
     finally:
         if bar is not None:
             bar.close()

@@ -56,11 +56,13 @@ def run_step_check(simulate: Callable[..., Result], system: Any, noise: Any, st:
                      keep_state=False, max_path_steps=math.inf,
                      budget=left if math.isfinite(left) else 0.0)
     try:
-        coarse = simulate(system, noise, chk_st).data["A"]
+        res = simulate(system, noise, chk_st)
+        coarse, timing = res.data["A"], res.info["timing"]
     except (SimulationDiverged, BudgetExhausted) as exc:
         return {"verdict": "not run", "dt": h, "message": f"{head}: the step check at "
                 f"{k} x dt could not run ({str(exc).split(':')[0]})"}
     out = step_check(dens, coarse, dt=h, factor=k, allowance=allowance)
+    out["timing"] = timing  # the coarse run's own stages (timing.py; assemble moves it out)
     lo, hi = out["bias_range"]
     said = {"passed": "within", "failed": "ABOVE", "undecided": "not decided against"}
     out["message"] = (f"{head}: the step check ({k} x dt, an independent run) puts the bias of "

@@ -16,6 +16,7 @@ import numpy as np
 from vifpk.montecarlo import kernels as K
 from vifpk.montecarlo.failures import diverged
 from vifpk.montecarlo.pieces import record
+from vifpk.montecarlo.timing import Laps
 
 CHUNK_SECONDS = 0.4  # wall time of one kernel call: Ctrl-C is seen between calls
 #: histogram edges for a run that fills no histogram (the pilots)
@@ -105,6 +106,7 @@ class Stepper:
         self.phys, self.h, self.bar, self.cause = phys, h, bar, cause
         self.rate = 5e6 * threads  # steps per second: a cautious first guess, then measured
         self.busy = 0.0  # seconds spent in the kernel
+        self.laps = Laps()  # the run's stage timing (timing.py); simulate.py passes its own
 
     def run(self, arr: Arrays, n_steps: int, step0: int, n_burn: int, stride: int,
             spw: int = 1, windows: np.ndarray | None = None) -> None:

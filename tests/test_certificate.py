@@ -39,3 +39,23 @@ def test_rank_rhat_matches_arviz(case: str):
     assert ours == pytest.approx(theirs, rel=1e-12, abs=1e-12)
     if case in ("shifted chain", "scale"):
         assert ours > 1.05
+
+
+def test_f_quantile_and_ranks_match_scipy():
+    """The certificate's own F quantile (rhat_limit) and average ranks, which replace
+    scipy.stats (its import cost more than a run's certificate, issue 44), against scipy's:
+    the quantile within 1e-9 relative (the bisection is exact to 1e-16; the log-gamma
+    differences lose digits as d2 grows), the ranks and normal scores to rounding."""
+    stats = pytest.importorskip("scipy.stats")
+    from vifpk.montecarlo.certificate import average_ranks, f_quantile, normal_scores
+
+    for q in (0.5, 0.9, 1 - 1e-4):
+        for d1 in (1, 3, 31, 255):
+            for d2 in (4, 62, 992, 8000, 261120):
+                assert f_quantile(q, d1, d2) == pytest.approx(stats.f.ppf(q, d1, d2),
+                                                              rel=1e-9)
+    rng = np.random.default_rng(44)
+    x = np.round(rng.normal(size=(16, 64)), 1)  # many ties
+    assert np.array_equal(average_ranks(x.ravel()), stats.rankdata(x.ravel()))
+    want = stats.norm.ppf((stats.rankdata(x.ravel()) - 0.375) / (x.size + 0.25))
+    assert np.allclose(normal_scores(x).ravel(), want, rtol=0, atol=1e-14)

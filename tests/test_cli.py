@@ -108,6 +108,12 @@ def test_montecarlo_json_has_edges_and_errors(tmp_path: Path):
         rec = d["pdf"][key]
         assert len(rec["edges"]) == len(rec["p"]) + 1 == len(rec["err"]) + 1
     assert d["info"]["L1_floor"]["A"] > 0
+    # the run's timing record (montecarlo/timing.py): its stages, then the process's own
+    t = d["info"]["timing"]
+    assert list(t["stages"]) == ["plan", "kernel", "scale_pilot", "relaxation_pilot",
+                                 "burn_in", "sampling", "densities", "certificate", "result"]
+    assert {"startup", "request", "total"} <= set(t)
+    assert all(v["cpu"] >= 0 and v["wall"] >= 0 for v in t["stages"].values())
 
 
 def test_fpk_json(tmp_path: Path):

@@ -255,7 +255,7 @@ def test_a_solver_plugin_named_like_a_builtin_is_shadowed(monkeypatch):
     monkeypatch.setattr(registry.metadata, "entry_points", entry_points)
     registry.refresh()
     try:
-        assert registry.solver_names() == ("averaging", "fpk", "montecarlo")
+        assert registry.solver_names() == ("averaging", "fpk", "montecarlo", "original-fpk")
         assert registry.solver("fpk")[1].builtin
         assert any("'fpk' from edge6" in c for c in registry._group(registry.SOLVER_GROUP)[1])
     finally:

@@ -27,12 +27,16 @@ HARD = sorted((ROOT / "scenes" / "hard").glob("*.toml"))
 # - mu-large, D-tiny, alpha1-wide: friction does 4 mu A of work per period against
 #   E ~ A^2/2, i.e. 8 mu / A of E: > 1/2 below A = 16 mu; the closed forms' mean amplitudes
 #   are 0.0077 (mu = 0.2: 208 E), 0.0015 and 0.0016 (mu = 0.001: ~5 E);
-# - D-large: the scene's purpose: D = 1, 100x the base scene's noise;
+# - D-large: the scene's purpose: D = 1, 100x the base scene's noise, which moves the mass to
+#   where cubic damping is strong: the strong-noise condition (sigma_E^2 T / E^2 = 0.80 at the
+#   mean amplitude) is named after the losses that account for it (issue 45: strong
+#   dissipation, mostly cubic damping); halving every loss lowers it to 0.52, halving D to 0.61
+#   (closed forms, measured);
 # - alpha-stiff, r-elastic, white: none of those numbers is near its limit (base-like scenes).
 EXPECTED = {
     "alpha1-narrow": ["narrow-band"], "c1-strong": ["strong damping"],
     "r-low": ["strong damping"], "mu-large": ["strong damping"],
-    "D-large": ["strong noise"], "D-tiny": ["strong damping"],
+    "D-large": ["strong dissipation"], "D-tiny": ["strong damping"],
     "alpha1-wide": ["strong damping"], "alpha-stiff": [], "r-elastic": [], "white": [],
 }
 

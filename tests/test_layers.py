@@ -35,7 +35,7 @@ from tests.test_architecture import imported_modules, nodes
 LAYERS: dict[str, int] = {
     "vifpk.core": 0,
     "vifpk.physics": 1,
-    "vifpk.averaging": 2, "vifpk.fpk": 2, "vifpk.montecarlo": 2,
+    "vifpk.averaging": 2, "vifpk.fpk": 2, "vifpk.fpk2d": 2, "vifpk.montecarlo": 2,
     "vifpk.harness.door": 3,
     "vifpk.harness.request": 4,
     "vifpk.harness.workflows": 5,
@@ -64,7 +64,7 @@ PENDING_PRIVATE: dict[str, str] = {
     "from vifpk.harness.workflows.passage import _fpt": "outputs/timereport.py; both modules "
     "belong to the time domain's rework (helper timedomain)",
 }
-TREES = ("vifpk", "averaging", "fpk", "montecarlo", "harness")
+TREES = ("vifpk", "averaging", "fpk", "fpk2d", "montecarlo", "harness")
 
 
 def module_name(path: Path) -> str:

@@ -71,7 +71,7 @@ def with_solver(monkeypatch):
 def test_the_builtin_fpk_is_a_registered_solver():
     spec, entry = registry.solver("fpk")
     assert isinstance(spec, Solver) and entry.builtin
-    assert registry.solver_names() == ("averaging", "fpk", "montecarlo")
+    assert registry.solver_names() == ("averaging", "fpk", "montecarlo", "original-fpk")
 
 
 def test_a_registered_solver_is_offered_by_solve_and_agrees_with_the_closed_form(
@@ -79,7 +79,8 @@ def test_a_registered_solver_is_offered_by_solve_and_agrees_with_the_closed_form
     from vifpk.harness.cli.app import main
 
     with_solver("QUADRATURE", "quadrature")
-    assert registry.solver_names() == ("averaging", "fpk", "quadrature", "montecarlo")
+    assert registry.solver_names() == ("averaging", "fpk", "quadrature", "montecarlo",
+                                      "original-fpk")
     out = {}
     for solver in ("averaging", "quadrature"):
         path = tmp_path / f"{solver}.json"

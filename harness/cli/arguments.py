@@ -30,7 +30,8 @@ def solve_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--solver", choices=solver_names(), default=CLOSED_FORM,
                    help="averaging: closed form of an averaged model; fpk (or a registered "
                         "plugin's, docs/plugins.md): its Fokker-Planck equation; montecarlo: "
-                        "the original system (default: %(default)s)")
+                        "the original system; original-fpk: the original system's own FPK "
+                        "in (x, v), white noise (default: %(default)s)")
     p.add_argument("--model", type=_model_name, metavar="NAME",
                    help="averaged model for --solver averaging|fpk: any registered one, "
                         "built-in or a plugin's (`vifpk models` lists them, docs/plugins.md; "
@@ -38,7 +39,8 @@ def solve_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", metavar="OUT",
                    help="write the solution record to OUT (default: print a summary)")
     p.add_argument("--grid", type=_whole_number, metavar="N",
-                   help=f"FPK: number of cells, >= 4 (default: {FPK_CELLS})")
+                   help=f"FPK: number of cells, >= 4 (default: {FPK_CELLS}); original-fpk: "
+                        "cells per axis (default: from the accuracy, docs/fpk2d.md)")
     _add_mc_options(p)
     p.add_argument("--joint", action="store_true",
                    help="include the joint PDF in the JSON (default: off)")

@@ -29,7 +29,9 @@ from vifpk.core.scene import Scene, load_scene, no_noise
 
 
 def cmd_solve(args: argparse.Namespace) -> int:
+    from vifpk.core.provenance import process_clock
 
+    startup = process_clock()  # the interpreter and the imports (the run's timing record)
     if args.joint and not args.json:
         validate.refuse_options(["joint"], "without --json (the summary has no joint density)")
     validate.output_file(args.json, "--json")
@@ -44,17 +46,20 @@ def cmd_solve(args: argparse.Namespace) -> int:
                            "this solve", args.yes)
     if args.solver == "montecarlo":
         cost.refuse_oversized(scene)
+    ready = process_clock()
     if args.solver == "montecarlo":
         # priced again once the relaxation pilot has measured an automatic burn-in
         with cost.guarded_run(scene, args.yes) as run:
             result = run_solver(scene, "montecarlo", run=run)
     else:
         result = run_solver(scene, args.solver, model=model, grid=args.grid)
+    result.info.setdefault("timing", {}).update(  # before the solver: this process's stages
+        startup=startup, request={k: ready[k] - startup[k] for k in startup})
     _finite_or_fail(result, scene)
     conv = result.info.get("convergence", {}) if args.solver == "montecarlo" else {}
     stuck = _not_equilibrated(conv) if not args.allow_unequilibrated else ""
     if args.json:
-        model = None if args.solver == "montecarlo" else model
+        model = None if args.solver in (registry.ORIGINAL, registry.ORIGINAL_FPK) else model
         json_out(args.json, solution_record(scene, args.solver, model, result,
                                             joint=args.joint, provenance=_provenance(args)))
         if not stuck and args.json != validate.STDOUT:

@@ -103,10 +103,33 @@ def _mc_summary(info: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+def _fpk2d_summary(info: dict[str, Any]) -> str:
+    """The original system's FPK in a few lines: the law's A, its error estimate, the walls'
+    impact rates and the power balance."""
+    s, g, e, d = (info["summary"], info["grid"], info["discretisation_error"],
+                  info["diagnostics"])
+    lines = [
+        f"original-fpk: {info['status']['message']}",
+        f"  amplitude A: mean {s['mean']:.6g}, mode {s['mode']:.6g}, std {s['std']:.6g}",
+        f"  grid: {g['cells'][0]} x {g['cells'][1]} cells on x in [{g['x'][0]:.4g}, "
+        f"{g['x'][1]:.4g}], v in [{g['v'][0]:.4g}, {g['v'][1]:.4g}] (E_max {g['E_max']:.4g})",
+        f"  discretisation error (L1, Richardson, order {e['order']}): p(A) {e['L1_A']:.2g}, "
+        f"p(x1) {e['L1_x1']:.2g}, p(x2) {e['L1_x2']:.2g} (asked {e['accuracy']:g})",
+        *[f"  {w['side']} wall at {w['at']:g} ({w['law']}): {w['impacts_per_time']:.6g} "
+          "impacts per unit time" for w in info["walls"]],
+        f"  power balance: input {info['energy']['input']:.6g}, relative residual "
+        f"{info['energy']['relative_residual']:.1e}; negative mass {d['negative_mass']:.1e}",
+        f"  time: {info['seconds']['total']:.2f} s (CPU)",
+    ]
+    return "\n".join(lines)
+
+
 def _summary(result: Any) -> str:
     info = result.info
     if info["solver"] == "montecarlo":
         return _mc_summary(info)
+    if info["solver"] == "original-fpk":
+        return _fpk2d_summary(info)
     s, d = info["summary"], info["diagnostics"]
     lines = [
         f"{info['solver']} ({info.get('model', '-')}): {info['status']['message']}",

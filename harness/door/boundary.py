@@ -22,7 +22,7 @@ class SolverFailure(RuntimeError):
 
 #: The solver packages: a RuntimeError raised in one of them is its own failure (FPKFailure,
 #: NoStationaryDensity, SimulationDiverged, BudgetExhausted, StartRejected, ...).
-SOLVER_PACKAGES = ("vifpk.averaging", "vifpk.fpk", "vifpk.montecarlo")
+SOLVER_PACKAGES = ("vifpk.averaging", "vifpk.fpk", "vifpk.fpk2d", "vifpk.montecarlo")
 
 
 def solver_failure(exc: BaseException) -> SolverFailure | None:

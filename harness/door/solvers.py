@@ -11,6 +11,7 @@ the one place exceptions are mapped.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -65,6 +66,10 @@ def run_solver(scene: Any, solver: str, *, model: str = "paper", grid: int | Non
         return closed_form(scene, model=model, **options)
     if solver == registry.ORIGINAL:
         return montecarlo_solution(scene, **options)
+    if solver == registry.ORIGINAL_FPK:
+        from vifpk.harness.door.original import original_fpk_solution
+
+        return original_fpk_solution(scene, cells=grid, **options)
     return model_solution(scene, model=model, solver=solver, cells=grid or FPK_CELLS,
                           **options)
 
@@ -474,7 +479,11 @@ def averaged_sde_solution(scene: Any, model: Any, *, edges: dict[str, Any], seed
     kw = {k: settings.get(k, getattr(mc, k)) for k in keys}
     m = averaged_model(scene, model)
     s = scene.system
+    # the orbit as the system moves on it: the paper's wall folds it (x1 = |y|), other walls
+    # cut it (a lower wall at its ``at`` <= 0, an upper one at ``at`` >= 0)
+    at = {w.side: float(w.at) for w in s.walls}
     extra = ({"restoring": tuple(s.restoring_law), "barrier": s.barrier,
+              "lower": at.get("lower", -math.inf), "upper": at.get("upper", math.inf),
               "edges_x": edges["edges_x"], "edges_v": edges["edges_v"]} if phase else None)
     observe = ({"sd": m.observation_sd, "restoring": tuple(s.restoring_law)}
                if getattr(m, "observes", False) else None)

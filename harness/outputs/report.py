@@ -247,8 +247,11 @@ CLASS_TEXT = {
     "moderate": f"{SMALL_L1:g} <= L1 < {LARGE_L1:g}: {50 * SMALL_L1:g}-{50 * LARGE_L1:g}% of "
                 "the mass misplaced",
     "large": f"L1 >= {LARGE_L1:g}: {50 * LARGE_L1:g}% of the mass or more misplaced",
-    "not an estimate": "the Monte Carlo has not converged or an averaging assumption fails: "
-                       "the distance is not an approximation error",
+    "not an estimate": "the distance is not measured: the Monte Carlo has not converged, or "
+                       "its own checks say the distance is the run's (the verdict says which)",
+    "assumption": "where an averaging assumption fails, the class and the number stay: they "
+                  "are the model's error on this scene, and the cell names the assumption and "
+                  "the warnings say why",
 }
 
 
@@ -278,8 +281,17 @@ def verdict_rows(res: CheckResult) -> list[list[str]]:
         rows.append([m, entry.get("verdict_class", "?").upper(),
                      f"{e['L1']:.3f} ± {e['L1_err']:.3f}", ratio, f"{50 * e['L1']:.1f}%",
                      ", ".join(f"p({o}) {c}" for o, c in per.items()),
-                     entry.get("verdict_cause", "")])
+                     entry.get("verdict_cause", "") + _assumption_cell(entry)])
     return rows
+
+
+def _assumption_cell(entry: dict[str, Any]) -> str:
+    """Beside a measured class: the averaging assumptions that fail here (issue 45)."""
+    kinds = entry.get("verdict_assumptions") or []
+    if not kinds:
+        return ""
+    return ("; measured where an averaging assumption fails: "
+            + ", ".join(k.replace("_", " ") for k in kinds) + " (see warnings)")
 
 
 VERDICT_HEAD = ["model", "class (worst observable)", "L1(A) vs original system",

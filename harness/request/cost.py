@@ -20,7 +20,7 @@ from vifpk.harness.request.errors import InputError
 
 from vifpk.core import registry
 from vifpk.core.defaults import CHECK_MODELS, FPK_CELLS
-from vifpk.core.registry import CLOSED_FORM, ORIGINAL
+from vifpk.core.registry import CLOSED_FORM, ORIGINAL, ORIGINAL_FPK
 from vifpk.core.scene import Scene
 
 HOUR = 3600.0
@@ -41,6 +41,10 @@ MC_STEPS_PER_CORE = 150e6  # faster than every kernel measured: benchmarks/resul
 
 #   (paper-base 68.7, no friction 106.7, smooth OU 123.6 M path-steps/s a core; 60e6 was below)
 FPK_SECONDS_PER_CELL = 5e-4  # measured 1.7e-3 s per cell at 3200 cells
+#: the original system's FPK (vifpk.fpk2d), CPU seconds per cell of its n x n grid: measured
+#: 2.3e-5 at 320^2 and 2.9e-5 at 160^2 (2 cores, loaded); its LU grows faster than n^2, so a
+#: lower bound
+FPK2D_SECONDS_PER_CELL = 1e-5
 
 
 AVG_SECONDS_PER_POINT = 1e-5  # paper model, measured 3.5e-5 s per point
@@ -301,6 +305,9 @@ def solve_seconds(scene: Scene, solver: str, model: str, grid: int | None, *,
     """Lower bound of ``vifpk solve``."""
     if solver == ORIGINAL:
         return montecarlo_seconds(scene, speed=speed)
+    if solver == ORIGINAL_FPK:  # the grid asked and its half (the error estimate), or 128^2
+        n = grid or 128
+        return FPK2D_SECONDS_PER_CELL * 1.25 * n * n
     base = averaging_seconds(scene, model)
     # an FPK solver (vifpk's or a plugin's) priced as vifpk's on that grid
     return base + (fpk_seconds(grid or FPK_CELLS) if solver != CLOSED_FORM else 0.0)

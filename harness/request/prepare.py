@@ -30,6 +30,9 @@ from vifpk.core.scene import Scene, SceneError, check_value, load_scene, no_nois
 #: the Monte Carlo options every workflow takes, by the names of their flags (``--paths``...),
 #: each the [montecarlo] field of the same name
 MC_OPTIONS = tuple(validate.MC_OPTIONS)
+#: the most cells per axis ``--grid`` may ask of the original system's FPK: 640^2 took 15 s and
+#: ~2.5 GB in its sparse LU (docs/fpk2d.md); 1280^2 took 120 s and 10 GB
+ORIGINAL_FPK_MAX_CELLS = 1280
 WHOLE = ("paths", "seed")  # options that take a whole number
 
 
@@ -224,7 +227,13 @@ def prepare_solve(source: Scene | str | Path, *, solver: str = "averaging",
         raise validate.InputError(f"--solver {solver!r}: not a solver; allowed: "
                                   f"{', '.join(registry.solver_names())}")
     given = [k for k in MC_OPTIONS if mc.get(k) is not None]
-    if solver == registry.ORIGINAL:
+    fpk2d = solver == registry.ORIGINAL_FPK
+    if fpk2d:
+        validate.refuse_options([k for k, v in (("model", model),) if v is not None] + given
+                                + (["allow_unequilibrated"] if allow_unequilibrated else []),
+                                "to --solver original-fpk (it solves the original system's "
+                                "own FPK: no model, no sampling)")
+    elif solver == registry.ORIGINAL:
         validate.refuse_options([k for k, v in (("grid", grid), ("model", model))
                                  if v is not None],
                                 "to --solver montecarlo (it simulates the original system)")
@@ -238,12 +247,21 @@ def prepare_solve(source: Scene | str | Path, *, solver: str = "averaging",
                                     "averaging.points; --grid sets the FPK's cells)")
     if grid is not None:
         grid = _whole("grid", grid)
-        if grid < 4:
-            raise validate.InputError(f"--grid {grid}: out of range; allowed: a whole number "
-                                      ">= 4 (cells of the FPK)")
+        low, high = (8, ORIGINAL_FPK_MAX_CELLS) if fpk2d else (4, None)
+        if grid < low or (high is not None and grid > high):
+            raise validate.InputError(
+                f"--grid {grid}: out of range; allowed: a whole number >= {low}"
+                + (f" and <= {high} (cells per axis of the original system's FPK: its LU "
+                   "grows as cells^3)" if fpk2d else " (cells of the FPK)"))
     scene = with_mc_options(concrete(source, overrides, values), mc,
                             mc=solver == registry.ORIGINAL)
-    if solver != registry.ORIGINAL:
+    if fpk2d:
+        from vifpk.harness.door.original import original_fpk_problem
+
+        problem = original_fpk_problem(scene)
+        if problem is not None:
+            raise validate.InputError(f"--solver original-fpk: {problem}")
+    elif solver != registry.ORIGINAL:
         if model is None:  # the first of the check models that applies (paper, then exact)
             model = registry.applicable(scene, CHECK_MODELS)[0][0]
         else:

@@ -26,7 +26,7 @@ from vifpk.harness.workflows.verdict import (
 )
 
 FLAG_VARS = ("warn_narrow_band", "warn_sticking", "warn_strong_damping", "warn_strong_noise",
-             "warn_not_converged")
+             "warn_strong_dissipation", "warn_not_converged")
 
 
 def _png(fig: Any) -> str:

@@ -25,7 +25,6 @@ from dataclasses import replace
 from typing import Any
 
 import numpy as np
-from scipy.optimize import brentq
 from vifpk.harness.door.solvers import (
     amplitude_density,
     montecarlo_solution,
@@ -81,6 +80,8 @@ def critical_value(scene: Any, model: str, vary: str, lo: float, hi: float, *,
     f_lo, f_hi = F(lo), F(hi)
     if not (math.isfinite(f_lo) and math.isfinite(f_hi)) or f_lo * f_hi > 0:
         return None
+    from scipy.optimize import brentq  # here: the command line imports this module to list it
+
     return float(brentq(F, lo, hi, xtol=xtol))
 
 

@@ -37,14 +37,16 @@ from vifpk.harness.door.solvers import (
 )
 from vifpk.harness.request.tolerance import Tolerance
 from vifpk.harness.workflows.assumptions import assumption_warnings
-from vifpk.harness.workflows.compare import compare
+from vifpk.harness.workflows.compare import compare, paired
 from vifpk.harness.workflows.tolerance import line as tolerance_line
 from vifpk.harness.workflows.tolerance import model_verdicts
 from vifpk.harness.workflows.verdict import (
     _evidence,
-    _sampling_ok,
+    assumptions_failing,
     observable_classes,
     recommend,
+    sampling_failures,
+    sampling_words,
     verdict,
     verdict_class,
 )
@@ -228,8 +230,12 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
         for kind, key in (("sampling_error", f"mc:{m}"), ("averaging_error", "mc:original")):
             if key in sol:
                 entry[kind] = {o: compare(cf[o], sol[key].data[o]) for o in OBSERVABLES}
-        entry["sampling_ok"] = (_sampling_ok(entry["sampling_error"]["A"])
-                                if "sampling_error" in entry else None)
+        # the averaged SDE against its closed form on EVERY observable compared (issue 45)
+        failed = sampling_failures(entry.get("sampling_error", {}))
+        entry["sampling_ok"] = not failed if "sampling_error" in entry else None
+        if failed:
+            entry["sampling_failed"] = failed
+            entry["sampling_reason"] = sampling_words(m, entry["sampling_error"])
         if m in sde_extensions:
             entry["sampling_extensions"] = sde_extensions[m]
         if not closed[m].info.get("closed_form", True):
@@ -260,6 +266,9 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
         metrics["models"][m]["verdict_class"] = cls
         metrics["models"][m]["verdict_cause"] = cause
         metrics["models"][m]["verdict_by_observable"] = observable_classes(metrics["models"][m])
+        # beside the class, never instead of it (issue 45): the assumptions that fail here
+        metrics["models"][m]["verdict_assumptions"] = (
+            [w.kind for w in assumptions_failing(warnings)] if cls != "not an estimate" else [])
     metrics["tolerance"] = tol.record()
     # the jackknife over the blocks has blocks - 1 degrees of freedom; a step bias the run's
     # check could not rule out is carried by the interval and the class (tolerance.py)
@@ -267,6 +276,7 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
                                dt_check=mc.info.get("dt_check"))
     for m, v in tverdicts.items():
         metrics["models"][m]["tolerance"] = v
+    metrics["paired"] = paired_table(closed, sol["mc:original"], models, tol)
     stages.done()
     rec_model, rec_line = recommend(metrics, warnings, val, convergence=conv)
     metrics["recommended_model"] = rec_model
@@ -297,14 +307,33 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
                        tolerance_lines=tuple(metrics["tolerance_verdicts"]))
 
 
+def paired_table(closed: dict[str, Any], truth: Any, models: tuple[str, ...],
+                 tol: Tolerance) -> dict[str, Any]:
+    """Every pair of models compared on the SAME sample (compare.paired): the difference of
+    their distances to the truth in the tolerance's metric and observable, with the error bar
+    of the difference (the recommendation decides between models by it). ``truth``: a Result
+    whose data holds the observable (a Monte Carlo histogram; a smooth, noise-free density
+    gives error bars 0)."""
+    o, k = tol.observable, tol.metric
+    ref = truth.data[o]
+    pairs = []
+    for i, a in enumerate(models):
+        for b in models[i + 1:]:
+            pr = paired(closed[a].data[o], closed[b].data[o], ref, metric=k)
+            pairs.append({"a": a, "b": b, "diff": pr["diff"], "diff_err": pr["diff_err"],
+                          "dof": pr["dof"]})
+    return {"observable": o, "metric": k, "pairs": pairs}
+
+
 def _sde_run(scene: Any, model: str, closed: Any, edges: dict[str, np.ndarray],
              st: Resolved, burn_in: Any, budget: float, stages: _Stages
              ) -> tuple[Any, int]:
     """The Monte Carlo of ``model``'s averaged SDE on the original system's edges and sample
     plan (its own step, from its relaxation time: montecarlo.averaged_sde), seeded by
     :func:`sde_seed`; doubled (sampled time and burn-in) while it is off its closed form beyond
-    SAMPLING_FACTOR x its floor, at most 3 times and while the budget allows a run of twice
-    the cost. Returns (result, extensions): a function of the scene and this model alone."""
+    SAMPLING_FACTOR x its floor on any observable, at most 3 times and while the budget allows
+    a run of twice the cost. Returns (result, extensions): a function of the scene and this
+    model alone."""
     t0 = time.perf_counter()
     ext, time_ = 0, st.time
     while True:
@@ -315,7 +344,8 @@ def _sde_run(scene: Any, model: str, closed: Any, edges: dict[str, np.ndarray],
             paths=st.paths, blocks=st.blocks, dt="auto", time=time_, burn_in=burn_in,
             sample_every=st.sample_every)
         spent = time.perf_counter() - t0
-        if (_sampling_ok(compare(closed.data["A"], res.data["A"])) or ext >= 3
+        if (not sampling_failures({o: compare(closed.data[o], res.data[o])
+                                   for o in OBSERVABLES}) or ext >= 3
                 or spent * 3 > budget - spent):
             return res, ext
         ext += 1

@@ -175,3 +175,65 @@ def _smooth_pair(a: dict[str, Any], b: dict[str, Any]) -> dict[str, float]:
             "w1": float(np.trapezoid(dc, x)),
             "L1_floor": 0.0, "hellinger_floor": 0.0, "ks_floor": 0.0, "w1_floor": 0.0,
             "mean_diff": ma[0] - mb[0], "std_diff": ma[1] - mb[1]}
+
+
+#: the metrics a paired comparison reads, by their index in _binned_metrics
+METRICS = ("L1", "hellinger", "ks", "w1")
+
+
+def _smooth_side(a: dict[str, Any], b: dict[str, Any], edges: np.ndarray, w: np.ndarray
+                 ) -> tuple[np.ndarray, float]:
+    """(bin averages of smooth density a on the edges, |P_out - Q_out|) as compare() has
+    them against histogram b."""
+    p = bin_average(a, edges)
+    q = np.asarray(b["p"], float)
+    out_p = max(1.0 - float(np.sum(p * w)), 0.0)
+    out_q = max(1.0 - float(np.sum(q * w)) - float(b.get("atom_weight", 0.0)), 0.0)
+    return p, abs(out_p - out_q)
+
+
+def paired(a: dict[str, Any], b: dict[str, Any], truth: dict[str, Any], *,
+           metric: str = "L1", seed: int = 0) -> dict[str, Any]:
+    """The difference of two models' distances to the SAME truth, with its standard error:
+    diff = metric(a, truth) - metric(b, truth) (negative: a is nearer).
+
+    Against a Monte Carlo histogram both distances move with the same noise (a block whose
+    paths sit higher moves both), so their difference carries much less of it than either
+    distance: its error bar is the delete-one-block jackknife of the DIFFERENCE over the
+    histogram's blocks (``p_blocks``; compare.py's error bar of one distance, applied to the
+    pair), else the standard deviation of the difference over DRAWS paired parametric draws
+    q* = q + err N(0, 1), both models against each draw. A truth without sampling noise (a
+    smooth density: an FPK solve, a closed form) gives diff_err = 0, and ``dof`` None.
+    Returns {"metric", "diff", "diff_err", "dof", "a", "b"} (a, b: the two distances).
+    For L1 the raw difference has the sign of the true one: both distances share the truth's
+    noise floor F and E L1 ~ sqrt(L^2 + F^2) is increasing in L (docs/report.md)."""
+    k = METRICS.index(metric)
+    if is_histogram(a) or is_histogram(b):  # no smooth side to pair: each with its own bar
+        ea, eb = compare(a, truth, seed=seed), compare(b, truth, seed=seed)
+        err = math.hypot(ea.get(f"{metric}_err", 0.0), eb.get(f"{metric}_err", 0.0))
+        return {"metric": metric, "diff": ea[metric] - eb[metric], "diff_err": err,
+                "dof": None, "a": ea[metric], "b": eb[metric]}
+    if not is_histogram(truth):  # noise-free truth: the difference is exact
+        va, vb = compare(a, truth)[metric], compare(b, truth)[metric]
+        return {"metric": metric, "diff": va - vb, "diff_err": 0.0, "dof": None,
+                "a": va, "b": vb}
+    edges = np.asarray(truth["edges"], float)
+    w = np.diff(edges)
+    q = np.asarray(truth["p"], float)
+    pa, oa = _smooth_side(a, truth, edges, w)
+    pb, ob = _smooth_side(b, truth, edges, w)
+    va = float(_binned_metrics(pa, q, w, oa)[k])
+    vb = float(_binned_metrics(pb, q, w, ob)[k])
+    if "p_blocks" in truth:
+        blocks = np.asarray(truth["p_blocks"], float)
+        n = blocks.shape[0]
+        loo = (blocks.sum(axis=0) - blocks) / (n - 1)
+        d = _binned_metrics(pa, loo, w, oa)[:, k] - _binned_metrics(pb, loo, w, ob)[:, k]
+        err = float(np.sqrt((n - 1) / n * np.sum((d - d.mean()) ** 2)))
+        dof: int | None = n - 1
+    else:
+        rng = np.random.default_rng(seed)
+        qs = q + rng.standard_normal((DRAWS, q.size)) * np.asarray(truth["err"], float)
+        d = _binned_metrics(pa, qs, w, oa)[:, k] - _binned_metrics(pb, qs, w, ob)[:, k]
+        err, dof = float(np.std(d, ddof=1)), None
+    return {"metric": metric, "diff": va - vb, "diff_err": err, "dof": dof, "a": va, "b": vb}

@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 from vifpk.harness.door import solvers, timedomain
 from vifpk.harness.workflows import precision
+from vifpk.harness.workflows.assumptions import compounded_tail
 from vifpk.harness.workflows.check import _Stages, models_of, sde_seed
 from vifpk.harness.workflows.precision import _fpt, not_measured
 from vifpk.harness.workflows.verdict import RECOMMENDABLE
@@ -218,6 +219,8 @@ def passage(scene: Any, *, threshold: float, start: float | str = "stationary",
     rmean = survival.restricted_mean(t_mc, cens, p["horizon"])
     frac = float(np.mean(cens)) if cens.size else 0.0
     warnings: list[str] = precision.unmet(prec)
+    if "corrected" in models and (tail := compounded_tail(scene, threshold)):
+        warnings.append(tail)  # issue 45: corrected's loss is first order in -ln e^2
     if frac > CENSORED_WARN:
         warnings.append(
             f"{100 * frac:.1f}% of the original system's paths did not pass Ac = {threshold:g} "

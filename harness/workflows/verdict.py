@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from vifpk.harness.workflows.assumptions import ADVISORY, WALL_MAX
+from vifpk.harness.workflows.assumptions import ADVISORY, ASSUMPTION_KINDS, WALL_MAX
 
 from vifpk.core.result import WarningRecord
 
@@ -29,16 +29,33 @@ def _sampling_ok(e: dict[str, float]) -> bool:
     return bool(e["L1"] <= SAMPLING_FACTOR * e["L1_floor"])
 
 
-def _evidence(conv: dict[str, Any], sampling: dict[str, dict[str, float]]) -> list[str]:
-    """Reasons, from the runs' own evidence, to think the Monte Carlo is too short."""
+def sampling_failures(errors: dict[str, dict[str, float]]) -> list[str]:
+    """The observables (of p(A), p(x1), p(x2), in ``errors``' order) on which an averaged SDE's
+    Monte Carlo is off the model's closed form beyond its noise (:func:`_sampling_ok`): every
+    observable the check compares, not p(A) alone (issue 45: x1 and x2 drawn on the wrong
+    orbit carried sampling errors of 0.04-0.22 while p(A) passed)."""
+    return [o for o, e in errors.items() if not _sampling_ok(e)]
+
+
+def sampling_words(model: str, errors: dict[str, dict[str, float]]) -> str:
+    """Why the sampling check of ``model`` failed, in words ('' when it did not)."""
+    bad = sampling_failures(errors)
+    return "; ".join(
+        f"the Monte Carlo of the {model} averaged SDE is off its closed form on p({o}) by "
+        f"L1 = {errors[o]['L1']:.3f}, beyond {SAMPLING_FACTOR} x its noise floor "
+        f"{errors[o]['L1_floor']:.3f}" for o in bad)
+
+
+def _evidence(conv: dict[str, Any], sampling: dict[str, dict[str, dict[str, float]]]
+              ) -> list[str]:
+    """Reasons, from the runs' own evidence, to think the Monte Carlo is too short:
+    ``sampling`` maps a model to its sampling errors by observable."""
     out = []
     if conv.get("equilibrated") is False:
         out.append(conv.get("reason") or "the equilibration certificate failed")
-    for m, e in sampling.items():
-        if not _sampling_ok(e):
-            out.append(f"the Monte Carlo of the {m} averaged SDE is off its closed form by "
-                       f"L1 = {e['L1']:.3f}, beyond {SAMPLING_FACTOR} x its noise floor "
-                       f"{e['L1_floor']:.3f}")
+    for m, errors in sampling.items():
+        if words := sampling_words(m, errors):
+            out.append(words)
     return out
 
 
@@ -86,21 +103,20 @@ def verdict_class(entry: dict[str, Any], warnings: list[WarningRecord], *,
                   convergence: dict[str, Any] | None = None) -> tuple[str, str]:
     """(class, dominant cause) of one model's averaging error, over EVERY observable measured.
 
-    Class: "not an estimate" when the Monte Carlo has not converged or an averaging assumption
-    fails (the distance is then not an approximation error); else the worst class among the
-    observables (p(A), p(x1), p(x2)), each "indistinguishable" when L1 < 2 x its noise floor,
-    "small" when L1 < 0.1, "moderate" when L1 < 0.3, "large" above. Cause: what the
+    Class: "not an estimate" only when the distance is not measured (:func:`unmeasured`: the
+    Monte Carlo has not converged, or its own checks say the distance is the run's); else the
+    worst class among the observables (p(A), p(x1), p(x2)), each "indistinguishable" when
+    L1 < 2 x its noise floor, "small" when L1 < 0.1, "moderate" when L1 < 0.3, "large" above.
+    A failing averaging assumption does NOT change the class (issue 45: the distance measured
+    is the model's error on that scene; independent simulations of three wall scenes agreed
+    with it): :func:`assumptions_failing` names it beside the class. Cause: what the
     decomposition of that worst observable says the distance comes from (the averaged model
     itself when its averaging error is 3 x the FPK discretisation and the sampling errors and
     floors), naming the observable when it is not p(A).
     """
-    conv = convergence or {}
-    if conv.get("equilibrated") is False or entry.get("sampling_ok") is False:
-        return "not an estimate", "the Monte Carlo has not converged"
-    failing = [w for w in warnings if w.kind not in ADVISORY]
-    if failing:
-        names = [w.title for w in failing]
-        return "not an estimate", "failing averaging assumptions (" + ", ".join(names) + ")"
+    why = unmeasured(entry, warnings, convergence)
+    if why:
+        return "not an estimate", why
     o = worst_observable(entry)
     e = entry["averaging_error"][o]
     l1, floor = e["L1"], e["L1_floor"]
@@ -129,6 +145,48 @@ def verdict_class(entry: dict[str, Any], warnings: list[WarningRecord], *,
     return cls, cause + where
 
 
+#: warnings of the run, not of the model, that leave the distance unmeasured (assumptions.py)
+RUN_KINDS = ("outside_range", "dt_bias")
+
+
+def unmeasured(entry: dict[str, Any], warnings: list[WarningRecord],
+               convergence: dict[str, Any] | None = None) -> str:
+    """Why this model's distance is NOT a measurement of its error ('' when it is): the Monte
+    Carlo of the original system has not converged (its certificate), the model's averaged
+    SDE is off its closed form (its sampling check: the closed form or the machinery is in
+    doubt), the simulation puts its mass outside the range (not converged, or another state),
+    or its step check found a bias (the distance would be the step's). Nothing else: a failing
+    averaging assumption leaves the distance measured (:func:`assumption_words`)."""
+    conv = convergence or {}
+    if conv.get("equilibrated") is False:
+        return "the simulation has not converged: " + (conv.get("reason")
+                                                        or "the certificate failed")
+    if entry.get("sampling_ok") is False:
+        return "the simulation has not converged: " + (entry.get("sampling_reason")
+                                                        or "the averaged-SDE check failed")
+    run = [w for w in warnings if w.kind in RUN_KINDS]
+    if run:
+        return "the run's own check failed (" + ", ".join(w.title for w in run) + ")"
+    return ""
+
+
+def assumptions_failing(warnings: list[WarningRecord]) -> list[WarningRecord]:
+    """The averaging assumptions that fail here (the warnings that are not ADVISORY, nor
+    diagnostics of the run): said beside a verdict's class, never instead of it."""
+    return [w for w in warnings if w.kind in ASSUMPTION_KINDS and w.kind not in ADVISORY]
+
+
+def assumption_words(warnings: list[WarningRecord]) -> str:
+    """'' or the words said beside a class where an averaging assumption fails."""
+    failing = assumptions_failing(warnings)
+    if not failing:
+        return ""
+    what = ("an averaging assumption fails" if len(failing) == 1
+            else "averaging assumptions fail")
+    return (f"measured where {what} (" + ", ".join(w.title for w in failing)
+            + ", see warnings): this is the model's error on this scene, not a trend beyond it")
+
+
 def verdict(model: str, entry: dict[str, Any], warnings: list[WarningRecord], *,
             convergence: dict[str, Any] | None = None) -> str:
     """One line: the class (the worst over the observables), the averaging error of p(A) with
@@ -151,48 +209,96 @@ def verdict(model: str, entry: dict[str, Any], warnings: list[WarningRecord], *,
         others.append(f"p({o}) {per[o]} (L1 {eo['L1']:.3f}, {r:.1f} x floor)")
     if others:
         line += f"; p(A) {per['A']}, " + ", ".join(others)
-    conv = convergence or {}
-    if cls == "not an estimate" and (conv.get("equilibrated") is False
-                                     or entry.get("sampling_ok") is False):
-        line += (" -- the simulation has not converged, so this is NOT an estimate of the "
-                 "averaging error: " + (conv.get("reason") or "the averaged-SDE check failed"))
-    elif cls == "not an estimate":
-        line += (" -- NOT an estimate of an approximation error: the averaging assumptions do "
-                 "not hold here (see warnings)")
+    if cls == "not an estimate":
+        line += (" -- NOT an estimate of the averaging error: "
+                 + unmeasured(entry, warnings, convergence))
     elif cls == "indistinguishable":
         line += " -- indistinguishable from the original system at this sample size"
     else:
         line += f"; dominant cause: {cause}"
+    if cls != "not an estimate" and (words := assumption_words(warnings)):
+        line += f" -- {words}"
     return line
 
 
 # ------------------------------------------------------------------ which model to trust
-#: the order of preference between models whose errors agree within the noise (the derived
-#: O(eps) terms first); any checked model whose error is measured is a candidate
+#: the order of preference between models a paired comparison cannot tell apart (the derived
+#: O(eps) terms first), said as such; any checked model whose error is measured is a candidate
 RECOMMENDABLE = ("corrected", "exact")
+
+#: said of every recommendation: it reads the stationary densities only (issue 45: corrected's
+#: MFPT far in the tail can be off where its p(A) is the best, docs/passage.md)
+STATIONARY = ("; this is about the stationary law (p(A), p(x1), p(x2)): first-passage times "
+              "and transients are checked by vifpk passage and vifpk transient")
+
+
+def pair(metrics: dict[str, Any], a: str, b: str) -> dict[str, Any]:
+    """The paired comparison of models a and b (compare.paired: metric(a) - metric(b) against
+    the same Monte Carlo sample, with the error bar of the DIFFERENCE) from
+    ``metrics["paired"]``; without it (canned or older metrics) the two distances' own bars
+    combined as if independent, which overstates the bar where both share the noise."""
+    tol = metrics.get("tolerance") or {}
+    k, o = tol.get("metric", "L1"), tol.get("observable", "A")
+    table = metrics.get("paired") or {}
+    for pr in table.get("pairs", []) if (table.get("metric"), table.get("observable")) == (
+            k, o) else []:
+        if (pr["a"], pr["b"]) == (a, b):
+            return pr
+        if (pr["a"], pr["b"]) == (b, a):
+            return {**pr, "a": a, "b": b, "diff": -pr["diff"]}
+    ea, eb = (metrics["models"][m]["averaging_error"][o] for m in (a, b))
+    return {"a": a, "b": b, "diff": ea[k] - eb[k], "dof": None, "paired": False,
+            "diff_err": math.hypot(ea.get(f"{k}_err", 0.0), eb.get(f"{k}_err", 0.0))}
+
+
+def apart(pr: dict[str, Any], confidence: float) -> bool:
+    """Whether the paired difference is told from 0 at the (two-sided) confidence: |diff| >
+    t x its error bar (Student's t with the jackknife's dof; normal without). A noise-free
+    truth (error bar 0) tells any non-zero difference."""
+    from vifpk.harness.workflows.tolerance import _quantile
+
+    z = _quantile(0.5 + confidence / 2, pr.get("dof"))
+    return abs(pr["diff"]) > z * pr["diff_err"]
+
+
+def floor_to_tell(pr: dict[str, Any], floor: float, confidence: float) -> float:
+    """The Monte Carlo noise floor at which a difference as large as the one measured would be
+    told apart: the error bar and the floor both scale as 1 / sqrt(samples), so the floor
+    needed is floor x |diff| / (t x diff_err) (0 when the difference is 0: no floor tells
+    identical distances apart)."""
+    from vifpk.harness.workflows.tolerance import _quantile
+
+    z = _quantile(0.5 + confidence / 2, pr.get("dof"))
+    if pr["diff_err"] <= 0 or pr["diff"] == 0:
+        return 0.0
+    return floor * abs(pr["diff"]) / (z * pr["diff_err"])
+
+
+def _pair_words(pr: dict[str, Any]) -> str:
+    k = "paired" if pr.get("paired", True) else "unpaired (bars combined)"
+    return f"{pr['a']} - {pr['b']} = {pr['diff']:+.4f} +/- {pr['diff_err']:.4f} ({k})"
 
 
 def recommend(metrics: dict[str, Any], warnings: list[WarningRecord], val: dict[str, Any], *,
               convergence: dict[str, Any] | None = None) -> tuple[str, str]:
     """(model, one line): the averaged model to trust for this scene and why, or "none".
 
-    The recommendation follows the tolerance verdict (harness/workflows/tolerance.py; the question
-    is
-    ``metrics["tolerance"]``, default L1(A) <= 0.02 at 95%): (1) the Monte Carlo of the original
-    system must have converged, else "none"; a model whose averaged-SDE check failed is no
-    candidate; (2) of the models checked (plugins and ``paper`` included: the measured error
-    decides, not the name), the ones INSIDE the tolerance at the stated confidence are
-    candidates, and the one with the lowest error estimate (noise removed) is recommended;
-    models within the noise floor of the lowest are tied, and a tie goes to the model with the
-    most derived terms (RECOMMENDABLE's order: ``corrected``, then ``exact``), except that
-    ``corrected`` yields to ``exact`` where its wall-energy term is outside its derivation over
-    the bulk of p(E) (delta / E above WALL_MAX at the 10% energy); (3) "none" only when no model
-    is inside, saying which are undecided (a longer run decides) and which outside; with no
-    model inside, the best undecided one whose P(error <= tolerance) is at least 1/2 is
-    recommended *provisionally* (the line says so: more likely within than not, not yet at the
-    confidence). Warnings no longer veto a model whose measured error is small: they are named
-    as advice (the assumptions that fail here, so the measured error holds for this scene, not
-    as a trend). The line names the tolerance used.
+    The recommendation follows the tolerance verdict (harness/workflows/tolerance.py; the
+    question is ``metrics["tolerance"]``, default L1(A) <= 0.02 at 95%): (1) the Monte Carlo of
+    the original system must have converged, else "none"; a model whose averaged-SDE check
+    failed is no candidate; (2) of the models checked (plugins and ``paper`` included: the
+    measured error decides, not the name), the ones INSIDE the tolerance at the stated
+    confidence are the candidates; with none inside, the undecided ones more likely within than
+    not (P >= 1/2) are, *provisionally* (a longer run decides); "none" when neither exists;
+    (3) between candidates the lowest error wins only where a PAIRED comparison on the same
+    Monte Carlo sample tells it from the others (:func:`pair`, :func:`apart`: the difference
+    of their distances with the jackknife bar of the difference, at the tolerance's
+    confidence); the candidates it cannot tell from the best are a tie, and the line says so,
+    with the floor that would tell them apart (:func:`floor_to_tell`); the model then named is
+    by the declared order (RECOMMENDABLE: ``corrected``, then ``exact``; ``exact`` where
+    corrected's wall term is outside its derivation, delta / E > WALL_MAX at the 10% energy),
+    said as an order, not as a measured preference. Failing assumptions are advice, not a
+    veto. Every line names the tolerance and says it is about the stationary law.
     """
     from vifpk.harness.request.tolerance import Tolerance
     from vifpk.harness.workflows.tolerance import tolerance_verdict
@@ -217,7 +323,7 @@ def recommend(metrics: dict[str, Any], warnings: list[WarningRecord], val: dict[
     desc = ", ".join(f"{m} {tv[m]['error_estimate']:.3f} (P = "
                      f"{tv[m]['p_within_tolerance']:.2f}, {tv[m]['class']})" for m in cand)
     floor = max(tv[m]["floor"] for m in cand)
-    failing = [w for w in warnings if w.kind not in ADVISORY]
+    failing = assumptions_failing(warnings)
     advisory = [w for w in warnings if w.kind in ADVISORY]
     advice = ""
     if failing:
@@ -229,43 +335,54 @@ def recommend(metrics: dict[str, Any], warnings: list[WarningRecord], val: dict[
     inside = [m for m in cand if tv[m]["class"] == "inside"]
     likely = [m for m in cand if tv[m]["class"] == "undecided"
               and tv[m]["p_within_tolerance"] >= 0.5]
-    if not inside and likely:
-        pick = min(likely, key=lambda m: tv[m]["error_estimate"])
-        return pick, (head + f"{pick} -- provisionally: no model is within the {used} at this "
-                      f"sample size, and {pick}'s error is more likely within it than not "
-                      f"(error estimates with the noise removed: {desc}; floor {floor:.3f}); "
-                      f"a longer run (a smaller floor) decides{advice}")
-    if not inside:
+    pool = inside or likely
+    if not pool:
         undecided = [m for m in cand if tv[m]["class"] == "undecided"]
         more = (f"; {' and '.join(undecided)} undecided: a longer run (a smaller floor) "
                 "decides" if undecided else "")
         return "none", (head + f"none -- no model is within the {used} (error estimates with "
-                        f"the noise removed: {desc}; floor {floor:.3f}){more}{advice}")
+                        f"the noise removed: {desc}; floor {floor:.3f}){more}{advice}"
+                        f"{STATIONARY}")
+    est = {m: tv[m]["error_estimate"] for m in pool}
+    best = min(pool, key=lambda m: (est[m], tv[m]["measured"]))
+    pairs = {m: pair(metrics, best, m) for m in pool if m != best}
+    tied = [best] + [m for m in pool if m != best and not apart(pairs[m], tol.confidence)]
     wall = (val.get("wall") or [0.0])[0]  # at the 10% energy, where delta / E is largest
-    est = {m: tv[m]["error_estimate"] for m in inside}
-    best = min(est.values())
-    tied = {m for m in inside if est[m] - best <= floor}  # equal within the noise
-    if {"exact", "corrected"} <= tied:
-        if wall > WALL_MAX:
-            pick = "exact"
-            why = (f"exact and corrected are both within the {used} and agree within the "
-                   f"noise ({desc}; floor {floor:.3f}); corrected's energy-at-the-wall term is "
-                   f"outside its derivation here (delta/E = {wall:.2f} at the 10% energy > "
-                   f"{WALL_MAX:g})")
-        else:
-            pick = "corrected"
-            why = (f"exact and corrected are both within the {used} and agree within the "
-                   f"noise ({desc}; floor {floor:.3f}); corrected keeps the derived O(eps) "
-                   "impact terms")
+    if len(tied) == 1:
+        pick = best
+        vs = ("; nearer than " + ", ".join(
+            f"{m} by a paired comparison on the same sample ({_pair_words(pairs[m])})"
+            for m in pairs)) if pairs else ""
     else:
-        # within the noise of each other, a model with the derived O(eps) terms first
+        # a tie: the declared order names one, and the line says that it is the order
         pick = min(tied, key=lambda m: (RECOMMENDABLE.index(m) if m in RECOMMENDABLE
                                         else len(RECOMMENDABLE), est[m]))
-        why = (f"within the {used}, lowest error estimate with the noise removed ({desc}; "
-               f"floor {floor:.3f})" if len(tied) == 1 else
-               f"within the {used}; {', '.join(sorted(tied))} agree within the noise "
-               f"({desc}; floor {floor:.3f}) and {pick} keeps the most derived terms")
-        if pick == "exact" and "corrected" in cand and wall > WALL_MAX:
-            why += (f"; corrected's energy-at-the-wall term is outside its derivation here "
-                    f"(delta/E = {wall:.2f} at the 10% energy > {WALL_MAX:g})")
-    return pick, head + f"{pick} -- {why}{advice}"
+        order = f"{pick} keeps the most derived terms"
+        if {"exact", "corrected"} <= set(tied) and wall > WALL_MAX:
+            pick = "exact"
+            order = (f"corrected's energy-at-the-wall term is outside its derivation here "
+                     f"(delta/E = {wall:.2f} at the 10% energy > {WALL_MAX:g})")
+        elif pick == "corrected":
+            order = "corrected keeps the derived O(eps) impact terms"
+        need = max(floor_to_tell(pairs[m], floor, tol.confidence) for m in tied if m != best)
+        tell = (f"a noise floor of about {need:.2g} (now {floor:.3f}, "
+                f"{(floor / need) ** 2:.0f} x the samples) would tell a difference that large "
+                "apart" if need > 0 else "their distances are equal, so no floor tells them "
+                "apart")
+        vs = (f"; {' and '.join(tied)} cannot be told apart on this sample: they agree within "
+              "the noise of a paired comparison ("
+              + "; ".join(_pair_words(pairs[m]) for m in tied if m != best)
+              + f"); {tell}; {pick} is named by the declared order ({order}), not by a "
+              "measured difference")
+    if pick == "exact" and "corrected" in cand and wall > WALL_MAX and len(tied) == 1:
+        vs += (f"; corrected's energy-at-the-wall term is outside its derivation here "
+               f"(delta/E = {wall:.2f} at the 10% energy > {WALL_MAX:g})")
+    if inside:
+        why = (f"within the {used} (error estimates with the noise removed: {desc}; floor "
+               f"{floor:.3f}){vs}")
+    else:
+        why = (f"provisionally: no model is within the {used} at this sample size, and "
+               f"{pick}'s error is more likely within it than not (error estimates with the "
+               f"noise removed: {desc}; floor {floor:.3f}){vs}; a longer run (a smaller "
+               "floor) decides")
+    return pick, head + f"{pick} -- {why}{advice}{STATIONARY}"

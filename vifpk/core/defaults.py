@@ -16,6 +16,11 @@ FPK_CELLS = 400
 #: Cells of the FPK direct solve that gives p(A) of a model with no closed form (a plugin
 #: giving only drift and diffusion): twice FPK_CELLS, so the reference is the finer grid.
 REFERENCE_CELLS = 800
+#: The L1 error of p(A) the original system's FPK (``vifpk solve --solver original-fpk``,
+#: vifpk.fpk2d) is run to when no grid is given: its resolution follows from it (Richardson's
+#: estimate, docs/fpk2d.md); a tenth of the Monte Carlo floors a check reaches in seconds
+#: (~0.005), so as the check's truth its own error is negligible beside theirs.
+ORIGINAL_FPK_ACCURACY = 5e-4
 #: Burn-in = BURN_FACTOR x the relaxation time tau (montecarlo/tuning.py: the start's offset
 #: from equilibrium decays as exp(-t / tau), so e^-6 = 2.5e-3 of it is left).
 BURN_FACTOR = 6.0

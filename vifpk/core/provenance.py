@@ -172,3 +172,20 @@ def stamped(res: Any, prov: dict[str, Any] | None = None) -> tuple[Any, dict[str
     if prov is None:
         prov = collect(scene_path=scene_file(res.scene.source) if res.scene.source else None)
     return dataclasses.replace(res, provenance=prov), prov
+
+
+def process_clock() -> dict[str, float]:
+    """{"wall": seconds since this process started, "cpu": its CPU seconds so far (every
+    thread)}: at a command's start, what the interpreter and the imports cost (the run's
+    timing record, "startup"). The wall from /proc (Linux, to the clock tick); nan elsewhere."""
+    import time
+
+    try:
+        with open("/proc/self/stat") as f:
+            ticks = int(f.read().rsplit(")", 1)[1].split()[19])  # field 22: starttime
+        with open("/proc/uptime") as f:
+            up = float(f.read().split()[0])
+        wall = up - ticks / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError):
+        wall = float("nan")
+    return {"wall": wall, "cpu": time.process_time()}

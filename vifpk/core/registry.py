@@ -31,6 +31,9 @@ from typing import Any
 #: of the original system. The solvers of a model's FPK sit between them in ``solver_names()``:
 #: registered in the ``vifpk.solvers`` entry-point group (vifpk's own: ``fpk``).
 CLOSED_FORM, ORIGINAL = "averaging", "montecarlo"
+#: The original system's own Fokker-Planck equation in (x, v) (vifpk.fpk2d, issue 46): no
+#: averaging and no sampling noise, for the scenes it has generators for (white noise).
+ORIGINAL_FPK = "original-fpk"
 #: Kinds of excitation xi(t): Ornstein-Uhlenbeck ("real") noise, Gaussian white noise.
 NOISE_KINDS = ("ou", "white")
 #: The exact averaged model's treatments of the impact term (averaging/exact.py,
@@ -179,13 +182,14 @@ def model_solver_names() -> tuple[str, ...]:
     """The registered solvers of an averaged model's FPK (``vifpk.solvers``; vifpk's own
     first), read without importing one. A plugin registered as ``averaging`` or
     ``montecarlo`` is shadowed by those two (a name keeps its first meaning, as for models)."""
-    return tuple(e.name for e in _solver_entries() if e.name not in (CLOSED_FORM, ORIGINAL))
+    return tuple(e.name for e in _solver_entries()
+                 if e.name not in (CLOSED_FORM, ORIGINAL, ORIGINAL_FPK))
 
 
 def solver_names() -> tuple[str, ...]:
     """Every solver ``vifpk solve --solver`` offers, in order: the closed form, the registered
-    FPK solvers (model_solver_names), the Monte Carlo of the original system."""
-    return (CLOSED_FORM, *model_solver_names(), ORIGINAL)
+    FPK solvers (model_solver_names), the Monte Carlo of the original system, its FPK."""
+    return (CLOSED_FORM, *model_solver_names(), ORIGINAL, ORIGINAL_FPK)
 
 
 @cache

@@ -26,6 +26,9 @@ For the averaged models (solver "averaging"), names prefixed ``avg_`` (averaging
 ``avg_spectral_density(omega, D=, alpha1=)`` (two-sided S(w)); either ``avg_flat_level`` (a
 white spectrum: S the same at every w) or ``avg_rational_parts`` (c, a2 with
 w^2 S = c - a2 S, the OU identity); ``avg_correlation_rate`` (1 / correlation time), if any.
+For the original system's Fokker-Planck solver (solver "fpk2d", issue 46), names prefixed
+``fp_``: ``fp_velocity_diffusion(noise, f)``, the constant B0 of the diffusion B0 d^2p/dv^2
+the excitation adds (white: D f^2); a kind with a state of its own (OU) has none.
 The parametric white noises (``parametric.py``) are no kind of the excitation: the averaged
 models import that module directly.
 
@@ -40,7 +43,7 @@ from typing import Any
 
 from vifpk.core.registry import NOISE_KINDS
 
-SOLVER_PREFIX = {"montecarlo": "mc_", "averaging": "avg_"}
+SOLVER_PREFIX = {"montecarlo": "mc_", "averaging": "avg_", "fpk2d": "fp_"}
 
 
 class NoPiece(ValueError):

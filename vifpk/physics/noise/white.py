@@ -76,6 +76,13 @@ def mc_energy(rec, h, half, k, mu, vb, vc, vk, vd, ve, xi):
             fric)
 
 
+# --------------------------------------------------- the original system's FPK (fpk2d)
+def fp_velocity_diffusion(noise: Any, f: float) -> float:
+    """D f^2: the diffusion coefficient of the force f xi in v (the FPK term
+    D f^2 d^2p/dv^2, E[xi(t) xi(t+s)] = 2 D delta(s))."""
+    return float(noise.D) * f ** 2
+
+
 # ------------------------------------------------------------------ averaged models
 def avg_flat_level(*, D: float, alpha1: float) -> float:
     """S(w) = D / pi, the same at every frequency (``alpha1`` unused)."""
