@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import pytest
 from vifpk.harness.cli.app import main
-from vifpk.harness.door.solvers import tail_warning
 
 import vifpk
+from vifpk.core.energy import tail_note
 
 
 @pytest.mark.parametrize("scene, values, words", [
@@ -21,14 +21,16 @@ import vifpk
                                       "outgrows every loss beyond E ~ 1.72e+04"),
 ])
 def test_the_law_says_what_its_tail_is(scene, values, words):
-    assert words in tail_warning(vifpk.scene(scene, **values))
+    s = vifpk.scene(scene, **values)
+    assert words in tail_note(s.system, s.parametric)
 
 
 @pytest.mark.parametrize("scene, values", [
     ("paper-base", {}), ("systems/bilateral-duffing", {}),
     ("paper-base", {"parametric.stiffness": 0.01})])  # kappa > 2 there (bound 1/28)
 def test_a_law_with_a_finite_mean_energy_says_nothing(scene, values):
-    assert tail_warning(vifpk.scene(scene, **values)) is None
+    s = vifpk.scene(scene, **values)
+    assert tail_note(s.system, s.parametric) is None
 
 
 def test_solve_prints_the_warning(capsys):

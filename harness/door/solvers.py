@@ -26,6 +26,7 @@ from vifpk.harness.door.boundary import (  # noqa: F401 - SolverFailure: callers
 
 from vifpk.core import registry
 from vifpk.core.defaults import FPK_CELLS, REFERENCE_CELLS
+from vifpk.core.energy import tail_note
 from vifpk.core.guard import GuardedModel, PluginError
 from vifpk.core.registry import CLOSED_FORM, one_of
 from vifpk.core.result import Result, Status
@@ -90,8 +91,7 @@ def closed_form(scene: Any, *, model: Any, tail_mass: bool = True, **options: An
         with _blamed(m), _heavy_tail(scene):
             res = averaging.solve(scene, model=m, tail_mass=tail_mass)
         res.info.update(model=model_label(model), closed_form=True)
-        said = tail_warning(scene)
-        if said:
+        if said := tail_note(scene.system, getattr(scene, "parametric", None)):  # E[H], metastable
             res.info["warnings"] = [*res.info.get("warnings", ()), said]
         return res
     res = fpk_solution(scene, model=m, cells=REFERENCE_CELLS, method="direct")
@@ -99,30 +99,6 @@ def closed_form(scene: Any, *, model: Any, tail_mass: bool = True, **options: An
                     method=f"FPK direct solve, {REFERENCE_CELLS} cells (the model gives no "
                            "closed form: no log_stationary_parts/period)")
     return res
-
-
-def tail_warning(scene: Any) -> str | None:
-    """What a solved law under parametric noise must say beside its numbers (issue 45), from
-    its large-energy tail (vifpk.core.energy.parametric_tail): with no stationary law strictly
-    (the noise outgrows every loss beyond a crossover energy) the law is the metastable one
-    below that energy, and it says where; with kappa <= 2 the mean energy is infinite
-    (paper-base with D_c = 0.1: kappa = 7/6), so a mean taken on the grid is that of the
-    truncated law. None otherwise."""
-    from vifpk.core.energy import parametric_tail
-
-    tail = parametric_tail(scene.system, getattr(scene, "parametric", None))
-    if tail is None:
-        return None
-    law = f"the averaged energy's law decays as E^-{tail.kappa:.3g} at large E"
-    if not tail.normalisable and tail.crossover:
-        return (f"no stationary law strictly: the parametric noise outgrows every loss beyond "
-                f"E ~ {tail.crossover:.3g} ({law}); the law given is the metastable one of the "
-                "motion below that energy (the closed form's grid ends before it)")
-    if not tail.mean_finite:
-        return (f"{law} (kappa <= 2): its mean energy is infinite; the moments given are "
-                "those of the law on the closed form's grid (its mass outside is the grid's "
-                "tail mass)")
-    return None
 
 
 @contextmanager

@@ -132,17 +132,11 @@ def scene_magnitudes(scene: Scene) -> None:
     lo, hi = MAGNITUDE
     for sec, key, v in _physical(scene):
         if v != 0.0 and not lo <= abs(v) <= hi:
-            if key.endswith("_wall.at"):
-                raise InputError(f"{sec}.{key} = {shown(v)} is out of range; allowed: 0 or "
-                                 f"{lo:g} <= |at| <= {hi:g} (a wall closer to x = 0 than "
-                                 f"{lo:g} is the wall at 0: write at = 0; beyond, the spring's "
-                                 "energy at the wall and the model's coefficients over- or "
-                                 "underflow double precision)")
-            if key.endswith("_wall.v_yield"):
-                raise InputError(f"{sec}.{key} = {shown(v)} is out of range; allowed: {lo:g} "
-                                 f"<= v_yield <= {hi:g} (beyond, the law's coefficients over- "
-                                 "or underflow double precision; law = \"newton\" is the limit "
-                                 "of a large v_yield)")
+            if "_wall." in key:  # a wall's position or yield speed (0 is the wall at 0)
+                raise InputError(f"{sec}.{key} = {shown(v)} is out of range; allowed: "
+                                 f"{'0 or ' * key.endswith('.at')}{lo:g} <= "
+                                 f"|{key.split('.')[-1]}| <= {hi:g} (beyond, the "
+                                 "model's coefficients over- or underflow double precision)")
             if "[" in key:
                 raise InputError(f"{sec}.{key} = {v:g} is out of range; allowed: 0 or "
                                  f"{lo:g} <= |coefficient| <= {hi:g} (beyond, the model's "
@@ -190,10 +184,9 @@ def _physical(scene: Scene) -> list[tuple[str, str, float]]:
     for law in ("restoring", "damping", "velocity_damping"):
         for i, c in enumerate(getattr(scene.system, law)):
             out.append(("system", f"{law}[{i}]", float(c)))
-    for w in getattr(scene.system, "walls", ()):  # a wall's position is a length like any
-        out.append(("system", f"{w.side}_wall.at", float(w.at)))
-        if w.v_yield is not None:  # and its yield speed a speed
-            out.append(("system", f"{w.side}_wall.v_yield", float(w.v_yield)))
+    for w in getattr(scene.system, "walls", ()):  # a wall's position and yield speed
+        out += [("system", f"{w.side}_wall.{k}", float(v)) for k, v in
+                (("at", w.at), ("v_yield", w.v_yield)) if v is not None]
     return out
 
 
