@@ -105,6 +105,8 @@ def test_every_option_has_help_showing_its_default():
             if isinstance(a, argparse._HelpAction):
                 continue
             assert a.help, (name, a.dest)
+            if a.help == argparse.SUPPRESS:  # parsed, not listed: refused where it does not
+                continue  # apply (workprecision's --paths, issue 45; tests/test_edges8_open.py)
             if a.option_strings and not a.required:
                 assert "default" in a.help, (name, a.option_strings)
 
@@ -112,9 +114,9 @@ def test_every_option_has_help_showing_its_default():
 def test_version_and_bare_usage(capsys):
     from vifpk.core.provenance import vifpk_version
 
-    with pytest.raises(SystemExit) as exc:
-        main(["--version"])
-    assert exc.value.code == 0 and capsys.readouterr().out.strip() == f"vifpk {vifpk_version()}"
+    # answered before the parser is built (a hanging workflow plugin cannot hang it, issue 45)
+    assert main(["--version"]) == 0
+    assert capsys.readouterr().out.strip() == f"vifpk {vifpk_version()}"
     assert main([]) == 2
     err = capsys.readouterr().err
     assert err.startswith("usage: vifpk") and "check" in err and "workprecision" in err
