@@ -78,9 +78,12 @@ def test_threshold_1e200_gets_the_same_line_from_every_door(no_computation, tmp_
     p = tmp_path / "s.toml"
     p.write_text('scene = "paper-base"\nworkflow = "passage"\n[vary]\n'
                  '"passage.threshold" = [0.5, 1e200]\n')
-    sweep = _refused(["sweep", str(p), "--out", str(tmp_path / "o")], capsys, HUGE)
+    # the sweep names the key as its file writes it (issue 45): "[passage] threshold"
+    named = HUGE.replace("--threshold", "[passage] threshold")
+    sweep = _refused(["sweep", str(p), "--out", str(tmp_path / "o")], capsys, named)
     line = cli.removeprefix("vifpk: error: ")
-    assert str(api.value) == line and sweep.endswith(line)
+    assert str(api.value) == line
+    assert sweep.endswith(line.replace("--threshold", "[passage] threshold"))
     assert not (tmp_path / "o").exists() and not (tmp_path / "out").exists()
 
 

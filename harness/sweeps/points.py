@@ -154,11 +154,12 @@ def make_point(base: Scene, fixed: Mapping[str, Any], *, seed: int, workflow: st
     # a budget of 0 means no wall-clock limit (see RESERVED)
     values = {**fixed, "montecarlo.budget": 0.0,
               **{k: v for k, v in params if k not in TIME_PARAMS}, "montecarlo.seed": s}
+    table = dict(bifurcation)  # the file's options, before the point's values join them
     def alone() -> str | None:  # the fault without the point's values (None: there is none)
         try:
             sc = base.with_values({**fixed, "montecarlo.budget": 0.0})
-            _validate_point(sc, workflow, point_options(bifurcation, ()), where, ())
-        except (SceneError, SweepError) as exc:
+            _validate_point(sc, workflow, table, where, ())
+        except Exception as exc:  # noqa: BLE001 - any fault of its own (a key missing too)
             return str(exc).split(": ", 1)[-1]
         return None
 
