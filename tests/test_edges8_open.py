@@ -99,7 +99,7 @@ def test_workprecision_help_lists_only_its_options(capsys):
     # a wall's yield speed obeys the magnitude rule (v_yield = 1e-300 went to the solvers)
     (["solve", BD, "--model", "exact", "--set", "system.lower_wall.law=johnson", "--set",
       "system.lower_wall.v_yield=1e-300"],
-     "system.lower_wall.v_yield = 1e-300 is out of range; allowed: 1e-100 <= v_yield"),
+     "system.lower_wall.v_yield = 1e-300 is out of range; allowed: 1e-100 <= |v_yield|"),
 ])
 def test_tiny_amplitudes_and_speeds_are_refused(capsys, args, words):
     assert main(args) == 2

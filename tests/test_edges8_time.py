@@ -135,18 +135,6 @@ def test_every_path_of_the_averaged_sde_censored_is_not_a_nan(monkeypatch, tiny)
     assert np.isfinite(e["sde"]["mfpt"]["stderr"]) or e["sde"]["mfpt"]["stderr"] == 0
 
 
-@pytest.mark.slow
-def test_real_auto_splitting_at_400_particles_runs(tmp_path):
-    """The reproducer itself: offset-parametric, threshold 30 from 0.3, --method auto."""
-    from vifpk.harness.cli.app import main
-
-    out = tmp_path / "p"
-    assert main(["passage", OP, "--model", "exact", "--quiet", "--threshold", "30",
-                 "--start", "0.3", "--out", str(out)]) == 0
-    met = json.loads((out / "metrics.json").read_text())
-    assert met["method"] == "splitting"
-
-
 def test_a_relaxation_time_whose_interval_reaches_zero_is_not_a_measurement(monkeypatch,
                                                                            tiny):  # noqa: F811
     """"measured on the original system 3.232e+04 +/- 9.3e+08 (within the error bar: -99.9% +/-

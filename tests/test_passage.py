@@ -214,7 +214,8 @@ def test_passage_sweep_over_threshold_gives_mfpt_per_model_and_original(doubles,
     ('workflow = "passage"\n[vary]\n"system.mu" = [0.001, 0.002]\n',
      "[passage] threshold: missing"),
     ('workflow = "passage"\n[passage]\nthreshold = 1.0\nstart = 1.5\n'
-     '[vary]\n"system.mu" = [0.001]\n', "[passage] start 1.5: at or above the threshold Ac = 1"),
+     '[vary]\n"system.mu" = [0.001]\n',  # named as written in the file (issue 45: "--start")
+     "s.toml: [passage] start 1.5: at or above the threshold Ac = 1"),
     ('workflow = "check"\n[vary]\n"passage.threshold" = [1.0]\n',
      "only for workflow = 'passage'"),
     ('workflow = "transient"\n[transient]\nstart = 1.0\ntimes = [5, 2]\n'

@@ -78,9 +78,9 @@ def test_threshold_1e200_gets_the_same_line_from_every_door(no_computation, tmp_
     p = tmp_path / "s.toml"
     p.write_text('scene = "paper-base"\nworkflow = "passage"\n[vary]\n'
                  '"passage.threshold" = [0.5, 1e200]\n')
-    # a sweep file names the key as written there, "[passage] threshold" (issue 45)
-    sweep = _refused(["sweep", str(p), "--out", str(tmp_path / "o")], capsys,
-                     HUGE.replace("--threshold", "[passage] threshold"))
+    # the sweep names the key as its file writes it (issue 45): "[passage] threshold"
+    named = HUGE.replace("--threshold", "[passage] threshold")
+    sweep = _refused(["sweep", str(p), "--out", str(tmp_path / "o")], capsys, named)
     line = cli.removeprefix("vifpk: error: ")
     assert str(api.value) == line
     assert sweep.endswith(line.replace("--threshold", "[passage] threshold"))

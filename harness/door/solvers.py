@@ -26,6 +26,7 @@ from vifpk.harness.door.boundary import (  # noqa: F401 - SolverFailure: callers
 
 from vifpk.core import registry
 from vifpk.core.defaults import FPK_CELLS, REFERENCE_CELLS
+from vifpk.core.energy import tail_note
 from vifpk.core.guard import GuardedModel, PluginError
 from vifpk.core.registry import CLOSED_FORM, one_of
 from vifpk.core.result import Result, Status
@@ -90,6 +91,8 @@ def closed_form(scene: Any, *, model: Any, tail_mass: bool = True, **options: An
         with _blamed(m), _heavy_tail(scene):
             res = averaging.solve(scene, model=m, tail_mass=tail_mass)
         res.info.update(model=model_label(model), closed_form=True)
+        if said := tail_note(scene.system, getattr(scene, "parametric", None)):  # E[H], metastable
+            res.info["warnings"] = [*res.info.get("warnings", ()), said]
         return res
     res = fpk_solution(scene, model=m, cells=REFERENCE_CELLS, method="direct")
     res.info.update(model=model_label(model), closed_form=False,

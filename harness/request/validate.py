@@ -143,17 +143,11 @@ def scene_magnitudes(scene: Scene) -> None:
     lo, hi = MAGNITUDE
     for sec, key, v in _physical(scene):
         if v != 0.0 and not lo <= abs(v) <= hi:
-            if key.endswith("_wall.at"):
-                raise InputError(f"{sec}.{key} = {shown(v)} is out of range; allowed: 0 or "
-                                 f"{lo:g} <= |at| <= {hi:g} (a wall closer to x = 0 than "
-                                 f"{lo:g} is the wall at 0: write at = 0; beyond, the spring's "
-                                 "energy at the wall and the model's coefficients over- or "
-                                 "underflow double precision)")
-            if key.endswith("_wall.v_yield"):
-                raise InputError(f"{sec}.{key} = {shown(v)} is out of range; allowed: {lo:g} "
-                                 f"<= v_yield <= {hi:g} (beyond, the law's coefficients over- "
-                                 "or underflow double precision; law = \"newton\" is the limit "
-                                 "of a large v_yield)")
+            if "_wall." in key:  # a wall's position or yield speed (0 is the wall at 0)
+                raise InputError(f"{sec}.{key} = {shown(v)} is out of range; allowed: "
+                                 f"{'0 or ' * key.endswith('.at')}{lo:g} <= "
+                                 f"|{key.split('.')[-1]}| <= {hi:g} (beyond, the "
+                                 "model's coefficients over- or underflow double precision)")
             if "[" in key:
                 raise InputError(f"{sec}.{key} = {v:g} is out of range; allowed: 0 or "
                                  f"{lo:g} <= |coefficient| <= {hi:g} (beyond, the model's "

@@ -18,7 +18,6 @@ import numbers
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from types import MappingProxyType
 from typing import Any
 
 from vifpk.harness.sweeps.errors import SweepError
@@ -155,18 +154,29 @@ def make_point(base: Scene, fixed: Mapping[str, Any], *, seed: int, workflow: st
     # a budget of 0 means no wall-clock limit (see RESERVED)
     values = {**fixed, "montecarlo.budget": 0.0,
               **{k: v for k, v in params if k not in TIME_PARAMS}, "montecarlo.seed": s}
+    table = dict(bifurcation)  # the file's options, before the point's values join them
+    def alone() -> str | None:  # the fault without the point's values (None: there is none)
+        try:
+            sc = base.with_values({**fixed, "montecarlo.budget": 0.0})
+            _validate_point(sc, workflow, table, where, ())
+        except Exception as exc:  # noqa: BLE001 - any fault of its own (a key missing too)
+            return str(exc).split(": ", 1)[-1]
+        return None
+
     try:
         scene = base.with_values(values)
     except SceneError as exc:
         msg = str(exc).split(": ", 1)[-1] if ": " in str(exc) else str(exc)
-        raise SweepError(fault(where, msg, params, fixed, workflow,
-                               at_point=not _set_alone_fails(base, fixed))) from None
+        raise SweepError(fault(where, msg, params, fixed, workflow, alone)) from None
     if scene.sweep is not None:
         raise SweepError(f"{where}: scene: {scene.sweep.path} varies in the base scene; set "
                          "it in [set] or vary it in [vary]")
     if workflow in ("passage", "transient"):  # the point's own threshold, start
         bifurcation = point_options(bifurcation, params)
-    _validate_point(scene, workflow, bifurcation, where, params, fixed, base=base)
+    try:
+        _validate_point(scene, workflow, bifurcation, where, params)
+    except SweepError as exc:
+        raise SweepError(fault(where, str(exc), params, fixed, workflow, alone)) from None
     scene = _named(scene, f"{base.name}[{', '.join(f'{k}={v:g}' for k, v in params)}]")
     key = point_key(params)
     sde = workflow == "check" and sde_check_at(key, first=first)
@@ -176,52 +186,34 @@ def make_point(base: Scene, fixed: Mapping[str, Any], *, seed: int, workflow: st
 
 
 def fault(where: str, msg: str, params: tuple[tuple[str, float], ...],
-          fixed: Mapping[str, Any], workflow: str, *, at_point: bool = False) -> str:
-    """A point's fault named after where it was written (issue 45: a [set] fault read "at the
-    point system.mu = 0", a [transient] start fault named "--start"): the time workflow's
-    options by their sweep-file names ("[transient] start"), and "at the point ..." only when
-    the line names a varied key or the fault is the point's own (``at_point``: the scene with
-    [set] alone passes); else "[set]" when it names a key set there, or nothing (the base
-    scene's own fault, met at every point)."""
+          fixed: Mapping[str, Any], workflow: str, alone: Callable[[], str | None]) -> str:
+    """A point's fault named where it was written (issue 45): the time workflow's options by
+    their file names ("[transient] start", not "--start"); "at the point ..." unless the scene
+    with [set] alone (``alone``: its fault, or None) fails the same way -- then "[set]" when
+    the line names a key set there (it read "at the point system.mu = 0"), else nothing."""
     import re
 
     from vifpk.harness.sweeps.timesweep import KEYS
 
     keys = KEYS.get(workflow, ())
-    msg = re.sub(r"--([a-z][a-z-]*)", lambda m: f"[{workflow}] {m.group(1)}"
-                 if m.group(1).replace("-", "_") in keys else m.group(0), msg)
-    varied = [k for k, _ in params]
-    named = [k for k in varied if k in msg or f"[{workflow}] {k.split('.')[-1]}" in msg]
-    option = f"[{workflow}] " in msg  # a time option's fault ([passage] start): not the point's
-    if named or (at_point and not option) or not varied:
-        at = ", ".join(f"{k} = {v:g}" for k, v in params)
-        return f"{where}: at the point {at}: {msg}" if params else f"{where}: {msg}"
-    if any(k in msg for k in fixed):
-        return f"{where}: [set]: {msg}"
-    return f"{where}: {msg}"
 
+    def named(text: str) -> str:
+        return re.sub(r"--([a-z][a-z-]*)", lambda m: f"[{workflow}] {m.group(1)}"
+                      if m.group(1).replace("-", "_") in keys else m.group(0), text)
 
-def _set_alone_fails(base: Scene | None, fixed: Mapping[str, Any]) -> bool:
-    """Whether the base scene with [set] alone (no varied value) already fails the scene's
-    checks: then a point's fault is [set]'s, met at every point; else it is the point's own
-    (e.g. system.c2 = 0 with [set] system.c1 = 0.5: no stationary density at that point)."""
-    from vifpk.harness.request import validate
-
-    if base is None:
-        return True
-    try:
-        scene = base.with_values(dict(fixed))
-        validate.scene_magnitudes(scene)
-        validate.stationary_density(scene)
-    except BadInput:  # SceneError, validate.InputError
-        return True
-    return False
+    msg = named(msg.split(f"{where}: ", 1)[-1])
+    if params and not msg.startswith("at the point"):
+        same = alone()
+        if same is None or named(same) != msg:
+            at = ", ".join(f"{k} = {v:g}" for k, v in params)
+            return f"{where}: at the point {at}: {msg}"
+    if msg.startswith("at the point") or msg.startswith("["):
+        return f"{where}: {msg}"
+    return f"{where}: [set]: {msg}" if any(k in msg for k in fixed) else f"{where}: {msg}"
 
 
 def _validate_point(scene: Scene, workflow: str, bifurcation: Mapping[str, Any], where: str,
-                    params: tuple[tuple[str, float], ...],
-                    fixed: Mapping[str, Any] = MappingProxyType({}), *,
-                    base: Scene | None = None) -> None:
+                    params: tuple[tuple[str, float], ...]) -> None:
     """A point's scene checked as `vifpk check` / `solve` check theirs before any work
     (magnitudes; the Monte Carlo settings where the workflow simulates)."""
     from vifpk.harness.request import validate
@@ -249,9 +241,8 @@ def _validate_point(scene: Scene, workflow: str, bifurcation: Mapping[str, Any],
                 validate.montecarlo_settings(scene)
                 if key is not None:
                     _CHECKED.add(key)
-    except BadInput as exc:  # SceneError, validate.InputError
-        raise SweepError(fault(where, str(exc), params, fixed, workflow,
-                               at_point=not _set_alone_fails(base, fixed))) from None
+    except BadInput as exc:  # SceneError, validate.InputError: named by make_point
+        raise SweepError(f"{where}: {exc}") from None
 
 
 def _named(scene: Scene, name: str) -> Scene:
@@ -359,10 +350,6 @@ def check_point(job: Job) -> dict[str, Any]:
                              error_estimate_err=tv["error_estimate_err"],
                              p_within_tolerance=tv["p_within_tolerance"],
                              tolerance_class=tv["class"])
-        te = res.metrics["models"][m].get("truth_error")
-        if te is not None:  # against the original system's FPK (issue 46): no floor
-            models[m].update(truth_error_A=te["A"]["L1"],
-                             truth_error_A_err=te["A"]["L1_truth_err"])
         if job.sde:  # only where the averaged SDE ran (SDE_CHECK_EVERY); -1 elsewhere
             models[m]["sampling_ok"] = bool(res.metrics["models"][m]["sampling_ok"])
     # the simulation's mean amplitude from its histogram of A with an exactly rounded sum, its
@@ -377,9 +364,7 @@ def check_point(job: Job) -> dict[str, Any]:
     return {"models": models, "mean_A_simulation": mean["value"],
             "mean_A_simulation_err": mean["err"], "converged": converged,
             "extensions": conv.get("extensions", 0),
-            "flags": {**_flags(res.warnings), "warn_not_converged": not converged,
-                      **({"truth_agrees": bool(res.metrics["truth"]["agrees"])}
-                         if res.metrics["truth"].get("solver") else {})},
+            "flags": {**_flags(res.warnings), "warn_not_converged": not converged},
             "recommended_model": res.metrics["recommended_model"],
             "warnings": [w.text for w in res.warnings], "verdicts": res.verdicts,
             **_mc_cost(mc.info), **({"state": run.state} if run.keep_state else {})}

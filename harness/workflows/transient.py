@@ -129,13 +129,14 @@ def transient(scene: Any, *, start: float, times: tuple[float, ...],
                         "means have none: each law sits in one or two bins of the shared "
                         "grid): NOT AN ESTIMATE, not reported")
     elif measured is not None and not (
-            measured["value"] > precision.ERROR_BAR_FACTOR * measured["err"]):
-        # an interval of two error bars that reaches tau <= 0 pins no time scale (issue 45:
+            measured["value"] > measured["err"]):
+        # an error bar as large as the value (one bar reaches tau <= 0) pins no time scale
+        # (issue 45:
         # "3.232e+04 +/- 9.3e+08 (within the error bar: -99.9% +/- 1617.8%)" was printed as a
         # measurement): not reported, and the warning says what would pin it
         warnings.append(f"the original system's relaxation time is not measured: its fit gives "
-                        f"{measured['value']:.4g} +/- {measured['err']:.2g}, an interval of "
-                        f"{precision.ERROR_BAR_FACTOR:g} error bars that reaches 0 (the "
+                        f"{measured['value']:.4g} +/- {measured['err']:.2g}, an error bar as "
+                        "large as the value (the "
                         "snapshot times do not resolve the decay: give times around the "
                         "models' relaxation times, or more paths): NOT AN ESTIMATE, not "
                         "reported")

@@ -345,3 +345,23 @@ def _limit(wall: Any) -> float:
         raise BadInput(f"impact law {wall.law!r} lacks the piece 'limit' "
                        "(vifpk.core.protocols.ImpactLaw): its energy balance is unknown")
     return float(law.limit(*(v for _, v in wall.params)))
+def tail_note(system: Any, parametric: Any) -> str | None:
+    """What a solved law under parametric noise must say beside its numbers (issue 45), from
+    its tail (:func:`parametric_tail`): with no stationary law strictly (the noise outgrows
+    every loss beyond a crossover energy) the law is the metastable one below that energy,
+    and it says where; with kappa <= 2 the mean energy is infinite (paper-base with D_c =
+    0.1: kappa = 7/6), so a mean taken on a grid is that of the truncated law. None
+    otherwise."""
+    tail = parametric_tail(system, parametric)
+    if tail is None:
+        return None
+    law = f"the averaged energy's law decays as E^-{tail.kappa:.3g} at large E"
+    if not tail.normalisable and tail.crossover:
+        return (f"no stationary law strictly: the parametric noise outgrows every loss beyond "
+                f"E ~ {tail.crossover:.3g} ({law}); the law given is the metastable one of the "
+                "motion below that energy (the closed form's grid ends before it)")
+    if not tail.mean_finite:
+        return (f"{law} (kappa <= 2): its mean energy is infinite; the moments given are "
+                "those of the law on the closed form's grid (its mass outside is the grid's "
+                "tail mass)")
+    return None
