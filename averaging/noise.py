@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from vifpk.core.protocols import ParamsByName
 from vifpk.physics import impact
 from vifpk.physics import noise as noise_kinds
 
@@ -44,7 +45,7 @@ def problem(scene: Any) -> str | None:
 
 
 @dataclass(frozen=True, kw_only=True)
-class Spectrum:
+class Spectrum(ParamsByName):
     """S(w) of the excitation: a registered noise ``kind`` and its parameter values
     ``params`` ((name, value) in declared order; a parameter reads as an attribute:
     ``spectrum.D``)."""
@@ -73,20 +74,6 @@ class Spectrum:
     def from_scene(cls, scene: Any) -> Spectrum:
         n = scene.noise
         return cls(kind=n.kind, params=tuple((k, float(v)) for k, v in n.params))
-
-    @property
-    def values(self) -> dict[str, float]:
-        """The kind's parameters by name (the keywords of its pieces)."""
-        return dict(self.params)
-
-    def __getattr__(self, name: str) -> float:
-        if name.startswith("__") or name in ("kind", "params"):
-            raise AttributeError(name)
-        for key, value in self.__dict__.get("params", ()):
-            if key == name:
-                return value
-        raise AttributeError(f"noise kind {self.__dict__.get('kind')!r} has no parameter "
-                             f"{name!r}")
 
     def __call__(self, omega: Any) -> np.ndarray:
         """S(omega), elementwise (the kind's ``spectral_density``)."""

@@ -368,3 +368,24 @@ class ImpactLawSpec:
     restitution: Callable[..., Any]
     energy_loss: Callable[..., Any]
     limit: Callable[..., float]
+
+
+class ParamsByName:
+    """A noise kind's parameter values, ``params`` ((name, value) pairs, as declared), read by
+    name: ``obj.values`` (a dict) and ``obj.D`` (an AttributeError naming the kind for a
+    name it does not declare). Shared by the scene's ``[noise]`` section and the averaged
+    models' spectrum, which both hold ``kind`` and ``params``."""
+
+    @property
+    def values(self) -> dict[str, float]:
+        """The kind's parameters by name (the keywords of its pieces)."""
+        return dict(self.params)  # type: ignore[attr-defined]
+
+    def __getattr__(self, name: str) -> float:
+        if name.startswith("__") or name in ("kind", "params"):
+            raise AttributeError(name)
+        for key, value in self.__dict__.get("params", ()):
+            if key == name:
+                return value
+        raise AttributeError(f"noise kind {self.__dict__.get('kind')!r} has no parameter "
+                             f"{name!r}")

@@ -20,7 +20,7 @@ from .checks import (
     _positive,
     _tail,
 )
-from .protocols import show, suggest
+from .protocols import ParamsByName, show, suggest
 
 
 def noise_kind(where: str, name: Any) -> Any:
@@ -38,7 +38,7 @@ def _defaults(kind: str) -> tuple[tuple[str, float], ...]:
 
 
 @dataclass(frozen=True, kw_only=True)
-class Noise:
+class Noise(ParamsByName):
     """Excitation xi(t) (the scene's ``[noise]``): a registered ``kind``
     (vifpk.core.registry.noise_kind) and its declared parameters' values, (name, value) in
     the kind's declared order (OU: D, alpha1; white: D). A parameter reads as an attribute
@@ -50,20 +50,6 @@ class Noise:
     def __post_init__(self) -> None:
         if not self.params:
             object.__setattr__(self, "params", _defaults(self.kind))
-
-    @property
-    def values(self) -> dict[str, float]:
-        """The kind's parameters by name."""
-        return dict(self.params)
-
-    def __getattr__(self, name: str) -> float:
-        if name.startswith("__") or name in ("kind", "params"):
-            raise AttributeError(name)
-        for key, value in self.__dict__.get("params", ()):
-            if key == name:
-                return value
-        raise AttributeError(f"noise kind {self.__dict__.get('kind')!r} has no parameter "
-                             f"{name!r}")
 
     def to_dict(self) -> dict[str, Any]:
         return {"kind": self.kind, **self.values}
