@@ -19,3 +19,19 @@ def test_figures_command(tmp_path: Path):
     assert table["figure6"]["values"] == [0.96, 0.968, 0.975]
     assert table["provenance"]["command"].startswith("vifpk figures")  # issue 13.2
     assert "| 6 | r = 0.968 |" in (out / "figures.md").read_text()
+
+
+def test_a_concrete_wall_scene_is_a_sweep_of_one_value_that_loads():
+    """`vifpk figures --scene systems/bilateral-duffing` was refused ("system.r and
+    system.lower_wall both set the walls"): a concrete scene became a 'sweep' of system.r,
+    which a scene with wall tables cannot set. It is now one value of system.mu, a key of
+    every scene; each row's scene loads with its walls as they are (round 8)."""
+    from vifpk.harness.workflows.figures import as_sweep
+
+    from vifpk.core.scene import load_scene
+
+    for name in ("systems/bilateral-duffing", "systems/bilateral-duffing-bounded", "paper-base"):
+        base = load_scene(name)
+        sw = as_sweep(base).sweep
+        rows = [base.with_values({sw.path: v}) for v in sw.values]
+        assert [r.system.walls for r in rows] == [base.system.walls]

@@ -146,10 +146,12 @@ def _title(fig_no: int, scene: Scene) -> str:
 
 def as_sweep(scene: Scene) -> Scene:
     """A scene with one varied parameter as it is; a concrete scene as a 'sweep' of one
-    value of its restitution (the figures are drawn a row per value)."""
+    value of its friction mu (the figures are drawn a row per value; mu is a key of every
+    scene, while r is not one of a scene with wall tables: setting it refused a two-wall
+    scene, round 8)."""
     if scene.sweep is not None:
         return scene
-    return replace(scene, sweep=Sweep(section="system", key="r", values=(scene.system.r,)))
+    return replace(scene, sweep=Sweep(section="system", key="mu", values=(scene.system.mu,)))
 
 
 def _table_entry(scene: Scene, runs: list[dict[str, Any]]) -> dict[str, Any]:
