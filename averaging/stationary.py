@@ -81,6 +81,43 @@ def _support(A: Array, lp: Array, tail: float) -> tuple[float, float, float]:
     return float(A[lo_idx]), float(A[hi_idx]), float(outside)
 
 
+FALL = 60.0  # the scan stops where log p has fallen this far below its maximum
+
+
+@dataclass(frozen=True)
+class Reach:
+    """The closed form's scan of log p_A (unnormalised) on [0, hi], hi doubling from A_start:
+    ``held`` when log p fell by FALL below its maximum before hi passed A_LIMIT, ``fall`` the
+    largest fall seen on the last scan (max log p - log p(hi)), ``edges``/``log_p`` the last
+    scan, ``scans`` how many."""
+
+    held: bool
+    fall: float
+    edges: Array
+    log_p: Array
+    scans: int
+
+
+def reach(model: StationaryModel, *, scan: int = 512, A_start: float = 2.0) -> Reach:
+    """Does the model's law fall by e^FALL before A = A_LIMIT (the grid the closed form and the
+    FPK can hold)? The scan of :func:`amplitude_density`, written once: hi doubles until
+    log p(hi) < max log p - FALL, or past A_LIMIT (``held`` False; the request asks it before
+    any work, harness/door/reach.py ``law_reach``)."""
+    hi, scans, best = A_start, 0, -math.inf
+    while True:
+        edges = np.linspace(0.0, hi, scan + 1)
+        psi, log_pre, _ = _cumulative(model, edges)
+        lp = log_pre + psi
+        scans += 1
+        top = np.max(lp[np.isfinite(lp)])
+        best = max(best, float(top - lp[-1]))
+        if lp[-1] < top - FALL:
+            return Reach(True, best, edges, lp, scans)
+        hi *= 2.0
+        if hi > A_LIMIT:
+            return Reach(False, best, edges, lp, scans)
+
+
 def amplitude_density(model: StationaryModel, *, points: int = 801, tail: float = 1e-10,
                       scan: int = 512, A_start: float = 2.0, tail_mass: bool = True
                       ) -> AmplitudeDensity:
@@ -89,21 +126,12 @@ def amplitude_density(model: StationaryModel, *, points: int = 801, tail: float 
     ``tail_mass=False`` skips the measurement of the mass outside the grid (a scan of 4 x
     ``scan`` intervals over three times the support, about half the cost; the field is then
     NaN): the grid is the same either way."""
-    hi = A_start
-    scans = 0
-    while True:
-        edges = np.linspace(0.0, hi, scan + 1)
-        psi, log_pre, _ = _cumulative(model, edges)
-        lp = log_pre + psi
-        scans += 1
-        top = np.max(lp[np.isfinite(lp)])
-        if lp[-1] < top - 60.0:
-            break
-        hi *= 2.0
-        if hi > A_LIMIT:
-            raise DensityDoesNotDecay(
-                f"the amplitude density does not decay up to A = {A_LIMIT:g}: energy input "
-                "exceeds dissipation at large amplitude, so there is no stationary density")
+    found = reach(model, scan=scan, A_start=A_start)
+    if not found.held:
+        raise DensityDoesNotDecay(
+            f"the amplitude density does not decay up to A = {A_LIMIT:g}: energy input "
+            "exceeds dissipation at large amplitude, so there is no stationary density")
+    edges, lp, scans = found.edges, found.log_p, found.scans
     lo, hi, _ = _support(edges, lp, tail)
     # zoom once on the support so that narrow peaks (small D) are resolved by the scan
     if hi - lo < 0.25 * edges[-1]:

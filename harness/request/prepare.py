@@ -255,6 +255,8 @@ def prepare_solve(source: Scene | str | Path, *, solver: str = "averaging",
                    "grows as cells^3)" if fpk2d else " (cells of the FPK)"))
     scene = with_mc_options(concrete(source, overrides, values), mc,
                             mc=solver == registry.ORIGINAL)
+    if not fpk2d:
+        validate.law_in_reach(scene)
     if fpk2d:
         from vifpk.harness.door.original import original_fpk_problem
 
@@ -301,6 +303,7 @@ def prepare_check(source: Scene | str | Path, *, models: Sequence[str] | None = 
 
         raise SolverFailure(f"{no_noise(scene.system)}; nothing to cross-check")
     _, skipped = applicable_models(scene, names, chosen=chosen)
+    validate.law_in_reach(scene)
     # the whole list goes on: the check reports why a default model does not apply
     return Request(workflow="check", scene=scene, models=names, skipped=skipped, tolerance=tol,
                    given=tuple(k for k in MC_OPTIONS if mc.get(k) is not None))

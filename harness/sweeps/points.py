@@ -1,12 +1,10 @@
 """One point of a sweep: its key, seed and fingerprint, its job, and the workflow run at it.
-
 A point is a pure function of (scene, settings, seed): its Monte Carlo seed is
 
     seed_point = SeedSequence([seed_sweep, *words(sha256(params))]).generate_state(1, uint64) >> 2
 
-(params: the point's varied values, by name, as exact hexadecimal floats), so it depends on the
-parameters and not on the point's position in the grid or on the executor. ``WORKFLOW_FUNCTIONS``
-maps a sweep's workflow to the function that runs it at one point.
+(params: the point's varied values, by name, as exact hexadecimal floats): not its position in
+the grid nor the executor. ``WORKFLOW_FUNCTIONS`` maps a workflow to its function at one point.
 """
 
 from __future__ import annotations
@@ -215,12 +213,14 @@ def fault(where: str, msg: str, params: tuple[tuple[str, float], ...],
 def _validate_point(scene: Scene, workflow: str, bifurcation: Mapping[str, Any], where: str,
                     params: tuple[tuple[str, float], ...]) -> None:
     """A point's scene checked as `vifpk check` / `solve` check theirs before any work
-    (magnitudes; the Monte Carlo settings where the workflow simulates)."""
+    (magnitudes, the law's reach; the Monte Carlo settings where the workflow simulates)."""
     from vifpk.harness.request import validate
 
     try:
         validate.scene_magnitudes(scene)
         validate.stationary_density(scene)
+        if workflow in ("averaging", "check"):
+            validate.law_in_reach(scene)
         if workflow in ("passage", "transient"):
             from vifpk.harness.sweeps import timesweep
 
