@@ -18,7 +18,8 @@ from vifpk.core.result import WarningRecord
 SAMPLING_FACTOR = 2.5
 
 
-SMALL_L1 = 0.1  # at most 5% of the probability mass misplaced
+from vifpk.core.defaults import SMALL_L1  # noqa: E402  (at most 5% of the mass misplaced)
+
 LARGE_L1 = 0.3  # at least 15% of the probability mass misplaced
 
 

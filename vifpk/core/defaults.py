@@ -38,6 +38,12 @@ BIFURCATION_MODELS = ("paper", "exact")
 #: accepts, on L1 of p(A) (L1 / 2 = 1% of the probability mass misplaced), and the confidence
 #: at which a model is called inside or outside it.
 TOLERANCE = 0.02
+#: The bound of the smallest error class of an L1 of p(A) a check reports ("small" below it,
+#: at most 5% of the probability mass misplaced; harness/workflows/verdict.py): also the most
+#: L1 bias the step rule's model (montecarlo/tuning.py ``predicted_bias``) may put on the
+#: Monte Carlo at a given --dt (harness/request/validate.py; issue 45), lest its own bias be
+#: read as a model's error of that size.
+SMALL_L1 = 0.1
 TOLERANCE_CONFIDENCE = 0.95
 
 
