@@ -12,11 +12,11 @@ from __future__ import annotations
 
 import pytest
 from vifpk.harness.cli.app import main
+from vifpk.harness.door.reach import step_bias, step_limit
 
 import vifpk
 from vifpk.core.defaults import SMALL_L1
 from vifpk.core.result import BadInput
-from vifpk.harness.door.reach import step_bias, step_limit
 
 COARSE = [
     ["passage", "systems/bilateral-duffing", "--threshold", "0.5", "--dt", "0.5",
