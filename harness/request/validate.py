@@ -215,17 +215,25 @@ def law_in_reach(scene: Scene) -> None:
     named = " with ".join(f"{k} = {getattr(scene.parametric, k.split('.')[1]):g}"
                           for k in blamed)
     law = f"the averaged energy's law decays as E^-{tail.kappa:.3g} at large E"
+    allowed = f"a smaller {' or '.join(blamed)}"
     if tail.normalisable:
         why = (f"{law}: a law exists, but its tail is too heavy for the solvers: it falls by "
                f"only e^{found[1]:.3g} of the e^60 the closed form's and the FPK's grids need "
                "before A = 1e4")
+        # the fall over the tail scales with its slope in ln A, beta = q (kappa - 1) + 1: the
+        # slope that makes e^60 of e^fall, and the intensity whose kappa gives it (an estimate)
+        beta = tail.q * (tail.kappa - 1) + 1
+        top = (tail.bound(blamed[0], 1 + (beta * 60 / found[1] - 1) / tail.q)
+               if len(blamed) == 1 and found[1] > 0 and tail.q else None)
+        if top is not None and 0 < top < getattr(scene.parametric, blamed[0].split(".")[1]):
+            allowed = (f"0 <= {blamed[0]} < ~{top:.2g} (estimated: where the tail's slope in "
+                       f"ln A, q (kappa - 1) + 1, is 60 / {found[1]:.3g} times today's)")
     else:
         where = f"beyond E ~ {tail.crossover:.3g}" if tail.crossover else "at large amplitude"
         why = (f"no stationary law: the parametric noise outgrows every loss {where} ({law}), "
                f"and the law below that energy falls by only e^{found[1]:.3g} before it, so "
                "it is no metastable law either (the closed form needs e^60)")
-    raise InputError(f"{named} is out of range for this scene: {why}; allowed: a smaller "
-                     f"{' or '.join(blamed)}")
+    raise InputError(f"{named} is out of range for this scene: {why}; allowed: {allowed}")
 
 
 def _physical(scene: Scene) -> list[tuple[str, str, float]]:

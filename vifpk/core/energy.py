@@ -44,7 +44,7 @@ keep x bounded and break the self-similar orbit: not decided here (None).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from . import registry
@@ -75,6 +75,23 @@ class Tail:
     bounds: dict[str, float]
     mean_bounds: dict[str, float]
     crossover: float | None
+    #: {field: (m0, s0, G, B)} of each intensity of the top degree: C_m = m0 + D G, C_s = s0 +
+    #: D B with the other intensity held (what :meth:`bound` reads)
+    levels: dict[str, tuple[float, float, float, float]] = field(default_factory=dict)
+    #: the spring's top degree + 1 (U ~ A^q): p_A(A) ~ A^(q (1 - kappa) - 1) in the tail
+    q: int = 0
+
+    def bound(self, name: str, kappa: float) -> float | None:
+        """The intensity of ``name`` (the other held) at which the tail's exponent reaches
+        ``kappa`` from above: kappa(D) = gamma + 1 - 2 (m0 + D G) / (s0 + D B) falls with D
+        where g B < 2 G (g = gamma + 1 - kappa), and equals kappa at D = (g s0 - 2 m0) /
+        (2 G - g B); None where it never falls (or ``name`` is not of the top degree)."""
+        if name not in self.levels:
+            return None
+        m0, s0, G, B = self.levels[name]
+        g = self.gamma + 1 - kappa
+        slope = 2 * G - g * B
+        return max((g * s0 - 2 * m0) / slope, 0.0) if slope > 0 else None
 
 
 def _beta(a: float, b: float) -> float:
@@ -149,15 +166,12 @@ def parametric_tail(system: Any, parametric: Any) -> Tail | None:
     C_m = sum(c for _, c, p in drift if abs(p - gamma) < _EPS)
     C_s = sum(c for _, c, p in diff if abs(p - delta) < _EPS)
     kappa = gamma + 1 - 2 * C_m / C_s
-    bounds, mean_bounds = {}, {}
-    for name, (G, B, p) in per.items():
-        if abs(p - gamma) > _EPS:
-            continue
-        m0, s0 = C_m - level[name] * G, C_s - level[name] * B
-        for out, g in ((bounds, gamma), (mean_bounds, gamma - 1)):
-            slope = 2 * G - g * B
-            if slope > 0:
-                out[name] = max((g * s0 - 2 * m0) / slope, 0.0)
+    levels = {name: (C_m - level[name] * G, C_s - level[name] * B, G, B)
+              for name, (G, B, p) in per.items() if abs(p - gamma) <= _EPS}
+    probe = Tail(kappa=0.0, gamma=gamma, normalisable=False, mean_finite=False, top_losses=(),
+                 bounds={}, mean_bounds={}, crossover=None, levels=levels)
+    bounds = {n: b for n in levels if (b := probe.bound(n, 1.0)) is not None}
+    mean_bounds = {n: b for n in levels if (b := probe.bound(n, 2.0)) is not None}
     top_losses = tuple(nm for nm, c, p in drift if c < 0 and abs(p - gamma) < _EPS)
     crossover = None
     losses = [(c, p) for _, c, p in drift if c < 0]
@@ -167,7 +181,7 @@ def parametric_tail(system: Any, parametric: Any) -> Tail | None:
         crossover = (-c_l / C_m) ** (1 / (gamma - p_l)) if C_m > 0 else None
     return Tail(kappa=kappa, gamma=gamma, normalisable=kappa > 1 + _EPS,
                 mean_finite=kappa > 2 + _EPS, top_losses=top_losses, bounds=bounds,
-                mean_bounds=mean_bounds, crossover=crossover)
+                mean_bounds=mean_bounds, crossover=crossover, levels=levels, q=q)
 
 
 @dataclass(frozen=True)
