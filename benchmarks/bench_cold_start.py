@@ -3,6 +3,8 @@ functions compile, for which types, how long) and warm (which cache entries load
 
     python benchmarks/bench_cold_start.py --rounds 2 OLD_DIR:OLD_PYTHON NEW_DIR:NEW_PYTHON
     python benchmarks/bench_cold_start.py --check ...   # `vifpk check scenes/paper-base.toml`
+    python benchmarks/bench_cold_start.py --ahead ...   # the same check, the averaged SDE's
+    # kernel compiled beside it by a second process sharing the cache (cold_start_ahead.json)
     # -> benchmarks/results/cold_start.json (--check: cold_start_check.json)
 
 Each round runs every checkout in turn (alternating), each twice in fresh processes from that
@@ -84,6 +86,22 @@ def probe(argv: list[str], out: str) -> None:
         "events": events}, indent=1))
 
 
+def ahead(scene: str) -> None:
+    """Compile the averaged SDE's kernel as `vifpk check` calls it (phase points, the scene's
+    paper model), on a tiny run: what a helper process started beside a cold check would do
+    (``--ahead``: the experiment of compiling the check's two kernels concurrently)."""
+    import numpy as np
+    from vifpk.harness.door.solvers import averaged_sde_solution
+
+    from vifpk.core.scene import load_scene
+
+    sc = load_scene(scene)
+    edges = {"edges_A": np.linspace(0.0, 1.0, 11), "edges_x": np.linspace(0.0, 1.0, 11),
+             "edges_v": np.linspace(-1.0, 1.0, 11)}
+    averaged_sde_solution(sc, "paper", edges=edges, seed=1, phase=True, paths=4, blocks=2,
+                          dt=0.05, time=2.0, burn_in=1.0, sample_every=0.5)
+
+
 def summary(rec: dict) -> dict:
     """Totals: compiles (count, self wall) and cache loads (count, wall) at depth 0."""
     ev = rec["events"]
@@ -100,13 +118,19 @@ def main() -> None:
     if sys.argv[1:2] == ["--probe"]:
         probe(sys.argv[3:], sys.argv[2])
         return
+    if sys.argv[1:2] == ["--ahead-run"]:
+        ahead(sys.argv[2])
+        return
     args = sys.argv[1:]
-    rounds, cmd, name = 1, SOLVE, "cold_start.json"
+    rounds, cmd, name, with_ahead = 1, SOLVE, "cold_start.json", False
     while args and args[0].startswith("--"):
         if args[0] == "--rounds":
             rounds, args = int(args[1]), args[2:]
         elif args[0] == "--check":
             cmd, name, args = CHECK, "cold_start_check.json", args[1:]
+        elif args[0] == "--ahead":  # a cold check with the SDE's kernel compiled beside it
+            cmd, name, args = CHECK, "cold_start_ahead.json", args[1:]
+            with_ahead = True
         else:
             raise SystemExit(f"unknown option {args[0]}")
     res = {"command": "vifpk " + " ".join(cmd), "date": time.strftime(
@@ -125,8 +149,13 @@ def main() -> None:
                         if phase == "warm" and opt in argv:
                             argv[argv.index(opt) + 1] += "-warm"
                     w = time.perf_counter()
+                    helper = (subprocess.Popen([python, __file__, "--ahead-run", argv[1]],
+                                               cwd=where, env=env, stdout=subprocess.DEVNULL)
+                              if with_ahead and phase == "cold" else None)
                     subprocess.run([python, __file__, "--probe", out, *argv], cwd=where,
                                    env=env, check=True, capture_output=True)
+                    if helper is not None:
+                        row["ahead_exit"] = helper.wait()
                     rec = json.loads(Path(out).read_text())
                     if rec["exit"] != 0:
                         raise SystemExit(f"{where} {phase}: exit {rec['exit']}")
