@@ -19,9 +19,9 @@ import numpy as np
 import pytest
 from vifpk.montecarlo import tuning
 from vifpk.montecarlo.plan import physics
-from vifpk.physics.noise import bounded, ou, white
 
 from vifpk.core.scene import load_scene
+from vifpk.physics.noise import bounded, ou, white
 
 
 def _aliases(S, omega: float, h: float, tail_c: float, K: int = 20000) -> float:
