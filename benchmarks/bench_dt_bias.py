@@ -211,6 +211,8 @@ def envelope(res: dict) -> dict:
     the rule is used). Returns p, C, the points and the local orders."""
     pts, orders = [], []
     for name, s in res["scenes"].items():
+        if name in FILE_SCENES:  # the held noise's own bias (tuning.hold_bias), not the scheme's
+            continue
         om = s.get("omega") or OMEGA_OF[name]
         good = sorted((om * r["dt"], r["bias"]) for r in s["rows"]
                       if r["bias"] >= RESOLVED * r["floor"])
