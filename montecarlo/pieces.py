@@ -55,10 +55,18 @@ def _law_fields(prefix: str, law: str | None) -> tuple[str, ...]:
     return tuple(f"{prefix}_law_{p.name}" for p in impact.law(law, solver=SOLVER).params)
 
 
+def _ident(name: str) -> str:
+    """``name`` as a part of a Python identifier (numba's cache names a record class by it):
+    ASCII letters and digits kept, every other character (``-``, ``.``, ``_``, ...) written
+    as ``_<hex code>_``, so ``bounded-copy`` is ``bounded_2d_copy`` and no two names meet."""
+    return "".join(c if c.isascii() and c.isalnum() else f"_{ord(c):x}_" for c in name)
+
+
 def record_class(kind: str, lower: str | None = None, upper: str | None = None) -> type:
     """The record class of a noise kind and the walls' impact laws (None: no wall):
     BASE_FIELDS + the laws' parameters + the kind's Record fields (a module global
-    ``Record_<kind>_<lower>_<upper>``, so numba's cache can name it). NoPiece for a kind
+    ``Record_<kind>_<lower>_<upper>``, each name made an identifier by ``_ident``, so numba's
+    cache can name it). NoPiece for a kind
     without Monte Carlo pieces, NoLaw for a law that is not registered (one line each)."""
     key = (kind, lower, upper)
     if key not in _CLASSES:
@@ -70,8 +78,12 @@ def record_class(kind: str, lower: str | None = None, upper: str | None = None) 
             raise noise_kinds.NoPiece(
                 f"noise kind {kind!r}: its Monte Carlo Record field {sorted(clash)[0]!r} "
                 "clashes with the kernels' own; prefix its fields with the kind's name")
-        cls = namedtuple(f"Record_{kind}_{lower}_{upper}",  # noqa: PYI024
-                         BASE_FIELDS + walls + own)
+        name = "Record_" + "_".join(_ident(str(n)) for n in key)
+        if name in (c.__name__ for c in _CLASSES.values()):
+            raise noise_kinds.NoPiece(
+                f"noise kind {kind!r} with laws {lower!r}, {upper!r}: its record class name "
+                f"{name} is another kind's or law's; rename the kind or the law")
+        cls = namedtuple(name, BASE_FIELDS + walls + own)  # noqa: PYI024
         cls.__module__ = __name__
         globals()[cls.__name__] = cls
         _CLASSES[key] = cls

@@ -18,8 +18,8 @@ import pytest
 from vifpk.core import registry
 from vifpk.core.scene import scene_from_dict
 
-#: an identifier: a hyphenated kind name breaks the Monte Carlo record class (plugins43 WIP)
-COPY = "boundedcopy"
+#: not an identifier: the Monte Carlo's record class names the kind through pieces._ident
+COPY = "bounded-copy"
 NOISE = {"amplitude": 0.3, "frequency": 1.2, "sigma": 1.0}
 
 
