@@ -6,9 +6,10 @@ the per-path bookkeeping helpers are its own (``level_of``, ``_cycle_success``,
 ``_cycle_start``, ``_cycle_summary``). The step is lanes.lane_step: LANES paths advance
 together, the smooth part of the step vectorised and every lane that meets an event stepped
 again by kernels.strang_step, so each lane's state is strang_step's, bit for bit, and its
-generator words advance by the same draws (montecarlo/lanes.py). After each step every lane
-reads its own path's tests (energy, levels, the bridge test with the lane's velocity at the
-kick) as the path alone did; a lane whose path ends takes the next path of its thread
+generator words advance by the same draws (montecarlo/lanes.py). After each step every lane's
+clock and energy are updated in one loop the compiler can vectorise (``_clock_and_energy``),
+then every lane reads its own path's tests (levels, the bridge test with the lane's velocity
+at the kick) as the path alone did; a lane whose path ends takes the next path of its thread
 (``lanes.drop`` fills the hole with the last lane). Each path keeps its own four generator
 words (a fresh stream for every path and every clone, ams.words), so the numbers do not depend
 on the lanes, the thread count or the executor (benchmarks/mc_identity.py: bit-identical to the
@@ -38,9 +39,9 @@ from .splitting_kernels import (
 
 ON = -2  # a lane's path goes on (not an outcome)
 # the lanes' own rows: float (time, energy q, x before the step, cycle start time, cycles'
-# total time), int (the path's index, its level or phase, burn-in steps, restarts, armed,
-# in a cycle, cycles completed, successes)
-_T, _Q, _XB, _TC, _TOT = range(5)
+# total time, q before the step), int (the path's index, its level or phase, burn-in steps,
+# restarts, armed, in a cycle, cycles completed, successes)
+_T, _Q, _XB, _TC, _TOT, _QO = range(6)
 _J, _LEV, _N, _RS, _ARM, _IN, _K, _SUCC = range(8)
 BURN, RUN = 0, 1  # cycles_orig's phases (in _LEV)
 NONE, SUCCESS, START = 0, 1, 2  # what a cycle's step met (_cycle_test)
@@ -54,6 +55,17 @@ def advance_orig(recs, rows, start, rng, maxlev, outcome, levels, h, B, P):
     recs[row, start[j] + 1 ..], maxlev[row] and outcome[row]. In lanes (module docstring)."""
     over_blocks(_advance_block, rows.size, recs, rows, start, rng, maxlev, outcome, levels, h,
                 B, P)
+
+
+@jit(inline="always")
+def _clock_and_energy(m, F, L, h, w0sq, alpha, khi):
+    """Every lane's clock and energy after a step, in one loop the compiler can vectorise (the
+    tests that read them run lane by lane after it): L[_QO] the energy before the step, L[_Q]
+    after it, L[_T] + h."""
+    for i in range(m):
+        L[_QO, i] = L[_Q, i]
+        L[_Q, i] = energy(F[L_X, i], F[L_V, i], w0sq, alpha, khi)
+        L[_T, i] += h
 
 
 @jit(inline="always")
@@ -73,7 +85,7 @@ def _advance_block(first, every, recs, rows, start, rng, maxlev, outcome, levels
     half = 0.5 * h
     inv_dq = M / (q_hi - q_lo)
     F, S = scratch()
-    L = np.zeros((3, LANES))
+    L = np.zeros((6, LANES))
     Li = np.zeros((2, LANES), dtype=np.int64)
     nxt = first
     m = 0
@@ -104,13 +116,11 @@ def _advance_block(first, every, recs, rows, start, rng, maxlev, outcome, levels
         if m == 0:
             break
         step_keeping_x(m, F, S, L[_XB], h, half, P, True)  # count: the time at rest (L_REST)
+        _clock_and_energy(m, F, L, h, w0sq, alpha, khi)
         i = 0
         while i < m:
             row = rows[Li[_J, i]]
-            q0 = L[_Q, i]
-            t = L[_T, i] + h
-            L[_T, i] = t
-            q = energy(F[L_X, i], F[L_V, i], w0sq, alpha, khi)
+            q0, q, t = L[_QO, i], L[_Q, i], L[_T, i]
             out = ON
             if q <= q_lo:
                 out = OUT_FAIL
@@ -184,7 +194,7 @@ def _cycles_block(first, every, starts, rng, cyc, h, B, P, entries, summary):
     w0sq, alpha, khi = P.w0sq, P.alpha, P.khi
     half = 0.5 * h
     F, S = scratch()
-    L = np.zeros((5, LANES))
+    L = np.zeros((6, LANES))
     Li = np.zeros((8, LANES), dtype=np.int64)
     nxt = first
     m = 0
@@ -207,6 +217,7 @@ def _cycles_block(first, every, starts, rng, cyc, h, B, P, entries, summary):
         if m == 0:
             break
         step_keeping_x(m, F, S, L[_XB], h, half, P, True)
+        _clock_and_energy(m, F, L, h, w0sq, alpha, khi)  # (a burn-in's clock is not read)
         m = _cycles_read(m, F, S, L, Li, starts, cyc, h, B, P, entries, summary)
 
 
@@ -222,7 +233,7 @@ def _cycles_read(m, F, S, L, Li, starts, cyc, h, B, P, entries, summary):
         done = False
         if Li[_LEV, i] == BURN:
             Li[_N, i] += 1
-            if energy(F[L_X, i], F[L_V, i], w0sq, alpha, khi) >= q_hi:
+            if L[_Q, i] >= q_hi:
                 Li[_RS, i] += 1
                 if Li[_RS, i] > MAX_RESTARTS:
                     summary[p, 5] = 2.0
@@ -237,14 +248,11 @@ def _cycles_read(m, F, S, L, Li, starts, cyc, h, B, P, entries, summary):
                     _cycle_summary(summary, p, 0, 0.0, 0)
                     done = True
         else:  # a step of its cycles (cycles_sde's loop body)
-            q_old = L[_Q, i]
-            t = L[_T, i] + h
+            q_old, q, t = L[_QO, i], L[_Q, i], L[_T, i]
             x, v, xi = F[L_X, i], F[L_V, i], F[L_XI, i]
-            q = energy(x, v, w0sq, alpha, khi)
             ev, tc, armed, S[0, i], S[1, i], S[2, i], S[3, i] = _cycle_test(
                 q, q_old, L[_XB, i], F[L_VC, i], t, h, Li[_ARM, i] == 1, q0, q1, q_hi, B, P,
                 S[0, i], S[1, i], S[2, i], S[3, i])
-            L[_T, i], L[_Q, i] = t, q
             k, total, succ = Li[_K, i], L[_TOT, i], Li[_SUCC, i]
             in_cycle, t_cycle = Li[_IN, i] == 1, L[_TC, i]
             if ev == SUCCESS:
