@@ -12,6 +12,19 @@ timers (time.process_time: every thread) and runs ``vifpk solve`` (default: pape
 parser with every workflow, the door, montecarlo.simulate), before it runs; "dt_check" the
 run-time step check's coarse run; "rest" is what no stage holds (validation, pricing, the
 result and the JSON).
+
+Each round also measures the FLOOR, what any warm numba program of this stack pays before its
+first compiled call returns, in a fresh process of the first checkout's interpreter
+(``--floor-run``): the interpreter, ``import numpy``, ``import numba``, ``import
+scipy.linalg`` (numba's first dispatch imports scipy.linalg.cython_blas: numba/np/arraymath.py
+checks for a BLAS; scipy 1.17's array-API layer then imports numpy.f2py, numpy.testing and
+numpy.ma) and the first call of a one-line ``njit(cache=True)`` function loaded from numba's
+cache (numba's target context: its typing and lowering registries). CPU seconds, cumulative.
+
+Every process runs without PYTHONDONTWRITEBYTECODE (set in some sandboxes, this machine's
+among them): with it, no .pyc is ever written for an editable install and every run compiles
+vifpk's ~100 modules from source (0.3-0.5 s CPU at load 8, measured 2026-12-05), which a
+newcomer's second run (or any wheel install) does not pay.
 """
 
 from __future__ import annotations
@@ -20,10 +33,13 @@ import json
 import os
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
 OUT = Path(__file__).resolve().parent / "results" / "fixed_costs.json"
+#: the environment of every measured process (module docstring: no PYTHONDONTWRITEBYTECODE)
+ENV = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
 ARGS = ["solve", "scenes/paper-base.toml", "--solver", "montecarlo", "--floor", "0.005",
         "--dt", "auto"]
 
@@ -83,9 +99,52 @@ def stage_run(argv: list[str]) -> dict[str, float]:
     return rec
 
 
+FLOOR_MODULE = """import numba
+
+
+@numba.njit(cache=True)
+def one(x):
+    return x + 1.0
+"""
+
+
+def floor_run(where: str) -> dict[str, float]:
+    """CPU seconds (cumulative, process_time) of the floor's steps (module docstring);
+    ``where`` holds the one-line cached module (its cache filled by a first run)."""
+    t = {"interpreter": time.process_time()}
+    import numpy  # noqa: F401
+
+    t["numpy"] = time.process_time()
+    import numba  # noqa: F401
+
+    t["numba"] = time.process_time()
+    import scipy.linalg  # noqa: F401
+
+    t["scipy.linalg"] = time.process_time()
+    sys.path.insert(0, where)
+    from floor_one import one
+
+    one(1.0)
+    t["first cached call"] = time.process_time()
+    return t
+
+
+def floor(python: str, tmp: str) -> dict[str, float]:
+    """The floor measured in a fresh process of ``python`` (the cache filled beforehand)."""
+    Path(tmp, "floor_one.py").write_text(FLOOR_MODULE)
+    cmd = [python, __file__, "--floor-run", tmp]
+    env = {**ENV, "NUMBA_CACHE_DIR": str(Path(tmp, "cache"))}
+    subprocess.run(cmd, env=env, check=True, capture_output=True)
+    out = subprocess.run(cmd, env=env, check=True, capture_output=True, text=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
 def main() -> None:
     if sys.argv[1:2] == ["--stage-run"]:
         print(json.dumps(stage_run(sys.argv[2:] or ARGS)))
+        return
+    if sys.argv[1:2] == ["--floor-run"]:
+        print(json.dumps(floor_run(sys.argv[2])))
         return
     rounds = 3
     args = sys.argv[1:]
@@ -93,14 +152,24 @@ def main() -> None:
         rounds, args = int(args[1]), args[2:]
     res = {"command": "vifpk " + " ".join(ARGS), "rounds": [],
            "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())}
+    if OUT.exists():  # the record before this one, kept beside it
+        before = json.loads(OUT.read_text())
+        res["earlier"] = [*before.pop("earlier", []), before]
     for _ in range(rounds):
+        with tempfile.TemporaryDirectory() as tmp:
+            row = floor(args[0].split(":")[1], tmp)
+        res["rounds"].append({"checkout": "floor", "load": os.getloadavg()[0], "cpu": row})
+        print("floor", row, flush=True)
         for spec in args:
             where, python = spec.split(":")
-            out = subprocess.run([python, __file__, "--stage-run", *ARGS, "--json",
-                                  os.devnull], cwd=where, capture_output=True, text=True,
-                                 check=True).stdout.strip().splitlines()[-1]
+            with tempfile.TemporaryDirectory() as tmp:
+                record = Path(tmp, "solve.json")
+                out = subprocess.run([python, __file__, "--stage-run", *ARGS, "--json",
+                                      str(record)], cwd=where, capture_output=True, text=True,
+                                     env=ENV, check=True).stdout.strip().splitlines()[-1]
+                timing = json.loads(record.read_text())["info"]["timing"]
             res["rounds"].append({"checkout": where, "load": os.getloadavg()[0],
-                                  "cpu": json.loads(out)})
+                                  "cpu": json.loads(out), "timing": timing})
             print(where, res["rounds"][-1]["cpu"], flush=True)
             OUT.write_text(json.dumps(res, indent=1) + "\n")
 

@@ -180,7 +180,14 @@ def worker_vifpk(name: str) -> dict:
     r = montecarlo.simulate(scene.system, scene.noise, st)
     cpu = time.process_time() - c0
     a = r.data["A"]
+    stages = {k: v["cpu"] for k, v in r.info.get("timing", {}).get("stages", {}).items()}
+    path_steps = (scene.montecarlo.paths * (r.info["settings"]["time"]
+                                            + r.info["settings"]["burn_in"])
+                  / r.info["settings"]["dt"])
     return {"cpu": cpu, "floor": r.info["L1_floor"]["A"], "dt": r.info["settings"]["dt"],
+            "stages_cpu": stages, "path_steps": path_steps,
+            "ns_per_path_step_sampling": 1e9 * stages.get("sampling", math.nan)
+            / (scene.montecarlo.paths * r.info["settings"]["time"] / r.info["settings"]["dt"]),
             "time": r.info["settings"]["time"], "burn_in": r.info["settings"]["burn_in"],
             "edges": a["edges"].tolist(), "p": a["p"].tolist(), "err": a["err"].tolist()}
 
@@ -218,7 +225,9 @@ def worker_rk4(name: str, edges: list, burn_in: float, seed: int = 1) -> dict:
         se = pb.std(axis=0, ddof=1) / math.sqrt(blocks)
         floor = float(np.sum(math.sqrt(2 / math.pi) * se * w))
     cpu = time.process_time() - c0
+    path_steps = blocks * per * (sampled + burn_in) / DT_RK4
     return {"cpu": cpu, "floor": floor, "time": sampled, "burn_in": burn_in,
+            "path_steps": path_steps, "ns_per_path_step": 1e9 * cpu / path_steps,
             "p": pb.mean(axis=0).tolist(), "edges": list(edges)}
 
 
@@ -278,7 +287,9 @@ def main() -> None:
             "rk4_over_after": med["rk4"] / med["after"],
             **({"rk4_over_before": med["rk4"] / med["before"],
                 "before_over_after": med["before"] / med["after"]} if a.before else {}),
-            "runs": {k: [{kk: r[kk] for kk in ("cpu", "floor", "time", "burn_in", "dt")
+            "runs": {k: [{kk: r[kk] for kk in ("cpu", "floor", "time", "burn_in", "dt",
+                                               "path_steps", "ns_per_path_step",
+                                               "ns_per_path_step_sampling", "stages_cpu")
                           if kk in r} for r in v] for k, v in runs.items()},
             "accuracy": {"L1_rk4_vs_vifpk": l1,
                          "floors_in_quadrature": math.hypot(mine["floor"], rk["floor"])

@@ -71,6 +71,24 @@ step. On a mean-square-stable linear oscillator nu = D_k w^2 + 3 D_c k^2 < k + D
 stability condition D_k w^2 + 2 D_c k^2 < k), so the rule changes nothing unless the damping
 is strong (k of the order of w) or the damping noise is; on the paper's c2 x^2 x' damping the
 damping noise's nu grows as A^4 with the amplitude the pilot reaches.
+
+**Held noise** (issue 44). A kind whose velocity stage holds its force over the step (OU,
+bounded noise: xi sampled once a step, at its middle) drives the orbit with a zero-order hold
+of the sampled force, whose spectrum at the orbit frequency omega differs from S(omega) by the
+aliases of the sampled sequence: relative error eps = sinc^2(omega h / 2) (h / 2 pi)
+sum_k R(k h) cos(omega k h) / S(omega) - 1, about (rate h)^2 / 12 for a spectrum falling as
+w^-2 beyond the kind's rate (OU: (alpha1 h)^2 / 12 to that order; bounded noise about
+(sigma^2 h / 2)^2 / 12, and its centre frequency's aliases where Omega h is not small). The
+kind declares eps (MonteCarloNoise.held_excess, its own closed form: no list of kinds here);
+the rule reads it over the orbit frequencies the pilot's amplitudes span and bounds the bias
+of p(A) by HOLD_SENSITIVITY x |eps| (a linear oscillator: 2 / e |eps|). The envelope's curves
+were measured with an OU noise at alpha1 = 2 (all but white's), so they hold its
+(2 dt)^2 / 12 already; what a scene's noise makes beyond that is added to the envelope (two
+errors of p(A): at most their sum in L1), and the step is the largest whose sum is within
+BIAS_FRACTION x F (predicted_bias). The shipped noises (OU alpha1 = 2: nothing beyond;
+bounded sigma = 2: 1e-5) leave every shipped step as it was; a fast noise is where it binds:
+linear-ou at alpha1 = 20 (bench_dt_bias.py fast-ou) measured 0.227, 0.072, 0.021 at dt 0.1,
+0.05, 0.025 against the model's 0.33, 0.087, 0.023.
 """
 
 from __future__ import annotations
@@ -171,6 +189,83 @@ def scene_rate(phys: dict[str, Any], amplitude: float) -> float:
     return max(omega, nu)
 
 
+#: the L1 change of p(A) per relative change of the input spectrum at the orbit frequencies:
+#: 2 / e = 0.74 for the linear oscillator (Rayleigh p(A), E[A^2] proportional to the input;
+#: L1 = eps int |u - 1| e^-u du), rounded up (hold_bias)
+HOLD_SENSITIVITY = 1.0
+
+
+def orbit_omegas(phys: dict[str, Any], amplitude: float | None) -> list[float]:
+    """The free orbits' frequencies on amplitudes 0..amplitude (the AMPLITUDE_NODES + 1 of
+    scene_omega); sqrt(k1) alone without an amplitude."""
+    if amplitude is None or not (amplitude > 0 and math.isfinite(amplitude)):
+        return [orbit_omega(phys, 0.0)]
+    return [orbit_omega(phys, amplitude * j / AMPLITUDE_NODES)
+            for j in range(AMPLITUDE_NODES + 1)]
+
+
+def hold_bias(phys: dict[str, Any], omegas: list[float], dt: float) -> float:
+    """The bias of p(A) the held noise force makes at step dt: HOLD_SENSITIVITY x the largest
+    |held_excess(params, omega, dt)| over the orbit frequencies ``omegas``, the relative
+    error of the held force's spectrum declared by the noise kind (vifpk.core.protocols.
+    MonteCarloNoise.held_excess: about (rate dt)^2 / 12, rate the kind's correlation rate:
+    OU's alpha1, bounded noise's sigma^2 / 2); 0 for a kind that declares none (exact in law
+    over a step: white) or a phys without a noise (the rule's unit tests)."""
+    noise = phys.get("noise")
+    if noise is None or not omegas:
+        return 0.0
+    from vifpk.physics import noise as noise_kinds
+    held = noise_kinds.pieces(noise.kind, "montecarlo").held_excess
+    if held is None:
+        return 0.0
+    return HOLD_SENSITIVITY * max(abs(held(noise.values, w, dt)) for w in omegas if w > 0)
+
+
+#: the fitted scenes' noise (OU, alpha1 = 2: every curve of the envelope but white's): its
+#: held force's error, (FIT_NOISE_RATE dt)^2 / 12, is inside the measured envelope already
+FIT_NOISE_RATE = 2.0
+
+
+def _extra_hold(phys: dict[str, Any], omegas: list[float], dt: float) -> float:
+    """The held noise's bias beyond what the envelope's own curves held: hold_bias less
+    HOLD_SENSITIVITY (FIT_NOISE_RATE dt)^2 / 12, at least 0."""
+    fit = HOLD_SENSITIVITY * (FIT_NOISE_RATE * dt) ** 2 / 12.0
+    return max(hold_bias(phys, omegas, dt) - fit, 0.0)
+
+
+def _rate(phys: dict[str, Any], amplitude: float | None) -> float:
+    if amplitude is None or not (amplitude > 0 and math.isfinite(amplitude)):
+        return max(math.sqrt(max(phys["w0sq"], 0.0)), 1.0) * OMEGA_REF
+    return scene_rate(phys, amplitude)
+
+
+def predicted_bias(phys: dict[str, Any], amplitude: float | None, dt: float) -> float:
+    """The step rule's model of the L1 bias of p(A) at step dt (module docstring; the one the
+    rule and a request's check read): the scheme's envelope BIAS_C (rate dt /
+    OMEGA_REF)^BIAS_P, rate = scene_rate (max(sqrt(k1), 1) OMEGA_REF without an amplitude,
+    the provisional rule's), plus the held noise force's bias beyond the one the envelope's
+    curves held (their OU noise at alpha1 = FIT_NOISE_RATE): two errors of p(A), so at most
+    their sum in L1 (the triangle inequality)."""
+    env = BIAS_C * (_rate(phys, amplitude) * dt / OMEGA_REF) ** BIAS_P
+    return env + _extra_hold(phys, orbit_omegas(phys, amplitude), dt)
+
+
+def _hold_limit(phys: dict[str, Any], amplitude: float | None, dt: float, allowed: float
+                ) -> float:
+    """dt, or the largest step below it whose predicted_bias is within ``allowed``
+    (bisection in log dt; both parts grow with dt)."""
+    omegas = orbit_omegas(phys, amplitude)
+    if _extra_hold(phys, omegas, dt) <= 0.0:
+        return dt
+    lo, hi = dt * 1e-6, dt
+    for _ in range(60):
+        mid = math.sqrt(lo * hi)
+        lo, hi = (mid, hi) if predicted_bias(phys, amplitude, mid) <= allowed else (lo, mid)
+        if hi / lo < 1 + 1e-6:
+            break
+    return lo
+
+
 def auto_dt(target_floor: float | None, phys: dict[str, Any],
             amplitude: float | None = None) -> float:
     """Largest dt whose predicted bias C (Omega dt / OMEGA_REF)^p is at most BIAS_FRACTION x
@@ -181,13 +276,16 @@ def auto_dt(target_floor: float | None, phys: dict[str, Any],
     pilot) the step is provisional, the scale pilot's own and the plan's estimate:
     dt_ref / max(sqrt(k1), 1), the base family's, shorter for a faster linear spring (the
     pilot is cheap: it errs short). With parametric noise Omega is scene_rate's max(Omega,
-    nu): see the module's "Parametric noise"."""
+    nu): see the module's "Parametric noise". Then shortened, if need be, until the held
+    noise force's bias (hold_bias) is within the same allowance: see "Held noise"."""
     F = target_floor if target_floor and target_floor > 0 else DEFAULT_FLOOR
     dt_ref = (BIAS_FRACTION * F / BIAS_C) ** (1.0 / BIAS_P)
     dt_ref = min(max(dt_ref, DT_RANGE[0]), DT_RANGE[1])
     if amplitude is None or not (amplitude > 0 and math.isfinite(amplitude)):
-        return float(dt_ref / max(math.sqrt(max(phys["w0sq"], 0.0)), 1.0))
-    return float(dt_ref * OMEGA_REF / scene_rate(phys, amplitude))
+        dt = dt_ref / max(math.sqrt(max(phys["w0sq"], 0.0)), 1.0)
+    else:
+        dt = dt_ref * OMEGA_REF / scene_rate(phys, amplitude)
+    return float(_hold_limit(phys, amplitude, dt, BIAS_FRACTION * F))
 
 
 def fit_relaxation(t: np.ndarray, d: np.ndarray, se: np.ndarray) -> dict[str, Any]:

@@ -41,7 +41,7 @@ BLOCK = re.compile(
 
 
 def collect(metrics: dict[str, Any], seconds: float, load: float | None,
-            cpu: float | None = None, cold: tuple[float, float] | None = None
+            cpu: float | None = None, cold: tuple[float, ...] | None = None
             ) -> dict[str, Any]:
     """The recorded numbers: per model the averaging error of p(A) with its error bar, floor
     and class; the ranges of the discretisation and sampling errors; the verdict lines."""
@@ -61,6 +61,7 @@ def collect(metrics: dict[str, Any], seconds: float, load: float | None,
             "date": datetime.now(UTC).strftime("%Y-%m-%d"), "seconds": seconds,
             "cpu_seconds": cpu,
             **({"cold_seconds": cold[0], "cold_cpu_seconds": cold[1]} if cold else {}),
+            **({"cold_load_average_1min": cold[2]} if cold and len(cold) > 2 else {}),
             "cpus": os.cpu_count(), "load_average_1min": load,
             "models": models, "discretisation_L1": [min(disc), max(disc)],
             "sampling_L1": [min(samp), max(samp)],
@@ -85,7 +86,10 @@ def render(n: dict[str, Any]) -> dict[str, str]:
             f"with that factor kept is off by {e['L1']:.2f} (`vifpk check`, {n['date']}).\n"),
         "check-time": (f"The main job below took {run} (docs/scripts/doc_numbers.py).\n"
                        + (f"The first run after an install took {n['cold_seconds']:.0f} s "
-                          f"wall ({n['cold_cpu_seconds']:.0f} s CPU): it compiles the numba "
+                          f"wall ({n['cold_cpu_seconds']:.0f} s CPU"
+                          + (f", load average {n['cold_load_average_1min']:.1f} at its end"
+                             if n.get("cold_load_average_1min") is not None else "")
+                          + "): it compiles the numba "
                           "kernels (cached afterwards). A\nmachine shared with other work "
                           "takes longer. vifpk needs Python >= 3.11.\n"
                           if n.get("cold_seconds") is not None else
@@ -133,6 +137,9 @@ def run_check(env: dict[str, str] | None = None
               ) -> tuple[dict[str, Any], float, float, float]:
     import resource
 
+    # as a newcomer's python: .pyc files written on the first run (PYTHONDONTWRITEBYTECODE,
+    # set in some sandboxes, made every run compile vifpk's modules from source: 0.3-0.5 s CPU)
+    env = {k: v for k, v in (env or os.environ).items() if k != "PYTHONDONTWRITEBYTECODE"}
     with tempfile.TemporaryDirectory() as tmp:
         ru = resource.getrusage(resource.RUSAGE_CHILDREN)
         c0 = ru.ru_utime + ru.ru_stime
@@ -147,14 +154,15 @@ def run_check(env: dict[str, str] | None = None
         return json.loads((Path(tmp) / "metrics.json").read_text()), seconds, load, cpu
 
 
-def run_cold_then_warm() -> tuple[dict[str, Any], float, float, float, tuple[float, float]]:
+def run_cold_then_warm() -> tuple[dict[str, Any], float, float, float,
+                                  tuple[float, float, float]]:
     """A newcomer's two runs (issue 44): the first with an empty numba cache (a fresh clone:
     every kernel compiled), then the same again on the cache it filled. Returns the warm
-    run's (metrics, seconds, load, CPU) and the cold one's (seconds, CPU)."""
+    run's (metrics, seconds, load, CPU) and the cold one's (seconds, CPU, load)."""
     with tempfile.TemporaryDirectory() as cache:
         env = {**os.environ, "NUMBA_CACHE_DIR": cache}
-        _, cold_s, _, cold_cpu = run_check(env)
-        return (*run_check(env), (cold_s, cold_cpu))
+        _, cold_s, cold_load, cold_cpu = run_check(env)
+        return (*run_check(env), (cold_s, cold_cpu, cold_load))
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -277,7 +277,16 @@ class MonteCarloNoise:
       loss, friction loss) over the stage B;
     - ``state_start(normal, uniform)`` -> ``start(rec, s0, s1, s2, s3) -> (xi, s0, s1, s2,
       s3)``: one draw of the state from its stationary law (a kind may need a non-Gaussian
-      start: a random phase uniform on [0, 2 pi))."""
+      start: a random phase uniform on [0, 2 pi)).
+
+    Optional (None: the stage's force is exact in law over a step, as white noise's
+    increments): ``held_excess(params, omega, h) -> float``, for a kind whose velocity stage
+    holds its force f xi over the step (xi sampled once a step, at its middle): the relative
+    error S_held(omega) / S(omega) - 1 of the held (zero-order-hold) force's spectrum at the
+    orbit frequency omega, sinc^2(omega h / 2) (h / 2 pi) sum_k R(k h) cos(omega k h) over
+    the noise's S(omega) (the sampled values' aliases, sum_{k != 0} S(omega + 2 pi k / h):
+    about (rate h)^2 / 12 for a spectrum falling as w^-2 beyond its rate). The step rule
+    (montecarlo/tuning.py, hold_bias) keeps it within the bias it allows."""
 
     Record: type
     record: Callable[..., Any]
@@ -290,6 +299,7 @@ class MonteCarloNoise:
     advance: Callable[..., Any]
     energy: Callable[..., Any]
     state_start: Callable[..., Any]
+    held_excess: Callable[..., float] | None = None
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -14,7 +14,7 @@ models import that module directly.
 
 from __future__ import annotations
 
-from dataclasses import fields
+from dataclasses import MISSING, fields
 from typing import Any
 
 from vifpk.core import registry
@@ -25,7 +25,7 @@ from vifpk.core.result import BadInput
 SOLVERS: dict[str, tuple[str, type, tuple[str, ...]]] = {
     "averaging": ("averaging", AveragingNoise, ("spectral_density",)),
     "montecarlo": ("montecarlo", MonteCarloNoise,
-                   tuple(f.name for f in fields(MonteCarloNoise))),
+                   tuple(f.name for f in fields(MonteCarloNoise) if f.default is MISSING)),
     "fpk2d": ("fpk2d", FPK2DNoise, ("velocity_diffusion",)),
 }
 

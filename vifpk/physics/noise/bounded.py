@@ -123,6 +123,22 @@ def mc_energy(rec, h, half, k, mu, vb, vc, vk, vd, ve, xi):
     return force * h * 0.5 * (vb + ve), k * h * 0.5 * (vb * vb + ve * ve), fric
 
 
+def mc_held_excess(p: Any, omega: float, h: float) -> float:
+    """The held force's spectrum at omega against S(omega) (vifpk.core.protocols.
+    MonteCarloNoise, ``held_excess``): psi sampled once a step, R(k h) cos(omega k h) =
+    (a^2 / 4) r^|k| [cos((Omega - omega) k h) + cos((Omega + omega) k h)], r = e^{-beta h},
+    so sum_k = (a^2 / 4) [P(r, (Omega - omega) h) + P(r, (Omega + omega) h)] (ou.poisson_kernel),
+    times sinc^2(omega h / 2) h / (2 pi), over avg_spectral_density(omega), minus 1."""
+    from vifpk.physics.noise.ou import poisson_kernel
+    a, Om, sg = float(p["amplitude"]), float(p["frequency"]), float(p["sigma"])
+    r = math.exp(-0.5 * sg * sg * h)
+    x = 0.5 * omega * h
+    sinc2 = (math.sin(x) / x) ** 2 if x != 0 else 1.0
+    held = sinc2 * h / (2.0 * math.pi) * 0.25 * a * a * (
+        poisson_kernel(r, (Om - omega) * h) + poisson_kernel(r, (Om + omega) * h))
+    return held / float(avg_spectral_density(omega, amplitude=a, frequency=Om, sigma=sg)) - 1.0
+
+
 # ------------------------------------------------------------------ averaged models
 def avg_spectral_density(omega: Any, *, amplitude: float, frequency: float, sigma: float
                          ) -> np.ndarray:
@@ -160,5 +176,5 @@ KIND = NoiseKindSpec(
                                start_sd=mc_start_sd, bridge=mc_bridge,
                                input_power=mc_input_power, press=mc_press,
                                velocity=mc_velocity, advance=mc_advance, energy=mc_energy,
-                               state_start=mc_state_start),
+                               state_start=mc_state_start, held_excess=mc_held_excess),
 )

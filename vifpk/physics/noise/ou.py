@@ -81,6 +81,27 @@ def mc_advance(normal: Any) -> Any:
     return advance
 
 
+def poisson_kernel(r: float, theta: float) -> float:
+    """sum_k r^|k| cos(k theta) = (1 - r^2) / (1 - 2 r cos(theta) + r^2), 0 <= r < 1, written
+    (1 - r^2) / ((1 - r)^2 + 4 r sin^2(theta / 2)) to keep its digits as r -> 1."""
+    one_minus = -math.expm1(math.log(r)) if r > 0 else 1.0
+    return (one_minus * (2.0 - one_minus)) / (one_minus**2 + 4.0 * r * math.sin(0.5 * theta) ** 2)
+
+
+def mc_held_excess(p: Any, omega: float, h: float) -> float:
+    """The held xi's spectrum at omega against S(omega) (vifpk.core.protocols.MonteCarloNoise,
+    ``held_excess``): xi sampled once a step from its exact law is an AR(1) sequence,
+    R(k h) = (D / alpha1) a^|k|, a = e^{-alpha1 h}, so sum_k R(k h) cos(omega k h) =
+    (D / alpha1) P(a, omega h) (poisson_kernel), and with S = D / (pi (omega^2 + alpha1^2))
+    the relative error is sinc^2(omega h / 2) h P(a, omega h) (omega^2 + alpha1^2) /
+    (2 alpha1) - 1 = (alpha1 h)^2 / 12 + O(h^4) (the omega^2 parts cancel to that order)."""
+    al = float(p["alpha1"])
+    a = math.exp(-al * h)
+    x = 0.5 * omega * h
+    sinc2 = (math.sin(x) / x) ** 2 if x != 0 else 1.0
+    return sinc2 * h * poisson_kernel(a, omega * h) * (omega**2 + al**2) / (2.0 * al) - 1.0
+
+
 def mc_energy(rec, h, half, k, mu, vb, vc, vk, vd, ve, xi):
     """Trapezoid over B(h): input f xi v, damping k v^2, friction mu |v|."""
     fric = 0.0
@@ -118,5 +139,5 @@ KIND = NoiseKindSpec(
                                start_sd=mc_start_sd, bridge=mc_bridge,
                                input_power=mc_input_power, press=mc_press,
                                velocity=mc_velocity, advance=mc_advance, energy=mc_energy,
-                               state_start=mc_state_start),
+                               state_start=mc_state_start, held_excess=mc_held_excess),
 )
