@@ -237,7 +237,7 @@ def _ratios(n: int = 20_000, rounds: int = 7) -> dict:
     base = load_scene("paper-base")
     h = 0.5 / 23  # the --dt auto step of the floor-0.005 run before issue 44
     P = record(physics(base.system, base.noise), h)
-    c = (P.c1, P.c2, P.w0sq, P.alpha, P.mu, P.lo_r, P.f, P.ou_a, P.ou_s)
+    c = (P.c1, P.c2, P.w0sq, P.alpha, P.mu, P.lo_law_r, P.f, P.ou_a, P.ou_s)
     call, per_call, start = _lanes_case(base, h, blocks=1)
     rng0, st0 = start()
 

@@ -34,16 +34,16 @@ from typing import Any
 
 import numba
 import numpy as np
-from numba import prange
 from vifpk.montecarlo.stepper import CHUNK_SECONDS
 from vifpk.montecarlo.summary import density, mean_se
 
 from vifpk.core.defaults import BURN_FACTOR, FPK_CELLS
 from vifpk.core.result import Resolved, Result, Status
 
-from ._jit import jit
+from ._jit import jit, over_blocks
 from .geometry import amplitude_general, orbit_position, potential
-from .rng import normal, states_from_seed
+from .lanes import LANES, fast_normal
+from .rng import block_seeds, normal
 
 ORDER = 1
 #: dt = "auto": the largest sample_every / k not above tau / STEPS_PER_TAU. The averaged SDE
@@ -109,28 +109,41 @@ def relaxation_time(drift: Callable[[np.ndarray], np.ndarray],
 
 
 @jit(inline="always")
-def sde_step(Z, s0, s1, s2, s3, h, sq, a_tab, b_tab, inv_d, last):
-    """One step of the scheme of the module docstring from Z = A^2: (new Z, sigma(A) used,
-    whether Z was reflected, generator state). a_tab = 2 A m - sigma^2 and b_tab = sigma on
-    the grid A_j = j / inv_d (``sde_tables``), last = a_tab.size - 1, sq = sqrt(h)."""
+def sde_coefficients(Z, a_tab, b_tab, inv_d, last):
+    """(A = sqrt(Z), a, b): the tables a_tab = 2 A m - sigma^2 and b_tab = sigma interpolated
+    linearly at A on the grid A_j = j / inv_d (``sde_tables``; beyond it the last value),
+    last = a_tab.size - 1."""
     A = math.sqrt(Z)
     u = A * inv_d
     j = int(u)
     if j >= last:
-        a = a_tab[last]
-        bb = b_tab[last]
-    else:
-        w = u - j
-        a = (1.0 - w) * a_tab[j] + w * a_tab[j + 1]
-        bb = (1.0 - w) * b_tab[j] + w * b_tab[j + 1]
-    z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
-    z2, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
+        return A, a_tab[last], b_tab[last]
+    w = u - j
+    return A, (1.0 - w) * a_tab[j] + w * a_tab[j + 1], (1.0 - w) * b_tab[j] + w * b_tab[j + 1]
+
+
+@jit(inline="always")
+def sde_update(A, a, bb, z, z2, h, sq):
+    """(new Z, whether it was reflected): the scheme of the module docstring with the two
+    normals z, z2 (sq = sqrt(h))."""
     y = A + bb * sq * z
     y2 = bb * sq * z2
     Z = y * y + y2 * y2 + a * h
     refl = Z < 0.0
     if refl:
         Z = -Z
+    return Z, refl
+
+
+@jit(inline="always")
+def sde_step(Z, s0, s1, s2, s3, h, sq, a_tab, b_tab, inv_d, last):
+    """One step of the scheme of the module docstring from Z = A^2: (new Z, sigma(A) used,
+    whether Z was reflected, generator state). a_tab = 2 A m - sigma^2 and b_tab = sigma on
+    the grid A_j = j / inv_d (``sde_tables``), last = a_tab.size - 1, sq = sqrt(h)."""
+    A, a, bb = sde_coefficients(Z, a_tab, b_tab, inv_d, last)
+    z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
+    z2, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
+    Z, refl = sde_update(A, a, bb, z, z2, h, sq)
     return Z, bb, refl, s0, s1, s2, s3
 
 
@@ -152,11 +165,12 @@ def sde_tables(drift: Callable[[np.ndarray], np.ndarray],
     return grid, a_tab, b_tab
 
 
-@jit(parallel=True)
-def run_sde_blocks(states, n_paths, n_burn, n_samples, stride, h, a_tab, b_tab, dA_tab,
+def run_sde_blocks(states, p0, n_paths, n_burn, n_samples, stride, h, a_tab, b_tab, dA_tab,
                    z0, a_lo, a_inv, hist_A, sums, barrier, w_lo, w_up, w0sq, alpha, khi, x_lo,
                    x_inv, hist_x, v_lo, v_inv, hist_v, obs_tab, ow0sq, oalpha, okhi):
-    """Per block: histogram of A and sums (A, A^2, samples, reflections) after burn-in.
+    """Paths p0 .. p0 + n_paths - 1 of every block b, each from Z = z0 with its own generator
+    words states[b, p] (updated in place): histogram of A and sums (A, A^2, samples,
+    reflections) per block after burn-in.
     a_tab = 2 A m(A) - sigma^2 on the grid A_j = j dA_tab, b_tab = sigma(A) there.
     With hist_x / hist_v, each sample also records a time-uniform point of the orbit of
     amplitude A as the system moves on it (geometry.orbit_position, the original system's starts):
@@ -167,60 +181,117 @@ def run_sde_blocks(states, n_paths, n_burn, n_samples, stride, h, a_tab, b_tab, 
     With a non-empty obs_tab (rms fast energy fluctuation on the same grid as a_tab), each
     sampled A is observed as A' = U^{-1}(U(A) + sd(A) z), z ~ N(0, 1) redrawn while the energy
     is negative (U(x) = ow0sq x^2 / 2 + oalpha x^4 / 4): the model's observation map applied
-    to samples; A' is then recorded (and its orbit point)."""
-    n_blocks = states.shape[0]
+    to samples; A' is then recorded (and its orbit point).
+
+    The paths of a block advance LANES at a time in struct-of-arrays lanes (lanes.py's
+    pattern: the step with the ziggurat's fast path on every lane in one loop, a lane whose
+    normal took the slow path stepped again from its start by ``sde_step``), so each path's
+    numbers are those of ``sde_step`` alone with its words. A block's float sums are taken step
+    by step over its groups of LANES paths: p0 must be a multiple of LANES (``simulate_sde``
+    cuts its calls so), and any such cut, thread count or executor gives the same bits. One
+    block per thread at a time (``_jit.over_blocks``)."""
+    over_blocks(_sde_block, states.shape[0], states, p0, n_paths, n_burn, n_samples, stride, h,
+                (a_tab, b_tab, dA_tab), z0, (a_lo, a_inv), hist_A, sums,
+                (barrier, w_lo, w_up, w0sq, alpha, khi), (x_lo, x_inv), hist_x, (v_lo, v_inv),
+                hist_v, (obs_tab, ow0sq, oalpha, okhi))
+
+
+@jit
+def _observe(A, inv_d, last, obs_tab, ow0sq, oalpha, okhi, s0, s1, s2, s3):
+    """The observation map of ``run_sde_blocks`` on a sampled A (with the path's words)."""
+    u = A * inv_d
+    j = int(u)
+    if j >= last:
+        sd = obs_tab[last]
+    else:
+        w = u - j
+        sd = (1.0 - w) * obs_tab[j] + w * obs_tab[j + 1]
+    E = potential(A, ow0sq, oalpha, okhi)
+    while True:
+        z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
+        Eo = E + sd * z
+        if Eo >= 0.0:
+            break
+    if okhi is None:
+        A = math.sqrt(4.0 * Eo / (ow0sq + math.sqrt(ow0sq * ow0sq + 4.0 * oalpha * Eo)))
+    else:  # the amplitude of energy Eo: the orbit through x = 0, v^2/2 = Eo
+        A = amplitude_general(0.0, math.sqrt(2.0 * Eo), ow0sq, oalpha, okhi)
+    return A, s0, s1, s2, s3
+
+
+@jit(nogil=True)
+def _sde_block(first, every, states, p0, n_paths, n_burn, n_samples, stride, h, tabs, z0,
+               bins, hist_A, sums, geo, xbin, hist_x, vbin, hist_v, obs):
+    """run_sde_blocks for blocks first, first + every, ... (one thread's share)."""
+    a_tab, b_tab, dA_tab = tabs
+    a_lo, a_inv = bins
+    barrier, w_lo, w_up, w0sq, alpha, khi = geo
+    x_lo, x_inv = xbin
+    v_lo, v_inv = vbin
+    obs_tab, ow0sq, oalpha, okhi = obs
     observe = obs_tab.size > 0
     total = n_burn + n_samples * stride
     sq = math.sqrt(h)
     last = a_tab.size - 1
     inv_d = 1.0 / dA_tab
-    for b in prange(n_blocks):
-        s0, s1, s2, s3 = states[b, 0], states[b, 1], states[b, 2], states[b, 3]
-        for _p in range(n_paths):
-            Z = z0
+    Zs = np.zeros((2, LANES))  # Z, Z at the step's start
+    R = np.zeros(LANES, dtype=np.bool_)
+    S = np.zeros((8, LANES), dtype=np.uint64)  # words, words at the step's start
+    for b in range(first, states.shape[0], every):
+        for g0 in range(p0, p0 + n_paths, LANES):
+            m = min(LANES, p0 + n_paths - g0)
+            for j in range(m):
+                Zs[0, j] = z0
+                for w in range(4):
+                    S[w, j] = states[b, g0 + j, w]
+            Z, Z0 = Zs[0], Zs[1]
+            S0, S1, S2, S3, T0, T1, T2, T3 = S[0], S[1], S[2], S[3], S[4], S[5], S[6], S[7]
             for n in range(total):
-                Z, _sig, refl, s0, s1, s2, s3 = sde_step(Z, s0, s1, s2, s3, h, sq, a_tab,
-                                                         b_tab, inv_d, last)
-                if refl and n >= n_burn:
-                    sums[b, 3] += 1.0
-                if n < n_burn or (n - n_burn + 1) % stride != 0:
+                for j in range(m):  # the step on every lane (NaN: a slow-path normal)
+                    s0, s1, s2, s3 = S0[j], S1[j], S2[j], S3[j]
+                    Z0[j], T0[j], T1[j], T2[j], T3[j] = Z[j], s0, s1, s2, s3
+                    A, a, bb = sde_coefficients(Z[j], a_tab, b_tab, inv_d, last)
+                    z, s0, s1, s2, s3 = fast_normal(s0, s1, s2, s3)
+                    z2, s0, s1, s2, s3 = fast_normal(s0, s1, s2, s3)
+                    Z[j], R[j] = sde_update(A, a, bb, z, z2, h, sq)
+                    S0[j], S1[j], S2[j], S3[j] = s0, s1, s2, s3
+                for j in range(m):  # those lanes again, by sde_step
+                    if Z[j] == Z[j]:
+                        continue
+                    Z[j], _sig, R[j], S0[j], S1[j], S2[j], S3[j] = sde_step(
+                        Z0[j], T0[j], T1[j], T2[j], T3[j], h, sq, a_tab, b_tab, inv_d, last)
+                if n < n_burn:
                     continue
-                A = math.sqrt(Z)
-                if observe:
-                    u = A * inv_d
-                    j = int(u)
-                    if j >= last:
-                        sd = obs_tab[last]
-                    else:
-                        w = u - j
-                        sd = (1.0 - w) * obs_tab[j] + w * obs_tab[j + 1]
-                    E = potential(A, ow0sq, oalpha, okhi)
-                    while True:
-                        z, s0, s1, s2, s3 = normal(s0, s1, s2, s3)
-                        Eo = E + sd * z
-                        if Eo >= 0.0:
-                            break
-                    if okhi is None:
-                        A = math.sqrt(4.0 * Eo / (ow0sq + math.sqrt(ow0sq * ow0sq
-                                                                     + 4.0 * oalpha * Eo)))
-                    else:  # the amplitude of energy Eo: the orbit through x = 0, v^2/2 = Eo
-                        A = amplitude_general(0.0, math.sqrt(2.0 * Eo), ow0sq, oalpha, okhi)
-                i = math.floor((A - a_lo) * a_inv)
-                if 0 <= i < hist_A.shape[1]:
-                    hist_A[b, i] += 1.0
-                sums[b, 0] += A
-                sums[b, 1] += A * A
-                sums[b, 2] += 1.0
-                if hist_x is not None:  # on the orbit as it is: folded, or cut at walls
-                    y, yp, s0, s1, s2, s3 = orbit_position(A, w0sq, alpha, khi, barrier,
-                                                           w_lo, w_up, s0, s1, s2, s3)
-                    ix = math.floor((y - x_lo) * x_inv)
-                    if 0 <= ix < hist_x.shape[1]:
-                        hist_x[b, ix] += 1.0
-                    iv = math.floor((yp - v_lo) * v_inv)
-                    if 0 <= iv < hist_v.shape[1]:
-                        hist_v[b, iv] += 1.0
-        states[b, 0], states[b, 1], states[b, 2], states[b, 3] = s0, s1, s2, s3
+                for j in range(m):
+                    if R[j]:
+                        sums[b, 3] += 1.0
+                if (n - n_burn + 1) % stride != 0:
+                    continue
+                for j in range(m):
+                    A = math.sqrt(Z[j])
+                    if observe:
+                        A, S0[j], S1[j], S2[j], S3[j] = _observe(
+                            A, inv_d, last, obs_tab, ow0sq, oalpha, okhi, S0[j], S1[j], S2[j],
+                            S3[j])
+                    i = math.floor((A - a_lo) * a_inv)
+                    if 0 <= i < hist_A.shape[1]:
+                        hist_A[b, i] += 1.0
+                    sums[b, 0] += A
+                    sums[b, 1] += A * A
+                    sums[b, 2] += 1.0
+                    if hist_x is not None:  # on the orbit as it is: folded, or cut at walls
+                        y, yp, S0[j], S1[j], S2[j], S3[j] = orbit_position(
+                            A, w0sq, alpha, khi, barrier, w_lo, w_up, S0[j], S1[j], S2[j],
+                            S3[j])
+                        ix = math.floor((y - x_lo) * x_inv)
+                        if 0 <= ix < hist_x.shape[1]:
+                            hist_x[b, ix] += 1.0
+                        iv = math.floor((yp - v_lo) * v_inv)
+                        if 0 <= iv < hist_v.shape[1]:
+                            hist_v[b, iv] += 1.0
+            for j in range(m):
+                for w in range(4):
+                    states[b, g0 + j, w] = S[w, j]
 
 
 def _spring(d: dict[str, Any]) -> tuple[float, float, np.ndarray | None]:
@@ -278,11 +349,11 @@ def simulate_sde(drift: Callable[[np.ndarray], np.ndarray],
             raise ValueError("the observation map's sd is not finite on the table")
     else:
         obs_tab, obs_geo = np.zeros(0), (1.0, 0.0, None)
-    states = states_from_seed(seed, blocks)
     n_burn = int(round(burn_in / dt))
     stride = max(int(round(sample_every / dt)), 1)
     n_samples = max(int(time_ / (stride * dt)), 1)
     per_block = paths // blocks
+    states = block_seeds(seed, blocks, per_block)  # path p of block b: its own stream
     z0 = (A0 if A0 is not None else 0.5 * (edges[0] + edges[-1])) ** 2
     hist = np.zeros((blocks, edges.size - 1))
     sums = np.zeros((blocks, 4))
@@ -297,28 +368,30 @@ def simulate_sde(drift: Callable[[np.ndarray], np.ndarray],
         geo = (True, -math.inf, math.inf, 1.0, 0.0, None)
         hx = hv = None
 
-    def call(st, n_p, n_b, n_s, stride_, hA, sm, hx_, hv_):
-        run_sde_blocks(st, n_p, n_b, n_s, stride_, dt, a_tab, b_tab, grid[1] - grid[0], z0,
+    def call(st, p0, n_p, n_b, n_s, stride_, hA, sm, hx_, hv_):
+        run_sde_blocks(st, p0, n_p, n_b, n_s, stride_, dt, a_tab, b_tab, grid[1] - grid[0], z0,
                        edges[0], 1.0 / (edges[1] - edges[0]), hA, sm, *geo,
                        ex[0], 1.0 / (ex[1] - ex[0]), hx_, ev[0], 1.0 / (ev[1] - ev[0]), hv_,
                        obs_tab, *obs_geo)
 
     t0 = time.perf_counter()
-    call(states[:1].copy(), 1, 1, 1, 1, np.zeros((1, edges.size - 1)), np.zeros((1, 4)),
+    call(states[:1, :1].copy(), 0, 1, 1, 1, 1, np.zeros((1, edges.size - 1)), np.zeros((1, 4)),
          None if hx is None else np.zeros((1, ex.size - 1)),
          None if hv is None else np.zeros((1, ev.size - 1)))
     compile_s = time.perf_counter() - t0
     t1 = time.perf_counter()
     # in calls of about CHUNK_SECONDS, so that Ctrl-C is seen between them: each call runs
-    # the next k paths of every block; a block's generator state carries over from call to
-    # call, so any cut gives the same numbers as one call
+    # the next k paths of every block, k a multiple of LANES (run_sde_blocks: the groups of
+    # lanes, and so the order of a block's sums, are those of one call), each path with its
+    # own generator words, so any such cut gives the same numbers as one call
     path_steps = blocks * (n_burn + n_samples * stride)
     rate = 5e6 * numba.get_num_threads()  # steps per second: a first guess, then measured
     done = 0
     while done < per_block:
         k = int(max(1, min(per_block - done, CHUNK_SECONDS * rate / max(path_steps, 1))))
+        k = min(per_block - done, -(-k // LANES) * LANES)
         t = time.perf_counter()
-        call(states, k, n_burn, n_samples, stride, hist, sums, hx, hv)
+        call(states, done, k, n_burn, n_samples, stride, hist, sums, hx, hv)
         spent = time.perf_counter() - t
         if spent > 0:
             rate = k * path_steps / spent
@@ -333,7 +406,8 @@ def simulate_sde(drift: Callable[[np.ndarray], np.ndarray],
                      "time": n_samples * stride * dt,
                      "burn_in": n_burn * dt, "sample_every": stride * dt, "blocks": blocks,
                      "table_points": table_points, "A_table": top},
-        "seed": {"root": seed, "scheme": "numpy.random.SeedSequence(root).spawn(blocks)"},
+        "seed": {"root": seed, "scheme": "path p of block b: words 4p..4p+3 of "
+                 "numpy.random.SeedSequence(root, spawn_key=(b,)).generate_state"},
         "relaxation_time": tau,
         "L1_floor": {"A": d["L1_floor"]},
         "moments": {"A": {"mean": mean_se(sums[:, 0] / sums[:, 2]),

@@ -106,6 +106,33 @@ def store(m, F, S, rng, state, stuck_time, b, p0):
             rng[b, p0 + j, w] = S[w, j]
 
 
+@jit(inline="always")
+def move(F, S, L, Li, src, dst):
+    """Lane src into lane dst: its state, generator words and what its step left for the
+    caller (every row of F and S), and the caller's own float and int lane rows L, Li (a lane
+    whose path ended takes the last lane's path, stepped but not yet read: first passage,
+    splitting)."""
+    for r in range(F.shape[0]):
+        F[r, dst] = F[r, src]
+    for r in range(S.shape[0]):
+        S[r, dst] = S[r, src]
+    for r in range(L.shape[0]):
+        L[r, dst] = L[r, src]
+    for r in range(Li.shape[0]):
+        Li[r, dst] = Li[r, src]
+
+
+@jit(inline="always")
+def drop(F, S, L, Li, i, m):
+    """Lane i's path has ended (its results written by the caller): the last of the m busy
+    lanes moves into lane i (``move``; its path stepped but not yet read, so the caller reads
+    lane i again). Returns the number of busy lanes left."""
+    m -= 1
+    if i < m:
+        move(F, S, L, Li, m, i)
+    return m
+
+
 # ------------------------------------------------------------- the speculative smooth step
 _C6, _C24, _C120 = 1.0 / 6.0, 1.0 / 24.0, 1.0 / 120.0  # as kernels.exp_phi's series
 
@@ -220,6 +247,15 @@ def lane_step(m, F, S, h, half, P, keep, count):
             F[L_VE, j], F[L_XIU, j], F[L_DV1, j], F[L_DV2, j] = ve, xi_used, dv1, dv2
             F[L_LOSS1, j], F[L_LOSS2, j], F[L_WP, j] = loss1, loss2, wpar
     return impacts, chatter
+
+
+@jit(inline="always")
+def step_keeping_x(m, F, S, XB, h, half, P, count):
+    """``lane_step`` (no energy balance) after keeping each lane's x before the step in XB
+    (the bridge tests of first passage and splitting read it with the velocity at the kick)."""
+    for j in range(m):
+        XB[j] = F[L_X, j]
+    lane_step(m, F, S, h, half, P, False, count)
 
 
 def run_paths(rng, state, n_steps, step0, n_burn, stride, h, P, bins, out, spw):

@@ -11,7 +11,16 @@ import numpy as np
 from vifpk.montecarlo._jit import jit, over_blocks
 from vifpk.montecarlo.geometry import energy, orbit_start
 from vifpk.montecarlo.kernels import damping_k, spring_g
-from vifpk.montecarlo.lanes import L_V, L_VC, L_X, L_XI, LANES, lane_step, scratch
+from vifpk.montecarlo.lanes import (
+    L_V,
+    L_VC,
+    L_X,
+    L_XI,
+    LANES,
+    drop,
+    scratch,
+    step_keeping_x,
+)
 from vifpk.montecarlo.rng import uniform
 
 BRIDGE_FLOOR = 1e-14  # below this bridge-crossing probability no uniform is drawn
@@ -85,20 +94,6 @@ def _give(L, Li, F, S, j, arrs, b):
     steps[b, p], phase[b, p] = Li[_N, j], Li[_PH, j]
 
 
-@jit(inline="always")
-def _move(L, Li, F, S, src, dst):
-    """Lane src's path and its chunk into lane dst (with the velocity at the kick of its last
-    step: the bridge test of a lane moved before its post-step reads it)."""
-    for r in (L_X, L_V, L_XI, L_VC):
-        F[r, dst] = F[r, src]
-    for w in range(4):
-        S[w, dst] = S[w, src]
-    for r in range(L.shape[0]):
-        L[r, dst] = L[r, src]
-    for r in range(Li.shape[0]):
-        Li[r, dst] = Li[r, src]
-
-
 # rows of the passage's own lane scratch: float (energy at the chunk's last step, level, the
 # x before the step), int (path index, phase, steps, steps into the chunk, chunk length, budget
 # left)
@@ -163,16 +158,12 @@ def _passage_block(first, every, arrs, count, run, h, B, P):
                     Li[_K, j] = min(Li[_LEFT, j], (n_burn if burning else n_max) - Li[_N, j])
                 if done:
                     _give(L, Li, F, S, j, arrs, b)
-                    m -= 1
-                    if j < m:
-                        _move(L, Li, F, S, m, j)
+                    m = drop(F, S, L, Li, j, m)
                     continue  # lane j now holds another path (or none)
                 j += 1
             if m == 0:
                 continue
-            for j in range(m):
-                L[_XB, j] = F[L_X, j]
-            lane_step(m, F, S, h, half, P, False, False)
+            step_keeping_x(m, F, S, L[_XB], h, half, P, False)
             j = 0
             while j < m:
                 p = Li[_PATH, j]
@@ -239,11 +230,7 @@ def _passage_block(first, every, arrs, count, run, h, B, P):
                         fpt[b, p] = horizon
                 if finished:
                     _give(L, Li, F, S, j, arrs, b)
-                    m -= 1
-                    if j < m:
-                        _move(L, Li, F, S, m, j)
-                        # lane j now holds the last lane's path, not yet post-stepped: it
-                        # must be, so go on with j (not j + 1)
+                    m = drop(F, S, L, Li, j, m)  # lane j: the last lane's path, not yet read
                     continue
                 j += 1
 

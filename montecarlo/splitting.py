@@ -53,6 +53,7 @@ from vifpk.montecarlo.cycles import cycle_mfpt, mfpt_by_cycles, numba_threads
 from vifpk.core.result import BadInput, Result, Status
 
 from . import splitting_kernels as SK
+from . import splitting_lanes as SL
 from .averaged_sde import sde_tables
 from .geometry import potential
 from .pieces import record
@@ -244,7 +245,7 @@ class _Original:
 
     def advance(self, q_lo: float, q_hi: float, M: int, t_max: float) -> Callable[..., None]:
         def run(recs, rows, start, rng, maxlev, outcome) -> None:
-            SK.advance_orig(recs, rows, start, rng, maxlev, outcome, (q_lo, q_hi, M, t_max),
+            SL.advance_orig(recs, rows, start, rng, maxlev, outcome, (q_lo, q_hi, M, t_max),
                             self.h, self.B, self.rec)
         return run
 
@@ -252,7 +253,7 @@ class _Original:
                qc: float, t_max: float) -> tuple[np.ndarray, np.ndarray]:
         entries = np.zeros((starts.shape[0], n_cycles, self.width))
         summary = np.zeros((starts.shape[0], 7))
-        SK.cycles_orig(starts, rng, (n_cycles, q0, q1, qc, t_max, self.n_burn), self.h,
+        SL.cycles_orig(starts, rng, (n_cycles, q0, q1, qc, t_max, self.n_burn), self.h,
                        self.B, self.rec, entries, summary)
         return entries, summary
 
@@ -264,7 +265,7 @@ def passage_splitting(system: Any, noise: Any, settings: SplittingSettings, *,
     uniform in time on that conservative orbit, xi from its stationary law), or "stationary"
     (the stationary law restricted below the threshold: ``burn_in`` > 0 time units of free
     simulation from the orbit of amplitude ``low``, begun again when it reaches the threshold;
-    splitting_kernels.cycles_orig), to the energy
+    splitting_lanes.cycles_orig), to the energy
     U(threshold), by the cycle decomposition with levels U(low) < U(entry) < U(threshold)
     (module docstring), the energy as the reaction coordinate. The same seed gives the same
     numbers for any thread count (every path and every clone has its own stream).

@@ -1,6 +1,8 @@
 """numba kernels of the splitting estimator (splitting.py): a path run from a given state until
 it is absorbed, with the states it had when it first reached each level of the reaction
-coordinate (AMS), and the direct simulation of the cycles (the cycle decomposition).
+coordinate (AMS), and the direct simulation of the cycles (the cycle decomposition). The
+original system's pair (``advance_orig``, ``cycles_orig``) runs its paths in vector lanes and
+is in splitting_lanes.py, with this module's conventions and bookkeeping helpers.
 
 Two dynamics, each with its own pair of kernels and the same conventions:
 - the averaged amplitude SDE, state row (Z = A^2, t); the step is averaged_sde.sde_step (not a
@@ -35,12 +37,10 @@ from __future__ import annotations
 import math
 
 from numba import prange
-from vifpk.montecarlo.passage_kernels import bridge_hit
 
 from ._jit import jit
 from .averaged_sde import sde_step
-from .geometry import energy, orbit_start
-from .kernels import strang_step
+from .geometry import orbit_start
 from .rng import uniform
 
 OUT_FAIL, OUT_SUCCESS, OUT_TIMEOUT = 0, 1, -1
@@ -213,164 +213,6 @@ def cycles_sde(starts, rng, n_cycles, q0, q1, q_hi, t_max, h, a_tab, b_tab, inv_
                 t_cycle = t
                 armed = False
         _cycle_summary(summary, p, k, total, succ)
-
-
-@jit(inline="always")
-def _orig_move(x, v, xi, rest, s0, s1, s2, s3, h, half, P):
-    """One kernels.strang_step: (x, v, xi, time at rest, the velocity at the kick (o[8]: the bridge
-    test's), generator)."""
-    x, v, xi, s0, s1, s2, s3, o = strang_step(x, v, xi, s0, s1, s2, s3, h, half, P)
-    return x, v, xi, rest + o[4], o[8], s0, s1, s2, s3
-
-
-@jit(parallel=True)
-def advance_orig(recs, rows, start, rng, maxlev, outcome, levels, h, B, P):
-    """advance_sde for the original system (state row (x, v, xi, t, time at rest)), with the
-    physics record P (plan.Record for this h), the bridge test's B = (P.bridge, P.pk, P.pc)
-    and ``levels`` = (q_lo, q_hi, M, t_max). The
-    path itself is ``_advance_orig`` (serial: numba's parallel array analysis fails on the
-    nested tuple ``strang_step`` returns, as in kernels._block)."""
-    for j in prange(rows.size):
-        row = rows[j]
-        lev, out = _advance_orig(recs, row, start[j], rng[j, 0], rng[j, 1], rng[j, 2],
-                                 rng[j, 3], levels, h, B, P)
-        maxlev[row] = lev
-        outcome[row] = out
-
-
-@jit
-def _advance_orig(recs, row, st, s0, s1, s2, s3, levels, h, B, P):
-    q_lo, q_hi, M, t_max = levels
-    w0sq, alpha, khi = P.w0sq, P.alpha, P.khi
-    half = 0.5 * h
-    inv_dq = M / (q_hi - q_lo)
-    x, v, xi = recs[row, st, 0], recs[row, st, 1], recs[row, st, 2]
-    t, rest = recs[row, st, 3], recs[row, st, 4]
-    lev = st
-    e = level_of(energy(x, v, w0sq, alpha, khi), q_lo, inv_dq, M)
-    while lev < e:
-        lev += 1
-        for c in range(5):
-            recs[row, lev, c] = recs[row, st, c]
-    out = OUT_TIMEOUT
-    q = energy(x, v, w0sq, alpha, khi)
-    while t < t_max:
-        x0, q0 = x, q
-        x, v, xi, rest, vc, s0, s1, s2, s3 = _orig_move(x, v, xi, rest, s0, s1, s2, s3, h,
-                                                        half, P)
-        t += h
-        q = energy(x, v, w0sq, alpha, khi)
-        if q <= q_lo:
-            out = OUT_FAIL
-            break
-        if q < q_hi:  # a crossing of q_hi, then of q_lo, inside the step (the bridge test)
-            hb, s0, s1, s2, s3 = bridge_hit(B, q_hi, q0, q, x0, vc, h, P, s0, s1, s2, s3)
-            if hb >= 0.0:
-                q = q_hi
-            else:
-                hb, s0, s1, s2, s3 = bridge_hit(B, q_lo, q0, q, x0, vc, h, P, s0, s1, s2,
-                                                s3)
-                if hb >= 0.0:
-                    out = OUT_FAIL
-                    break
-        e = level_of(q, q_lo, inv_dq, M)
-        while lev < e:
-            lev += 1
-            recs[row, lev, 0] = x
-            recs[row, lev, 1] = v
-            recs[row, lev, 2] = xi
-            recs[row, lev, 3] = t
-            recs[row, lev, 4] = rest
-        if q >= q_hi:
-            out = OUT_SUCCESS
-            break
-    return lev, out
-
-
-@jit(parallel=True)
-def cycles_orig(starts, rng, cyc, h, B, P, entries, summary):
-    """cycles_sde for the original system with the physics record P (and the bridge test's
-    B = (P.bridge, P.pk, P.pc), all None: none), ``cyc`` = (n_cycles, q0,
-    q1, q_hi, t_max, n_burn): starts[p] = (x, v, xi, 0, 0), entries[p, k] the
-    state row at the start of cycle k (its time and time at rest set to 0). A success's time
-    is interpolated linearly in the energy inside its step. (The path: ``_cycles_orig``.)
-    n_burn > 0: first n_burn steps of free simulation, begun again from starts[p] (the stream
-    goes on) whenever the energy reaches q_hi, at most MAX_RESTARTS times (then summary[p, 5]
-    = 2); the clock starts after it: the start law is then the law at q < q_hi after a long
-    run that stayed below, i.e. the stationary law restricted below the threshold when n_burn
-    is several relaxation times. summary[p, 6] counts the restarts."""
-    for p in prange(starts.shape[0]):
-        _cycles_orig(p, starts, rng[p, 0], rng[p, 1], rng[p, 2], rng[p, 3], cyc, h, B, P,
-                     entries, summary)
-
-
-@jit
-def _cycles_orig(p, starts, s0, s1, s2, s3, cyc, h, B, P, entries, summary):
-    n_cycles, q0, q1, q_hi, t_max, n_burn = cyc
-    w0sq, alpha, khi = P.w0sq, P.alpha, P.khi
-    half = 0.5 * h
-    x, v, xi = starts[p, 0], starts[p, 1], starts[p, 2]
-    rest = 0.0
-    n = 0
-    restarts = 0
-    while n < n_burn:
-        x, v, xi, rest, _vc, s0, s1, s2, s3 = _orig_move(x, v, xi, rest, s0, s1, s2, s3, h,
-                                                         half, P)
-        n += 1
-        if energy(x, v, w0sq, alpha, khi) >= q_hi:
-            restarts += 1
-            if restarts > MAX_RESTARTS:
-                summary[p, 5] = 2.0
-                return
-            x, v, xi = starts[p, 0], starts[p, 1], starts[p, 2]
-            n = 0
-    summary[p, 6] = restarts
-    t = 0.0
-    q = energy(x, v, w0sq, alpha, khi)
-    armed = q <= q0
-    in_cycle = False
-    t_cycle = 0.0
-    k = 0
-    total = 0.0
-    succ = 0
-    while True:
-        if t >= t_max:
-            summary[p, 5] = 1.0
-            break
-        q_old, x0 = q, x
-        x, v, xi, rest, vc, s0, s1, s2, s3 = _orig_move(x, v, xi, rest, s0, s1, s2, s3, h,
-                                                        half, P)
-        t += h
-        q = energy(x, v, w0sq, alpha, khi)
-        if q >= q_hi:
-            tc = t - h * (q - q_hi) / (q - q_old) if q > q_old else t
-            k, total, succ = _cycle_success(tc, in_cycle, t_cycle, k, total, succ, summary, p)
-            break
-        # a crossing of q_hi inside the step (the bridge test; none drawn when B is all None)
-        hb, s0, s1, s2, s3 = bridge_hit(B, q_hi, q_old, q, x0, vc, h, P, s0, s1, s2, s3)
-        if hb >= 0.0:
-            k, total, succ = _cycle_success(t - h + hb * h, in_cycle, t_cycle, k, total, succ,
-                                            summary, p)
-            break
-        if q <= q0:
-            armed = True
-        elif not armed and q_old > q0:  # a dip below q0 inside the step arms it too
-            hb, s0, s1, s2, s3 = bridge_hit(B, q0, q_old, q, x0, vc, h, P, s0, s1, s2, s3)
-            armed = hb >= 0.0
-        if armed and q >= q1:
-            k, total, done = _cycle_start(t, in_cycle, t_cycle, k, total, n_cycles, summary, p)
-            if done:
-                break
-            in_cycle = True
-            if k < entries.shape[1]:
-                entries[p, k, 0] = x
-                entries[p, k, 1] = v
-                entries[p, k, 2] = xi
-                entries[p, k, 3] = 0.0
-                entries[p, k, 4] = 0.0
-            t_cycle = t
-            armed = False
-    _cycle_summary(summary, p, k, total, succ)
 
 
 @jit

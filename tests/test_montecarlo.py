@@ -470,19 +470,28 @@ def test_averaged_sde_relaxation_time_is_the_cir_rate_whatever_the_table_top(top
 
 
 def test_averaged_sde_in_short_calls_is_bit_identical(monkeypatch):
-    """The averaged SDE runs in ~0.4 s calls (Ctrl-C is seen between them); one path per
-    call and one call for everything give the same bits (generator states carry over)."""
+    """The averaged SDE runs in ~0.4 s calls (Ctrl-C is seen between them) of whole groups of
+    LANES paths (each path its own generator words): one group per call on one thread and
+    one call for everything on two threads give the same bits (80 paths a block: groups of
+    32, 32 and 16)."""
+    import numba
     import vifpk.montecarlo.averaged_sde as sde
 
-    def run_with(chunk):
+    def run_with(chunk, threads):
         monkeypatch.setattr(sde, "CHUNK_SECONDS", chunk)
-        return simulate_sde(lambda A: -0.1 * A + 0.01 / A, lambda A: 0.02 + 0 * A,
-                            edges=np.linspace(0, 1.6, 41), paths=64, blocks=16, time_=50,
-                            burn_in=10, phase={"omega0": 1.0, "alpha": 0.6, "barrier": True,
-                                               "edges_x": np.linspace(0, 1.6, 21),
-                                               "edges_v": np.linspace(-2, 2, 21)})
+        before = numba.get_num_threads()
+        numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+        try:
+            return simulate_sde(lambda A: -0.1 * A + 0.01 / A, lambda A: 0.02 + 0 * A,
+                                edges=np.linspace(0, 1.6, 41), paths=320, blocks=4, time_=50,
+                                burn_in=10, phase={"omega0": 1.0, "alpha": 0.6,
+                                                   "barrier": True,
+                                                   "edges_x": np.linspace(0, 1.6, 21),
+                                                   "edges_v": np.linspace(-2, 2, 21)})
+        finally:
+            numba.set_num_threads(before)
 
-    one, many = run_with(1e9), run_with(1e-12)
+    one, many = run_with(1e9, 2), run_with(1e-12, 1)
     for key in ("A", "x1", "x2"):
         assert np.array_equal(one.data[key]["p"], many.data[key]["p"])
     assert one.info["moments"] == many.info["moments"]

@@ -1,0 +1,288 @@
+"""ns per path-step of the splitting kernels of the original system (advance_orig, cycles_orig)
+and of the averaged SDE's stationary kernel (run_sde_blocks), before and after they were put
+in struct-of-arrays lanes (issue 44), and against minimal kernels of the same scheme in lanes.
+
+    NUMBA_NUM_THREADS=1 python benchmarks/bench_lanes_split_sde.py --before PYTHON [--rounds 5]
+    # -> results/lanes_split_sde.json
+
+PYTHON is the interpreter of a checkout before the change (its editable install; e.g. a
+venv of main at aa1e12c). Each round runs one worker process of each side, alternating
+(before, after); a worker loads its compiled kernels with a small call, then times each
+kernel once in CPU seconds (process_time, one thread). Medians over the rounds; ratios of
+medians in this one run.
+
+Workloads (the same in both checkouts): paper-base at dt = 0.5 / 23 (bench_kernel_bound's
+step), 256 paths from orbit starts at A = 0.45; the splitting's levels so wide (q_lo =
+-1, below any energy, q_hi = U(5)) that no path is absorbed, so every path runs the same
+number of steps
+to t_max (the cycles: the same levels, n_burn 0) and the count of path-steps is exact. The
+averaged SDE: the Rayleigh SDE m = -0.1 A + 0.01 / A, sigma^2 = 0.02 on a 4001-point table,
+2 blocks x 64 paths, a sample every 50 steps, A only, and A with x1, x2 on the paper-base orbit
+(``phase``). Minimal kernels (``after`` only): bench_kernel_bound._minimal_soa (paper-base's
+scheme, the stationary lanes' target) and ``_minimal_sde`` below (the SDE step by hand in lanes:
+the table's interpolation, two ziggurat normals on their fast path (lanes.fast_normal), a lane
+whose normal took the slow path stepped again by averaged_sde.sde_step; its final state
+checked equal to run_sde_blocks's).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numba
+import numpy as np
+from vifpk.montecarlo.averaged_sde import sde_step
+from vifpk.montecarlo.lanes import fast_normal
+
+ROOT = Path(__file__).resolve().parent.parent
+OUT = ROOT / "benchmarks" / "results" / "lanes_split_sde.json"
+H = 0.5 / 23
+N_PATHS = 256
+SDE_BLOCKS, SDE_PER, SDE_STRIDE = 2, 64, 50
+
+
+def _paper_base():
+    from vifpk.montecarlo import splitting_kernels as SK
+    from vifpk.montecarlo.ams import words
+    from vifpk.montecarlo.geometry import potential
+    from vifpk.montecarlo.pieces import record
+    from vifpk.montecarlo.plan import bounds, fold, physics
+
+    from vifpk.core.scene import load_scene
+
+    sc = load_scene(ROOT / "scenes" / "paper-base.toml")
+    ph = physics(sc.system, sc.noise)
+    rec = record(ph, H)
+    starts = np.zeros((N_PATHS, 5))
+    SK.orbit_starts(0.45, starts, words(3, (7,), N_PATHS), ph["w0sq"], ph["alpha"], ph["khi"],
+                    (fold(ph), *bounds(ph)), rec)
+
+    def U(A):
+        return float(potential(A, ph["w0sq"], ph["alpha"], ph["khi"]))
+    return rec, (rec.bridge, rec.pk, rec.pc), starts, words(4, (8,), N_PATHS), U
+
+
+def _steps_to(t_max: float) -> int:
+    """The steps a path takes while t < t_max, t += H (the kernels' float clock)."""
+    t, k = 0.0, 0
+    while t < t_max:
+        t += H
+        k += 1
+    return k
+
+
+def _splitting():
+    """{name: (call(n_steps) -> path-steps)} of advance_orig and cycles_orig."""
+    try:
+        from vifpk.montecarlo import splitting_lanes as K
+    except ImportError:  # before issue 44's lanes
+        from vifpk.montecarlo import splitting_kernels as K
+    rec, B, starts, rng, U = _paper_base()
+    q_lo, q_hi, M = -1.0, U(5.0), 10  # below any energy (the mass at rest: 0)
+    lev0 = np.zeros(N_PATHS, dtype=np.int64)  # every start at level 0 of these wide levels
+
+    def advance(n):
+        recs = np.zeros((N_PATHS, M + 1, 5))
+        recs[:, 0] = starts
+        maxlev, outcome = np.zeros(N_PATHS, np.int64), np.zeros(N_PATHS, np.int64)
+        K.advance_orig(recs, np.arange(N_PATHS, dtype=np.int64), lev0, rng, maxlev, outcome,
+                       (q_lo, q_hi, M, n * H), H, B, rec)
+        assert np.all(outcome == -1)  # every path ran to t_max
+        return N_PATHS * _steps_to(n * H)
+
+    def cycles(n):
+        e, s = np.zeros((N_PATHS, 2, 5)), np.zeros((N_PATHS, 7))
+        K.cycles_orig(starts, rng, (2, q_lo, U(0.03), q_hi, n * H, 0), H, B, rec, e, s)
+        assert np.all(s[:, 5] == 1.0)  # every path ran to t_max
+        return N_PATHS * _steps_to(n * H)
+    return {"splitting advance_orig (AMS), paper-base": advance,
+            "splitting cycles_orig, paper-base": cycles}
+
+
+def _sde_tables():
+    from vifpk.montecarlo.averaged_sde import sde_tables
+
+    grid, a_tab, b_tab = sde_tables(lambda A: -0.1 * A + 0.01 / A, lambda A: 0.02 + 0 * A,
+                                    2.4, 4001)
+    return grid[1] - grid[0], a_tab, b_tab
+
+
+def _sde():
+    """{name: call(n_samples) -> path-steps} of run_sde_blocks, A only and with x1, x2."""
+    import inspect
+
+    from vifpk.montecarlo import averaged_sde as S
+    from vifpk.montecarlo.rng import block_seeds, states_from_seed
+
+    lanes = "p0" in inspect.signature(S.run_sde_blocks).parameters
+    dA, a_tab, b_tab = _sde_tables()
+
+    def run(n, phase):
+        hist, sums = np.zeros((SDE_BLOCKS, 40)), np.zeros((SDE_BLOCKS, 4))
+        hx = np.zeros((SDE_BLOCKS, 20)) if phase else None
+        hv = np.zeros((SDE_BLOCKS, 20)) if phase else None
+        rest = (0, n, SDE_STRIDE, H, a_tab, b_tab, dA, 0.16, 0.0, 25.0, hist, sums, True,
+                -math.inf, math.inf, 1.0, 0.6, None, 0.0, 12.5, hx, -2.0, 5.0, hv,
+                np.zeros(0), 1.0, 0.0, None)
+        if lanes:
+            S.run_sde_blocks(block_seeds(5, SDE_BLOCKS, SDE_PER), 0, SDE_PER, *rest)
+        else:
+            S.run_sde_blocks(states_from_seed(5, SDE_BLOCKS), SDE_PER, *rest)
+        return SDE_BLOCKS * SDE_PER * n * SDE_STRIDE
+    return {"averaged SDE run_sde_blocks, A": lambda n: run(n, False),
+            "averaged SDE run_sde_blocks, A x1 x2": lambda n: run(n, True)}
+
+
+@numba.njit(error_model="numpy")
+def _minimal_sde(Z, S, n, h, a_tab, b_tab, inv_d, hist, a_lo, a_inv, stride):
+    """The averaged SDE's scheme by hand in lanes (Z: LANES values, S: 4 x LANES words)."""
+    sq = math.sqrt(h)
+    last = a_tab.size - 1
+    m = Z.size
+    Z0 = np.empty(m)
+    W = np.empty((4, m), dtype=np.uint64)
+    for k in range(n):
+        for j in range(m):
+            s0, s1, s2, s3 = S[0, j], S[1, j], S[2, j], S[3, j]
+            Z0[j], W[0, j], W[1, j], W[2, j], W[3, j] = Z[j], s0, s1, s2, s3
+            A = math.sqrt(Z[j])
+            u = A * inv_d
+            i = int(u)
+            if i >= last:
+                a, bb = a_tab[last], b_tab[last]
+            else:
+                w = u - i
+                a = (1.0 - w) * a_tab[i] + w * a_tab[i + 1]
+                bb = (1.0 - w) * b_tab[i] + w * b_tab[i + 1]
+            z1, s0, s1, s2, s3 = fast_normal(s0, s1, s2, s3)
+            z2, s0, s1, s2, s3 = fast_normal(s0, s1, s2, s3)
+            y = A + bb * sq * z1
+            y2 = bb * sq * z2
+            z = y * y + y2 * y2 + a * h
+            Z[j] = -z if z < 0.0 else z
+            S[0, j], S[1, j], S[2, j], S[3, j] = s0, s1, s2, s3
+        for j in range(m):
+            if Z[j] == Z[j]:
+                continue
+            Z[j], _b, _r, S[0, j], S[1, j], S[2, j], S[3, j] = sde_step(
+                Z0[j], W[0, j], W[1, j], W[2, j], W[3, j], h, sq, a_tab, b_tab, inv_d, last)
+        if (k + 1) % stride == 0:
+            for j in range(m):
+                b = math.floor((math.sqrt(Z[j]) - a_lo) * a_inv)
+                if 0 <= b < hist.size:
+                    hist[b] += 1.0
+
+
+def _minimal():
+    """{name: call(n) -> path-steps} of the minimal lane kernels (this checkout's)."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    from bench_kernel_bound import LANES, _minimal_soa
+    from vifpk.montecarlo.rng import block_seeds
+    rec, _B, starts, rng, _U = _paper_base()
+    c = (rec.c1, rec.c2, rec.w0sq, rec.alpha, rec.mu, rec.lo_law_r, rec.f, rec.ou_a, rec.ou_s)
+    dA, a_tab, b_tab = _sde_tables()
+
+    def paper(n):
+        for g in range(0, N_PATHS, LANES):
+            st = np.ascontiguousarray(starts[g:g + LANES, :3].T)
+            S = np.ascontiguousarray(rng[g:g + LANES].T)
+            _minimal_soa(st, S, n, H, c)
+        return N_PATHS * n
+
+    def sde(n):
+        words = block_seeds(5, SDE_BLOCKS, SDE_PER)
+        for b in range(SDE_BLOCKS):
+            for g in range(0, SDE_PER, LANES):
+                Z = np.full(LANES, 0.16)
+                S = np.ascontiguousarray(words[b, g:g + LANES].T)
+                _minimal_sde(Z, S, n * SDE_STRIDE, H, a_tab, b_tab, 1.0 / dA, np.zeros(40),
+                             0.0, 25.0, SDE_STRIDE)
+        return SDE_BLOCKS * SDE_PER * n * SDE_STRIDE
+    return {"minimal SoA, paper-base (bench_kernel_bound)": paper, "minimal SoA, averaged SDE": sde}
+
+
+def _check_minimal_sde() -> None:
+    """The minimal SDE kernel ends in run_sde_blocks's bits (final words and A histogram)."""
+    from vifpk.montecarlo import averaged_sde as S
+    from vifpk.montecarlo.lanes import LANES
+    from vifpk.montecarlo.rng import block_seeds
+    dA, a_tab, b_tab = _sde_tables()
+    w = block_seeds(5, 1, LANES)
+    hist, sums = np.zeros((1, 40)), np.zeros((1, 4))
+    S.run_sde_blocks(w, 0, LANES, 0, 20, SDE_STRIDE, H, a_tab, b_tab, dA, 0.16, 0.0, 25.0,
+                     hist, sums, True, -math.inf, math.inf, 1.0, 0.6, None, 0.0, 1.0, None,
+                     0.0, 1.0, None, np.zeros(0), 1.0, 0.0, None)
+    Z, W = np.full(LANES, 0.16), np.ascontiguousarray(block_seeds(5, 1, LANES)[0].T)
+    h2 = np.zeros(40)
+    _minimal_sde(Z, W, 20 * SDE_STRIDE, H, a_tab, b_tab, 1.0 / dA, h2, 0.0, 25.0, SDE_STRIDE)
+    assert np.array_equal(W.T, w[0]) and np.array_equal(h2, hist[0])
+
+
+def worker(side: str, n: int) -> dict[str, float]:
+    """ns per path-step of each kernel of this checkout (one timed call each, CPU time)."""
+    numba.set_num_threads(1)
+    runs = {**_splitting(), **_sde()}
+    if side == "after":
+        _check_minimal_sde()
+        runs.update(_minimal())
+    out = {}
+    for name, fn in runs.items():
+        small = 2 if "SDE" in name else 100
+        fn(small)  # load the compiled kernel
+        k = n // SDE_STRIDE if "SDE" in name else n
+        c0 = time.process_time()
+        steps = fn(k)
+        out[name] = (time.process_time() - c0) / steps * 1e9
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--before", required=False, help="python of the checkout before")
+    ap.add_argument("--rounds", type=int, default=5)
+    ap.add_argument("--steps", type=int, default=20000, help="steps per path")
+    ap.add_argument("--worker", choices=("before", "after"))
+    a = ap.parse_args()
+    if a.worker:
+        print(json.dumps(worker(a.worker, a.steps)))
+        return
+    env = {**os.environ, "NUMBA_NUM_THREADS": "1"}
+    sides = {"after": sys.executable} | ({"before": a.before} if a.before else {})
+    load0 = os.getloadavg()
+    rounds: dict[str, dict[str, list[float]]] = {s: {} for s in sides}
+    for _ in range(a.rounds):
+        for side, py in sorted(sides.items(), reverse=True):  # before, then after
+            cwd = ROOT if side == "after" else None
+            r = subprocess.run([py, str(Path(__file__).resolve()), "--worker", side, "--steps",
+                                str(a.steps)], capture_output=True, text=True, env=env,
+                               cwd=cwd, check=True)
+            for k, v in json.loads(r.stdout.strip().splitlines()[-1]).items():
+                rounds[side].setdefault(k, []).append(v)
+    med = {s: {k: float(np.median(v)) for k, v in d.items()} for s, d in rounds.items()}
+    after = med["after"]
+    res = {"ns_per_path_step_median": med, "rounds": rounds,
+           "after_over_minimal_soa": {
+               k: after[k] / after["minimal SoA, averaged SDE" if "SDE" in k
+                                   else "minimal SoA, paper-base (bench_kernel_bound)"]
+               for k in after if not k.startswith("minimal")},
+           "settings": {"dt": H, "paths": N_PATHS, "steps_per_path": a.steps,
+                        "sde": {"blocks": SDE_BLOCKS, "paths_per_block": SDE_PER,
+                                "stride": SDE_STRIDE}, "rounds": a.rounds,
+                        "before": a.before},
+           "machine": {"cpus": os.cpu_count(), "load_average_start": load0,
+                       "load_average_end": os.getloadavg()}}
+    if "before" in med:
+        res["before_over_after"] = {k: med["before"][k] / after[k] for k in med["before"]}
+    OUT.write_text(json.dumps(res, indent=1) + "\n")
+    print(json.dumps({k: res[k] for k in res if k != "rounds"}, indent=1))
+
+
+if __name__ == "__main__":
+    main()

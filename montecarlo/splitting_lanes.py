@@ -1,0 +1,306 @@
+"""The splitting's kernels of the original system in struct-of-arrays lanes (issue 44): the AMS
+advance (``advance_orig``) and the direct simulation of the cycles (``cycles_orig``).
+
+Levels, outcomes, the cycles and the bridge test are splitting_kernels.py's module docstring;
+the per-path bookkeeping helpers are its own (``level_of``, ``_cycle_success``,
+``_cycle_start``, ``_cycle_summary``). The step is lanes.lane_step: LANES paths advance
+together, the smooth part of the step vectorised and every lane that meets an event stepped
+again by kernels.strang_step, so each lane's state is strang_step's, bit for bit, and its
+generator words advance by the same draws (montecarlo/lanes.py). After each step every lane's
+clock and energy are updated in one loop the compiler can vectorise (``_clock_and_energy``),
+then every lane reads its own path's tests (levels, the bridge test with the lane's velocity
+at the kick) as the path alone did; a lane whose path ends takes the next path of its thread
+(``lanes.drop`` fills the hole with the last lane). Each path keeps its own four generator
+words (a fresh stream for every path and every clone, ams.words), so the numbers do not depend
+on the lanes, the thread count or the executor (benchmarks/mc_identity.py: bit-identical to the
+kernels that ran one path at a time; tests/test_splitting_lanes.py).
+
+Threads: ``_jit.over_blocks`` with one "block" per path: thread t of n runs paths t, t + n, ...
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ._jit import jit, over_blocks
+from .geometry import energy
+from .lanes import L_REST, L_V, L_VC, L_X, L_XI, LANES, drop, scratch, step_keeping_x
+from .passage_kernels import bridge_hit
+from .splitting_kernels import (
+    MAX_RESTARTS,
+    OUT_FAIL,
+    OUT_SUCCESS,
+    OUT_TIMEOUT,
+    _cycle_start,
+    _cycle_success,
+    _cycle_summary,
+    level_of,
+)
+
+ON = -2  # a lane's path goes on (not an outcome)
+# the lanes' own rows: float (time, energy q, x before the step, cycle start time, cycles'
+# total time, q before the step), int (the path's index, its level or phase, burn-in steps,
+# restarts, armed, in a cycle, cycles completed, successes)
+_T, _Q, _XB, _TC, _TOT, _QO = range(6)
+_J, _LEV, _N, _RS, _ARM, _IN, _K, _SUCC = range(8)
+BURN, RUN = 0, 1  # cycles_orig's phases (in _LEV)
+NONE, SUCCESS, START = 0, 1, 2  # what a cycle's step met (_cycle_test)
+
+
+def advance_orig(recs, rows, start, rng, maxlev, outcome, levels, h, B, P):
+    """splitting_kernels.advance_sde for the original system (state row (x, v, xi, t, time at
+    rest)) with the physics record P (plan.Record for this h), the bridge test's
+    B = (P.bridge, P.pk, P.pc) and ``levels`` = (q_lo, q_hi, M, t_max): path j (row rows[j] of
+    recs, generator words rng[j]) runs from recs[row, start[j]] until it is absorbed; fills
+    recs[row, start[j] + 1 ..], maxlev[row] and outcome[row]. In lanes (module docstring)."""
+    over_blocks(_advance_block, rows.size, recs, rows, start, rng, maxlev, outcome, levels, h,
+                B, P)
+
+
+@jit(inline="always")
+def _clock_and_energy(m, F, L, h, w0sq, alpha, khi):
+    """Every lane's clock and energy after a step, in one loop the compiler can vectorise (the
+    tests that read them run lane by lane after it): L[_QO] the energy before the step, L[_Q]
+    after it, L[_T] + h."""
+    for i in range(m):
+        L[_QO, i] = L[_Q, i]
+        L[_Q, i] = energy(F[L_X, i], F[L_V, i], w0sq, alpha, khi)
+        L[_T, i] += h
+
+
+@jit(inline="always")
+def _record(recs, row, lev, F, L, i):
+    recs[row, lev, 0] = F[L_X, i]
+    recs[row, lev, 1] = F[L_V, i]
+    recs[row, lev, 2] = F[L_XI, i]
+    recs[row, lev, 3] = L[_T, i]
+    recs[row, lev, 4] = F[L_REST, i]
+
+
+@jit(nogil=True)
+def _advance_block(first, every, recs, rows, start, rng, maxlev, outcome, levels, h, B, P):
+    """advance_orig for paths first, first + every, ... (one thread's share)."""
+    q_lo, q_hi, M, t_max = levels
+    w0sq, alpha, khi = P.w0sq, P.alpha, P.khi
+    half = 0.5 * h
+    inv_dq = M / (q_hi - q_lo)
+    F, S = scratch()
+    L = np.zeros((6, LANES))
+    Li = np.zeros((2, LANES), dtype=np.int64)
+    nxt = first
+    m = 0
+    while True:
+        while m < LANES and nxt < rows.size:  # the thread's next paths into the free lanes
+            j = nxt
+            nxt += every
+            row, st = rows[j], start[j]
+            x, v = recs[row, st, 0], recs[row, st, 1]
+            q = energy(x, v, w0sq, alpha, khi)
+            lev = st
+            e = level_of(q, q_lo, inv_dq, M)
+            while lev < e:
+                lev += 1
+                for c in range(5):
+                    recs[row, lev, c] = recs[row, st, c]
+            if not recs[row, st, 3] < t_max:
+                maxlev[row] = lev
+                outcome[row] = OUT_TIMEOUT
+                continue
+            F[L_X, m], F[L_V, m], F[L_XI, m] = x, v, recs[row, st, 2]
+            F[L_REST, m] = recs[row, st, 4]
+            for w in range(4):
+                S[w, m] = rng[j, w]
+            L[_T, m], L[_Q, m] = recs[row, st, 3], q
+            Li[_J, m], Li[_LEV, m] = j, lev
+            m += 1
+        if m == 0:
+            break
+        step_keeping_x(m, F, S, L[_XB], h, half, P, True)  # count: the time at rest (L_REST)
+        _clock_and_energy(m, F, L, h, w0sq, alpha, khi)
+        i = 0
+        while i < m:
+            row = rows[Li[_J, i]]
+            q0, q, t = L[_QO, i], L[_Q, i], L[_T, i]
+            out = ON
+            if q <= q_lo:
+                out = OUT_FAIL
+            elif q < q_hi:  # a crossing of q_hi, then of q_lo, inside the step (the bridge)
+                hb, S[0, i], S[1, i], S[2, i], S[3, i] = bridge_hit(
+                    B, q_hi, q0, q, L[_XB, i], F[L_VC, i], h, P, S[0, i], S[1, i], S[2, i],
+                    S[3, i])
+                if hb >= 0.0:
+                    q = q_hi
+                else:
+                    hb, S[0, i], S[1, i], S[2, i], S[3, i] = bridge_hit(
+                        B, q_lo, q0, q, L[_XB, i], F[L_VC, i], h, P, S[0, i], S[1, i],
+                        S[2, i], S[3, i])
+                    if hb >= 0.0:
+                        out = OUT_FAIL
+            L[_Q, i] = q
+            lev = Li[_LEV, i]
+            if out == ON:
+                e = level_of(q, q_lo, inv_dq, M)
+                while lev < e:
+                    lev += 1
+                    _record(recs, row, lev, F, L, i)
+                Li[_LEV, i] = lev
+                if q >= q_hi:
+                    out = OUT_SUCCESS
+                elif not t < t_max:
+                    out = OUT_TIMEOUT
+            if out == ON:
+                i += 1
+                continue
+            maxlev[row] = lev
+            outcome[row] = out
+            m = drop(F, S, L, Li, i, m)  # lane i: the last lane's path, not yet read
+
+
+def cycles_orig(starts, rng, cyc, h, B, P, entries, summary):
+    """splitting_kernels.cycles_sde for the original system with the physics record P (and
+    the bridge test's B = (P.bridge, P.pk, P.pc), all None: none), ``cyc`` = (n_cycles, q0,
+    q1, q_hi, t_max, n_burn): starts[p] = (x, v, xi, 0, 0), entries[p, k] the state row at
+    the start of cycle k (its time and time at rest set to 0). A success's time is
+    interpolated linearly in the energy inside its step.
+    n_burn > 0: first n_burn steps of free simulation, begun again from starts[p] (the stream
+    goes on) whenever the energy reaches q_hi, at most MAX_RESTARTS times (then summary[p, 5]
+    = 2); the clock starts after it: the start law is then the law at q < q_hi after a long
+    run that stayed below, i.e. the stationary law restricted below the threshold when n_burn
+    is several relaxation times. summary[p, 6] counts the restarts. In lanes (module
+    docstring)."""
+    over_blocks(_cycles_block, starts.shape[0], starts, rng, cyc, h, B, P, entries, summary)
+
+
+@jit(inline="always")
+def _restart(F, i, starts, p):
+    F[L_X, i], F[L_V, i], F[L_XI, i] = starts[p, 0], starts[p, 1], starts[p, 2]
+
+
+@jit(inline="always")
+def _to_run(F, L, Li, i, p, q0, w0sq, alpha, khi, summary):
+    """The burn-in over: the clock starts (cycles_sde's warm-up)."""
+    summary[p, 6] = Li[_RS, i]
+    Li[_LEV, i] = RUN
+    q = energy(F[L_X, i], F[L_V, i], w0sq, alpha, khi)
+    L[_T, i], L[_Q, i], L[_TC, i], L[_TOT, i] = 0.0, q, 0.0, 0.0
+    Li[_ARM, i] = 1 if q <= q0 else 0
+    Li[_IN, i], Li[_K, i], Li[_SUCC, i] = 0, 0, 0
+
+
+@jit(nogil=True)
+def _cycles_block(first, every, starts, rng, cyc, h, B, P, entries, summary):
+    """cycles_orig for paths first, first + every, ... (one thread's share)."""
+    n_cycles, q0, q1, q_hi, t_max, n_burn = cyc
+    w0sq, alpha, khi = P.w0sq, P.alpha, P.khi
+    half = 0.5 * h
+    F, S = scratch()
+    L = np.zeros((6, LANES))
+    Li = np.zeros((8, LANES), dtype=np.int64)
+    nxt = first
+    m = 0
+    while True:
+        while m < LANES and nxt < starts.shape[0]:  # the thread's next paths into free lanes
+            p = nxt
+            nxt += every
+            _restart(F, m, starts, p)
+            F[L_REST, m] = 0.0
+            for w in range(4):
+                S[w, m] = rng[p, w]
+            Li[_J, m], Li[_LEV, m], Li[_N, m], Li[_RS, m] = p, BURN, 0, 0
+            if n_burn <= 0:
+                _to_run(F, L, Li, m, p, q0, w0sq, alpha, khi, summary)
+                if not L[_T, m] < t_max:
+                    summary[p, 5] = 1.0
+                    _cycle_summary(summary, p, 0, 0.0, 0)
+                    continue
+            m += 1
+        if m == 0:
+            break
+        step_keeping_x(m, F, S, L[_XB], h, half, P, True)
+        _clock_and_energy(m, F, L, h, w0sq, alpha, khi)  # (a burn-in's clock is not read)
+        m = _cycles_read(m, F, S, L, Li, starts, cyc, h, B, P, entries, summary)
+
+
+@jit(inline="always")
+def _cycles_read(m, F, S, L, Li, starts, cyc, h, B, P, entries, summary):
+    """Each of the m busy lanes' tests after a step (the burn-in's, or its cycles':
+    ``_cycle_test``); a lane whose path ended is dropped. Returns the busy lanes left."""
+    n_cycles, q0, q1, q_hi, t_max, n_burn = cyc
+    w0sq, alpha, khi = P.w0sq, P.alpha, P.khi
+    i = 0
+    while i < m:
+        p = Li[_J, i]
+        done = False
+        if Li[_LEV, i] == BURN:
+            Li[_N, i] += 1
+            if L[_Q, i] >= q_hi:
+                Li[_RS, i] += 1
+                if Li[_RS, i] > MAX_RESTARTS:
+                    summary[p, 5] = 2.0
+                    done = True
+                else:
+                    _restart(F, i, starts, p)
+                    Li[_N, i] = 0
+            if not done and Li[_N, i] >= n_burn:
+                _to_run(F, L, Li, i, p, q0, w0sq, alpha, khi, summary)
+                if not L[_T, i] < t_max:
+                    summary[p, 5] = 1.0
+                    _cycle_summary(summary, p, 0, 0.0, 0)
+                    done = True
+        else:  # a step of its cycles (cycles_sde's loop body)
+            q_old, q, t = L[_QO, i], L[_Q, i], L[_T, i]
+            x, v, xi = F[L_X, i], F[L_V, i], F[L_XI, i]
+            ev, tc, armed, S[0, i], S[1, i], S[2, i], S[3, i] = _cycle_test(
+                q, q_old, L[_XB, i], F[L_VC, i], t, h, Li[_ARM, i] == 1, q0, q1, q_hi, B, P,
+                S[0, i], S[1, i], S[2, i], S[3, i])
+            k, total, succ = Li[_K, i], L[_TOT, i], Li[_SUCC, i]
+            in_cycle, t_cycle = Li[_IN, i] == 1, L[_TC, i]
+            if ev == SUCCESS:
+                k, total, succ = _cycle_success(tc, in_cycle, t_cycle, k, total, succ,
+                                                summary, p)
+                done = True
+            elif ev == START:
+                k, total, done = _cycle_start(t, in_cycle, t_cycle, k, total, n_cycles,
+                                              summary, p)
+                if not done:
+                    Li[_IN, i] = 1
+                    if k < entries.shape[1]:
+                        entries[p, k, 0], entries[p, k, 1], entries[p, k, 2] = x, v, xi
+                        entries[p, k, 3], entries[p, k, 4] = 0.0, 0.0
+                    L[_TC, i] = t
+                    armed = False
+            Li[_ARM, i] = 1 if armed else 0
+            if not done and not t < t_max:
+                summary[p, 5] = 1.0
+                done = True
+            Li[_K, i], L[_TOT, i], Li[_SUCC, i] = k, total, succ
+            if done:
+                _cycle_summary(summary, p, k, total, succ)
+        if done:
+            m = drop(F, S, L, Li, i, m)  # lane i: the last lane's path, not yet read
+        else:
+            i += 1
+    return m
+
+
+@jit(inline="always")
+def _cycle_test(q, q_old, x0, vc, t, h, armed, q0, q1, q_hi, B, P, s0, s1, s2, s3):
+    """The tests of a cycle's step from energy q_old to q (x0 the x before it, vc the velocity
+    at the kick): (NONE, SUCCESS at time tc, or START of a cycle; armed; generator).
+    Scalars in and out: array arguments, bound per lane and per step, cost the kernel 4x
+    (their reference counts; measured 150 against 40 ns a path-step)."""
+    if q >= q_hi:
+        return SUCCESS, (t - h * (q - q_hi) / (q - q_old) if q > q_old else t), armed, s0, \
+            s1, s2, s3
+    # a crossing of q_hi inside the step (the bridge test; none drawn when B is all None)
+    hb, s0, s1, s2, s3 = bridge_hit(B, q_hi, q_old, q, x0, vc, h, P, s0, s1, s2, s3)
+    if hb >= 0.0:
+        return SUCCESS, t - h + hb * h, armed, s0, s1, s2, s3
+    if q <= q0:
+        armed = True
+    elif not armed and q_old > q0:  # a dip below q0 inside the step arms it too
+        hb, s0, s1, s2, s3 = bridge_hit(B, q0, q_old, q, x0, vc, h, P, s0, s1, s2, s3)
+        armed = hb >= 0.0
+    if armed and q >= q1:
+        return START, t, armed, s0, s1, s2, s3
+    return NONE, t, armed, s0, s1, s2, s3
