@@ -5,19 +5,95 @@ over threads.
 module-level function. Effects a scene switches off are passed as ``None``: numba compiles a
 separate specialisation per argument type and prunes ``if arg is None`` branches at compile
 time, so a kernel for mu = 0 contains no friction code (checked in tests/test_montecarlo.py).
+
+numba's on-disk cache judges a kernel fresh by its own file's stamp only, while a kernel inlines
+code of other modules (the pieces, the physics layer's laws and noise kinds, a plugin's kind):
+an edit there left the cached, OLD kernel running. Every vifpk kernel's cache is therefore
+stamped also with ``sources_stamp()``, a hash of the code it may inline (``_stamped``).
 """
 
 from __future__ import annotations
 
+import hashlib
+import importlib.util
 import os
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
+from importlib import metadata
+from pathlib import Path
 from typing import Any, TypeVar
 
 import numba
 import numpy as np
 
 F = TypeVar("F", bound=Callable[..., Any])
+
+#: the entry-point groups whose objects' compiled pieces a kernel inlines (vifpk.core.registry's
+#: NOISE_GROUP and LAW_GROUP, read by name: this module loads nothing of the registry)
+_PLUGIN_GROUPS = ("vifpk.noise_kinds", "vifpk.impact_laws")
+_STAMP: list[str] = []
+
+
+def _kernel_sources() -> list[Path]:
+    """The files a kernel's compiled code may come from: every module of this package (the
+    kernels, the pieces), of vifpk.physics (spring, laws, noise kinds) and each registered noise
+    kind's or impact law's module (a plugin's compiled pieces)."""
+    here = Path(__file__).resolve().parent
+    spec = importlib.util.find_spec("vifpk.physics")
+    roots = [here] + ([Path(spec.origin).parent] if spec and spec.origin else [])
+    files = {f for root in roots for f in root.rglob("*.py")}
+    installed = metadata.entry_points()  # one scan of the metadata for both groups
+    for group in _PLUGIN_GROUPS:
+        for ep in installed.select(group=group):
+            try:
+                origin = importlib.util.find_spec(ep.module).origin
+            except (ImportError, ValueError, AttributeError):
+                continue  # a plugin that cannot be found is named by the registry
+            if origin and origin.endswith(".py"):
+                files.add(Path(origin).resolve())
+    return sorted(files)
+
+
+def sources_stamp() -> str:
+    """sha1 of the contents of ``_kernel_sources()`` (computed once a process): a kernel's
+    cache entry is fresh only for the code it was compiled from."""
+    if not _STAMP:
+        h = hashlib.sha1()
+        for f in _kernel_sources():
+            h.update(f.name.encode())
+            h.update(f.read_bytes())
+        _STAMP.append(h.hexdigest())
+    return _STAMP[0]
+
+
+def _stamped(base: type) -> type:
+    """numba's cache locator ``base`` for vifpk's own kernels, its source stamp extended by
+    ``sources_stamp()`` (a stale entry is simply recompiled and overwritten); other functions
+    are left to numba's own locators (``from_function`` returns None)."""
+
+    class Stamped(base):  # type: ignore[misc, valid-type]
+        @classmethod
+        def from_function(cls, py_func: Any, py_file: str) -> Any:
+            if not str(getattr(py_func, "__module__", "")).startswith("vifpk."):
+                return None
+            return super().from_function(py_func, py_file)
+
+        def get_source_stamp(self) -> Any:
+            return (super().get_source_stamp(), sources_stamp())
+
+    Stamped.__name__ = Stamped.__qualname__ = f"Stamped{base.__name__}"
+    return Stamped
+
+
+def _install_stamped_locators() -> None:
+    from numba.core.caching import CacheImpl
+
+    classes = CacheImpl._locator_classes
+    if not any(c.__name__.startswith("Stamped") for c in classes):
+        classes[:0] = [_stamped(c) for c in list(classes)]
+
+
+_install_stamped_locators()
 
 
 def jit(fn: F | None = None, *, parallel: bool = False, inline: str = "never",

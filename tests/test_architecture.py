@@ -3,8 +3,8 @@
 - ``harness/door/`` is the only harness package that imports a solver package (``averaging``,
   ``fpk``, ``montecarlo``): every workflow reaches the solvers through it, and it imports no
   harness module outside itself;
-- no module of any package of ours over ``MAX_LINES`` lines but the numba-kernel modules named
-  in ``KERNEL_MODULES``, each with its reason;
+- no module of any package of ours over ``MAX_LINES`` lines (the numba-kernel modules
+  included: the last exemption ended with issue 44);
 - the harness is in layers: no import cycle between its modules (imports inside functions
   count), every sub-package named in docs/architecture.md;
 - a solver package imports neither ``harness`` nor another solver package: of ours, only
@@ -32,12 +32,6 @@ DOOR = Path("harness") / "door"
 MAX_LINES = 500  # issue 27: "no module over ~500 lines except the numba kernel"
 #: every package of ours: the line rule holds in each (issue 38: not the harness only)
 PACKAGES = ("vifpk", "averaging", "fpk", "fpk2d", "montecarlo", "harness")
-#: the numba-kernel modules the line rule exempts, each with its reason; an entry must hold
-#: numba-compiled functions (test_kernel_exemptions_are_numba_kernels). Only these: a module
-#: with a kernel or two in it (passage_kernels.py, rng.py, geometry.py) is not exempt.
-#: (none since issue 44: splitting_kernels.py, 389 lines, gave the original system's pair to
-#: splitting_lanes.py and is 232 lines)
-KERNEL_MODULES: dict[str, str] = {}
 CORE = "vifpk.core"
 PHYSICS = "vifpk.physics"  # issue 37: the physics every solver reads, on the core only
 
@@ -308,32 +302,17 @@ def _harness_modules() -> dict[str, Path]:
 
 
 def test_no_module_over_the_line_limit():
-    """Every module of every package of ours (vifpk/, averaging/, fpk/, montecarlo/, harness/)
-    has at most MAX_LINES lines, but the numba-kernel modules of KERNEL_MODULES."""
+    """Every module of every package of ours (vifpk/, averaging/, fpk/, fpk2d/, montecarlo/,
+    harness/) has at most MAX_LINES lines, numba kernels included (splitting_kernels.py, the
+    last exempt one, split into splitting_lanes.py in issue 44)."""
     over = {}
     for package in PACKAGES:
         for path in modules(package):
             name = path.relative_to(ROOT).as_posix()
             n = len(path.read_text(encoding="utf-8").splitlines())
-            if n > MAX_LINES and name not in KERNEL_MODULES:
+            if n > MAX_LINES:
                 over[name] = n
     assert not over, f"over {MAX_LINES} lines, split them: {over}"
-
-
-@pytest.mark.parametrize("name", sorted(KERNEL_MODULES))
-def test_kernel_exemptions_are_numba_kernels(name: str):
-    """An exempt module exists and compiles kernels: a function decorated with ``jit`` (the one
-    jit helper, montecarlo/_jit.py) or ``numba.njit``."""
-    path = ROOT / name
-    assert path.is_file(), f"KERNEL_MODULES names {name}, which does not exist"
-    jitted = [n.name for n in nodes(path) if isinstance(n, ast.FunctionDef)
-              and any(_decorator_name(d) in ("jit", "njit") for d in n.decorator_list)]
-    assert jitted, f"{name} compiles no numba kernel: it is not exempt from the line rule"
-
-
-def _decorator_name(d: ast.expr) -> str:
-    f = d.func if isinstance(d, ast.Call) else d
-    return f.attr if isinstance(f, ast.Attribute) else getattr(f, "id", "")
 
 
 def test_no_import_cycles_in_the_harness():
