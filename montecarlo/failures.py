@@ -34,6 +34,22 @@ def diverged(h: float, what: str, cause: str = "") -> SimulationDiverged:
         "friction)")
 
 
+def walls_cause(system: Any, h: float) -> str:
+    """The words naming two walls closer than a unit-speed path travels in one step h, '' else:
+    a path meeting them more than pieces.WALL_HITS_MAX times within a sub-step is stopped
+    (non-finite), since its impact rate |v| / gap is beyond what the event-driven step can
+    take at any dt."""
+    lo, up = getattr(system, "lower_wall", None), getattr(system, "upper_wall", None)
+    if lo is None or up is None:
+        return ""
+    gap = float(up.at) - float(lo.at)
+    if not gap < h:
+        return ""
+    return (f"the walls at {float(lo.at):g} and {float(up.at):g} are {gap:g} apart: a path "
+            "meets them more than 10000 times in one step there, an impact rate no "
+            "simulation resolves at any dt; allowed: walls farther apart")
+
+
 def growth(system: Any, parametric: Any = None) -> str:
     """'' when the losses win the large-amplitude energy balance (vifpk.core.scene.
     energy_balance, with the parametric noise), else the words of why the energy may grow."""
@@ -48,3 +64,9 @@ def growth(system: Any, parametric: Any = None) -> str:
         return (f"the energy grows without bound: {bal.text}, and here the gain may win (no "
                 "stationary density)")
     return ""
+
+
+def likely_cause(system: Any, parametric: Any, h: float) -> str:
+    """What a blow-up at step h most likely comes from, before any advice on the step: walls
+    too close for any step (:func:`walls_cause`), else the energy balance (:func:`growth`)."""
+    return walls_cause(system, h) or growth(system, parametric)

@@ -76,7 +76,7 @@ from typing import Any
 
 import numba
 import numpy as np
-from vifpk.montecarlo.failures import diverged, growth
+from vifpk.montecarlo.failures import diverged, likely_cause
 from vifpk.montecarlo.passage_kernels import (
     CENSORED,
     CROSSED,
@@ -254,7 +254,7 @@ def first_passage(system: Any, noise: Any, settings: PassageSettings, *, thresho
         run_passage(arrs, cnt, run, h, B, P)
 
     relax = None
-    cause = growth(system, parametric)
+    cause = likely_cause(system, parametric, h)
     burn_in = float(st.burn_in) if stationary and st.burn_in != "auto" else 0.0
     if stationary and st.burn_in == "auto":
         relax, burn_in = _auto_burn_in(phys, h, st.seed, threads, cause, threshold)

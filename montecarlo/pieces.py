@@ -32,6 +32,13 @@ from .plan import SOLVER, bounds, fold, noise_piece
 #: noise kind's own (its Record's). A switched-off effect is None (mu, khi, dhi, ev, bridge,
 #: lo, up): numba compiles a specialisation per record type and, where a helper takes the
 #: field as an argument, prunes the effect's code.
+#: the most impacts one drift sub-step takes between two walls: walls so close that a path
+#: meets them more often within h/2 (walls 2e-50 apart with r = 1: ~1e46 impacts a step, an
+#: impact rate no event-driven simulation resolves at any dt) make the path non-finite, and the
+#: run stops in one line naming the walls (montecarlo/failures.py walls_cause), where the loop
+#: would never end. Walls 2e-6 apart take ~12 a sub-step at dt 0.01 (issue 45).
+WALL_HITS_MAX = 10_000
+
 BASE_FIELDS = ("c1", "c2", "w0sq", "alpha", "f", "mu", "khi", "dhi", "ev",
                "bridge",  # first passage's bridge correction (MonteCarloNoise.bridge)
                "xi_sd",  # a Gaussian noise state's stationary standard deviation (0: none)
@@ -292,6 +299,8 @@ def _ol_wall_drift(rec, x, v, tau, press_lo, press_up, h):
         xn = x + v * tau
         imp, ch, lost = 0, 0, 0.0
         while xn < rec.lo or xn > rec.up:
+            if imp >= WALL_HITS_MAX:  # see WALL_HITS_MAX: the path is stopped, not hung
+                return math.nan, math.nan, imp, ch, lost
             lower = xn < rec.lo
             at = rec.lo if lower else rec.up
             t_hit = (at - x) / v

@@ -27,7 +27,7 @@ from typing import Any
 
 from vifpk.montecarlo.assemble import assemble
 from vifpk.montecarlo.burnin import begin, resume
-from vifpk.montecarlo.failures import BudgetExhausted, SimulationDiverged, growth
+from vifpk.montecarlo.failures import BudgetExhausted, SimulationDiverged, likely_cause
 from vifpk.montecarlo.pilots import START_LOW
 from vifpk.montecarlo.progress import PLAIN_PROGRESS_EVERY, progress_bar
 from vifpk.montecarlo.rng import block_seeds
@@ -68,7 +68,7 @@ def simulate(system: Any, noise: Any, settings: Settings, *, parametric: Any = N
     clock = compile_kernel(plan)
     laps.lap("kernel")
     bar = progress_bar(plan.settings.progress)
-    step = Stepper(plan.phys, plan.h, plan.threads, bar, growth(system, parametric))
+    step = Stepper(plan.phys, plan.h, plan.threads, bar, likely_cause(system, parametric, plan.h))
     step.laps = laps
     try:
         run = begin(plan, clock, step, bar) if plan.resume is None else resume(plan, clock, bar)

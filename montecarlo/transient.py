@@ -28,7 +28,7 @@ from typing import Any
 
 import numba
 import numpy as np
-from vifpk.montecarlo.failures import growth
+from vifpk.montecarlo.failures import likely_cause
 from vifpk.montecarlo.passage_kernels import starts_loop
 from vifpk.montecarlo.progress import progress_bar
 from vifpk.montecarlo.rng import block_seeds
@@ -96,7 +96,7 @@ def snapshots(system: Any, noise: Any, settings: PassageSettings, *, start: floa
     never = np.iinfo(np.int64).max // 2  # a burn-in never reached: nothing is sampled
     bar = progress_bar(st.progress, total=float(st.blocks * per * max(marks[-1], 1)),
                        desc="monte carlo: transient")
-    step = Stepper(phys, h, threads, bar, growth(system, parametric))
+    step = Stepper(phys, h, threads, bar, likely_cause(system, parametric, h))
     hists = {k: np.zeros((st.blocks, marks.size, e.size - 1)) for k, e in ed.items()}
     atom = np.zeros((st.blocks, marks.size))
     mom = np.zeros((3, st.blocks, marks.size))

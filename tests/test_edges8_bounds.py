@@ -10,6 +10,8 @@ enforced (1/12 on paper-base) is not the one the solvers need.
 
 from __future__ import annotations
 
+import dataclasses
+
 import pytest
 from vifpk.harness.cli.app import main
 
@@ -123,3 +125,34 @@ def test_walls_2e6_apart_are_resolved_by_the_monte_carlo():
     closed = vifpk.solve("systems/bilateral-duffing", model="exact", set=sets)
     mc = fine.info["moments"]["A"]["mean"]["value"]
     assert abs(mc / closed.info["summary"]["mean"] - 1) < 0.05
+
+
+@pytest.mark.slow
+def test_walls_no_step_resolves_stop_in_one_line_instead_of_hanging(capsys):
+    """Walls at +-1e-50 with r = 1 (no loss): a path meets them ~|v| h / 2e-50 ~ 1e46 times a
+    step, so the drift sub-step's loop over every impact (above) never ended (a 180 s timeout,
+    2026-12-05). Past pieces.WALL_HITS_MAX impacts in one sub-step the path is stopped: exit 3,
+    one line naming the walls, nothing written."""
+    args = ["solve", "systems/bilateral-duffing", "--solver", "montecarlo", "--set",
+            "system.lower_wall.at=-1e-50", "--set", "system.upper_wall.at=1e-50", "--set",
+            "system.lower_wall.r=1", "--set", "system.upper_wall.r=1", "--set",
+            "montecarlo.paths=64", "--set", "montecarlo.time=10", "--set",
+            "montecarlo.burn_in=1"]
+    assert main(args) == 3
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "are 2e-50 apart" in err[0], err
+
+
+def test_the_walls_cause_names_walls_closer_than_a_step():
+    """montecarlo/failures.py walls_cause: two walls closer than a unit-speed path travels in a
+    step are named; one wall, or walls farther apart, are not."""
+    from vifpk.montecarlo.failures import walls_cause
+
+    from vifpk.core.scene import load_scene
+
+    two = load_scene("systems/bilateral-duffing").system
+    assert walls_cause(two, 0.01) == ""  # walls at +-0.6
+    close = dataclasses.replace(two, lower_wall=dataclasses.replace(two.lower_wall, at=-1e-9),
+                                upper_wall=dataclasses.replace(two.upper_wall, at=1e-9))
+    assert "are 2e-09 apart" in walls_cause(close, 0.01)
+    assert walls_cause(load_scene("paper-base").system, 0.01) == ""
