@@ -218,7 +218,10 @@ def hold_bias(phys: dict[str, Any], omegas: list[float], dt: float) -> float:
     held = noise_kinds.pieces(noise.kind, "montecarlo").held_excess
     if held is None:
         return 0.0
-    return HOLD_SENSITIVITY * max(abs(held(noise.values, w, dt)) for w in omegas if w > 0)
+    # an orbit of frequency 0 (a pure cubic spring at A = 0, the provisional rate before the
+    # pilot) has no held-force error to read: the envelope's term stands alone there
+    return HOLD_SENSITIVITY * max((abs(held(noise.values, w, dt)) for w in omegas if w > 0),
+                                  default=0.0)
 
 
 #: the fitted scenes' noise (OU, alpha1 = 2: every curve of the envelope but white's): its

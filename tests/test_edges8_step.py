@@ -56,3 +56,14 @@ def test_the_bound_is_the_rule_s_model_read_through_the_door():
     assert top == pytest.approx((0.1 / 0.64) ** (2 / 3), rel=1e-3)
     assert step_bias(s, top) <= SMALL_L1 < step_bias(s, 0.3)
     assert step_bias(s, 0.01) < SMALL_L1 / 100
+
+
+def test_a_spring_with_no_linear_term_under_held_noise_is_priced():
+    """A pure cubic spring (restoring = [0, 1]) under OU noise: its orbit frequency at A = 0 is
+    0, and the held-noise term of the rule (tuning.hold_bias) took the max over no frequency,
+    a ValueError inside validation (the slow tier's passage of a user's cubic system, CI of
+    0b2359e). Its step bias is the envelope's alone there: finite, and the default step 0.01
+    far below SMALL_L1."""
+    s = vifpk.scene("paper-base", **{"system.restoring": [0.0, 1.0],
+                                     "system.damping": [0.01], "noise.D": 0.05})
+    assert 0.0 < step_bias(s, 0.01) < SMALL_L1 / 100
