@@ -107,13 +107,18 @@ class Spectrum(ParamsByName):
         """(D, alpha1) of the OU noise with this rational spectrum: S = c / (w^2 + a2) (the
         split w^2 S = c - a2 S) is D / (pi (w^2 + alpha1^2)) with D = pi c, alpha1 =
         sqrt(a2), the covariance (D / alpha1) e^{-alpha1 |s|} to second order (what the
-        corrected model's wall offset is derived with, docs/averaging.md 10.3). A kind that
-        declares parameters named D and alpha1 (OU) gives them as declared, bit for bit."""
-        values = self.values
-        if "D" in values and "alpha1" in values:
-            return values["D"], values["alpha1"]
+        corrected model's wall offset is derived with, docs/averaging.md 10.3). Where the kind
+        declares parameters named D and alpha1 AND its split is theirs (pi c = D, sqrt(a2) =
+        alpha1 to 1e-12: OU), they are given as declared, bit for bit; a kind that only names
+        its parameters so (another spectrum) gets the values of its own split."""
         c, a2 = self.rational_parts()
-        return math.pi * c, math.sqrt(a2)
+        D, alpha1 = math.pi * c, math.sqrt(a2)
+        values = self.values
+        if ("D" in values and "alpha1" in values
+                and math.isclose(D, values["D"], rel_tol=1e-12)
+                and math.isclose(alpha1, values["alpha1"], rel_tol=1e-12)):
+            return values["D"], values["alpha1"]
+        return D, alpha1
 
     def rational_parts(self) -> tuple[float, float]:
         """(c, a2) with w^2 S(w) = c - a2 S(w) for every w (the OU spectrum's identity,

@@ -139,3 +139,26 @@ def test_bounded_tends_to_white_noise() -> None:
         errs.append(np.max(np.abs(m.sigma2_external(A) / flat - 1.0)))
     assert errs[1] < 1e-3
     assert 2.5 < errs[0] / errs[1] < 6.0
+
+
+def test_ou_parameters_come_from_the_split_not_from_the_names():
+    """averaging/noise.py Spectrum.ou_parameters: OU's declared (D, alpha1) bit for bit; a kind
+    whose parameters are only NAMED D and alpha1 (here a spectrum twice OU's: its split gives
+    c = 2 D / pi) gets the values of its own split, D_eff = pi c = 2 D, not its D (the corrected
+    model's wall offset read D by name before, a silent wrong answer for such a kind)."""
+    import math
+    from types import SimpleNamespace
+
+    from vifpk.averaging.noise import Spectrum
+
+    ou = Spectrum.of("ou", D=0.0123, alpha1=1.7)
+    assert ou.ou_parameters() == (0.0123, 1.7)
+
+    class Twice(Spectrum):
+        def _pieces(self):
+            return SimpleNamespace(rational_parts=lambda D, alpha1: (2 * D / math.pi,
+                                                                     alpha1 ** 2))
+
+    twice = Twice(kind="ou", params=(("D", 0.0123), ("alpha1", 1.7)))
+    D, alpha1 = twice.ou_parameters()
+    assert D == pytest.approx(0.0246, rel=1e-14) and alpha1 == pytest.approx(1.7, rel=1e-14)
