@@ -186,3 +186,24 @@ def test_fpk_imports_no_other_vifpk_package():
             "(['vifpk', 'averaging'], ['vifpk', 'montecarlo'], ['vifpk', 'harness'])]; "
             "print(bad); sys.exit(bool(bad))")
     assert subprocess.run([sys.executable, "-c", code]).returncode == 0
+
+
+def test_guard_allows_the_solves_round_off_on_long_runs_only():
+    """fpk/stepper.py _Guard: the allowance is max(1e-10, eps t ||M||_1), the round-off bound
+    of BDF's solves (docstring): a drift of 5e-10 stops a run at t = 1 but not at a t where
+    eps t ||M||_1 is 1e-8; a drift of 1e-3 (a leak) stops it at either."""
+    from pde import CartesianGrid, ScalarField
+    from vifpk.fpk.stepper import FPKFailure, _Guard, _norm1
+
+    disc = fpk.discretise(rayleigh_m, rayleigh_s2, lo=0, hi=2.5, cells=50)
+    p = np.exp(disc.stationary_log())
+    p /= np.sum(p) * disc.h
+    field = ScalarField(CartesianGrid([[0, 2.5]], [50]), p * (1 + 5e-10))
+    t_long = 1e-8 / (np.finfo(float).eps * _norm1(disc))
+    with pytest.raises(FPKFailure, match="mass drifted"):
+        _Guard(disc, 1.0, 1e-10, 1e-12)(field, 1.0)
+    _Guard(disc, 1.0, 1e-10, 1e-12)(field, t_long)
+    leak = ScalarField(CartesianGrid([[0, 2.5]], [50]), p * (1 + 1e-3))
+    for t in (1.0, t_long):
+        with pytest.raises(FPKFailure, match="mass drifted"):
+            _Guard(disc, 1.0, 1e-10, 1e-12)(leak, t)
