@@ -305,7 +305,8 @@ def reliability(drift: Coefficient, diffusion: Coefficient, *, threshold: float,
     R(t_end) / lambda_1; info["mfpt_discrete"] = h 1^T (-M)^{-1} p0, the same integral for the
     semi-discrete system without time stepping (their gap is the time-integration error);
     info["decay_rate"] = lambda_1; the mass balance inside + absorbed = 1 is checked by the
-    stepper at every interrupt (FPKFailure beyond 1e-10) and its worst value reported.
+    stepper at every interrupt (FPKFailure beyond 1e-10, or the solves' round-off bound
+    eps t ||M||_1 on very long runs: stepper._Guard) and its worst value reported.
     """
     t0 = time.perf_counter()
     if p0 is not None:
