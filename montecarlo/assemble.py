@@ -139,7 +139,8 @@ def assemble(system: Any, noise: Any, plan: RunPlan, clock: Clock, run: Started,
         laps.lap("result")
         t3 = time.perf_counter()
         chk = run_step_check(simulate, system, noise, st, data["A"], edges, h, n_burn * h,
-                             sampled, floor, target, deadline, (dt_rule or {}).get("omega"))
+                             sampled, floor, target, deadline, (dt_rule or {}).get("omega"),
+                             reach=run.reach)
         info["seconds"]["dt_check"] = time.perf_counter() - t3
         info["seconds"]["total"] = time.perf_counter() - plan.t_start
         laps.lap("dt_check")

@@ -46,6 +46,7 @@ class Started:
     dt_rule: dict[str, Any] | None
     pilot_s: float
     t_burn: float  # perf_counter when the burn-in (or the continuation) began
+    reach: float = 0.0  # the top of the over-dispersed starts (0: a continued run's)
 
     @property
     def win_steps(self) -> int:
@@ -63,8 +64,11 @@ def begin(plan: RunPlan, clock: Clock, step: Stepper, bar: Any) -> Started:
     t1 = time.perf_counter()
     a_hint = float(edges["edges_A"][-1]) if "edges_A" in edges else 1.0
     path_max: list[float] = []
-    a_hi = pilot_scale(phys, h, st.seed, step, a_hint, path_max)
-    step.laps.lap("scale_pilot")
+    if st.start_reach > 0 and st.dt != "auto" and edges:  # measured by an earlier run
+        a_hi = float(st.start_reach)
+    else:
+        a_hi = pilot_scale(phys, h, st.seed, step, a_hint, path_max)
+        step.laps.lap("scale_pilot")
     if st.dt == "auto":  # the step from the orbits the pilot's paths reach (auto_dt)
         a_typ = float(np.median(path_max)) if np.isfinite(path_max).all() else math.nan
         h_pilot, h = h, step_size(st.dt, target, phys, st.sample_every, a_typ)
@@ -113,7 +117,7 @@ def begin(plan: RunPlan, clock: Clock, step: Stepper, bar: Any) -> Started:
     step.run(arr, n_burn, 0, n_burn, stride)
     return Started(h=h, stride=stride, spw=spw, n_win=n_win, edges=edges, arr=arr,
                    windows=windows, run_to=0, n_burn=n_burn, relax=relax, dt_rule=dt_rule,
-                   pilot_s=pilot_s, t_burn=t2)
+                   pilot_s=pilot_s, t_burn=t2, reach=a_hi)
 
 
 def _edges(a_hi: float, phys: dict[str, Any], bins: int, h: float, cause: str

@@ -318,6 +318,10 @@ def fit_relaxation(t: np.ndarray, d: np.ndarray, se: np.ndarray) -> dict[str, An
 
 CHECK_FACTOR = 4  # the check's step is CHECK_FACTOR x the run's
 CHECK_FLOOR_RATIO = 2.0  # the check runs to this multiple of the run's floor (1/4 of its time)
+#: the sequential check's looks (stepcheck.run_step_check): its coarse run's floor as these
+#: multiples of the run's, each look about twice the sampled time of the one before, the last
+#: CHECK_FLOOR_RATIO
+CHECK_LOOKS = (2.0 * CHECK_FLOOR_RATIO, math.sqrt(2.0) * CHECK_FLOOR_RATIO, CHECK_FLOOR_RATIO)
 CHECK_CONFIDENCE = 0.95
 CHECK_ORDERS = (1.0, 2.0)  # the kernel's declared weak orders (kernels.WEAK_ORDER_*)
 CHECK_MERGE = 5  # the check reads p(A) on bins of 5 neighbours (20 of the default 100)
