@@ -140,7 +140,8 @@ def assemble(system: Any, noise: Any, plan: RunPlan, clock: Clock, run: Started,
         t3 = time.perf_counter()
         chk = run_step_check(simulate, system, noise, st, data["A"], edges, h, n_burn * h,
                              sampled, floor, target, deadline, (dt_rule or {}).get("omega"),
-                             reach=run.reach)
+                             reach=run.reach, start=arr.state.copy(),
+                             tau=relax["tau"] if relax is not None else None)
         info["seconds"]["dt_check"] = time.perf_counter() - t3
         info["seconds"]["total"] = time.perf_counter() - plan.t_start
         laps.lap("dt_check")

@@ -106,8 +106,14 @@ def begin(plan: RunPlan, clock: Clock, step: Stepper, bar: Any) -> Started:
     gen = np.random.default_rng(np.random.SeedSequence(st.seed, spawn_key=(1 << 24,)))
     frac = START_LOW + (1 - START_LOW) * (np.arange(per_block) + 0.5) / per_block
     amps = np.broadcast_to(a_hi * frac, (blocks, per_block)).copy()
-    arr = arrays(block_seeds(st.seed, blocks, per_block), starts(amps, phys, gen), edges,
-                 plan.obs)
+    if st.start_state is None:
+        state0 = starts(amps, phys, gen)
+    else:  # where an earlier run of the scene ended (the step check's coarse run)
+        state0 = np.array(st.start_state, dtype=float)
+        if state0.shape != (blocks, per_block, 3):
+            raise ValueError(f"start_state has shape {state0.shape}; the run's paths need "
+                             f"{(blocks, per_block, 3)}")
+    arr = arrays(block_seeds(st.seed, blocks, per_block), state0, edges, plan.obs)
     windows = np.zeros((blocks, per_block, n_win)) if st.certificate else None
 
     t2 = time.perf_counter()

@@ -20,6 +20,7 @@ from vifpk.montecarlo.tuning import (
     CHECK_CONFIDENCE,
     CHECK_FACTOR,
     CHECK_LOOKS,
+    CHECK_START_SHARE,
     DEFAULT_FLOOR,
     _jackknife_l1,
     split_floor,
@@ -32,7 +33,8 @@ from vifpk.core.result import Result
 def run_step_check(simulate: Callable[..., Result], system: Any, noise: Any, st: Settings,
                    dens: dict[str, Any], edges: dict[str, np.ndarray], h: float,
                    burn_in: float, sampled: float, floor: float, target: float,
-                   deadline: float, omega: float | None, *, reach: float = 0.0
+                   deadline: float, omega: float | None, *, reach: float = 0.0,
+                   start: np.ndarray | None = None, tau: float | None = None
                    ) -> dict[str, Any]:
     """The run-time check of dt = "auto" (tuning.step_check): an independent run at
     CHECK_FACTOR x dt (its own seed, derived from the run's; the run's edges, burn-in and
@@ -58,7 +60,20 @@ def run_step_check(simulate: Callable[..., Result], system: Any, noise: Any, st:
     decides at confidence 1 - (1 - CHECK_CONFIDENCE) / len(CHECK_LOOKS), the last at
     CHECK_CONFIDENCE: by the union bound the early stops add at most (looks - 1) / looks x
     (1 - CHECK_CONFIDENCE) to the check's error rate (less: the looks share their paths).
-    ``info["dt_check"]["looks"]`` records each look."""
+    ``info["dt_check"]["looks"]`` records each look.
+
+    **Its start** (given the run's final paths ``start`` and its measured relaxation time
+    ``tau``): the coarse run starts where the run ended, with streams of its own, so it
+    starts at the law at dt, within L (the distance measured) of the law at k dt, not at the
+    over-dispersed starts a run burns in for BURN_FACTOR x tau. What is left of the start
+    after a burn-in B is L e^(-B / tau) e^(-t / tau); averaged over the first look's sampled
+    time T_1 it is at most L e^(-B / tau) tau / T_1, so B = tau ln(tau / (CHECK_START_SHARE
+    T_1)) (at least 0, at most the run's burn-in) leaves at most CHECK_START_SHARE of L in
+    the first look and less in the later ones (it errs toward passing by that share, the
+    measured L is (1 - share) L). The start shares the run's last states only: the run's
+    histograms hold them in its last ~tau of sampled time out of its whole, so their
+    errors stay independent to that fraction. Without them (a fixed burn-in: no tau), the
+    coarse run starts over-dispersed and burns in as long as the run did."""
     allowance = BIAS_FRACTION * (target if target > 0 else DEFAULT_FLOOR)
     k = CHECK_FACTOR
     head = f"dt = {h:.4g} (auto)"
@@ -72,6 +87,11 @@ def run_step_check(simulate: Callable[..., Result], system: Any, noise: Any, st:
                 "run: the budget was spent"}
     seed = int(np.random.SeedSequence(st.seed, spawn_key=(1 << 25,)).generate_state(1)[0])
     early = 1.0 - (1.0 - CHECK_CONFIDENCE) / len(CHECK_LOOKS)
+    first = max(sampled / CHECK_LOOKS[0] ** 2, 8 * st.sample_every)  # the first look's time
+    if start is not None and tau is not None and math.isfinite(tau) and tau > 0:
+        burn_in = min(tau * max(math.log(tau / (CHECK_START_SHARE * first)), 0.0), burn_in)
+    else:
+        start = None
     out: dict[str, Any] | None = None
     state, timings, looks = None, [], []
     for i, ratio in enumerate(CHECK_LOOKS):
@@ -85,6 +105,7 @@ def run_step_check(simulate: Callable[..., Result], system: Any, noise: Any, st:
         chk_st = replace(st, dt=k * h, burn_in=burn_in, floor=ratio * floor, time=time_c,
                          seed=seed, edges=edges, dt_check=False, resume=state,
                          keep_state=not last, max_path_steps=math.inf, start_reach=reach,
+                         start_state=start,
                          budget=left if math.isfinite(left) else 0.0)
         try:
             res = simulate(system, noise, chk_st)
@@ -105,7 +126,8 @@ def run_step_check(simulate: Callable[..., Result], system: Any, noise: Any, st:
             break
     assert out is not None
     excluded = out["verdict"] == "undecided" and len(looks) < len(CHECK_LOOKS)
-    out.update(looks=looks, stopped=("a failure excluded" if excluded else
+    out.update(looks=looks, burn_in=burn_in, start="where the run ended" if start is not None
+               else "over-dispersed", stopped=("a failure excluded" if excluded else
                                      "decided" if out["verdict"] != "undecided" else
                                      "last look"))
     out["timing"] = _summed(timings)  # the coarse run's own stages (assemble moves it out)

@@ -322,6 +322,9 @@ CHECK_FLOOR_RATIO = 2.0  # the check runs to this multiple of the run's floor (1
 #: multiples of the run's, each look about twice the sampled time of the one before, the last
 #: CHECK_FLOOR_RATIO
 CHECK_LOOKS = (2.0 * CHECK_FLOOR_RATIO, math.sqrt(2.0) * CHECK_FLOOR_RATIO, CHECK_FLOOR_RATIO)
+#: the share of the measured distance the check's start may leave in its first look
+#: (stepcheck.run_step_check: its burn-in from where the run ended)
+CHECK_START_SHARE = 0.05
 CHECK_CONFIDENCE = 0.95
 CHECK_ORDERS = (1.0, 2.0)  # the kernel's declared weak orders (kernels.WEAK_ORDER_*)
 CHECK_MERGE = 5  # the check reads p(A) on bins of 5 neighbours (20 of the default 100)
