@@ -322,6 +322,9 @@ CHECK_FLOOR_RATIO = 2.0  # the check runs to this multiple of the run's floor (1
 #: multiples of the run's, each look about twice the sampled time of the one before, the last
 #: CHECK_FLOOR_RATIO
 CHECK_LOOKS = (2.0 * CHECK_FLOOR_RATIO, math.sqrt(2.0) * CHECK_FLOOR_RATIO, CHECK_FLOOR_RATIO)
+#: the share of the target floor a run's start may leave in its sampled time's average, where
+#: the burn-in ends at dt after a part at CHECK_FACTOR x dt (burnin._coarse_burn_in)
+BURN_SHARE = 0.1
 #: the share of the measured distance the check's start may leave in its first look
 #: (stepcheck.run_step_check: its burn-in from where the run ended)
 CHECK_START_SHARE = 0.05

@@ -177,6 +177,29 @@ def test_the_sequential_check_stops_at_the_first_look_that_decides():
     assert edge["timing"]["total"]["cpu"] == len(looks)
 
 
+def test_the_coarse_burn_in_follows_its_formula():
+    """burnin._coarse_burn_in on a canned plan: at dt, tau ln(D tau / (BURN_SHARE F T_1))
+    with D = (k^2 - 1) BIAS_FRACTION F; none without the step check, a target floor or a
+    stable k dt, nor where the split would cost more than the burn-in at dt."""
+    from types import SimpleNamespace
+
+    from vifpk.montecarlo.burnin import _coarse_burn_in
+
+    def plan(**kw):
+        st = SimpleNamespace(**{"dt": "auto", "dt_check": True, "start_state": None, **kw})
+        return SimpleNamespace(settings=st, target=kw.get("target", 0.005))
+
+    relax, tau, F, T1, k = {"tau": 90.0}, 90.0, 0.005, 1000.0, tuning.CHECK_FACTOR
+    got = _coarse_burn_in(plan(), relax, 6 * tau, 0.025, T1, 1.1)
+    D = (k**2 - 1) * tuning.BIAS_FRACTION * F
+    assert got["fine"] == pytest.approx(tau * math.log(D * tau / (tuning.BURN_SHARE * F * T1)))
+    assert got["dt"] == k * 0.025 and got["time"] == 6 * tau
+    assert _coarse_burn_in(plan(dt_check=False), relax, 6 * tau, 0.025, T1, 1.1) is None
+    assert _coarse_burn_in(plan(target=0.0), relax, 6 * tau, 0.025, T1, 1.1) is None
+    assert _coarse_burn_in(plan(), relax, 6 * tau, 0.025, T1, 1.0 / (k * 0.025)) is None
+    assert _coarse_burn_in(plan(), relax, 6 * tau, 0.025, 1.0, 1.1) is None  # T_1 tiny
+
+
 def test_the_check_orders_are_the_kernels():
     from vifpk.montecarlo import kernels as K
 
@@ -214,8 +237,17 @@ def test_the_check_runs_with_dt_auto_and_passes_at_the_base_scene():
     assert chk["check_dt"] == pytest.approx(tuning.CHECK_FACTOR * 0.5 / 13)
     # cheap against the run: about 1 / (4 x 4) of its sampled path-steps, plus its burn-in
     assert res.info["seconds"]["dt_check"] < 0.5 * res.info["seconds"]["run"]
+    # the burn-in's two parts (burnin._coarse_burn_in): 6 tau at 4 dt, then at dt the time
+    # that leaves at most BURN_SHARE of the floor of the coarse law's distance; equilibrated
+    coarse, tau = res.info["burn_in_coarse"], res.info["relaxation"]["tau"]
+    assert coarse["dt"] == pytest.approx(4 * 0.5 / 13) and coarse["time"] == pytest.approx(
+        6 * tau, rel=0.01)
+    assert 0 < coarse["fine"] < 6 * tau and res.info["convergence"]["equilibrated"]
+    assert res.info["settings"]["burn_in"] == pytest.approx(coarse["time"] + coarse["fine"],
+                                                            abs=0.5 / 13)
     pinned = mc.simulate(sc.system, sc.noise, _settings(dt=0.5 / 13, floor=0.01))
     assert "dt_check" not in pinned.info  # a step given is the caller's: not checked
+    assert "burn_in_coarse" not in pinned.info  # nor is its burn-in split
 
 
 @pytest.mark.slow
