@@ -44,12 +44,14 @@ R_Z, R_Z0, R_SIG, R_A, R_A1, R_ARG = range(6)
 N_FLOAT = 6
 # int rows: the global path index, its block, steps taken, needs a look (first passage)
 I_G, I_B, I_N, I_LOOK = range(4)
+N_INT = 4
 
 
 @jit(inline="always")
-def sde_scratch():
-    """(float rows, int rows, generator words: 4 rows now, 4 at the step's start)."""
-    return (np.zeros((N_FLOAT, LANES)), np.zeros((4, LANES), dtype=np.int64),
+def sde_scratch(n_float, n_int):
+    """(float rows, int rows, generator words: 4 rows now, 4 at the step's start); the first
+    N_FLOAT float rows and 4 int rows are this module's (R_*, I_*), a caller's own follow."""
+    return (np.zeros((n_float, LANES)), np.zeros((n_int, LANES), dtype=np.int64),
             np.zeros((8, LANES), dtype=np.uint64))
 
 
@@ -113,7 +115,7 @@ def _passage_block(first, every, states, starts, offset, count, done, k, n_max, 
     sq = math.sqrt(h)
     last = a_tab.size - 1
     floor_arg = -math.log(BRIDGE_FLOOR)
-    F, Li, S = sde_scratch()
+    F, Li, S = sde_scratch(N_FLOAT, N_INT)
     no_rows = np.zeros((0, LANES))  # lanes.drop's float rows of the caller: none here
     Z, A0, A1, ARG = F[R_Z], F[R_A], F[R_A1], F[R_ARG]
     SG, N, LOOK = F[R_SIG], Li[I_N], Li[I_LOOK]
@@ -188,7 +190,7 @@ def _snapshots_block(first, every, states, starts, offset, count, done, k, marks
     sq = math.sqrt(h)
     last = a_tab.size - 1
     nb = hist.shape[2]
-    F, Li, S = sde_scratch()
+    F, Li, S = sde_scratch(N_FLOAT, N_INT)
     Z, ALIVE = F[R_Z], Li[I_LOOK]
     b, i = _next_path(first, done[first] if first < count.size else 0, every, done, k, count)
     while b < count.size:
