@@ -6,7 +6,8 @@ A_hi = sqrt(q_hi) are splitting_kernels.py's module docstring; its bookkeeping h
 (``level_of``, ``_cycle_success``, ``_cycle_start``, ``_cycle_summary``) are used as they are.
 The step is sde_lanes.sde_lane_step (each lane's Z, sigma and words those of
 averaged_sde.sde_step, bit for bit). After it, one loop over every lane the compiler can
-vectorise updates the clocks and finds the lanes that need a look (a boundary crossed at the
+vectorise updates the clocks and the amplitudes (the one before the step kept from the step
+before: the same sqrt of the same Z) and finds the lanes that need a look (a boundary crossed at the
 step's end, a bridge probability above e^-BRIDGE_CUT, a level gained, a cycle start, the
 time up); only those then run the tests of the path alone (``_sde_hit``), lane by lane, the
 bridge's uniforms drawn from the lane's own words in the same order. A lane whose path ends
@@ -27,7 +28,7 @@ import numpy as np
 from ._jit import jit, over_blocks
 from .lanes import LANES, drop
 from .rng import uniform
-from .sde_lanes import N_FLOAT, R_A, R_A1, R_SIG, R_Z, R_Z0, sde_lane_step, sde_scratch
+from .sde_lanes import N_FLOAT, R_A, R_A1, R_SIG, R_Z, sde_lane_step, sde_scratch
 from .splitting_kernels import (
     BRIDGE_CUT,
     OUT_FAIL,
@@ -75,13 +76,19 @@ def _sde_hit(A0, A1, sig, h, A_lo, A_hi, low_on, s0, s1, s2, s3):
     return 0, s0, s1, s2, s3
 
 
+CUT_SURE = BRIDGE_CUT * (1.0 + 1e-9)  # _quiet: d surely > BRIDGE_CUT without the division
+
+
 @jit(inline="always")
 def _quiet(a0, a1, sig, h, A_lo, A_hi, low_on):
-    """Whether ``_sde_hit`` would return 0 without a draw (NaN anywhere: not quiet)."""
-    d_up = 2.0 * (a0 - A_hi) * (a1 - A_hi) / (sig * sig * h)
-    d_lo = 2.0 * (a0 - A_lo) * (a1 - A_lo) / (sig * sig * h)
-    no_low = (not low_on) | ((a1 > A_lo) & (d_lo > BRIDGE_CUT))
-    return (a1 < A_hi) & no_low & ((sig <= 0.0) | (d_up > BRIDGE_CUT))
+    """Whether ``_sde_hit`` surely returns 0 without a draw: d > BRIDGE_CUT tested as
+    2 (a0 - b)(a1 - b) > CUT_SURE sig^2 h, no division, with a margin of 1e-9 relative
+    (a doubtful lane, or NaN anywhere, is not quiet: the look decides it exactly)."""
+    s2h = CUT_SURE * (sig * sig * h)
+    far_up = 2.0 * (a0 - A_hi) * (a1 - A_hi) > s2h
+    far_lo = 2.0 * (a0 - A_lo) * (a1 - A_lo) > s2h
+    no_low = (not low_on) | ((a1 > A_lo) & far_lo)
+    return (a1 < A_hi) & no_low & ((sig <= 0.0) | far_up)
 
 
 def advance_sde(recs, rows, start, rng, maxlev, outcome, q_lo, q_hi, M, t_max,
@@ -105,7 +112,7 @@ def _advance_block(first, every, recs, rows, start, rng, maxlev, outcome, levels
     A_hi = math.sqrt(q_hi)
     F, Li, S = sde_scratch(N_FLOAT + 1, 6)
     no_rows = np.zeros((0, LANES))
-    Z, Z0, SG, A0, A1, T = F[R_Z], F[R_Z0], F[R_SIG], F[R_A], F[R_A1], F[_T]
+    Z, SG, A0, A1, T = F[R_Z], F[R_SIG], F[R_A], F[R_A1], F[_T]
     LEV, LOOK = Li[_LEV], Li[_LOOK]
     nxt = first
     m = 0
@@ -125,7 +132,7 @@ def _advance_block(first, every, recs, rows, start, rng, maxlev, outcome, levels
                 maxlev[row] = lev
                 outcome[row] = OUT_TIMEOUT
                 continue
-            Z[m], T[m], Li[_J, m], LEV[m] = z, t, j, lev
+            Z[m], A1[m], T[m], Li[_J, m], LEV[m] = z, math.sqrt(z), t, j, lev
             for w in range(4):
                 S[w, m] = rng[j, w]
             m += 1
@@ -133,7 +140,7 @@ def _advance_block(first, every, recs, rows, start, rng, maxlev, outcome, levels
             break
         sde_lane_step(m, F, S, h, sq, a_tab, b_tab, inv_d, last)
         for i in range(m):  # every lane: its clock, whether to look
-            a0, a1 = math.sqrt(Z0[i]), math.sqrt(Z[i])
+            a0, a1 = A1[i], math.sqrt(Z[i])  # A1: sqrt of the Z before the step
             A0[i], A1[i] = a0, a1
             T[i] += h
             u = (Z[i] - q_lo) * inv_dq
@@ -190,7 +197,7 @@ def _cycles_block(first, every, starts, rng, cyc, h, tabs, entries, summary):
     A_hi = math.sqrt(q_hi)
     F, Li, S = sde_scratch(N_FLOAT + 3, 6)
     no_rows = np.zeros((0, LANES))
-    Z, Z0, SG, A0, A1, T = F[R_Z], F[R_Z0], F[R_SIG], F[R_A], F[R_A1], F[_T]
+    Z, SG, A0, A1, T = F[R_Z], F[R_SIG], F[R_A], F[R_A1], F[_T]
     ARM, LOOK = Li[_ARM], Li[_LOOK]
     nxt = first
     m = 0
@@ -202,7 +209,8 @@ def _cycles_block(first, every, starts, rng, cyc, h, tabs, entries, summary):
                 summary[p, 5] = 1.0
                 _cycle_summary(summary, p, 0, 0.0, 0)
                 continue
-            Z[m], T[m], F[_TC, m], F[_TOT, m] = starts[p], 0.0, 0.0, 0.0
+            Z[m], A1[m], T[m] = starts[p], math.sqrt(starts[p]), 0.0
+            F[_TC, m], F[_TOT, m] = 0.0, 0.0
             Li[_J, m], Li[_IN, m], Li[_K, m], Li[_SUCC, m] = p, 0, 0, 0
             ARM[m] = 1 if starts[p] <= q0 else 0
             for w in range(4):
@@ -212,7 +220,7 @@ def _cycles_block(first, every, starts, rng, cyc, h, tabs, entries, summary):
             break
         sde_lane_step(m, F, S, h, sq, a_tab, b_tab, inv_d, last)
         for i in range(m):  # every lane: its clock, whether to look
-            a0, a1 = math.sqrt(Z0[i]), math.sqrt(Z[i])
+            a0, a1 = A1[i], math.sqrt(Z[i])  # A1: sqrt of the Z before the step
             A0[i], A1[i] = a0, a1
             T[i] += h
             armed = ARM[i] == 1
