@@ -40,9 +40,12 @@ from .splitting_kernels import (
     level_of,
 )
 
-# the lanes' own rows after sde_lanes's: float (time, cycle start time, cycles' total time),
-# int (the path's index, its level / armed, in a cycle, cycles completed, successes, look)
+# the lanes' own rows after sde_lanes's: float (time, cycle start time, cycles' total time;
+# advance_sde: u = (q - q_lo) M / (q_hi - q_lo) of the next level, a float: AVX2 has no packed
+# int64 -> double), int (the path's index, its level / armed, in a cycle, cycles completed,
+# successes, look)
 _T, _TC, _TOT = N_FLOAT, N_FLOAT + 1, N_FLOAT + 2
+_UP = _TC
 _J, _LEV, _IN, _K, _SUCC, _LOOK = range(6)
 _ARM = _LEV
 
@@ -110,9 +113,9 @@ def _advance_block(first, every, recs, rows, start, rng, maxlev, outcome, levels
     inv_dq = M / (q_hi - q_lo)
     A_lo = math.sqrt(q_lo)
     A_hi = math.sqrt(q_hi)
-    F, Li, S = sde_scratch(N_FLOAT + 1, 6)
+    F, Li, S = sde_scratch(N_FLOAT + 2, 6)
     no_rows = np.zeros((0, LANES))
-    Z, SG, A0, A1, T = F[R_Z], F[R_SIG], F[R_A], F[R_A1], F[_T]
+    Z, SG, A0, A1, T, UP = F[R_Z], F[R_SIG], F[R_A], F[R_A1], F[_T], F[_UP]
     LEV, LOOK = Li[_LEV], Li[_LOOK]
     nxt = first
     m = 0
@@ -133,6 +136,7 @@ def _advance_block(first, every, recs, rows, start, rng, maxlev, outcome, levels
                 outcome[row] = OUT_TIMEOUT
                 continue
             Z[m], A1[m], T[m], Li[_J, m], LEV[m] = z, math.sqrt(z), t, j, lev
+            UP[m] = lev + 1.0 if lev < M else math.inf
             for w in range(4):
                 S[w, m] = rng[j, w]
             m += 1
@@ -144,7 +148,7 @@ def _advance_block(first, every, recs, rows, start, rng, maxlev, outcome, levels
             A0[i], A1[i] = a0, a1
             T[i] += h
             u = (Z[i] - q_lo) * inv_dq
-            same = (Z[i] <= q_lo) | (u < LEV[i] + 1) | (LEV[i] >= M)  # no level gained
+            same = (Z[i] <= q_lo) | (u < UP[i])  # no level gained (level_of(Z) <= LEV)
             go_on = _quiet(a0, a1, SG[i], h, A_lo, A_hi, True) & same & (T[i] < t_max)
             LOOK[i] = 0 if go_on else 1
         for i in range(m - 1, -1, -1):  # the lanes to look at, last first (lanes.drop)
@@ -162,6 +166,7 @@ def _advance_block(first, every, recs, rows, start, rng, maxlev, outcome, levels
                     recs[row, lev, 0] = Z[i]
                     recs[row, lev, 1] = T[i]
                 LEV[i] = lev
+                UP[i] = lev + 1.0 if lev < M else math.inf
                 if hit == 1:
                     out = OUT_SUCCESS
                 elif T[i] < t_max:
