@@ -222,7 +222,9 @@ def sde_snapshots(drift: Callable[[np.ndarray], np.ndarray],
     t = marks * float(dt)
     info = {"solver": "averaged-sde", "method": "snapshots", "paths": int(paths),
             "blocks": int(blocks), "dt": float(dt), "times_requested": t_req.tolist(),
-            "seed": {"root": int(seed)}, "L1_floor": {"A": snap.pop("L1_floor").tolist()},
+            "seed": {"root": int(seed), "scheme": "path p of block b: words 4p..4p+3 of "
+                     "numpy.random.SeedSequence(root, spawn_key=(b,)).generate_state"},
+            "L1_floor": {"A": snap.pop("L1_floor").tolist()},
             "mass_inside": {"A": snap.pop("mass").tolist()},
             "order": {"weak": ORDER},
             "seconds": {"compile": compile_s, "run": run_s, "total": compile_s + run_s},
