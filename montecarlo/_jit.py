@@ -96,6 +96,36 @@ def _install_stamped_locators() -> None:
 _install_stamped_locators()
 
 
+def _light_cache(dispatcher: Any) -> Any:
+    """``dispatcher``'s on-disk cache loading without numba's registry refresh (``_Light``)."""
+    from numba.core.caching import FunctionCache
+
+    cache = getattr(dispatcher, "_cache", None)
+    if type(cache) is FunctionCache:
+        if not _LIGHT:
+            class Light(FunctionCache):
+                """numba's FunctionCache whose cache HIT skips ``target_context.refresh()``:
+                the refresh imports every lowering registry of numba (numba.np.arraymath's
+                BLAS check imports all of scipy.linalg), ~0.6-0.8 s CPU before the first
+                kernel of a warm run can load, while a cached kernel is machine code that
+                needs only numba's runtime (NRT) symbols. A miss still compiles through
+                numba's compiler, which refreshes both contexts itself."""
+
+                def load_overload(self, sig: Any, target_context: Any) -> Any:
+                    from numba.core.runtime import rtsys
+
+                    rtsys.initialize(target_context)
+                    with self._guard_against_spurious_io_errors():
+                        return self._load_overload(sig, target_context)
+
+            _LIGHT.append(Light)
+        cache.__class__ = _LIGHT[0]
+    return dispatcher
+
+
+_LIGHT: list[type] = []
+
+
 def jit(fn: F | None = None, *, parallel: bool = False, inline: str = "never",
         nogil: bool = False) -> Any:
     """``numba.njit(cache=True, ...)``; usable bare or with arguments. ``error_model="numpy"``
@@ -104,8 +134,8 @@ def jit(fn: F | None = None, *, parallel: bool = False, inline: str = "never",
     deco = numba.njit(cache=True, parallel=parallel, error_model="numpy", inline=inline,
                       nogil=nogil)
     if fn is None:
-        return deco
-    return deco(fn)
+        return lambda f: _light_cache(deco(f))
+    return _light_cache(deco(fn))
 
 
 def over_blocks(kernel: Callable[..., Any], n_blocks: int, *args: Any) -> None:

@@ -78,3 +78,42 @@ def test_other_functions_keep_numbas_own_locators() -> None:
         return x
 
     assert all(c.from_function(outside, __file__) is None for c in stamped)
+
+
+ALLOCATING = """
+import numpy as np
+from vifpk.montecarlo._jit import jit
+
+@jit
+def kernel(n):
+    a = np.zeros(n)   # numba's runtime (NRT) allocates: it must be ready after a light load
+    a[0] = 2.5
+    return a[0] + a[n - 1]
+"""
+
+RUN_ALLOCATING = """
+import importlib.util, sys
+import vifpk.montecarlo._jit as j
+spec = importlib.util.spec_from_file_location("vifpk._probe2", {kernel!r})
+mod = importlib.util.module_from_spec(spec)
+sys.modules["vifpk._probe2"] = mod
+spec.loader.exec_module(mod)
+value = mod.kernel(4)
+print(value, mod.kernel.stats.cache_hits and 1 or 0, int("numba.np.arraymath" in sys.modules))
+"""
+
+
+def test_a_cache_hit_loads_without_numbas_registry_refresh(tmp_path: Path) -> None:
+    """A hit (montecarlo/_jit.py ``Light``) loads machine code only: numba's lowering
+    registries (numba.np.arraymath, whose BLAS check imports scipy.linalg) stay unimported,
+    and the loaded kernel still allocates through numba's runtime; a miss compiles as ever."""
+    (tmp_path / "probe2.py").write_text(ALLOCATING)
+    code = RUN_ALLOCATING.format(kernel=str(tmp_path / "probe2.py"))
+    env = {**__import__("os").environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+
+    def run() -> list[str]:
+        return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                              timeout=300, check=True, env=env).stdout.split()
+
+    assert run() == ["2.5", "0", "1"]   # compiled: numba's compiler refreshed its registries
+    assert run() == ["2.5", "1", "0"]   # loaded: no refresh, the runtime still allocates
