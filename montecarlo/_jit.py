@@ -136,9 +136,14 @@ def _light() -> type:
 
     class Light(FunctionCache):
         def load_overload(self, sig: Any, target_context: Any) -> Any:
-            rtsys.initialize(target_context)
-            with self._guard_against_spurious_io_errors():
-                return self._load_light(sig, target_context)
+            try:
+                rtsys.initialize(target_context)
+                with self._guard_against_spurious_io_errors():
+                    return self._load_light(sig, target_context)
+            except AttributeError:
+                # a numba whose private cache API differs from the one read here (numba
+                # >= 0.59 is allowed): numba's own load, with its full refresh
+                return super().load_overload(sig, target_context)
 
         def _load_light(self, sig: Any, target_context: Any) -> Any:
             if not self._enabled:
