@@ -631,7 +631,8 @@ def test_a_budget_too_small_says_so(base):
     # pilots, which took 10-15 s at load 10-13 and ate a 0.5 s budget before any window); then a
     # budget that covers the pilots and a first window at any load we saw, but not the floor:
     # 1e-4 needs N >= 2/(pi F^2) ~ 6e7 samples (montecarlo.plan), minutes of sampling
-    kw = dict(paths=64, blocks=16, burn_in=100.0, observables=("A", "moments"))
+    # (at the fixed step 0.01: "auto" would take its step from the floor 1e-4, 0.0025)
+    kw = dict(paths=64, blocks=16, burn_in=100.0, observables=("A", "moments"), dt=0.01)
     run(base, time=40, **kw)
     res = run(base, time=400, floor=1e-4, budget=3.0, **kw)
     c = res.info["convergence"]
