@@ -54,7 +54,7 @@ import numpy as np
 
 from vifpk.core.registry import IMPACT_TREATMENTS, one_of
 
-from . import parametric, truncated
+from . import memo, parametric, truncated
 from .geometry import (
     Array,
     amplitudes,
@@ -159,11 +159,26 @@ class ExactModel:
         return float(self.damping[1]) if len(self.damping) > 1 else 0.0
 
     # ------------------------------------------------------------------ orbit averages
+    def _memo_params(self, *methods: str) -> tuple[Any, ...]:
+        """What the orbit averages and sigma_E^2 depend on, for averaging.memo: the methods
+        that compute them (so a subclass overriding one is kept apart) and the spring, damping
+        laws, walls, noise and quadrature; not the impact law or the name, which is why the
+        exact, compounded and corrected models share them."""
+        cls = type(self)
+        return (tuple(getattr(cls, m) for m in methods), self.restoring, self.damping,
+                self.velocity_damping, self.walls, self.barrier, self.spectrum, self.f,
+                self.noise, self.theta_nodes, self.harmonics)
+
     def orbit(self, A: Array) -> dict[str, Array]:
         """Period and time averages along the orbit of amplitude A (any shape): the free orbit
         (:meth:`free_orbit`), truncated by ``walls`` where A reaches one (truncated.orbit;
-        the keys of the free orbit, the same numbers where no wall is reached)."""
+        the keys of the free orbit, the same numbers where no wall is reached). Computed once
+        per grid inside averaging.memo.shared (the same arrays, read-only)."""
         A = np.asarray(A, dtype=float)
+        return memo.recall("orbit", self._memo_params("orbit", "free_orbit", "reached"), A,
+                           lambda: self._orbit(A))
+
+    def _orbit(self, A: Array) -> dict[str, Array]:
         o = self.free_orbit(A)
         hit = self.reached(A)
         if not np.any(hit):
@@ -293,8 +308,16 @@ class ExactModel:
         (a spectral density): a negative result within spectral_sum.SIGMA2_ROUNDOFF of the
         terms' size is rounding and set to 0; a larger one means the harmonics are wrong (too
         few, or more than the quarter-orbit quadrature resolves): ArithmeticError naming A,
-        never a clamp (spectral_sum.sigma2_rational)."""
+        never a clamp (spectral_sum.sigma2_rational).
+
+        ``orbit``: :meth:`orbit` (A), when the caller has it. Computed once per grid inside
+        averaging.memo.shared (the same array, read-only)."""
         A = np.asarray(A, dtype=float)
+        return memo.recall("sigma2_external", self._memo_params(
+            "orbit", "free_orbit", "reached", "harmonics_of_Y", "sigma2_external",
+            "sigma2_general", "_sigma2_truncated"), A, lambda: self._sigma2_external(A, orbit))
+
+    def _sigma2_external(self, A: Array, orbit: dict[str, Array] | None) -> Array:
         o = self.orbit(A) if orbit is None else orbit
         S = self.spectrum
         if S.flat:

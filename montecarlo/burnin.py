@@ -78,7 +78,11 @@ def begin(plan: RunPlan, clock: Clock, step: Stepper, bar: Any) -> Started:
         step.laps.lap("scale_pilot")
     if st.dt == "auto":  # the step from the orbits the pilot's paths reach (auto_dt)
         a_typ = float(np.median(path_max)) if np.isfinite(path_max).all() else math.nan
-        h_pilot, h = h, step_size(st.dt, target, phys, st.sample_every, a_typ)
+        try:
+            h_pilot, h = h, step_size(st.dt, target, phys, st.sample_every, a_typ)
+        except OverflowError:  # a blow-up the pilot ran into: as _edges says it
+            raise diverged(h, f"the pilot reached amplitude {a_typ:.3g}, whose energy "
+                           "overflows double precision", step.cause) from None
         step.h = h
         stride, spw, n_win = sampling_plan(st.time, st.sample_every, h, target)
         dt_rule = {"pilot_dt": h_pilot, "amplitude": a_typ, "omega_ref": OMEGA_REF,

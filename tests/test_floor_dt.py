@@ -1,5 +1,6 @@
-"""The time step follows the floor (issue 22): with a target floor and no step given, dt is
-"auto"; a step given on the command line, by --set, in the scene file or in a sweep pins it."""
+"""The time step follows the accuracy asked for (issue 22; issue 44 made it the default): with
+no step given, dt is "auto", with or without a target floor; a step given on the command line,
+by --set, in the scene file or in a sweep pins it."""
 
 from __future__ import annotations
 
@@ -18,7 +19,7 @@ def _args(**kw):
 
 def test_the_step_follows_the_floor_unless_pinned(tmp_path):
     assert _checked_scene(_args(floor=0.005), mc=True).montecarlo.dt == "auto"
-    assert _checked_scene(_args(), mc=True).montecarlo.dt == 0.01  # no floor: fixed default
+    assert _checked_scene(_args(), mc=True).montecarlo.dt == "auto"  # no floor: auto too
     assert _checked_scene(_args(floor=0.005, dt=0.02), mc=True).montecarlo.dt == 0.02
     pinned = _args(floor=0.005, set=["montecarlo.dt=0.02"])
     assert _checked_scene(pinned, mc=True).montecarlo.dt == 0.02
@@ -35,5 +36,7 @@ def test_a_sweep_with_a_floor_follows_it_too(tmp_path):
     (tmp_path / "b.toml").write_text('scene = "paper-base"\n[vary]\n"system.r" = [0.95]\n'
                                      '[set]\n"montecarlo.floor" = 0.02\n'
                                      '"montecarlo.dt" = 0.01\n')
+    (tmp_path / "c.toml").write_text('scene = "paper-base"\n[vary]\n"system.r" = [0.95]\n')
     assert load_sweep(tmp_path / "a.toml").points[0].scene.montecarlo.dt == "auto"
+    assert load_sweep(tmp_path / "c.toml").points[0].scene.montecarlo.dt == "auto"
     assert load_sweep(tmp_path / "b.toml").points[0].scene.montecarlo.dt == 0.01

@@ -203,11 +203,11 @@ def test_door_turns_failures_into_one_line(base, monkeypatch):
     SolverFailure with the solver's one line; bad input stays BadInput."""
     import vifpk.montecarlo
     from vifpk.harness.door.solvers import SolverFailure
-    from vifpk.harness.door.timedomain import passage_montecarlo
+    from vifpk.harness.door.timedomain import passage_montecarlo, time_step
 
     res = passage_montecarlo(base, threshold=1.05, start=1.0, horizon=10.0, paths=4,
                              blocks=2, progress=False)
-    assert res.info["dt"] == base.montecarlo.dt
+    assert res.info["dt"] == time_step(base)  # "auto": the time domain's fixed step
     assert res.info["seed"]["root"] == base.montecarlo.seed
     with pytest.raises(BadInput, match="threshold"):
         passage_montecarlo(base, threshold=1e90, start=1.0, horizon=10.0, paths=4, blocks=2)

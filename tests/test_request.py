@@ -120,22 +120,14 @@ def test_scene_knows_which_fields_were_given(tmp_path: Path):
         {"system.restoring[2]": 0.1}).given
 
 
-@pytest.mark.parametrize("given, floor, dt, follows", [
-    (set(), 0.01, 0.01, True),            # a floor, no step given: the step follows it
-    ({"montecarlo.dt"}, 0.01, 0.01, False),  # a step given anywhere pins it
-    (set(), 0.0, 0.01, False),            # no floor: the fixed default
-    (set(), 0.01, "auto", False),         # already automatic
-])
-def test_the_one_rule_of_the_step_that_follows_the_floor(given, floor, dt, follows):
-    assert request.dt_follows_floor(given, floor, dt) is follows
-
-
-def test_follow_floor_pins_a_step_from_the_file_and_not_the_default(tmp_path: Path):
+def test_a_step_not_given_is_auto_and_a_given_one_stays(tmp_path: Path):
+    """Issue 44: MonteCarloSettings.dt defaults to "auto" (the step from the accuracy asked
+    for); a step in the scene file stays as written, with or without a floor."""
     f = tmp_path / "s.toml"
     f.write_text("[montecarlo]\ndt = 0.005\nfloor = 0.01\n")
-    assert request.follow_floor(vifpk.scene(str(f))).montecarlo.dt == 0.005
-    auto = request.follow_floor(vifpk.scene("paper-base", **{"montecarlo.floor": 0.01}))
-    assert auto.montecarlo.dt == "auto" and "montecarlo.dt" not in auto.given
+    assert vifpk.scene(str(f)).montecarlo.dt == 0.005
+    assert vifpk.scene("paper-base").montecarlo.dt == "auto"
+    assert vifpk.scene("paper-base", **{"montecarlo.floor": 0.01}).montecarlo.dt == "auto"
 
 
 # ------------------------------------------------------------------- where a model applies

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 import shutil
 import subprocess
 import sys
@@ -67,7 +68,10 @@ def test_averaging_error_pass_fail_and_message():
     with pytest.raises(AssertionError) as exc:
         assert_averaging_error("paper-base", "paper", below=BETWEEN_MODELS, **SMALL)
     msg = str(exc.value)
-    assert "averaging error of paper on p(A): L1 = 0.4" in msg
+    # the paper model's L1 0.48 (README) with the noise of 128 paths on top (floor 0.057:
+    # noise adds to L1, up to about twice its floor)
+    got = re.search(r"averaging error of paper on p\(A\): L1 = ([0-9.]+) ", msg)
+    assert got and 0.4 < float(got.group(1)) < 0.48 + 2 * 0.057
     assert "+/-" in msg and "noise floor" in msg and "128 paths" in msg
     assert "reproduce: vifpk solve paper-base --solver montecarlo --paths 128" in msg
     assert "(from cache)" in msg  # the second assertion reused the reference

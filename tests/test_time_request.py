@@ -99,16 +99,17 @@ def test_threshold_nan_gets_the_same_line_from_the_cli_and_the_api(no_computatio
 
 def test_requests_are_frozen_and_carry_the_resolved_step():
     """One rule for the time domain's step (door.timedomain.time_step): a scene whose
-    montecarlo.dt is "auto" gets the field's default step in the request, not a number of the
-    request's own."""
+    montecarlo.dt is "auto" (the default since issue 44) gets the fixed step FIXED_DT in the
+    request, not a number of the request's own."""
     from vifpk.harness.door.timedomain import time_step
     from vifpk.harness.request.timedomain import passage_request, transient_request
 
-    from vifpk.core.scene import MonteCarloSettings, load_scene
+    from vifpk.core.scene import load_scene
+    from vifpk.core.sections import FIXED_DT
 
     sc = load_scene("paper-base").with_values({"montecarlo.dt": "auto"})
     req = passage_request(sc, threshold=0.6, start=0.3, models=["exact"])
-    default = {f.name: f.default for f in dataclasses.fields(MonteCarloSettings)}["dt"]
+    default = FIXED_DT
     assert req.dt == time_step(sc) == default and req.scene.montecarlo.dt == default
     assert req.models == ("exact",) and req.start == 0.3 and req.threshold == 0.6
     with pytest.raises(dataclasses.FrozenInstanceError):
@@ -368,7 +369,7 @@ def test_p48_every_passage_within_one_step_is_not_an_estimate(doubles, tiny, mon
     from vifpk.core.result import Result
 
     def first_step(scene, *, paths, **kw):
-        dt = float(scene.montecarlo.dt)
+        dt = timedomain.time_step(scene)  # the door's rule ("auto": its fixed step)
         return Result(data={"fpt": {"time": np.full(paths, dt),
                                     "censored": np.zeros(paths, bool)}}, info={"dt": dt})
 

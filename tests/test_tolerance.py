@@ -152,3 +152,16 @@ def test_the_line_states_the_bounds_its_class_is_decided_by():
         else:
             assert lo < tol.value < hi
         assert f"below {hi:.4f}" in line("m", v)
+
+
+def test_student_t_without_scipy_stats_is_the_same_bits():
+    """tolerance._quantile and _cdf call scipy.special's stdtrit and stdtr, which
+    scipy.stats.t.ppf and .cdf call (issue 44: scipy.stats is not imported by a check)."""
+    from scipy.stats import t
+    from vifpk.harness.workflows.tolerance import _cdf, _quantile
+
+    for dof in (1, 2, 7, 31, 1023):
+        for q in (0.5, 0.8, 0.95, 0.975, 0.999):
+            assert _quantile(q, dof) == float(t.ppf(q, dof))
+        for x in (-40.0, -2.5, -0.3, 0.0, 0.7, 3.1, 60.0, float("inf")):
+            assert _cdf(x, dof) == float(t.cdf(x, dof))

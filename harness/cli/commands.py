@@ -317,8 +317,16 @@ def cmd_workprecision(args: argparse.Namespace) -> int:
         raise validate.InputError(f"{args.scene}: workprecision times the paper model's "
                                   f"solvers, which do not apply here: {outside}")
     if scene.montecarlo.dt == "auto":
-        raise validate.InputError("montecarlo.dt = 'auto': workprecision times a ladder of "
-                                  "fixed steps; give a number with --dt")
+        if "montecarlo.dt" in scene.given:
+            raise validate.InputError("montecarlo.dt = 'auto': workprecision times a ladder "
+                                      "of fixed steps; give a number with --dt")
+        from dataclasses import replace
+
+        from vifpk.core.sections import FIXED_DT
+
+        # the scene gave no step: the fixed one (a ladder around a step tuned to a floor would
+        # time a different ladder on every scene)
+        scene = replace(scene.with_values({"montecarlo.dt": FIXED_DT}), given=scene.given)
     out = Path(args.out or f"out/{folder_name(scene.name)}-workprecision")
     if args.out is None:
         validate.output_folder(str(out), "--out (default)")

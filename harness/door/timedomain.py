@@ -36,15 +36,13 @@ def time_step(scene: Any, dt: Any = None) -> float:
     """The step of the original system's time-domain runs (first passage, splitting,
     snapshots), the one rule every caller uses (the CLI's plan and price, the doors): ``dt``
     when given, else the scene's montecarlo.dt; "auto" -- a step tuned to a stationary
-    target floor, which has no meaning for a first-passage time -- gives the field's default
-    step, MonteCarloSettings.dt."""
-    import dataclasses
-
-    from vifpk.core.scene import MonteCarloSettings
+    target floor, which has no meaning for a first-passage time -- gives the fixed step
+    vifpk.core.sections.FIXED_DT."""
+    from vifpk.core.sections import FIXED_DT
 
     h = scene.montecarlo.dt if dt is None else dt
     if h == "auto":
-        h = {f.name: f.default for f in dataclasses.fields(MonteCarloSettings)}["dt"]
+        h = FIXED_DT
     return float(h)
 
 

@@ -7,8 +7,8 @@ values (a scene source, ``--set`` texts or a mapping of dotted values, the Monte
 by the names of their command-line flags, the models). Everything refused here is a
 :class:`~vifpk.core.result.BadInput` (exit 2 at the command line): an unknown option, a value
 out of range, a model that does not apply to the scene, a list-valued scene where one value is
-needed. The request carries the concrete scene: overrides applied, Monte Carlo options applied
-and the time step following the floor (:func:`follow_floor`), so the door to the solvers
+needed. The request carries the concrete scene: overrides applied and Monte Carlo options
+applied (a step not given is "auto", MonteCarloSettings.dt's default), so the door to the solvers
 (``harness/door/solvers.py``) receives settings and never has to re-read a file to know what was
 asked.
 """
@@ -53,26 +53,6 @@ class Request:
     skipped: Mapping[str, str] = field(default_factory=dict)
     #: check: the tolerance question (harness.request.tolerance.Tolerance)
     tolerance: Any = None
-
-
-# ------------------------------------------------------------------------------- the rules
-def dt_follows_floor(given: frozenset[str] | set[str], floor: float, dt: Any) -> bool:
-    """The one rule of the step that follows the floor: with a target floor (> 0) and no step
-    given (the scene file's [montecarlo] dt, ``--dt``, ``--set montecarlo.dt=``, a sweep's
-    fixed or varied dt), dt is "auto" (tuning.auto_dt: the largest step whose predicted bias
-    is half the floor) instead of the fixed default, which is 4x finer than a floor of 0.01
-    needs."""
-    return bool(floor) and dt != "auto" and "montecarlo.dt" not in given
-
-
-def follow_floor(scene: Scene) -> Scene:
-    """``scene`` with dt = "auto" where :func:`dt_follows_floor` says so (``Scene.given`` knows
-    whether a step was given), else unchanged."""
-    mc = scene.montecarlo
-    if not dt_follows_floor(scene.given, mc.floor, mc.dt):
-        return scene
-    return replace(scene.with_values({"montecarlo.dt": "auto"}),
-                   given=scene.given)  # the rule chose it: still not "given"
 
 
 def _whole(option: str, value: Any) -> int:
@@ -158,12 +138,12 @@ def concrete(source: Scene | str | Path, overrides: Sequence[str] = (),
 
 
 def with_mc_options(scene: Scene, options: Mapping[str, Any], *, mc: bool) -> Scene:
-    """The scene with the Monte Carlo options applied, dt following the floor, and every check
+    """The scene with the Monte Carlo options applied and every check
     of the scene made (magnitudes, a stationary density; with ``mc`` the Monte Carlo settings
     too, naming the options given)."""
     given = [k for k in MC_OPTIONS if options.get(k) is not None]
     values = mc_values({k: options[k] for k in given})
-    scene = follow_floor(scene.with_values(values) if values else scene)
+    scene = scene.with_values(values) if values else scene
     validate.scene_magnitudes(scene)
     validate.stationary_density(scene)
     if mc:

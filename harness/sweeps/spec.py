@@ -53,7 +53,6 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from vifpk.harness.request.prepare import dt_follows_floor
 from vifpk.harness.sweeps.errors import SweepError
 from vifpk.harness.sweeps.keys import key_field
 from vifpk.harness.sweeps.points import (
@@ -357,15 +356,7 @@ def load_sweep(path: str | Path) -> Sweep:
         combos = [tuple((k, v[i]) for k, v in vary) for i in range(len(vary[0][1]))]
     if mode == "zip" and len({canonical(c) for c in combos}) != len(combos):
         raise SweepError(f"{src}: [vary]: two zipped points have the same values")
-    fixed = dict(fixed_raw)
-    # the time step follows the floor (request.dt_follows_floor) unless the sweep or the
-    # base scene file gives one
-    floor = fixed.get("montecarlo.floor", base.montecarlo.floor)
-    given = base.given | set(fixed) | set(vary_raw)
-    if workflow != "averaging" and dt_follows_floor(given, floor,
-                                                     fixed.get("montecarlo.dt",
-                                                               base.montecarlo.dt)):
-        fixed["montecarlo.dt"] = "auto"
+    fixed = dict(fixed_raw)  # a step not given anywhere is "auto" (MonteCarloSettings.dt)
     points = [make_point(base, fixed, seed=seed, workflow=workflow, bifurcation=bif,
                          params=params, first=i == 0, where=src, models=models, tolerance=tol)
               for i, params in enumerate(combos)]

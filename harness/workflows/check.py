@@ -27,6 +27,7 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
+from vifpk.harness.door.coefficients import shared_coefficients
 from vifpk.harness.door.original import original_fpk_problem, original_fpk_solution
 from vifpk.harness.door.solvers import (
     MonteCarloRun,
@@ -172,7 +173,18 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
     decided on it, and the Monte Carlo is its independent cross-check: where the two disagree
     beyond the Monte Carlo's floor the run says so loudly and decides on the Monte Carlo
     (harness/workflows/truth.py). ``truth=False``: the Monte Carlo alone.
+
+    The averaged models' coefficients are computed once per grid for the whole run and
+    shared by the closed forms, the FPKs and the averaged SDEs (door.shared_coefficients).
     """
+    with shared_coefficients():
+        return _cross_check(scene, quiet=quiet, fpk=fpk, sde=sde, tail_mass=tail_mass,
+                            models=models, tolerance=tolerance, run=run, truth=truth)
+
+
+def _cross_check(scene: Any, *, quiet: bool, fpk: bool, sde: bool, tail_mass: bool,
+                 models: tuple[str, ...], tolerance: Tolerance | None,
+                 run: MonteCarloRun | None, truth: bool) -> CheckResult:
     tol = tolerance if tolerance is not None else Tolerance()
     models, absent = models_of(scene, models)
     # closed forms, the original system's Monte Carlo and the metrics; FPK and SDE per model
