@@ -25,7 +25,7 @@ import numpy as np
 from ._jit import jit, over_blocks
 from .geometry import energy
 from .lanes import L_REST, L_V, L_VC, L_X, L_XI, LANES, drop, scratch, step_keeping_x
-from .passage_kernels import bridge_hit
+from .passage_kernels import bridge_hit, bridge_near
 from .splitting_kernels import (
     MAX_RESTARTS,
     OUT_FAIL,
@@ -39,10 +39,11 @@ from .splitting_kernels import (
 
 ON = -2  # a lane's path goes on (not an outcome)
 # the lanes' own rows: float (time, energy q, x before the step, cycle start time, cycles'
-# total time, q before the step), int (the path's index, its level or phase, burn-in steps,
-# restarts, armed, in a cycle, cycles completed, successes)
-_T, _Q, _XB, _TC, _TOT, _QO = range(6)
-_J, _LEV, _N, _RS, _ARM, _IN, _K, _SUCC = range(8)
+# total time, q before the step, the path's level + 1), int (the path's index, its level or
+# phase, burn-in steps, restarts, armed, in a cycle, cycles completed, successes, whether the
+# lane's tests may act after this step)
+_T, _Q, _XB, _TC, _TOT, _QO, _NEXT = range(7)
+_J, _LEV, _N, _RS, _ARM, _IN, _K, _SUCC, _ACT = range(9)
 BURN, RUN = 0, 1  # cycles_orig's phases (in _LEV)
 NONE, SUCCESS, START = 0, 1, 2  # what a cycle's step met (_cycle_test)
 
@@ -58,14 +59,29 @@ def advance_orig(recs, rows, start, rng, maxlev, outcome, levels, h, B, P):
 
 
 @jit(inline="always")
-def _clock_and_energy(m, F, L, h, w0sq, alpha, khi):
-    """Every lane's clock and energy after a step, in one loop the compiler can vectorise (the
-    tests that read them run lane by lane after it): L[_QO] the energy before the step, L[_Q]
-    after it, L[_T] + h."""
+def _screen_advance(m, F, L, Li, h, B, P, levels):
+    """Every lane's clock and energy after a step (L[_QO] the energy before it, L[_Q] after
+    it, L[_T] + h) and whether its tests may act (Li[_ACT]; a lane not flagged would go on
+    unchanged: its energy inside (q_lo, q_hi), below its next level, no bridge draw, t <
+    t_max), in one loop the compiler vectorises (the scratch indexed in place and scalar
+    helpers only: a row view or an array passed to a helper costs atomic reference counts, and
+    inside the loop its vectorisation). Returns the number of lanes flagged."""
+    q_lo, q_hi, M, t_max = levels
+    inv_dq = M / (q_hi - q_lo)
+    n = 0
     for i in range(m):
-        L[_QO, i] = L[_Q, i]
-        L[_Q, i] = energy(F[L_X, i], F[L_V, i], w0sq, alpha, khi)
-        L[_T, i] += h
+        q0 = L[_Q, i]
+        q = energy(F[L_X, i], F[L_V, i], P.w0sq, P.alpha, P.khi)
+        t = L[_T, i] + h
+        L[_QO, i], L[_Q, i], L[_T, i] = q0, q, t
+        x0, vc = L[_XB, i], F[L_VC, i]
+        a = ((q <= q_lo) | (q >= q_hi) | (q != q) | (t >= t_max)
+             | ((q - q_lo) * inv_dq >= L[_NEXT, i])  # level_of(q) > the path's level
+             | bridge_near(B, q_hi, q0, q, x0, vc, h, P)
+             | bridge_near(B, q_lo, q0, q, x0, vc, h, P))
+        Li[_ACT, i] = a
+        n += a
+    return n
 
 
 @jit(inline="always")
@@ -85,8 +101,8 @@ def _advance_block(first, every, recs, rows, start, rng, maxlev, outcome, levels
     half = 0.5 * h
     inv_dq = M / (q_hi - q_lo)
     F, S = scratch()
-    L = np.zeros((6, LANES))
-    Li = np.zeros((2, LANES), dtype=np.int64)
+    L = np.zeros((7, LANES))
+    Li = np.zeros((9, LANES), dtype=np.int64)
     nxt = first
     m = 0
     while True:
@@ -111,14 +127,18 @@ def _advance_block(first, every, recs, rows, start, rng, maxlev, outcome, levels
             for w in range(4):
                 S[w, m] = rng[j, w]
             L[_T, m], L[_Q, m] = recs[row, st, 3], q
-            Li[_J, m], Li[_LEV, m] = j, lev
+            Li[_J, m], Li[_LEV, m], L[_NEXT, m] = j, lev, lev + 1.0
             m += 1
         if m == 0:
             break
-        step_keeping_x(m, F, S, L[_XB], h, half, P, True)  # count: the time at rest (L_REST)
-        _clock_and_energy(m, F, L, h, w0sq, alpha, khi)
+        step_keeping_x(m, F, S, L, _XB, h, half, P, True)  # count: the time at rest (L_REST)
+        if _screen_advance(m, F, L, Li, h, B, P, levels) == 0:
+            continue
         i = 0
         while i < m:
+            if Li[_ACT, i] == 0:  # goes on unchanged
+                i += 1
+                continue
             row = rows[Li[_J, i]]
             q0, q, t = L[_QO, i], L[_Q, i], L[_T, i]
             out = ON
@@ -143,7 +163,7 @@ def _advance_block(first, every, recs, rows, start, rng, maxlev, outcome, levels
                 while lev < e:
                     lev += 1
                     _record(recs, row, lev, F, L, i)
-                Li[_LEV, i] = lev
+                Li[_LEV, i], L[_NEXT, i] = lev, lev + 1.0
                 if q >= q_hi:
                     out = OUT_SUCCESS
                 elif not t < t_max:
@@ -194,8 +214,8 @@ def _cycles_block(first, every, starts, rng, cyc, h, B, P, entries, summary):
     w0sq, alpha, khi = P.w0sq, P.alpha, P.khi
     half = 0.5 * h
     F, S = scratch()
-    L = np.zeros((6, LANES))
-    Li = np.zeros((8, LANES), dtype=np.int64)
+    L = np.zeros((7, LANES))
+    Li = np.zeros((9, LANES), dtype=np.int64)
     nxt = first
     m = 0
     while True:
@@ -216,23 +236,55 @@ def _cycles_block(first, every, starts, rng, cyc, h, B, P, entries, summary):
             m += 1
         if m == 0:
             break
-        step_keeping_x(m, F, S, L[_XB], h, half, P, True)
-        _clock_and_energy(m, F, L, h, w0sq, alpha, khi)  # (a burn-in's clock is not read)
-        m = _cycles_read(m, F, S, L, Li, starts, cyc, h, B, P, entries, summary)
+        step_keeping_x(m, F, S, L, _XB, h, half, P, True)
+        if _screen_cycles(m, F, L, Li, h, B, P, cyc) > 0:
+            m = _cycles_read(m, F, S, L, Li, starts, cyc, h, B, P, entries, summary)
+
+
+@jit(inline="always")
+def _screen_cycles(m, F, L, Li, h, B, P, cyc):
+    """Every lane's clock and energy after a step (as ``_screen_advance``; a burn-in's clock
+    is not read), its burn-in steps + 1, and whether its tests may act (Li[_ACT]; a lane not
+    flagged would go on unchanged: a burn-in neither at q_hi nor over; a cycle's step with
+    ``_cycle_test``'s NONE, its arming unchanged, t < t_max), in one loop over the lanes the
+    compiler can vectorise. Returns the number of lanes flagged."""
+    n_cycles, q0, q1, q_hi, t_max, n_burn = cyc
+    n = 0
+    for i in range(m):
+        qo = L[_Q, i]
+        q = energy(F[L_X, i], F[L_V, i], P.w0sq, P.alpha, P.khi)
+        t = L[_T, i] + h
+        L[_QO, i], L[_Q, i], L[_T, i] = qo, q, t
+        Li[_N, i] += 1  # (read in the burn-in only)
+        armed = Li[_ARM, i] == 1
+        x0, vc = L[_XB, i], F[L_VC, i]
+        run = ((q >= q_hi) | (q != q) | (t >= t_max)
+               | bridge_near(B, q_hi, qo, q, x0, vc, h, P)
+               | ((q <= q0) & (not armed))
+               | ((not armed) & (qo > q0) & bridge_near(B, q0, qo, q, x0, vc, h, P))
+               | ((q >= q1) & (armed | (q <= q0))))
+        burn = (q >= q_hi) | (Li[_N, i] >= n_burn)
+        a = burn if Li[_LEV, i] == BURN else run
+        Li[_ACT, i] = a
+        n += a
+    return n
 
 
 @jit(inline="always")
 def _cycles_read(m, F, S, L, Li, starts, cyc, h, B, P, entries, summary):
-    """Each of the m busy lanes' tests after a step (the burn-in's, or its cycles':
-    ``_cycle_test``); a lane whose path ended is dropped. Returns the busy lanes left."""
+    """Each flagged lane's tests after a step (the burn-in's, or its cycles': ``_cycle_test``;
+    ``_screen_cycles`` flags them); a lane whose path ended is dropped. Returns the busy lanes
+    left."""
     n_cycles, q0, q1, q_hi, t_max, n_burn = cyc
     w0sq, alpha, khi = P.w0sq, P.alpha, P.khi
     i = 0
     while i < m:
+        if Li[_ACT, i] == 0:  # goes on unchanged
+            i += 1
+            continue
         p = Li[_J, i]
         done = False
-        if Li[_LEV, i] == BURN:
-            Li[_N, i] += 1
+        if Li[_LEV, i] == BURN:  # (its step counted by _screen_cycles)
             if L[_Q, i] >= q_hi:
                 Li[_RS, i] += 1
                 if Li[_RS, i] > MAX_RESTARTS:
