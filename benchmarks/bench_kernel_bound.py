@@ -175,7 +175,8 @@ def _minimal_soa(st, S, n, h, c):
             s3 = (s3 << U64(45)) | (s3 >> U64(19))
             iz = np.int64(u & U64(127))
             hz = np.int64(np.int32(np.uint32(u >> U64(32))))
-            zn = hz * WN[iz] if abs(hz) < KN[iz] else np.nan
+            zn = hz * WN[iz]  # (loaded whether or not it is accepted: no branch in the loop)
+            zn = zn if abs(hz) < KN[iz] else np.nan
             Y[0, j], Y[1, j], Y[2, j] = x, v, a * xi + sd * zn
             W[0, j], W[1, j], W[2, j], W[3, j] = s0, s1, s2, s3
         for j in range(LANES):  # the lanes that met an event, in full

@@ -203,8 +203,9 @@ def _ol_advance_smooth(rec, xi, s0, s1, s2, s3):
 def lane_step(m, F, S, h, half, P, keep, count):
     """One step of lanes 0 .. m - 1 (the module docstring); ``keep``: store what the energy
     balance reads (every lane by strang_step); ``count``: add the events and the time at rest
-    (after the burn-in). Returns (impacts, chatter entries) of the step; F[L_VC] holds each
-    lane's velocity at the kick (strang_step's o[8], the bridge test's)."""
+    (after the burn-in). Returns (impacts, chatter entries) of the step; F[L_X0] holds each
+    lane's x before the step and F[L_VC] its velocity at the kick (strang_step's o[8]): the
+    bridge tests of first passage and splitting read them."""
     # F and S indexed in place, no row views: a view made per step costs two atomic reference
     # counts (and a memory barrier each) per row per step (measured: 5 ns a path-step)
     spec = speculate(P.pk, P.pc) and not keep
@@ -237,6 +238,7 @@ def lane_step(m, F, S, h, half, P, keep, count):
         else:
             x, v, xi = F[L_X, j], F[L_V, j], F[L_XI, j]
             s0, s1, s2, s3 = S[0, j], S[1, j], S[2, j], S[3, j]
+            F[L_X0, j] = x  # (every lane's x before the step: F[L_X0], as the smooth loop's)
         x, v, xi, s0, s1, s2, s3, o = strang_step(x, v, xi, s0, s1, s2, s3, h, half, P)
         F[L_X, j], F[L_V, j], F[L_XI, j] = x, v, xi
         S[0, j], S[1, j], S[2, j], S[3, j] = s0, s1, s2, s3
@@ -252,16 +254,6 @@ def lane_step(m, F, S, h, half, P, keep, count):
             F[L_VE, j], F[L_XIU, j], F[L_DV1, j], F[L_DV2, j] = ve, xi_used, dv1, dv2
             F[L_LOSS1, j], F[L_LOSS2, j], F[L_WP, j] = loss1, loss2, wpar
     return impacts, chatter
-
-
-@jit(inline="always")
-def step_keeping_x(m, F, S, L, xb, h, half, P, count):
-    """``lane_step`` (no energy balance) after keeping each lane's x before the step in row xb
-    of L (the bridge tests of first passage and splitting read it with the velocity at the
-    kick)."""
-    for j in range(m):
-        L[xb, j] = F[L_X, j]
-    lane_step(m, F, S, h, half, P, False, count)
 
 
 def run_paths(rng, state, n_steps, step0, n_burn, stride, h, P, bins, out, spw):

@@ -15,11 +15,12 @@ from vifpk.montecarlo.lanes import (
     L_V,
     L_VC,
     L_X,
+    L_X0,
     L_XI,
     LANES,
     drop,
+    lane_step,
     scratch,
-    step_keeping_x,
 )
 from vifpk.montecarlo.rng import uniform
 
@@ -103,31 +104,11 @@ def _give(L, Li, F, S, j, arrs, b):
     steps[b, p], phase[b, p] = Li[_N, j], Li[_PH, j]
 
 
-# rows of the passage's own lane scratch: float (energy at the chunk's last step, level, the
-# x before the step), int (path index, phase, steps, steps into the chunk, chunk length, budget
-# left)
-_E, _LEVEL, _XB = range(3)
+# rows of the passage's own lane scratch: float (energy at the chunk's last step, level), int
+# (path index, phase, steps, steps into the chunk, chunk length, budget left, whether the
+# lane's tests may act after this step)
+_E, _LEVEL = range(2)
 _PATH, _PH, _N, _I, _K, _LEFT, _ACT = range(7)
-
-
-@jit(inline="always")
-def _screen(m, F, L, Li, h, B, P):
-    """Every lane's energy after a step and whether its tests may act (Li[_ACT]), in one loop
-    the compiler vectorises (the scratch indexed in place, scalar helpers only): a lane not
-    flagged (below its level, no bridge draw, its chunk not at its end) only keeps the energy
-    and counts the step, done here. Returns the number of lanes flagged."""
-    n = 0
-    for j in range(m):
-        E, level = L[_E, j], L[_LEVEL, j]
-        E1 = energy(F[L_X, j], F[L_V, j], P.w0sq, P.alpha, P.khi)
-        i = Li[_I, j] + 1
-        a = ((E1 >= level) | (i >= Li[_K, j])
-             | bridge_near(B, level, E, E1, L[_XB, j], F[L_VC, j], h, P))
-        L[_E, j] = E if a else E1
-        Li[_I, j] = Li[_I, j] if a else i
-        Li[_ACT, j] = a
-        n += a
-    return n
 
 
 @jit(nogil=True)
@@ -144,7 +125,7 @@ def _passage_block(first, every, arrs, count, run, h, B, P):
     w0sq, alpha, khi = P.w0sq, P.alpha, P.khi
     half = 0.5 * h
     F, S = scratch()
-    L = np.zeros((3, LANES))
+    L = np.zeros((2, LANES))
     Li = np.zeros((7, LANES), dtype=np.int64)
     for b in range(first, state.shape[0], every):  # this thread's blocks
         n_paths = count[b]
@@ -196,8 +177,23 @@ def _passage_block(first, every, arrs, count, run, h, B, P):
                 j += 1
             if m == 0:
                 continue
-            step_keeping_x(m, F, S, L, _XB, h, half, P, False)
-            if _screen(m, F, L, Li, h, B, P) == 0:
+            lane_step(m, F, S, h, half, P, False, False)
+            # the screen, in one loop the compiler vectorises (the scratch indexed in place,
+            # scalar helpers only: splitting_lanes.py's module docstring): every lane's energy
+            # and whether its tests may act; a lane not flagged (below its level, no bridge
+            # draw, its chunk not at its end) only keeps the energy and counts the step, here
+            flagged = 0
+            for j in range(m):
+                E, level = L[_E, j], L[_LEVEL, j]
+                E1 = energy(F[L_X, j], F[L_V, j], w0sq, alpha, khi)
+                i = Li[_I, j] + 1
+                a = ((E1 >= level) | (i >= Li[_K, j])
+                     | bridge_near(B, level, E, E1, F[L_X0, j], F[L_VC, j], h, P))
+                L[_E, j] = E if a else E1
+                Li[_I, j] = Li[_I, j] if a else i
+                Li[_ACT, j] = a
+                flagged += a
+            if flagged == 0:
                 continue
             j = 0
             while j < m:
@@ -215,7 +211,7 @@ def _passage_block(first, every, arrs, count, run, h, B, P):
                     hit = (level - E) / (E1 - E)
                 else:
                     hb, S[0, j], S[1, j], S[2, j], S[3, j] = bridge_hit(
-                        B, level, E, E1, L[_XB, j], F[L_VC, j], h, P, S[0, j], S[1, j],
+                        B, level, E, E1, F[L_X0, j], F[L_VC, j], h, P, S[0, j], S[1, j],
                         S[2, j], S[3, j])
                     if hb >= 0.0:
                         hit = hb
