@@ -54,7 +54,8 @@ def probe(argv: list[str], out: str) -> None:
         hits = sum(self._cache_hits.values())
         misses = sum(self._cache_misses.values())
         rec = {"fn": key, "sig": str(sig), "thread": threading.current_thread().name,
-               "depth": len(stack), "start": time.perf_counter() - t_start, "child": 0.0}
+               "depth": len(stack), "start": time.perf_counter() - t_start, "child": 0.0,
+               "child_cpu": 0.0}
         stack.append(rec)
         w, c = time.perf_counter(), time.thread_time()
         try:
@@ -64,10 +65,12 @@ def probe(argv: list[str], out: str) -> None:
             rec["wall"] = time.perf_counter() - w
             rec["cpu"] = time.thread_time() - c
             rec["self"] = rec["wall"] - rec["child"]
+            rec["self_cpu"] = rec["cpu"] - rec["child_cpu"]
             rec["what"] = ("load" if sum(self._cache_hits.values()) > hits else
                            "compile" if sum(self._cache_misses.values()) > misses else "had")
             if stack:
                 stack[-1]["child"] += rec["wall"]
+                stack[-1]["child_cpu"] += rec["cpu"]
             if rec["what"] != "had":
                 events.append(rec)
 
@@ -103,12 +106,17 @@ def ahead(scene: str) -> None:
 
 
 def summary(rec: dict) -> dict:
-    """Totals: compiles (count, self wall) and cache loads (count, wall) at depth 0."""
+    """Totals: compiles (count of function specialisations, nested ones included; self wall
+    and CPU), top-level specialisations compiled (depth 0: the kernels a run calls from
+    Python) and cache loads (count, wall, CPU)."""
     ev = rec["events"]
     comp = [e for e in ev if e["what"] == "compile"]
     load = [e for e in ev if e["what"] == "load"]
     return {"compiles": len(comp), "compile_self_wall": sum(e["self"] for e in comp),
+            "compile_self_cpu": sum(e.get("self_cpu", 0.0) for e in comp),
+            "top_level": sorted(f"{e['fn']} {e['what']}" for e in ev if e["depth"] == 0),
             "loads": len(load), "load_wall": sum(e["wall"] for e in load),
+            "load_cpu": sum(e["cpu"] for e in load),
             "top": sorted(({"fn": e["fn"], "what": e["what"], "self": round(e["self"], 3),
                             "wall": round(e["wall"], 3), "depth": e["depth"]}
                            for e in ev), key=lambda e: -e["self"])[:12]}
@@ -159,11 +167,14 @@ def main() -> None:
                     rec = json.loads(Path(out).read_text())
                     if rec["exit"] != 0:
                         raise SystemExit(f"{where} {phase}: exit {rec['exit']}")
+                    if "--json" in argv:  # the run's own stage timing (the solve)
+                        info = json.loads(Path(argv[argv.index("--json") + 1]).read_text())
+                        rec["stages"] = info.get("info", {}).get("timing", {}).get("stages")
                     row[phase] = {"process_wall": time.perf_counter() - w,
                                   "load": os.getloadavg(), **rec, **summary(rec)}
                     print(where, phase, {k: row[phase][k] for k in (
-                        "exit", "process_wall", "wall", "cpu", "compiles", "compile_self_wall",
-                        "loads", "load_wall", "load")}, flush=True)
+                        "exit", "process_wall", "wall", "cpu", "compiles", "compile_self_cpu",
+                        "top_level", "loads", "load_cpu", "load")}, flush=True)
                 res["rounds"].append(row)
                 (RESULTS / name).write_text(json.dumps(res, indent=1) + "\n")
 

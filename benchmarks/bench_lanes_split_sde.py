@@ -1,9 +1,12 @@
 """ns per path-step of the splitting kernels of the original system (advance_orig, cycles_orig)
-and of the averaged SDE's stationary kernel (run_sde_blocks), before and after they were put
-in struct-of-arrays lanes (issue 44), and against minimal kernels of the same scheme in lanes.
+and of the averaged SDE's kernels (the stationary run_sde_blocks; first passage, snapshots and
+the splitting's advance_sde, cycles_sde: ``_sde_time``), before and after they were put in
+struct-of-arrays lanes (issue 44), and against minimal kernels of the same scheme in lanes.
 
     NUMBA_NUM_THREADS=1 python benchmarks/bench_lanes_split_sde.py --before PYTHON [--rounds 5]
     # -> results/lanes_split_sde.json
+    NUMBA_NUM_THREADS=1 python benchmarks/bench_lanes_split_sde.py --before PYTHON --only sde \
+        --out benchmarks/results/lanes_sde_time.json   # the averaged SDE's kernels alone
 
 PYTHON is the interpreter of a checkout before the change (its editable install; e.g. a
 venv of main at aa1e12c). Each round runs one worker process of each side, alternating
@@ -151,6 +154,73 @@ def _sde_tables():
     return grid[1] - grid[0], a_tab, b_tab
 
 
+def _sde_time():
+    """{name: call(n) -> path-steps} of the averaged SDE's time-domain and splitting kernels
+    (n x SDE_STRIDE steps a path; the same calls in both checkouts): first passage where no
+    path crosses (A0 = 0.32, Ac = 2: every path runs n_max steps) and to Ac = 0.8 (the steps
+    each path took, from its time), snapshots at four marks, the AMS advance (the SDE
+    m = -(A - 1), sigma^2 = 0.02 from A = 1, levels from A = 0.3 to 2: no path absorbed)
+    and the cycles (A_lo 0.15, q1 at 0.3, A_hi 2: every path cycles to t_max)."""
+    from vifpk.montecarlo import sde_time as T
+    from vifpk.montecarlo.ams import words
+    from vifpk.montecarlo.averaged_sde import sde_tables
+    from vifpk.montecarlo.rng import block_seeds
+    try:
+        from vifpk.montecarlo import sde_lanes_splitting as K
+    except ImportError:  # before issue 44's SDE lanes
+        from vifpk.montecarlo import splitting_kernels as K
+    dA, a_tab, b_tab = _sde_tables()
+    nb, per = SDE_BLOCKS, SDE_PER
+    paths = nb * per
+    offset, count = np.array([0, per], np.int64), np.full(nb, per, np.int64)
+
+    def passage(n, Ac, start):
+        steps = n * SDE_STRIDE
+        fpt, cens, bad = np.zeros(paths), np.zeros(paths, np.bool_), np.zeros(paths, np.int64)
+        T.run_sde_passage(block_seeds(5, nb, per), np.full(paths, start), offset, count,
+                          np.zeros(nb, np.int64), per, steps, steps * H, H, Ac, a_tab, b_tab,
+                          1.0 / dA, fpt, cens, bad)
+        assert not bad.any() and (Ac < 1.0 or cens.all())
+        return int(np.sum(np.minimum(np.ceil(fpt / H - 1e-9), steps)))
+
+    def snapshots(n):
+        marks = np.array([n // 4, n // 2, 3 * n // 4, n], np.int64) * SDE_STRIDE
+        hist, bad = np.zeros((nb, 4, 40)), np.zeros(paths, np.int64)
+        T.run_sde_snapshots(block_seeds(5, nb, per), np.full(paths, 0.32), offset, count,
+                            np.zeros(nb, np.int64), per, marks, H, a_tab, b_tab, 1.0 / dA,
+                            0.0, 25.0, hist, bad)
+        assert hist.sum() > 0.9 * 4 * paths
+        return paths * n * SDE_STRIDE
+
+    g_ou, a_ou, b_ou = sde_tables(lambda A: -(A - 1.0), lambda A: 0.02 + 0 * A, 2.4, 4001)
+    # A about N(1, 0.1^2): never near the low level
+
+    def advance(n):
+        M, t_max = 10, n * SDE_STRIDE * H
+        recs = np.zeros((paths, M + 1, 2))
+        recs[:, 0, 0] = 1.0
+        recs[:, 1:3, 0] = 1.0  # levels 1, 2 reached at the start (level_of(1.0) = 2)
+        maxlev, outcome = np.zeros(paths, np.int64), np.zeros(paths, np.int64)
+        K.advance_sde(recs, np.arange(paths, dtype=np.int64), np.full(paths, 2, np.int64),
+                      words(4, (8,), paths), maxlev, outcome, 0.3**2, 4.0, M, t_max, H,
+                      a_ou, b_ou, 1.0 / (g_ou[1] - g_ou[0]))
+        assert np.all(outcome == -1)  # every path ran to t_max
+        return paths * _steps_to(t_max)
+
+    def cycles(n):
+        t_max = n * SDE_STRIDE * H
+        e, sm = np.zeros((paths, 2, 2)), np.zeros((paths, 7))
+        K.cycles_sde(np.full(paths, 0.1), words(4, (9,), paths), 10**9, 0.15**2, 0.3**2, 4.0,
+                     t_max, H, a_tab, b_tab, 1.0 / dA, e, sm)
+        assert np.all(sm[:, 5] == 1.0) and sm[:, 2].sum() > 0  # cycled until t_max
+        return paths * _steps_to(t_max)
+    return {"averaged SDE run_sde_passage, none crosses": lambda n: passage(n, 2.0, 0.32),
+            "averaged SDE run_sde_passage, to Ac 0.8": lambda n: passage(n, 0.8, 0.32),
+            "averaged SDE run_sde_snapshots": snapshots,
+            "averaged SDE splitting advance_sde (AMS)": advance,
+            "averaged SDE splitting cycles_sde": cycles}
+
+
 def _sde():
     """{name: call(n_samples) -> path-steps} of run_sde_blocks, A only and with x1, x2."""
     import inspect
@@ -273,15 +343,20 @@ def _check_minimal_sde() -> None:
     assert np.array_equal(W.T, w[0]) and np.array_equal(h2, hist[0])
 
 
-def worker(side: str, n: int, passes: int) -> dict[str, list[float]]:
+def worker(side: str, n: int, passes: int, only: str) -> dict[str, list[float]]:
     """ns per path-step of each kernel of this checkout: ``passes`` passes over the kernels
-    (each kernel timed once a pass, CPU time, the order rotated pass by pass)."""
+    (each kernel timed once a pass, CPU time, the order rotated pass by pass); ``only`` =
+    "sde": the averaged SDE's kernels and their minimal kernel alone."""
     numba.set_num_threads(1)
-    original, stationary = _original()
-    runs = {**original, **_splitting(), **_sde()}
+    if only == "sde":
+        runs, stationary = {**_sde(), **_sde_time()}, None
+    else:
+        original, stationary = _original()
+        runs = {**original, **_splitting(), **_sde(), **_sde_time()}
     if side == "after":
         _check_minimal_sde()
-        runs.update(_minimal(stationary))
+        runs.update({k: f for k, f in _minimal(stationary).items()
+                     if only != "sde" or "SDE" in k})
     for name, fn in runs.items():
         fn(2 if "SDE" in name else 100)  # load the compiled kernel
     out: dict[str, list[float]] = {k: [] for k in runs}
@@ -306,9 +381,12 @@ def main() -> None:
     ap.add_argument("--passes", type=int, default=3, help="passes over the kernels a round")
     ap.add_argument("--steps", type=int, default=20000, help="steps per path")
     ap.add_argument("--worker", choices=("before", "after"))
+    ap.add_argument("--only", choices=("all", "sde"), default="all",
+                    help="sde: the averaged SDE's kernels only")
+    ap.add_argument("--out", default=str(OUT), help="the results' json")
     a = ap.parse_args()
     if a.worker:
-        print(json.dumps(worker(a.worker, a.steps, a.passes)))
+        print(json.dumps(worker(a.worker, a.steps, a.passes, a.only)))
         return
     env = {**os.environ, "NUMBA_NUM_THREADS": "1"}
     env.pop("PYTHONDONTWRITEBYTECODE", None)
@@ -320,8 +398,8 @@ def main() -> None:
         for side, py in sorted(sides.items(), reverse=True):  # before, then after
             cwd = ROOT if side == "after" else None
             r = subprocess.run([py, str(Path(__file__).resolve()), "--worker", side, "--steps",
-                                str(a.steps), "--passes", str(a.passes)], capture_output=True,
-                               text=True, env=env, cwd=cwd, check=True)
+                                str(a.steps), "--passes", str(a.passes), "--only", a.only],
+                               capture_output=True, text=True, env=env, cwd=cwd, check=True)
             got = json.loads(r.stdout.strip().splitlines()[-1])
             for k, v in got.items():
                 rounds[side].setdefault(k, []).extend(v)
@@ -338,14 +416,14 @@ def main() -> None:
            "settings": {"dt": H, "paths": N_PATHS, "steps_per_path": a.steps,
                         "sde": {"blocks": SDE_BLOCKS, "paths_per_block": SDE_PER,
                                 "stride": SDE_STRIDE}, "rounds": a.rounds,
-                        "passes": a.passes, "before": a.before},
+                        "passes": a.passes, "before": a.before, "only": a.only},
            "machine": {"cpus": os.cpu_count(), "load_average_start": load0,
                        "load_average_end": os.getloadavg()}}
     if "before" in med:
         res["before_over_after"] = {k: med["before"][k] / after[k] for k in med["before"]}
         res["before_over_minimal_soa"] = {k: v / after[_minimal_of(k)]
                                           for k, v in med["before"].items()}
-    OUT.write_text(json.dumps(res, indent=1) + "\n")
+    Path(a.out).write_text(json.dumps(res, indent=1) + "\n")
     print(json.dumps({k: res[k] for k in res if k != "rounds"}, indent=1))
 
 

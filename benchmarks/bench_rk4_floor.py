@@ -2,7 +2,13 @@
 RK4 simulation of the original system at dt = 0.01 (issue 44, item 5), CPU seconds.
 
     NUMBA_NUM_THREADS=1 python benchmarks/bench_rk4_floor.py [--before PYTHON] [--rounds 3]
-        # -> benchmarks/results/rk4_floor.json
+        [--seeds]  # -> benchmarks/results/rk4_floor.json
+
+``--seeds``: round i runs vifpk with seed 1 + i (before and after alike). The sampled time a
+floor takes is itself random (paper-base, seeds 1-4: 7375-8875 time units), and a change that
+moves the paths (a different burn-in) draws another realisation at the same seed; so the
+summary also gives each run at the mean sampled time of all the vifpk runs of its scene
+(``cpu_at_mean_time``: its sampling CPU scaled by T_mean / T, its other stages as measured).
 
 THE REFERENCE (``rk4_block``, written here, sharing no code with vifpk's kernels): the classical
 fourth-order Runge-Kutta method on (x, v) of
@@ -165,14 +171,15 @@ def _load(name):
     return load_scene(SCENES[name])
 
 
-def worker_vifpk(name: str) -> dict:
+def worker_vifpk(name: str, seed: int | None = None) -> dict:
     import numba
 
     from vifpk import montecarlo
     numba.set_num_threads(1)
     scene = _load(name)
+    seed = scene.montecarlo.seed if seed is None else seed
     st = montecarlo.Settings(**{**dataclasses.asdict(scene.montecarlo), "dt": "auto",
-                                "floor": FLOOR, "threads": 1},
+                                "floor": FLOOR, "threads": 1, "seed": seed},
                              observables=("A",), progress=False)
     quick = dataclasses.replace(st, floor=0.0, time=20.0, burn_in=10.0, dt_check=False)
     montecarlo.simulate(scene.system, scene.noise, quick)  # numba's cache loaded
@@ -189,6 +196,7 @@ def worker_vifpk(name: str) -> dict:
             "ns_per_path_step_sampling": 1e9 * stages.get("sampling", math.nan)
             / (scene.montecarlo.paths * r.info["settings"]["time"] / r.info["settings"]["dt"]),
             "time": r.info["settings"]["time"], "burn_in": r.info["settings"]["burn_in"],
+            "seed": seed,
             "edges": a["edges"].tolist(), "p": a["p"].tolist(), "err": a["err"].tolist()}
 
 
@@ -244,6 +252,11 @@ def main() -> None:
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--worker", nargs="+")
     ap.add_argument("--scenes", nargs="+", default=list(SCENES))
+    ap.add_argument("--seeds", action="store_true",
+                    help="round i runs vifpk (before and after alike) with seed 1 + i: the "
+                         "sampled time a floor takes is a random number (seeds 1-4 of "
+                         "paper-base: 7375-8875), so one seed's before/after pair differs "
+                         "by its realisation wherever the paths differ")
     ap.add_argument("--rk4", nargs="*", default=[], metavar="SCENE=JSON",
                     help="the RK4 reference's run of a scene, made before by this script's "
                          "worker (--worker rk4 SCENE VIFPK_JSON > JSON), instead of a new one")
@@ -251,7 +264,7 @@ def main() -> None:
     if a.worker:
         kind, name = a.worker[0], a.worker[1]
         if kind == "vifpk":
-            print(json.dumps(worker_vifpk(name)))
+            print(json.dumps(worker_vifpk(name, *(int(x) for x in a.worker[2:3]))))
         else:
             ref = json.loads(Path(a.worker[2]).read_text())
             print(json.dumps(worker_rk4(name, ref["edges"], ref["burn_in"])))
@@ -266,9 +279,10 @@ def main() -> None:
         if a.before:
             runs["before"] = []
         for i in range(a.rounds):
+            seed = [str(1 + i)] if a.seeds else []
             if a.before:
-                runs["before"].append(_run(a.before, "vifpk", name))
-            runs["after"].append(_run(sys.executable, "vifpk", name))
+                runs["before"].append(_run(a.before, "vifpk", name, *seed))
+            runs["after"].append(_run(sys.executable, "vifpk", name, *seed))
             if i == 0 and not runs["rk4"]:  # one RK4 run a scene (its work is deterministic)
                 ref = ROOT / "benchmarks" / "results" / f".rk4_edges_{name}.json"
                 ref.write_text(json.dumps(runs["after"][0]))
@@ -276,6 +290,16 @@ def main() -> None:
                 ref.unlink()
             print(name, {k: round(v[-1]["cpu"], 2) for k, v in runs.items()}, flush=True)
         med = {k: float(np.median([r["cpu"] for r in v])) for k, v in runs.items()}
+        # each vifpk run at the mean sampled time of all of them: its sampling's CPU scaled
+        # by T_mean / T (the fixed stages as measured), so that before and after compare at
+        # equal work where their seeds' floors were reached at different times
+        mine_runs = [r for k, v in runs.items() if k != "rk4" for r in v]
+        t_mean = float(np.mean([r["time"] for r in mine_runs]))
+        for r in mine_runs:
+            samp = r["stages_cpu"].get("sampling", 0.0)
+            r["cpu_at_mean_time"] = r["cpu"] - samp + samp * t_mean / r["time"]
+        eq = {k: float(np.median([r["cpu_at_mean_time"] for r in v]))
+              for k, v in runs.items() if k != "rk4"}
         rk = runs["rk4"][0]
         same = [r for r in runs["after"] + runs.get("before", []) if r["edges"] == rk["edges"]]
         mine = same[0] if same else None  # a vifpk run on the RK4 run's bins
@@ -285,11 +309,16 @@ def main() -> None:
         res["scenes"][name] = {
             "cpu_seconds_median": med,
             "rk4_over_after": med["rk4"] / med["after"],
+            "mean_sampled_time": t_mean, "cpu_at_mean_time_median": eq,
+            "rk4_over_after_at_mean_time": med["rk4"] / eq["after"],
+            **({"rk4_over_before_at_mean_time": med["rk4"] / eq["before"]}
+               if a.before else {}),
             **({"rk4_over_before": med["rk4"] / med["before"],
                 "before_over_after": med["before"] / med["after"]} if a.before else {}),
             "runs": {k: [{kk: r[kk] for kk in ("cpu", "floor", "time", "burn_in", "dt",
                                                "path_steps", "ns_per_path_step",
-                                               "ns_per_path_step_sampling", "stages_cpu")
+                                               "ns_per_path_step_sampling", "stages_cpu", "seed",
+                                               "cpu_at_mean_time")
                           if kk in r} for r in v] for k, v in runs.items()},
             "accuracy": {"L1_rk4_vs_vifpk": l1,
                          "floors_in_quadrature": math.hypot(mine["floor"], rk["floor"])

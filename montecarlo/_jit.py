@@ -10,6 +10,10 @@ numba's on-disk cache judges a kernel fresh by its own file's stamp only, while 
 code of other modules (the pieces, the physics layer's laws and noise kinds, a plugin's kind):
 an edit there left the cached, OLD kernel running. Every vifpk kernel's cache is therefore
 stamped also with ``sources_stamp()``, a hash of the code it may inline (``_stamped``).
+
+A cache HIT of a vifpk kernel loads its object code without numba's registry refresh
+(``_light``): the refresh imports all of numba's lowering registries and, through them,
+scipy.linalg, which a warm run paid before its first kernel (0.73-0.79 s CPU; 0.06 s without).
 """
 
 from __future__ import annotations
@@ -96,6 +100,75 @@ def _install_stamped_locators() -> None:
 _install_stamped_locators()
 
 
+def _light_cache(dispatcher: Any) -> Any:
+    """``dispatcher`` with its on-disk cache loaded without numba's registry refresh: its
+    FunctionCache's class is swapped for ``_light()``'s subclass (any other cache is left)."""
+    from numba.core.caching import FunctionCache
+
+    cache = getattr(dispatcher, "_cache", None)
+    if type(cache) is FunctionCache and hasattr(cache, "_load_overload"):
+        cache.__class__ = _light()
+    return dispatcher
+
+
+#: the symbols a cached entry may need that numba registers only while refreshing (its string
+#: hash's secrets, numba.cpython.hashing, one of the registries the refresh imports); numba
+#: registers every other external symbol when its context is made (C helpers, libm), with its
+#: runtime (``rtsys.initialize``) or by the entry's own ``reload_init`` (the parallel layer)
+_REFRESH_SYMBOLS = (b"_numba_hashsecret_",)
+_LIGHT: list[type] = []
+
+
+def _light() -> type:
+    """numba's FunctionCache whose cache HIT skips ``target_context.refresh()`` (made once).
+
+    The refresh imports every lowering registry of numba (numba.np.arraymath's BLAS check
+    imports all of scipy.linalg), 0.6-0.8 s CPU before a warm run's first kernel loads, while
+    a cached entry is object code that needs numba's runtime (NRT) and the symbols numba
+    registered when its context was made. An entry whose code names a symbol of
+    ``_REFRESH_SYMBOLS`` (or whose form is not the one expected) is loaded after the full
+    refresh, as numba does; a miss compiles through numba's compiler, which refreshes both
+    contexts itself."""
+    if _LIGHT:
+        return _LIGHT[0]
+    from numba.core.caching import FunctionCache
+    from numba.core.runtime import rtsys
+
+    class Light(FunctionCache):
+        def load_overload(self, sig: Any, target_context: Any) -> Any:
+            try:
+                rtsys.initialize(target_context)
+                with self._guard_against_spurious_io_errors():
+                    return self._load_light(sig, target_context)
+            except AttributeError:
+                # a numba whose private cache API differs from the one read here (numba
+                # >= 0.59 is allowed): numba's own load, with its full refresh
+                return super().load_overload(sig, target_context)
+
+        def _load_light(self, sig: Any, target_context: Any) -> Any:
+            if not self._enabled:
+                return None
+            data = self._cache_file.load(self._index_key(sig, target_context.codegen()))
+            if data is None:
+                return None
+            if not _self_contained(data):
+                target_context.refresh()
+            return self._impl.rebuild(target_context, data)
+
+    _LIGHT.append(Light)
+    return Light
+
+
+def _self_contained(data: Any) -> bool:
+    """A cached CompileResult (numba's ``CompileResult._reduce``: its library first, as
+    (name, "object", (object code, bitcode))) whose object code names no ``_REFRESH_SYMBOLS``."""
+    try:
+        code = data[0][2][0]
+    except (IndexError, KeyError, TypeError):
+        return False
+    return isinstance(code, bytes) and not any(s in code for s in _REFRESH_SYMBOLS)
+
+
 def jit(fn: F | None = None, *, parallel: bool = False, inline: str = "never",
         nogil: bool = False) -> Any:
     """``numba.njit(cache=True, ...)``; usable bare or with arguments. ``error_model="numpy"``
@@ -104,8 +177,8 @@ def jit(fn: F | None = None, *, parallel: bool = False, inline: str = "never",
     deco = numba.njit(cache=True, parallel=parallel, error_model="numpy", inline=inline,
                       nogil=nogil)
     if fn is None:
-        return deco
-    return deco(fn)
+        return lambda f: _light_cache(deco(f))
+    return _light_cache(deco(fn))
 
 
 def over_blocks(kernel: Callable[..., Any], n_blocks: int, *args: Any) -> None:

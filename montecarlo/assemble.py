@@ -88,12 +88,14 @@ def assemble(system: Any, noise: Any, plan: RunPlan, clock: Clock, run: Started,
     data, floors, samples = densities(arr, edges, obs, h, step.cause)
     ev = arr.events
     sampled = run_to * win_steps * h
-    steps = float(blocks * per_block * (n_burn + run_to * win_steps))
+    burnt = n_burn * h + (run.coarse["time"] if run.coarse else 0.0)  # both parts
+    n_coarse = round(run.coarse["time"] / run.coarse["dt"]) if run.coarse else 0
+    steps = float(blocks * per_block * (n_coarse + n_burn + run_to * win_steps))
     info: dict[str, Any] = {
         "solver": "montecarlo",
         "steps_this_run": steps - (ck.steps if ck is not None else 0.0),
         "settings": {"paths": blocks * per_block, "dt": h, "time": sampled,
-                     "burn_in": n_burn * h, "sample_every": stride * h, "blocks": blocks,
+                     "burn_in": burnt, "sample_every": stride * h, "blocks": blocks,
                      "bins": st.bins, "observables": list(obs),
                      "dt_mode": "auto" if st.dt == "auto" else "fixed",
                      "burn_in_mode": "auto" if st.burn_in == "auto" else "fixed"},
@@ -116,6 +118,8 @@ def assemble(system: Any, noise: Any, plan: RunPlan, clock: Clock, run: Started,
         info["relaxation"] = relax
     if dt_rule is not None:
         info["dt_rule"] = dt_rule
+    if run.coarse is not None:  # the burn-in's part at a coarser step (burnin.py)
+        info["burn_in_coarse"] = run.coarse
     laps.lap("densities")
     info["convergence"] = _convergence(plan, run, done, samples)
     laps.lap("certificate")
@@ -138,8 +142,10 @@ def assemble(system: Any, noise: Any, plan: RunPlan, clock: Clock, run: Started,
     elif st.dt == "auto" and st.dt_check and "A" in data:
         laps.lap("result")
         t3 = time.perf_counter()
-        chk = run_step_check(simulate, system, noise, st, data["A"], edges, h, n_burn * h,
-                             sampled, floor, target, deadline, (dt_rule or {}).get("omega"))
+        chk = run_step_check(simulate, system, noise, st, data["A"], edges, h, burnt,
+                             sampled, floor, target, deadline, (dt_rule or {}).get("omega"),
+                             reach=run.reach, start=arr.state.copy(),
+                             tau=relax["tau"] if relax is not None else None)
         info["seconds"]["dt_check"] = time.perf_counter() - t3
         info["seconds"]["total"] = time.perf_counter() - plan.t_start
         laps.lap("dt_check")
@@ -157,7 +163,7 @@ def assemble(system: Any, noise: Any, plan: RunPlan, clock: Clock, run: Started,
     if ck is not None and ck.notes.get("dt_rule"):
         info["dt_rule"] = ck.notes["dt_rule"]
     if st.keep_state:  # the key of the step it ran at (dt "auto" settles after the pilot)
-        notes = {k: info[k] for k in ("dt_rule", "dt_check") if k in info}
+        notes = {k: info[k] for k in ("dt_rule", "dt_check", "burn_in_coarse") if k in info}
         info["checkpoint"] = Checkpoint(
             key=run_key(phys, h, st.seed, blocks, per_block, obs, st.certificate), notes=notes,
             arrays={k: getattr(arr, k) for k in ("rng", "state", "moments", "events", "stuck",
@@ -203,7 +209,7 @@ def _convergence(plan: RunPlan, run: Started, done: Sampled, samples: np.ndarray
         conv = certificate(windows, spw, float(np.var(windows / spw)), win_steps * h)
     else:
         conv = {"equilibrated": None, "reason": "no certificate was asked for"}
-    conv.update({"burn_in": n_burn * h,
+    conv.update({"burn_in": n_burn * h + (run.coarse["time"] if run.coarse else 0.0),
                  "burn_in_mode": "auto" if st.burn_in == "auto" else "fixed",
                  "target_floor": target if target > 0 else None,
                  "floor": floor if "A" in obs else None,

@@ -59,6 +59,14 @@ class Settings:
     resume: Any = field(default=None, compare=False, repr=False)
     #: return where the run stopped as info["checkpoint"] (a checkpoint.Checkpoint)
     keep_state: bool = False
+    #: the top of the over-dispersed starts (the scale pilot's reach, burnin.begin) from an
+    #: earlier run of the same scene at a given step with its ``edges`` (the step check's
+    #: coarse run, stepcheck.py): no scale pilot is run; 0: the scale pilot measures it
+    start_reach: float = 0.0
+    #: (x, v, xi) of every path, [blocks, paths per block, 3], to start from instead of the
+    #: over-dispersed starts (the step check's coarse run starts where the run ended,
+    #: stepcheck.py); None: the over-dispersed starts
+    start_state: Any = field(default=None, compare=False, repr=False)
 
 
 @dataclass(frozen=True, kw_only=True)

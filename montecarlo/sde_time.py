@@ -21,6 +21,11 @@ blocks, paths per block), as the original system's paths do), so a path's number
 depend on the other paths, the horizon (a shorter one censors the same paths, leaving the
 other times unchanged), the cut into calls (of whole paths; Ctrl-C between them) nor the
 thread count.
+
+**Lanes.** The kernels (sde_lanes.py) step LANES paths of a thread together in struct-of-arrays
+lanes (the step vectorised, as averaged_sde.run_sde_blocks's), each lane's numbers those of
+``sde_step`` on its path's own words, so the results are bit for bit those of the kernels
+that stepped one path at a time (issue 44; benchmarks/mc_identity.py).
 """
 
 from __future__ import annotations
@@ -33,97 +38,21 @@ from typing import Any
 
 import numba
 import numpy as np
-from numba import prange
 from vifpk.montecarlo.failures import SimulationDiverged
-from vifpk.montecarlo.passage_kernels import BRIDGE_FLOOR
 from vifpk.montecarlo.progress import progress_bar
 from vifpk.montecarlo.rng import block_seeds
 from vifpk.montecarlo.stepper import CHUNK_SECONDS
 
 from vifpk.core.result import BadInput, Result, Status
 
-from ._jit import jit
-from .averaged_sde import ORDER, STEPS_PER_TAU, relaxation_time, sde_step, sde_tables
+from .averaged_sde import ORDER, STEPS_PER_TAU, relaxation_time, sde_tables
+from .lanes import LANES
 from .passage import layout
-from .rng import uniform
+from .sde_lanes import run_sde_passage, run_sde_snapshots
 from .transient import snapshot_densities
 
 TABLE_POINTS = 4001
 TABLE_MARGIN = 1.25  # the tables reach TABLE_MARGIN x the threshold (or the top edge)
-
-
-@jit(parallel=True)
-def run_sde_passage(states, starts, offset, count, done, k, n_max, horizon, h, Ac, a_tab,
-                    b_tab, inv_d, fpt, censored, bad):
-    """Paths done[b] .. done[b] + k - 1 of each block b (path i of block b is the global path
-    offset[b] + i, from starts[...]); fpt and censored written per path, bad[path] = 1 when
-    the path's state became non-finite."""
-    sq = math.sqrt(h)
-    last = a_tab.size - 1
-    floor_arg = -math.log(BRIDGE_FLOOR)
-    for b in prange(states.shape[0]):
-        for i in range(done[b], min(done[b] + k, count[b])):
-            s0, s1, s2, s3 = states[b, i, 0], states[b, i, 1], states[b, i, 2], states[b, i, 3]
-            g = offset[b] + i
-            A = starts[g]
-            Z = A * A
-            hit = -1.0
-            n = 0
-            while n < n_max:
-                Z, bb, refl, s0, s1, s2, s3 = sde_step(Z, s0, s1, s2, s3, h, sq, a_tab, b_tab,
-                                                       inv_d, last)
-                A1 = math.sqrt(Z)
-                n += 1
-                if A1 >= Ac:
-                    hit = (Ac - A) / (A1 - A)
-                    break
-                if not math.isfinite(A1):
-                    bad[g] = 1
-                    break
-                arg = 2.0 * (Ac - A) * (Ac - A1) / (bb * bb * h)
-                if arg < floor_arg:
-                    u, s0, s1, s2, s3 = uniform(s0, s1, s2, s3)
-                    if u < math.exp(-arg):
-                        hit = (Ac - A) / ((Ac - A) + (Ac - A1))
-                        break
-                A = A1
-            states[b, i, 0], states[b, i, 1], states[b, i, 2], states[b, i, 3] = s0, s1, s2, s3
-            if hit >= 0.0 and (n - 1 + hit) * h <= horizon:
-                fpt[g] = (n - 1 + hit) * h
-                censored[g] = False
-            else:
-                fpt[g] = horizon
-                censored[g] = True
-
-
-@jit(parallel=True)
-def run_sde_snapshots(states, starts, offset, count, done, k, marks, h, a_tab, b_tab, inv_d,
-                      a_lo, a_inv, hist, bad):
-    """As run_sde_passage, but record A at the step indices ``marks`` (increasing) into
-    hist[b, j, bin] (A outside the edges: not counted, so the density's mass falls short)."""
-    sq = math.sqrt(h)
-    last = a_tab.size - 1
-    nb = hist.shape[2]
-    for b in prange(states.shape[0]):
-        for i in range(done[b], min(done[b] + k, count[b])):
-            s0, s1, s2, s3 = states[b, i, 0], states[b, i, 1], states[b, i, 2], states[b, i, 3]
-            g = offset[b] + i
-            A = starts[g]
-            Z = A * A
-            n = 0
-            for j in range(marks.size):
-                while n < marks[j]:
-                    Z, bb, refl, s0, s1, s2, s3 = sde_step(Z, s0, s1, s2, s3, h, sq, a_tab,
-                                                           b_tab, inv_d, last)
-                    n += 1
-                A = math.sqrt(Z)
-                if not math.isfinite(A):
-                    bad[g] = 1
-                    break
-                q = math.floor((A - a_lo) * a_inv)
-                if 0 <= q < nb:
-                    hist[b, j, q] += 1.0
-            states[b, i, 0], states[b, i, 1], states[b, i, 2], states[b, i, 3] = s0, s1, s2, s3
 
 
 def auto_dt(drift: Callable[[np.ndarray], np.ndarray],
@@ -165,14 +94,17 @@ def _drive(kernel: Callable[..., None], count: np.ndarray, steps_per_path: float
            progress: bool, label: str) -> float:
     """Run ``kernel(done, k)`` over every block's paths in calls of about CHUNK_SECONDS (whole
     paths; Ctrl-C between calls), with a tqdm bar in paths (progress.progress_bar: quiet for
-    runs under 3 s); returns the seconds spent."""
+    runs under 3 s); returns the seconds spent. A call takes at least enough paths to fill
+    every thread's LANES lanes (the kernels pool a thread's paths into its lanes,
+    sde_lanes.py); any cut gives the same numbers."""
     done = np.zeros_like(count)
     rate = 5e6 * numba.get_num_threads()
+    k_min = -(-LANES * min(numba.get_num_threads(), count.size) // count.size)
     bar = progress_bar(progress, total=int(count.sum()), desc=label, unit=" paths")
     t0 = time.perf_counter()
     try:
         while np.any(done < count):
-            k = int(max(1, CHUNK_SECONDS * rate / max(steps_per_path * count.size, 1.0)))
+            k = int(max(k_min, CHUNK_SECONDS * rate / max(steps_per_path * count.size, 1.0)))
             t = time.perf_counter()
             kernel(done, k)
             spent = time.perf_counter() - t
@@ -290,7 +222,9 @@ def sde_snapshots(drift: Callable[[np.ndarray], np.ndarray],
     t = marks * float(dt)
     info = {"solver": "averaged-sde", "method": "snapshots", "paths": int(paths),
             "blocks": int(blocks), "dt": float(dt), "times_requested": t_req.tolist(),
-            "seed": {"root": int(seed)}, "L1_floor": {"A": snap.pop("L1_floor").tolist()},
+            "seed": {"root": int(seed), "scheme": "path p of block b: words 4p..4p+3 of "
+                     "numpy.random.SeedSequence(root, spawn_key=(b,)).generate_state"},
+            "L1_floor": {"A": snap.pop("L1_floor").tolist()},
             "mass_inside": {"A": snap.pop("mass").tolist()},
             "order": {"weak": ORDER},
             "seconds": {"compile": compile_s, "run": run_s, "total": compile_s + run_s},

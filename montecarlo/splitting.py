@@ -52,6 +52,7 @@ from vifpk.montecarlo.cycles import cycle_mfpt, mfpt_by_cycles, numba_threads
 
 from vifpk.core.result import BadInput, Result, Status
 
+from . import sde_lanes_splitting as SDL
 from . import splitting_kernels as SK
 from . import splitting_lanes as SL
 from .averaged_sde import sde_tables
@@ -151,7 +152,7 @@ class _SDE:
 
     def advance(self, q_lo: float, q_hi: float, M: int, t_max: float) -> Callable[..., None]:
         def run(recs, rows, start, rng, maxlev, outcome) -> None:
-            SK.advance_sde(recs, rows, start, rng, maxlev, outcome, q_lo, q_hi, M, t_max,
+            SDL.advance_sde(recs, rows, start, rng, maxlev, outcome, q_lo, q_hi, M, t_max,
                            self.h, self.a_tab, self.b_tab, self.inv_d)
         return run
 
@@ -159,7 +160,7 @@ class _SDE:
                qc: float, t_max: float) -> tuple[np.ndarray, np.ndarray]:
         entries = np.zeros((starts.shape[0], n_cycles, self.width))
         summary = np.zeros((starts.shape[0], 7))
-        SK.cycles_sde(starts[:, 0].copy(), rng, n_cycles, q0, q1, qc, t_max, self.h,
+        SDL.cycles_sde(starts[:, 0].copy(), rng, n_cycles, q0, q1, qc, t_max, self.h,
                       self.a_tab, self.b_tab, self.inv_d, entries, summary)
         return entries, summary
 

@@ -1,8 +1,10 @@
-"""numba kernels of the splitting estimator (splitting.py): a path run from a given state until
-it is absorbed, with the states it had when it first reached each level of the reaction
-coordinate (AMS), and the direct simulation of the cycles (the cycle decomposition). The
-original system's pair (``advance_orig``, ``cycles_orig``) runs its paths in vector lanes and
-is in splitting_lanes.py, with this module's conventions and bookkeeping helpers.
+"""The conventions and bookkeeping of the splitting estimator's numba kernels (splitting.py): a
+path run from a given state until it is absorbed, with the states it had when it first reached
+each level of the reaction coordinate (AMS), and the direct simulation of the cycles (the
+cycle decomposition). Both pairs run their paths in vector lanes, with this module's
+conventions and bookkeeping helpers: the original system's (``advance_orig``,
+``cycles_orig``) in splitting_lanes.py, the averaged SDE's (``advance_sde``, ``cycles_sde``)
+in sde_lanes_splitting.py.
 
 Two dynamics, each with its own pair of kernels and the same conventions:
 - the averaged amplitude SDE, state row (Z = A^2, t); the step is averaged_sde.sde_step (not a
@@ -34,14 +36,8 @@ tests q_hi at the step ends only. A success's time is interpolated linearly insi
 
 from __future__ import annotations
 
-import math
-
-from numba import prange
-
 from ._jit import jit
-from .averaged_sde import sde_step
 from .geometry import orbit_start
-from .rng import uniform
 
 OUT_FAIL, OUT_SUCCESS, OUT_TIMEOUT = 0, 1, -1
 BRIDGE_CUT = 40.0  # no uniform is drawn when the bridge probability is below e^-40
@@ -57,38 +53,6 @@ def level_of(q, q_lo, inv_dq, M):
     if u >= M:
         return M
     return int(u)
-
-
-@jit(inline="always")
-def _bridge(A0, A1, b, sig, h, s0, s1, s2, s3):
-    """Whether the path crossed b inside a step from A0 to A1 (both on the same side of b)."""
-    d = 2.0 * (A0 - b) * (A1 - b) / (sig * sig * h)
-    if d > BRIDGE_CUT:
-        return False, s0, s1, s2, s3
-    u, s0, s1, s2, s3 = uniform(s0, s1, s2, s3)
-    return u < math.exp(-d), s0, s1, s2, s3
-
-
-@jit(inline="always")
-def _sde_move(Z, s0, s1, s2, s3, h, sq, a_tab, b_tab, inv_d, last, A_lo, A_hi, low_on):
-    """One SDE step with the bridge test at the two boundaries: (Z, hit) with hit = 1 for a
-    crossing of A_hi, -1 for one of A_lo (tested only with low_on), else 0."""
-    A0 = math.sqrt(Z)
-    Z, sig, _r, s0, s1, s2, s3 = sde_step(Z, s0, s1, s2, s3, h, sq, a_tab, b_tab, inv_d, last)
-    A1 = math.sqrt(Z)
-    if A1 >= A_hi:
-        return Z, 1, s0, s1, s2, s3
-    if low_on and A1 <= A_lo:
-        return Z, -1, s0, s1, s2, s3
-    if sig > 0.0:
-        up, s0, s1, s2, s3 = _bridge(A0, A1, A_hi, sig, h, s0, s1, s2, s3)
-        if up:
-            return Z, 1, s0, s1, s2, s3
-        if low_on:
-            down, s0, s1, s2, s3 = _bridge(A0, A1, A_lo, sig, h, s0, s1, s2, s3)
-            if down:
-                return Z, -1, s0, s1, s2, s3
-    return Z, 0, s0, s1, s2, s3
 
 
 @jit(inline="always")
@@ -122,97 +86,6 @@ def _cycle_summary(summary, p, k, total, succ):
     summary[p, 2] = k
     summary[p, 3] = total
     summary[p, 4] = succ
-
-
-@jit(parallel=True)
-def advance_sde(recs, rows, start, rng, maxlev, outcome, q_lo, q_hi, M, t_max,
-                h, a_tab, b_tab, inv_d):
-    """Run path j (row rows[j] of recs) from recs[row, start[j]] until it is absorbed (see the
-    module docstring); fills recs[row, start[j] + 1 ..], maxlev[row] and outcome[row]."""
-    sq = math.sqrt(h)
-    last = a_tab.size - 1
-    inv_dq = M / (q_hi - q_lo)
-    A_lo = math.sqrt(q_lo)
-    A_hi = math.sqrt(q_hi)
-    for j in prange(rows.size):
-        row = rows[j]
-        s0, s1, s2, s3 = rng[j, 0], rng[j, 1], rng[j, 2], rng[j, 3]
-        Z = recs[row, start[j], 0]
-        t = recs[row, start[j], 1]
-        lev = start[j]
-        xi0 = level_of(Z, q_lo, inv_dq, M)
-        while lev < xi0:
-            lev += 1
-            recs[row, lev, 0] = Z
-            recs[row, lev, 1] = t
-        out = OUT_TIMEOUT
-        while t < t_max:
-            Z, hit, s0, s1, s2, s3 = _sde_move(Z, s0, s1, s2, s3, h, sq, a_tab, b_tab, inv_d,
-                                               last, A_lo, A_hi, True)
-            t += h
-            if hit == -1:
-                out = OUT_FAIL
-                break
-            xi = M if hit == 1 else level_of(Z, q_lo, inv_dq, M)
-            while lev < xi:
-                lev += 1
-                recs[row, lev, 0] = Z
-                recs[row, lev, 1] = t
-            if hit == 1:
-                out = OUT_SUCCESS
-                break
-        maxlev[row] = lev
-        outcome[row] = out
-
-
-@jit(parallel=True)
-def cycles_sde(starts, rng, n_cycles, q0, q1, q_hi, t_max, h, a_tab, b_tab, inv_d,
-               entries, summary):
-    """Direct simulation of the cycle decomposition, path p from starts[p] (a Z) with its own
-    generator words rng[p]. Warm-up until the first cycle start, the first step at q >= q1 after
-    a visit to q <= q0 (or a success first); then cycles, each from one cycle start to the next
-    (or to the success, which ends the path), until n_cycles are complete or t_max.
-    entries[p, k] = (Z, 0): the state at the start of cycle k. summary[p] = (warm-up time,
-    1 if the warm-up ended at q_hi, cycles completed, their total time, successes,
-    1 if t_max ended the path)."""
-    sq = math.sqrt(h)
-    last = a_tab.size - 1
-    A_lo = math.sqrt(q0)
-    A_hi = math.sqrt(q_hi)
-    for p in prange(starts.size):
-        s0, s1, s2, s3 = rng[p, 0], rng[p, 1], rng[p, 2], rng[p, 3]
-        Z = starts[p]
-        t = 0.0
-        armed = Z <= q0
-        in_cycle = False
-        t_cycle = 0.0
-        k = 0
-        total = 0.0
-        succ = 0
-        while True:
-            if t >= t_max:
-                summary[p, 5] = 1.0
-                break
-            Z, hit, s0, s1, s2, s3 = _sde_move(Z, s0, s1, s2, s3, h, sq, a_tab, b_tab, inv_d,
-                                               last, A_lo, A_hi, not armed)
-            t += h
-            if hit == 1:
-                k, total, succ = _cycle_success(t, in_cycle, t_cycle, k, total, succ, summary, p)
-                break
-            if hit == -1:
-                armed = True
-            if armed and Z >= q1:
-                k, total, done = _cycle_start(t, in_cycle, t_cycle, k, total, n_cycles, summary,
-                                              p)
-                if done:
-                    break
-                in_cycle = True
-                if k < entries.shape[1]:
-                    entries[p, k, 0] = Z
-                    entries[p, k, 1] = 0.0
-                t_cycle = t
-                armed = False
-        _cycle_summary(summary, p, k, total, succ)
 
 
 @jit

@@ -318,6 +318,16 @@ def fit_relaxation(t: np.ndarray, d: np.ndarray, se: np.ndarray) -> dict[str, An
 
 CHECK_FACTOR = 4  # the check's step is CHECK_FACTOR x the run's
 CHECK_FLOOR_RATIO = 2.0  # the check runs to this multiple of the run's floor (1/4 of its time)
+#: the sequential check's looks (stepcheck.run_step_check): its coarse run's floor as these
+#: multiples of the run's, each look about twice the sampled time of the one before, the last
+#: CHECK_FLOOR_RATIO
+CHECK_LOOKS = (2.0 * CHECK_FLOOR_RATIO, math.sqrt(2.0) * CHECK_FLOOR_RATIO, CHECK_FLOOR_RATIO)
+#: the share of the target floor a run's start may leave in its sampled time's average, where
+#: the burn-in ends at dt after a part at CHECK_FACTOR x dt (burnin._coarse_burn_in)
+BURN_SHARE = 0.1
+#: the share of the measured distance the check's start may leave in its first look
+#: (stepcheck.run_step_check: its burn-in from where the run ended)
+CHECK_START_SHARE = 0.05
 CHECK_CONFIDENCE = 0.95
 CHECK_ORDERS = (1.0, 2.0)  # the kernel's declared weak orders (kernels.WEAK_ORDER_*)
 CHECK_MERGE = 5  # the check reads p(A) on bins of 5 neighbours (20 of the default 100)

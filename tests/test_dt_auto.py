@@ -123,6 +123,83 @@ def test_the_check_passes_a_small_bias_and_fails_a_large_one(seed):
     assert lo <= 0.02 <= hi
 
 
+def _looking(bias, floors, seed=0):
+    """run_step_check with a canned coarse run: look i returns the law shifted by 4^BIAS_P x
+    ``bias`` with floor ``floors[i]`` (a stand-in for simulate: the looks are what is tested,
+    not the Monte Carlo). Returns the check's record and the settings each look asked for."""
+    from types import SimpleNamespace
+
+    from vifpk.montecarlo.stepcheck import run_step_check
+
+    run, _ = _setup(bias, seed=seed)
+    asked = []
+
+    def simulate(system, noise, st):
+        i = len(asked)
+        asked.append(st)
+        _, coarse = _setup(bias, floor=floors[i] / 2, seed=seed + 1 + i)
+        timing = {"stages": {"sampling": {"wall": 1.0, "cpu": 1.0}},
+                  "total": {"wall": 1.0, "cpu": 1.0}}
+        return SimpleNamespace(data={"A": coarse}, info={
+            "timing": timing, "L1_floor": {"A": floors[i]},
+            **({"checkpoint": f"state {i}"} if st.keep_state else {})})
+
+    st = _settings(dt="auto", floor=0.005)
+    out = run_step_check(simulate, None, None, st, run, {}, 0.02, 100.0, 1000.0, 0.005, 0.005,
+                         math.inf, 1.0, reach=1.2)
+    return out, asked
+
+
+def test_the_sequential_check_stops_at_the_first_look_that_decides():
+    """The check's looks (tuning.CHECK_LOOKS): a bias 0.1 x the allowance is excluded from
+    failing at the first look when that look's floor allows it (the verdict stays
+    "undecided", the failure excluded); a bias 8 x the allowance fails at the first look; a
+    bias at the failure threshold goes on to the last look, whose floor is today's single
+    run's (seed 0 of the canned noise). Each look continues the one before (resume) and the
+    last keeps no state; the coarse run reuses the run's reach (no scale pilot)."""
+    looks = tuning.CHECK_LOOKS
+    floors = [r * 0.005 for r in looks]
+    small, asked = _looking(0.00025, floors)
+    assert small["verdict"] == "undecided" and small["stopped"] == "a failure excluded"
+    assert len(small["looks"]) == 1 and small["timing"]["total"]["cpu"] == 1.0
+    quiet, _ = _looking(0.00025, [0.3 * f for f in floors])  # a check whose noise is small
+    assert quiet["verdict"] == "passed" and quiet["stopped"] == "decided"
+    assert asked[0].resume is None and asked[0].keep_state and asked[0].start_reach == 1.2
+    assert asked[0].floor == pytest.approx(looks[0] * 0.005)
+    bad, _ = _looking(0.02, floors)
+    assert bad["verdict"] == "failed" and len(bad["looks"]) == 1
+    edge, asked = _looking(0.0025 * (tuning.CHECK_FACTOR**2 - 1)
+                           / (tuning.CHECK_FACTOR**tuning.BIAS_P - 1), floors)
+    assert len(edge["looks"]) == len(looks) and edge["stopped"] in ("decided", "last look")
+    assert [a.resume for a in asked] == [None, "state 0", "state 1"]
+    assert not asked[-1].keep_state and asked[-1].floor == pytest.approx(
+        tuning.CHECK_FLOOR_RATIO * 0.005)
+    assert edge["timing"]["total"]["cpu"] == len(looks)
+
+
+def test_the_coarse_burn_in_follows_its_formula():
+    """burnin._coarse_burn_in on a canned plan: at dt, tau ln(D tau / (BURN_SHARE F T_1))
+    with D = (k^2 - 1) BIAS_FRACTION F; none without the step check, a target floor or a
+    stable k dt, nor where the split would cost more than the burn-in at dt."""
+    from types import SimpleNamespace
+
+    from vifpk.montecarlo.burnin import _coarse_burn_in
+
+    def plan(**kw):
+        st = SimpleNamespace(**{"dt": "auto", "dt_check": True, "start_state": None, **kw})
+        return SimpleNamespace(settings=st, target=kw.get("target", 0.005))
+
+    relax, tau, F, T1, k = {"tau": 90.0}, 90.0, 0.005, 1000.0, tuning.CHECK_FACTOR
+    got = _coarse_burn_in(plan(), relax, 6 * tau, 0.025, T1, 1.1)
+    D = (k**2 - 1) * tuning.BIAS_FRACTION * F
+    assert got["fine"] == pytest.approx(tau * math.log(D * tau / (tuning.BURN_SHARE * F * T1)))
+    assert got["dt"] == k * 0.025 and got["time"] == 6 * tau
+    assert _coarse_burn_in(plan(dt_check=False), relax, 6 * tau, 0.025, T1, 1.1) is None
+    assert _coarse_burn_in(plan(target=0.0), relax, 6 * tau, 0.025, T1, 1.1) is None
+    assert _coarse_burn_in(plan(), relax, 6 * tau, 0.025, T1, 1.0 / (k * 0.025)) is None
+    assert _coarse_burn_in(plan(), relax, 6 * tau, 0.025, 1.0, 1.1) is None  # T_1 tiny
+
+
 def test_the_check_orders_are_the_kernels():
     from vifpk.montecarlo import kernels as K
 
@@ -160,8 +237,17 @@ def test_the_check_runs_with_dt_auto_and_passes_at_the_base_scene():
     assert chk["check_dt"] == pytest.approx(tuning.CHECK_FACTOR * 0.5 / 13)
     # cheap against the run: about 1 / (4 x 4) of its sampled path-steps, plus its burn-in
     assert res.info["seconds"]["dt_check"] < 0.5 * res.info["seconds"]["run"]
+    # the burn-in's two parts (burnin._coarse_burn_in): 6 tau at 4 dt, then at dt the time
+    # that leaves at most BURN_SHARE of the floor of the coarse law's distance; equilibrated
+    coarse, tau = res.info["burn_in_coarse"], res.info["relaxation"]["tau"]
+    assert coarse["dt"] == pytest.approx(4 * 0.5 / 13) and coarse["time"] == pytest.approx(
+        6 * tau, rel=0.01)
+    assert 0 < coarse["fine"] < 6 * tau and res.info["convergence"]["equilibrated"]
+    assert res.info["settings"]["burn_in"] == pytest.approx(coarse["time"] + coarse["fine"],
+                                                            abs=0.5 / 13)
     pinned = mc.simulate(sc.system, sc.noise, _settings(dt=0.5 / 13, floor=0.01))
     assert "dt_check" not in pinned.info  # a step given is the caller's: not checked
+    assert "burn_in_coarse" not in pinned.info  # nor is its burn-in split
 
 
 @pytest.mark.slow
@@ -177,6 +263,9 @@ def test_the_check_fails_and_says_so_when_the_rule_is_too_optimistic(monkeypatch
     chk = res.info["dt_check"]
     assert chk["verdict"] == "failed", chk
     assert res.info["warnings"] == [chk["message"]] and "ABOVE" in chk["message"]
+    # caught at the first look of the sequential check (stepcheck.run_step_check): the
+    # coarse run stopped at CHECK_LOOKS[0] x the floor, 1/4 of the last look's time
+    assert chk["stopped"] == "decided" and len(chk["looks"]) == 1, chk["looks"]
 
 
 UNLIKE = {  # benchmarks/bench_dt_bias.py's scenes unlike the base one

@@ -78,3 +78,77 @@ def test_other_functions_keep_numbas_own_locators() -> None:
         return x
 
     assert all(c.from_function(outside, __file__) is None for c in stamped)
+
+
+ALLOCATING = """
+import numpy as np
+from vifpk.montecarlo._jit import jit
+
+@jit
+def kernel(n):
+    a = np.zeros(n)   # numba's runtime (NRT) allocates: it must be ready after a light load
+    a[0] = 2.5
+    return a[0] + a[n - 1] == 2.5
+"""
+
+HASHING = """
+from vifpk.montecarlo._jit import jit
+
+@jit
+def kernel(n):
+    # a string's hash reads numba's hash secrets, symbols registered by its registries
+    return hash("vifpk" * n) == EXPECTED
+"""
+
+RUN_PROBE = """
+import importlib.util, sys
+import vifpk.montecarlo._jit as j
+spec = importlib.util.spec_from_file_location("vifpk._probe2", {kernel!r})
+mod = importlib.util.module_from_spec(spec)
+sys.modules["vifpk._probe2"] = mod
+spec.loader.exec_module(mod)
+mod.EXPECTED = hash("vifpk" * 4)   # (frozen into the compiled code: PYTHONHASHSEED is fixed)
+ok = mod.kernel(4)
+print(int(ok), mod.kernel.stats.cache_hits and 1 or 0, int("numba.np.arraymath" in sys.modules))
+"""
+
+
+def test_a_cache_hit_loads_without_numbas_registry_refresh(tmp_path: Path) -> None:
+    """A hit (montecarlo/_jit.py ``_light``) loads object code without numba's registry
+    refresh: its lowering registries (numba.np.arraymath, whose BLAS check imports
+    scipy.linalg) stay unimported and the loaded kernel still allocates through numba's
+    runtime; an entry naming a symbol of ``_REFRESH_SYMBOLS`` (a string hash) is loaded after
+    the refresh; a miss compiles as ever."""
+    import os
+
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache"), "PYTHONHASHSEED": "7"}
+
+    def run(source: str) -> list[str]:
+        (tmp_path / "probe2.py").write_text(source)
+        code = RUN_PROBE.format(kernel=str(tmp_path / "probe2.py"))
+        return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                              timeout=300, check=True, env=env).stdout.split()
+
+    assert run(ALLOCATING) == ["1", "0", "1"]   # compiled: the compiler refreshed numba
+    assert run(ALLOCATING) == ["1", "1", "0"]   # loaded: no refresh, the runtime allocates
+    assert run(HASHING) == ["1", "0", "1"]
+    assert run(HASHING) == ["1", "1", "1"]   # loaded after the refresh
+
+
+def test_light_load_falls_back_to_numbas_own_when_its_private_api_differs(monkeypatch):
+    """numba >= 0.59 is allowed and the light load reads numba's private cache API: where a
+    name it reads is missing, the load is numba's own (its full refresh), not an error."""
+    from numba.core import caching
+
+    from montecarlo import _jit
+
+    light = _jit._light()
+    owner = next(c for c in light.__mro__ if "_guard_against_spurious_io_errors" in vars(c))
+    monkeypatch.delattr(owner, "_guard_against_spurious_io_errors")
+    seen = []
+    monkeypatch.setattr(caching.FunctionCache, "load_overload",
+                        lambda self, sig, ctx: seen.append(sig) or "numba's own load")
+    cache = object.__new__(light)
+    from numba.core.registry import cpu_target
+    assert cache.load_overload("sig", cpu_target.target_context) == "numba's own load"
+    assert seen == ["sig"]
