@@ -135,17 +135,23 @@ def _full(x, v, xi, s0, s1, s2, s3, h, c):
 
 @numba.njit(error_model="numpy")
 def _minimal_soa(st, S, n, h, c):
-    """The target: st = (x, v, xi) rows, S = generator words (4 rows), LANES paths in lanes."""
+    """The target: st = (x, v, xi) rows, S = generator words (4 rows), LANES paths in lanes.
+    The lanes live in arrays made here (Y, W: strides the compiler knows, so it proves their
+    rows apart and vectorises the smooth loop, as in the production kernels' scratch), indexed
+    in place (a row view made per step costs atomic reference counts)."""
     c1, c2, w0sq, alpha, mu, r, f, a, sd = c
     half = 0.5 * h
-    X, V, XI = st[0], st[1], st[2]
-    T = np.empty((3, LANES))
-    W = np.empty((4, LANES), dtype=np.uint64)
+    Y = np.empty((6, LANES))  # x, v, xi, and their values at the step's start
+    W = np.empty((8, LANES), dtype=np.uint64)  # the words, and at the step's start
+    for j in range(LANES):
+        Y[0, j], Y[1, j], Y[2, j] = st[0, j], st[1, j], st[2, j]
+        W[0, j], W[1, j], W[2, j], W[3, j] = S[0, j], S[1, j], S[2, j], S[3, j]
     for _ in range(n):
         for j in range(LANES):  # the smooth step on every lane (NaN: an event)
-            x, v, xi, s0, s1, s2, s3 = X[j], V[j], XI[j], S[0, j], S[1, j], S[2, j], S[3, j]
-            T[0, j], T[1, j], T[2, j], W[0, j], W[1, j], W[2, j], W[3, j] = \
-                x, v, xi, s0, s1, s2, s3
+            x, v, xi = Y[0, j], Y[1, j], Y[2, j]
+            s0, s1, s2, s3 = W[0, j], W[1, j], W[2, j], W[3, j]
+            Y[3, j], Y[4, j], Y[5, j] = x, v, xi
+            W[4, j], W[5, j], W[6, j], W[7, j] = s0, s1, s2, s3
             x = x + v * half
             x = x if x >= 0.0 else np.nan
             k = c2 * x * x - c1
@@ -169,14 +175,18 @@ def _minimal_soa(st, S, n, h, c):
             s3 = (s3 << U64(45)) | (s3 >> U64(19))
             iz = np.int64(u & U64(127))
             hz = np.int64(np.int32(np.uint32(u >> U64(32))))
-            zn = hz * WN[iz] if abs(hz) < KN[iz] else np.nan
-            X[j], V[j], XI[j] = x, v, a * xi + sd * zn
-            S[0, j], S[1, j], S[2, j], S[3, j] = s0, s1, s2, s3
+            zn = hz * WN[iz]  # (loaded whether or not it is accepted: no branch in the loop)
+            zn = zn if abs(hz) < KN[iz] else np.nan
+            Y[0, j], Y[1, j], Y[2, j] = x, v, a * xi + sd * zn
+            W[0, j], W[1, j], W[2, j], W[3, j] = s0, s1, s2, s3
         for j in range(LANES):  # the lanes that met an event, in full
-            if X[j] == X[j] and V[j] == V[j] and XI[j] == XI[j]:
+            if Y[0, j] == Y[0, j] and Y[1, j] == Y[1, j] and Y[2, j] == Y[2, j]:
                 continue
-            X[j], V[j], XI[j], S[0, j], S[1, j], S[2, j], S[3, j] = _full(
-                T[0, j], T[1, j], T[2, j], W[0, j], W[1, j], W[2, j], W[3, j], h, c)
+            Y[0, j], Y[1, j], Y[2, j], W[0, j], W[1, j], W[2, j], W[3, j] = _full(
+                Y[3, j], Y[4, j], Y[5, j], W[4, j], W[5, j], W[6, j], W[7, j], h, c)
+    for j in range(LANES):
+        st[0, j], st[1, j], st[2, j] = Y[0, j], Y[1, j], Y[2, j]
+        S[0, j], S[1, j], S[2, j], S[3, j] = W[0, j], W[1, j], W[2, j], W[3, j]
 
 
 @numba.njit(error_model="numpy")

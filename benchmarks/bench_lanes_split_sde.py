@@ -49,6 +49,8 @@ OUT = ROOT / "benchmarks" / "results" / "lanes_split_sde.json"
 H = 0.5 / 23
 N_PATHS = 256
 SDE_BLOCKS, SDE_PER, SDE_STRIDE = 2, 64, 50
+NEVER = np.iinfo(np.int64).max // 2  # a burn-in never over: nothing sampled (transient.py's)
+MINIMAL = "minimal SoA, paper-base (bench_kernel_bound)"
 
 
 def _paper_base():
@@ -107,6 +109,41 @@ def _splitting():
         return N_PATHS * _steps_to(n * H)
     return {"splitting advance_orig (AMS), paper-base": advance,
             "splitting cycles_orig, paper-base": cycles}
+
+
+def _original():
+    """{name: call(n_steps) -> path-steps} of the stationary kernel (lanes.run_paths: the A
+    histogram sampled every 0.5 time units, as a floor run fills it; and nothing sampled, as
+    the transient snapshots run it) and first passage (run_passage, a threshold U(5) no path
+    reaches: every path runs n steps), from the splitting's starts and generator words."""
+    from vifpk.montecarlo.kernels import N_EVENTS
+    from vifpk.montecarlo.lanes import LANES, run_paths
+    from vifpk.montecarlo.passage_kernels import run_passage
+    rec, B, starts, rng, U = _paper_base()
+    G = N_PATHS // LANES
+    stride = max(1, round(0.5 / H))
+
+    def stationary(n, n_burn=0):
+        st = starts[:, :3].reshape(G, LANES, 3).copy()
+        w = rng.reshape(G, LANES, 4).copy()
+        out = (np.zeros((G, 100)), np.zeros((G, 0)), np.zeros((G, 0)), np.zeros((G, 0, 0)),
+               np.zeros((G, LANES, 0)), np.zeros((G, N_EVENTS)), np.zeros((G, LANES)),
+               np.zeros((G, LANES, 0)), np.zeros((G, LANES, 0)))
+        run_paths(w, st, n, 0, n_burn, stride, H, rec, (0.0, 50.0, 0.0, 1.0, 0.0, 1.0), out, 1)
+        return N_PATHS * n, st, w
+
+    def passage(n):
+        ints = [np.zeros((1, N_PATHS), np.int64) for _ in range(3)]
+        arrs = (rng.reshape(1, N_PATHS, 4).copy(), np.zeros((1, N_PATHS, 3)),
+                np.zeros((1, N_PATHS, 3)), *ints, np.zeros((1, N_PATHS)))
+        run_passage(arrs, np.array([N_PATHS]), (n, 10 ** 9, 0, 1e9, U(5.0), 0.45, 0.0, 0), H,
+                    B, rec)
+        assert np.all(arrs[4] == n)  # every path ran n steps
+        return N_PATHS * n
+    return {"stationary lanes.run_paths, A sampled, paper-base": lambda n: stationary(n)[0],
+            "transient lanes.run_paths, nothing sampled, paper-base":
+                lambda n: stationary(n, NEVER)[0],
+            "first passage run_passage, paper-base": passage}, stationary
 
 
 def _sde_tables():
@@ -250,8 +287,10 @@ def _minimal_sde(Z, S, n, h, a_tab, b_tab, inv_d, hist, a_lo, a_inv, stride):
                     hist[b] += 1.0
 
 
-def _minimal():
-    """{name: call(n) -> path-steps} of the minimal lane kernels (this checkout's)."""
+def _minimal(stationary=None):
+    """{name: call(n) -> path-steps} of the minimal lane kernels (this checkout's); with
+    ``stationary`` (_original's), the paper-base one is first checked to end in the bits of
+    the stationary kernel run from the same states and words, nothing sampled."""
     sys.path.insert(0, str(ROOT / "benchmarks"))
     from bench_kernel_bound import LANES, _minimal_soa
     from vifpk.montecarlo.rng import block_seeds
@@ -259,12 +298,21 @@ def _minimal():
     c = (rec.c1, rec.c2, rec.w0sq, rec.alpha, rec.mu, rec.lo_law_r, rec.f, rec.ou_a, rec.ou_s)
     dA, a_tab, b_tab = _sde_tables()
 
-    def paper(n):
+    def paper(n, ends=None):
         for g in range(0, N_PATHS, LANES):
             st = np.ascontiguousarray(starts[g:g + LANES, :3].T)
             S = np.ascontiguousarray(rng[g:g + LANES].T)
             _minimal_soa(st, S, n, H, c)
+            if ends is not None:
+                ends.append((st.T.copy(), S.T.copy()))
         return N_PATHS * n
+
+    if stationary is not None:
+        ends: list = []
+        paper(500, ends)
+        _n, st, w = stationary(500, NEVER)
+        assert np.array_equal(np.concatenate([e[0] for e in ends]), st.reshape(-1, 3))
+        assert np.array_equal(np.concatenate([e[1] for e in ends]), w.reshape(-1, 4))
 
     def sde(n):
         words = block_seeds(5, SDE_BLOCKS, SDE_PER)
@@ -275,7 +323,7 @@ def _minimal():
                 _minimal_sde(Z, S, n * SDE_STRIDE, H, a_tab, b_tab, 1.0 / dA, np.zeros(40),
                              0.0, 25.0, SDE_STRIDE)
         return SDE_BLOCKS * SDE_PER * n * SDE_STRIDE
-    return {"minimal SoA, paper-base (bench_kernel_bound)": paper, "minimal SoA, averaged SDE": sde}
+    return {MINIMAL: paper, "minimal SoA, averaged SDE": sde}
 
 
 def _check_minimal_sde() -> None:
@@ -295,30 +343,42 @@ def _check_minimal_sde() -> None:
     assert np.array_equal(W.T, w[0]) and np.array_equal(h2, hist[0])
 
 
-def worker(side: str, n: int, only: str) -> dict[str, float]:
-    """ns per path-step of each kernel of this checkout (one timed call each, CPU time);
-    ``only`` = "sde": the averaged SDE's kernels and their minimal kernel alone."""
+def worker(side: str, n: int, passes: int, only: str) -> dict[str, list[float]]:
+    """ns per path-step of each kernel of this checkout: ``passes`` passes over the kernels
+    (each kernel timed once a pass, CPU time, the order rotated pass by pass); ``only`` =
+    "sde": the averaged SDE's kernels and their minimal kernel alone."""
     numba.set_num_threads(1)
-    runs = {**_sde(), **_sde_time()} if only == "sde" else {**_splitting(), **_sde(),
-                                                             **_sde_time()}
+    if only == "sde":
+        runs, stationary = {**_sde(), **_sde_time()}, None
+    else:
+        original, stationary = _original()
+        runs = {**original, **_splitting(), **_sde(), **_sde_time()}
     if side == "after":
         _check_minimal_sde()
-        runs.update({k: f for k, f in _minimal().items() if only != "sde" or "SDE" in k})
-    out = {}
+        runs.update({k: f for k, f in _minimal(stationary).items()
+                     if only != "sde" or "SDE" in k})
     for name, fn in runs.items():
-        small = 2 if "SDE" in name else 100
-        fn(small)  # load the compiled kernel
-        k = n // SDE_STRIDE if "SDE" in name else n
-        c0 = time.process_time()
-        steps = fn(k)
-        out[name] = (time.process_time() - c0) / steps * 1e9
+        fn(2 if "SDE" in name else 100)  # load the compiled kernel
+    out: dict[str, list[float]] = {k: [] for k in runs}
+    names = list(runs)
+    for i in range(passes):
+        for name in names[i % len(names):] + names[:i % len(names)]:
+            k = n // SDE_STRIDE if "SDE" in name else n
+            c0 = time.process_time()
+            steps = runs[name](k)
+            out[name].append((time.process_time() - c0) / steps * 1e9)
     return out
+
+
+def _minimal_of(name: str) -> str:
+    return "minimal SoA, averaged SDE" if "SDE" in name else MINIMAL
 
 
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--before", required=False, help="python of the checkout before")
     ap.add_argument("--rounds", type=int, default=5)
+    ap.add_argument("--passes", type=int, default=3, help="passes over the kernels a round")
     ap.add_argument("--steps", type=int, default=20000, help="steps per path")
     ap.add_argument("--worker", choices=("before", "after"))
     ap.add_argument("--only", choices=("all", "sde"), default="all",
@@ -326,36 +386,43 @@ def main() -> None:
     ap.add_argument("--out", default=str(OUT), help="the results' json")
     a = ap.parse_args()
     if a.worker:
-        print(json.dumps(worker(a.worker, a.steps, a.only)))
+        print(json.dumps(worker(a.worker, a.steps, a.passes, a.only)))
         return
     env = {**os.environ, "NUMBA_NUM_THREADS": "1"}
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
     sides = {"after": sys.executable} | ({"before": a.before} if a.before else {})
     load0 = os.getloadavg()
     rounds: dict[str, dict[str, list[float]]] = {s: {} for s in sides}
+    paired: dict[str, list[float]] = {}  # kernel / minimal, pass by pass (after)
     for _ in range(a.rounds):
         for side, py in sorted(sides.items(), reverse=True):  # before, then after
             cwd = ROOT if side == "after" else None
             r = subprocess.run([py, str(Path(__file__).resolve()), "--worker", side, "--steps",
-                                str(a.steps), "--only", a.only], capture_output=True, text=True,
-                               env=env,
-                               cwd=cwd, check=True)
-            for k, v in json.loads(r.stdout.strip().splitlines()[-1]).items():
-                rounds[side].setdefault(k, []).append(v)
+                                str(a.steps), "--passes", str(a.passes), "--only", a.only],
+                               capture_output=True, text=True, env=env, cwd=cwd, check=True)
+            got = json.loads(r.stdout.strip().splitlines()[-1])
+            for k, v in got.items():
+                rounds[side].setdefault(k, []).extend(v)
+                if side == "after" and not k.startswith("minimal"):
+                    paired.setdefault(k, []).extend(
+                        x / y for x, y in zip(v, got[_minimal_of(k)], strict=True))
     med = {s: {k: float(np.median(v)) for k, v in d.items()} for s, d in rounds.items()}
     after = med["after"]
     res = {"ns_per_path_step_median": med, "rounds": rounds,
-           "after_over_minimal_soa": {
-               k: after[k] / after["minimal SoA, averaged SDE" if "SDE" in k
-                                   else "minimal SoA, paper-base (bench_kernel_bound)"]
-               for k in after if not k.startswith("minimal")},
+           "after_over_minimal_soa": {k: after[k] / after[_minimal_of(k)]
+                                      for k in after if not k.startswith("minimal")},
+           "after_over_minimal_soa_paired_median": {k: float(np.median(v))
+                                                    for k, v in paired.items()},
            "settings": {"dt": H, "paths": N_PATHS, "steps_per_path": a.steps,
                         "sde": {"blocks": SDE_BLOCKS, "paths_per_block": SDE_PER,
                                 "stride": SDE_STRIDE}, "rounds": a.rounds,
-                        "before": a.before, "only": a.only},
+                        "passes": a.passes, "before": a.before, "only": a.only},
            "machine": {"cpus": os.cpu_count(), "load_average_start": load0,
                        "load_average_end": os.getloadavg()}}
     if "before" in med:
         res["before_over_after"] = {k: med["before"][k] / after[k] for k in med["before"]}
+        res["before_over_minimal_soa"] = {k: v / after[_minimal_of(k)]
+                                          for k, v in med["before"].items()}
     Path(a.out).write_text(json.dumps(res, indent=1) + "\n")
     print(json.dumps({k: res[k] for k in res if k != "rounds"}, indent=1))
 

@@ -203,16 +203,18 @@ def _ol_advance_smooth(rec, xi, s0, s1, s2, s3):
 def lane_step(m, F, S, h, half, P, keep, count):
     """One step of lanes 0 .. m - 1 (the module docstring); ``keep``: store what the energy
     balance reads (every lane by strang_step); ``count``: add the events and the time at rest
-    (after the burn-in). Returns (impacts, chatter entries) of the step; F[L_VC] holds each
-    lane's velocity at the kick (strang_step's o[8], the bridge test's)."""
-    X, V, XI = F[L_X], F[L_V], F[L_XI]
-    X0, V0, XI0 = F[L_X0], F[L_V0], F[L_XI0]
-    S0, S1, S2, S3, T0, T1, T2, T3 = S[0], S[1], S[2], S[3], S[4], S[5], S[6], S[7]
+    (after the burn-in). Returns (impacts, chatter entries) of the step; F[L_X0] holds each
+    lane's x before the step and F[L_VC] its velocity at the kick (strang_step's o[8]): the
+    bridge tests of first passage and splitting read them."""
+    # F and S indexed in place, no row views: a view made per step costs two atomic reference
+    # counts (and a memory barrier each) per row per step (measured: 5 ns a path-step)
     spec = speculate(P.pk, P.pc) and not keep
     if spec:
         for j in range(m):  # the smooth step, on every lane
-            x, v, xi, s0, s1, s2, s3 = X[j], V[j], XI[j], S0[j], S1[j], S2[j], S3[j]
-            X0[j], V0[j], XI0[j], T0[j], T1[j], T2[j], T3[j] = x, v, xi, s0, s1, s2, s3
+            x, v, xi = F[L_X, j], F[L_V, j], F[L_XI, j]
+            s0, s1, s2, s3 = S[0, j], S[1, j], S[2, j], S[3, j]
+            F[L_X0, j], F[L_V0, j], F[L_XI0, j] = x, v, xi
+            S[4, j], S[5, j], S[6, j], S[7, j] = s0, s1, s2, s3
             x = smooth_drift(x, v, half, P.x_lo, P.x_hi)
             k = damping_k(x, P.c1, P.c2, P.dhi)
             g = spring_g(x, P.w0sq, P.alpha, P.khi)
@@ -223,18 +225,23 @@ def lane_step(m, F, S, h, half, P, keep, count):
             v, _ = decay(v, half, P.ev)
             x = smooth_drift(x, v, half, P.x_lo, P.x_hi)
             xi, s0, s1, s2, s3 = advance_smooth(P, xi, s0, s1, s2, s3)
-            X[j], V[j], XI[j], S0[j], S1[j], S2[j], S3[j] = x, v, xi, s0, s1, s2, s3
+            F[L_X, j], F[L_V, j], F[L_XI, j] = x, v, xi
+            S[0, j], S[1, j], S[2, j], S[3, j] = s0, s1, s2, s3
     impacts = 0
     chatter = 0
     for j in range(m):  # the lanes that met an event (all without the smooth step), in full
         if spec:
-            if X[j] == X[j] and V[j] == V[j] and XI[j] == XI[j]:
+            if F[L_X, j] == F[L_X, j] and F[L_V, j] == F[L_V, j] and F[L_XI, j] == F[L_XI, j]:
                 continue
-            x, v, xi, s0, s1, s2, s3 = X0[j], V0[j], XI0[j], T0[j], T1[j], T2[j], T3[j]
+            x, v, xi = F[L_X0, j], F[L_V0, j], F[L_XI0, j]
+            s0, s1, s2, s3 = S[4, j], S[5, j], S[6, j], S[7, j]
         else:
-            x, v, xi, s0, s1, s2, s3 = X[j], V[j], XI[j], S0[j], S1[j], S2[j], S3[j]
+            x, v, xi = F[L_X, j], F[L_V, j], F[L_XI, j]
+            s0, s1, s2, s3 = S[0, j], S[1, j], S[2, j], S[3, j]
+            F[L_X0, j] = x  # (every lane's x before the step: F[L_X0], as the smooth loop's)
         x, v, xi, s0, s1, s2, s3, o = strang_step(x, v, xi, s0, s1, s2, s3, h, half, P)
-        X[j], V[j], XI[j], S0[j], S1[j], S2[j], S3[j] = x, v, xi, s0, s1, s2, s3
+        F[L_X, j], F[L_V, j], F[L_XI, j] = x, v, xi
+        S[0, j], S[1, j], S[2, j], S[3, j] = s0, s1, s2, s3
         (imp1, ch1, imp2, ch2, st, k, va, vb, vc, vk, vd, ve, xi_used, dv1, dv2, loss1, loss2,
          wpar) = o
         F[L_VC, j] = vc
@@ -247,15 +254,6 @@ def lane_step(m, F, S, h, half, P, keep, count):
             F[L_VE, j], F[L_XIU, j], F[L_DV1, j], F[L_DV2, j] = ve, xi_used, dv1, dv2
             F[L_LOSS1, j], F[L_LOSS2, j], F[L_WP, j] = loss1, loss2, wpar
     return impacts, chatter
-
-
-@jit(inline="always")
-def step_keeping_x(m, F, S, XB, h, half, P, count):
-    """``lane_step`` (no energy balance) after keeping each lane's x before the step in XB
-    (the bridge tests of first passage and splitting read it with the velocity at the kick)."""
-    for j in range(m):
-        XB[j] = F[L_X, j]
-    lane_step(m, F, S, h, half, P, False, count)
 
 
 def run_paths(rng, state, n_steps, step0, n_burn, stride, h, P, bins, out, spw):

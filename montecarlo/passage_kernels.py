@@ -15,11 +15,12 @@ from vifpk.montecarlo.lanes import (
     L_V,
     L_VC,
     L_X,
+    L_X0,
     L_XI,
     LANES,
     drop,
+    lane_step,
     scratch,
-    step_keeping_x,
 )
 from vifpk.montecarlo.rng import uniform
 
@@ -61,6 +62,15 @@ def bridge_hit(B, level, E, E1, x, vc, h, P, s0, s1, s2, s3):
     return -1.0, s0, s1, s2, s3
 
 
+@jit
+def bridge_near(B, level, E, E1, x, vc, h, P):
+    """Whether ``bridge_hit`` with these arguments draws a uniform (its tests, the same
+    arithmetic; False when B is all None): the lane kernels' screen, in their vectorised loops,
+    of the lanes whose tests must run."""
+    var = energy_variance(B[0], B[1], B[2], x, vc, h, P)
+    return (var > 0.0) & (2.0 * (level - E) * (level - E1) / var < -math.log(BRIDGE_FLOOR))
+
+
 def run_passage(arrs, count, run, h, B, P):
     """Advance every unfinished path by at most ``budget`` steps (its state machine: NEW ->
     [BURN ->] RUN -> CROSSED | CENSORED, or DIVERGED / REFUSED) with the physics record P
@@ -94,11 +104,11 @@ def _give(L, Li, F, S, j, arrs, b):
     steps[b, p], phase[b, p] = Li[_N, j], Li[_PH, j]
 
 
-# rows of the passage's own lane scratch: float (energy at the chunk's last step, level, the
-# x before the step), int (path index, phase, steps, steps into the chunk, chunk length, budget
-# left)
-_E, _LEVEL, _XB = range(3)
-_PATH, _PH, _N, _I, _K, _LEFT = range(6)
+# rows of the passage's own lane scratch: float (energy at the chunk's last step, level), int
+# (path index, phase, steps, steps into the chunk, chunk length, budget left, whether the
+# lane's tests may act after this step)
+_E, _LEVEL = range(2)
+_PATH, _PH, _N, _I, _K, _LEFT, _ACT = range(7)
 
 
 @jit(nogil=True)
@@ -115,12 +125,13 @@ def _passage_block(first, every, arrs, count, run, h, B, P):
     w0sq, alpha, khi = P.w0sq, P.alpha, P.khi
     half = 0.5 * h
     F, S = scratch()
-    L = np.zeros((3, LANES))
-    Li = np.zeros((6, LANES), dtype=np.int64)
+    L = np.zeros((2, LANES))
+    Li = np.zeros((7, LANES), dtype=np.int64)
     for b in range(first, state.shape[0], every):  # this thread's blocks
         n_paths = count[b]
         nxt = 0
         m = 0
+        fresh = False  # a lane filled or a chunk ended since the chunk starts' loop ran
         while True:
             # fill the free lanes with the block's next unfinished paths
             while m < LANES and nxt < n_paths:
@@ -128,11 +139,14 @@ def _passage_block(first, every, arrs, count, run, h, B, P):
                     _take(L, Li, F, S, m, arrs, b, nxt)
                     Li[_LEFT, m] = budget
                     m += 1
+                    fresh = True
                 nxt += 1
             if m == 0:
                 break
-            # each lane to the start of a chunk of steps (or its path out: budget spent)
-            j = 0
+            # each lane to the start of a chunk of steps (or its path out: budget spent); only
+            # after a lane was filled or a chunk ended (no lane needs it otherwise)
+            j = m if not fresh else 0
+            fresh = False
             while j < m:
                 p = Li[_PATH, j]
                 done = False
@@ -163,9 +177,29 @@ def _passage_block(first, every, arrs, count, run, h, B, P):
                 j += 1
             if m == 0:
                 continue
-            step_keeping_x(m, F, S, L[_XB], h, half, P, False)
+            lane_step(m, F, S, h, half, P, False, False)
+            # the screen, in one loop the compiler vectorises (the scratch indexed in place,
+            # scalar helpers only: splitting_lanes.py's module docstring): every lane's energy
+            # and whether its tests may act; a lane not flagged (below its level, no bridge
+            # draw, its chunk not at its end) only keeps the energy and counts the step, here
+            flagged = 0
+            for j in range(m):
+                E, level = L[_E, j], L[_LEVEL, j]
+                E1 = energy(F[L_X, j], F[L_V, j], w0sq, alpha, khi)
+                i = Li[_I, j] + 1
+                a = ((E1 >= level) | (i >= Li[_K, j])
+                     | bridge_near(B, level, E, E1, F[L_X0, j], F[L_VC, j], h, P))
+                L[_E, j] = E if a else E1
+                Li[_I, j] = Li[_I, j] if a else i
+                Li[_ACT, j] = a
+                flagged += a
+            if flagged == 0:
+                continue
             j = 0
             while j < m:
+                if Li[_ACT, j] == 0:  # its chunk goes on (energy and step kept by _screen)
+                    j += 1
+                    continue
                 p = Li[_PATH, j]
                 x, v = F[L_X, j], F[L_V, j]
                 E, level = L[_E, j], L[_LEVEL, j]
@@ -177,7 +211,7 @@ def _passage_block(first, every, arrs, count, run, h, B, P):
                     hit = (level - E) / (E1 - E)
                 else:
                     hb, S[0, j], S[1, j], S[2, j], S[3, j] = bridge_hit(
-                        B, level, E, E1, L[_XB, j], F[L_VC, j], h, P, S[0, j], S[1, j],
+                        B, level, E, E1, F[L_X0, j], F[L_VC, j], h, P, S[0, j], S[1, j],
                         S[2, j], S[3, j])
                     if hb >= 0.0:
                         hit = hb
@@ -189,6 +223,7 @@ def _passage_block(first, every, arrs, count, run, h, B, P):
                     continue
                 # the chunk's end: the path alone's bookkeeping after its inner loop
                 Li[_I, j], Li[_K, j] = 0, 0
+                fresh = True
                 n = Li[_N, j]
                 finished = True
                 if not (math.isfinite(x) and math.isfinite(v)):

@@ -6,14 +6,23 @@ the per-path bookkeeping helpers are its own (``level_of``, ``_cycle_success``,
 ``_cycle_start``, ``_cycle_summary``). The step is lanes.lane_step: LANES paths advance
 together, the smooth part of the step vectorised and every lane that meets an event stepped
 again by kernels.strang_step, so each lane's state is strang_step's, bit for bit, and its
-generator words advance by the same draws (montecarlo/lanes.py). After each step every lane's
-clock and energy are updated in one loop the compiler can vectorise (``_clock_and_energy``),
-then every lane reads its own path's tests (levels, the bridge test with the lane's velocity
-at the kick) as the path alone did; a lane whose path ends takes the next path of its thread
-(``lanes.drop`` fills the hole with the last lane). Each path keeps its own four generator
-words (a fresh stream for every path and every clone, ams.words), so the numbers do not depend
-on the lanes, the thread count or the executor (benchmarks/mc_identity.py: bit-identical to the
-kernels that ran one path at a time; tests/test_splitting_lanes.py).
+generator words advance by the same draws (montecarlo/lanes.py).
+
+After each step, **the screen**: one loop over the lanes, which the compiler vectorises,
+updates every lane's clock and energy and flags the lanes whose tests may act (a level or
+threshold reached, t_max, a possible bridge draw: passage_kernels.bridge_near, bridge_hit's
+own test). Only the flagged lanes then read their path's tests (levels, the bridge test with
+the lane's velocity at the kick) as the path alone did, in scalar code; a flag is conservative
+(a flagged lane whose tests find nothing goes on as it would have), so the screen changes no
+number. The screen indexes the scratch in place and calls scalar helpers only, and it is
+written in the kernel's body: a row view, or an array passed to an inlined helper, costs two
+atomic reference counts a step (numba's NRT; measured 1 ns a path-step for the screen as a
+helper, 5 ns for row views), and inside the loop it stops the vectorisation. A lane whose path
+ends takes the next path of its thread (``lanes.drop`` fills the hole with the last lane).
+Each path keeps its own four generator words (a fresh stream for every path and every clone,
+ams.words), so the numbers do not depend on the lanes, the thread count or the executor
+(benchmarks/mc_identity.py: bit-identical to the kernels that ran one path at a time;
+tests/test_splitting_lanes.py).
 
 Threads: ``_jit.over_blocks`` with one "block" per path: thread t of n runs paths t, t + n, ...
 """
@@ -24,8 +33,8 @@ import numpy as np
 
 from ._jit import jit, over_blocks
 from .geometry import energy
-from .lanes import L_REST, L_V, L_VC, L_X, L_XI, LANES, drop, scratch, step_keeping_x
-from .passage_kernels import bridge_hit
+from .lanes import L_REST, L_V, L_VC, L_X, L_X0, L_XI, LANES, drop, lane_step, scratch
+from .passage_kernels import bridge_hit, bridge_near
 from .splitting_kernels import (
     MAX_RESTARTS,
     OUT_FAIL,
@@ -38,11 +47,12 @@ from .splitting_kernels import (
 )
 
 ON = -2  # a lane's path goes on (not an outcome)
-# the lanes' own rows: float (time, energy q, x before the step, cycle start time, cycles'
-# total time, q before the step), int (the path's index, its level or phase, burn-in steps,
-# restarts, armed, in a cycle, cycles completed, successes)
-_T, _Q, _XB, _TC, _TOT, _QO = range(6)
-_J, _LEV, _N, _RS, _ARM, _IN, _K, _SUCC = range(8)
+# the lanes' own rows: float (time, energy q, cycle start time, cycles' total time, q before
+# the step, the path's level + 1), int (the path's index, its level or
+# phase, burn-in steps, restarts, armed, in a cycle, cycles completed, successes, whether the
+# lane's tests may act after this step)
+_T, _Q, _TC, _TOT, _QO, _NEXT = range(6)
+_J, _LEV, _N, _RS, _ARM, _IN, _K, _SUCC, _ACT = range(9)
 BURN, RUN = 0, 1  # cycles_orig's phases (in _LEV)
 NONE, SUCCESS, START = 0, 1, 2  # what a cycle's step met (_cycle_test)
 
@@ -55,17 +65,6 @@ def advance_orig(recs, rows, start, rng, maxlev, outcome, levels, h, B, P):
     recs[row, start[j] + 1 ..], maxlev[row] and outcome[row]. In lanes (module docstring)."""
     over_blocks(_advance_block, rows.size, recs, rows, start, rng, maxlev, outcome, levels, h,
                 B, P)
-
-
-@jit(inline="always")
-def _clock_and_energy(m, F, L, h, w0sq, alpha, khi):
-    """Every lane's clock and energy after a step, in one loop the compiler can vectorise (the
-    tests that read them run lane by lane after it): L[_QO] the energy before the step, L[_Q]
-    after it, L[_T] + h."""
-    for i in range(m):
-        L[_QO, i] = L[_Q, i]
-        L[_Q, i] = energy(F[L_X, i], F[L_V, i], w0sq, alpha, khi)
-        L[_T, i] += h
 
 
 @jit(inline="always")
@@ -86,7 +85,7 @@ def _advance_block(first, every, recs, rows, start, rng, maxlev, outcome, levels
     inv_dq = M / (q_hi - q_lo)
     F, S = scratch()
     L = np.zeros((6, LANES))
-    Li = np.zeros((2, LANES), dtype=np.int64)
+    Li = np.zeros((9, LANES), dtype=np.int64)
     nxt = first
     m = 0
     while True:
@@ -111,14 +110,34 @@ def _advance_block(first, every, recs, rows, start, rng, maxlev, outcome, levels
             for w in range(4):
                 S[w, m] = rng[j, w]
             L[_T, m], L[_Q, m] = recs[row, st, 3], q
-            Li[_J, m], Li[_LEV, m] = j, lev
+            Li[_J, m], Li[_LEV, m], L[_NEXT, m] = j, lev, lev + 1.0
             m += 1
         if m == 0:
             break
-        step_keeping_x(m, F, S, L[_XB], h, half, P, True)  # count: the time at rest (L_REST)
-        _clock_and_energy(m, F, L, h, w0sq, alpha, khi)
+        lane_step(m, F, S, h, half, P, False, True)  # count: the time at rest (L_REST)
+        # the screen (module docstring): every lane's clock and energy, and whether its tests
+        # may act (not flagged: its energy inside (q_lo, q_hi), below its next level, no
+        # bridge draw, t < t_max: it goes on unchanged)
+        flagged = 0
+        for i in range(m):
+            q0 = L[_Q, i]
+            q = energy(F[L_X, i], F[L_V, i], w0sq, alpha, khi)
+            t = L[_T, i] + h
+            L[_QO, i], L[_Q, i], L[_T, i] = q0, q, t
+            x0, vc = F[L_X0, i], F[L_VC, i]
+            a = ((q <= q_lo) | (q >= q_hi) | (q != q) | (t >= t_max)
+                 | ((q - q_lo) * inv_dq >= L[_NEXT, i])  # level_of(q) > the path's level
+                 | bridge_near(B, q_hi, q0, q, x0, vc, h, P)
+                 | bridge_near(B, q_lo, q0, q, x0, vc, h, P))
+            Li[_ACT, i] = a
+            flagged += a
+        if flagged == 0:
+            continue
         i = 0
         while i < m:
+            if Li[_ACT, i] == 0:  # goes on unchanged
+                i += 1
+                continue
             row = rows[Li[_J, i]]
             q0, q, t = L[_QO, i], L[_Q, i], L[_T, i]
             out = ON
@@ -126,13 +145,13 @@ def _advance_block(first, every, recs, rows, start, rng, maxlev, outcome, levels
                 out = OUT_FAIL
             elif q < q_hi:  # a crossing of q_hi, then of q_lo, inside the step (the bridge)
                 hb, S[0, i], S[1, i], S[2, i], S[3, i] = bridge_hit(
-                    B, q_hi, q0, q, L[_XB, i], F[L_VC, i], h, P, S[0, i], S[1, i], S[2, i],
+                    B, q_hi, q0, q, F[L_X0, i], F[L_VC, i], h, P, S[0, i], S[1, i], S[2, i],
                     S[3, i])
                 if hb >= 0.0:
                     q = q_hi
                 else:
                     hb, S[0, i], S[1, i], S[2, i], S[3, i] = bridge_hit(
-                        B, q_lo, q0, q, L[_XB, i], F[L_VC, i], h, P, S[0, i], S[1, i],
+                        B, q_lo, q0, q, F[L_X0, i], F[L_VC, i], h, P, S[0, i], S[1, i],
                         S[2, i], S[3, i])
                     if hb >= 0.0:
                         out = OUT_FAIL
@@ -143,7 +162,7 @@ def _advance_block(first, every, recs, rows, start, rng, maxlev, outcome, levels
                 while lev < e:
                     lev += 1
                     _record(recs, row, lev, F, L, i)
-                Li[_LEV, i] = lev
+                Li[_LEV, i], L[_NEXT, i] = lev, lev + 1.0
                 if q >= q_hi:
                     out = OUT_SUCCESS
                 elif not t < t_max:
@@ -195,7 +214,7 @@ def _cycles_block(first, every, starts, rng, cyc, h, B, P, entries, summary):
     half = 0.5 * h
     F, S = scratch()
     L = np.zeros((6, LANES))
-    Li = np.zeros((8, LANES), dtype=np.int64)
+    Li = np.zeros((9, LANES), dtype=np.int64)
     nxt = first
     m = 0
     while True:
@@ -216,23 +235,48 @@ def _cycles_block(first, every, starts, rng, cyc, h, B, P, entries, summary):
             m += 1
         if m == 0:
             break
-        step_keeping_x(m, F, S, L[_XB], h, half, P, True)
-        _clock_and_energy(m, F, L, h, w0sq, alpha, khi)  # (a burn-in's clock is not read)
-        m = _cycles_read(m, F, S, L, Li, starts, cyc, h, B, P, entries, summary)
+        lane_step(m, F, S, h, half, P, False, True)
+        # the screen (module docstring): every lane's clock and energy (a burn-in's clock is
+        # not read), its burn-in steps + 1, and whether its tests may act (not flagged: a
+        # burn-in neither at q_hi nor over; a cycle's step with _cycle_test's NONE, its arming
+        # unchanged, t < t_max: it goes on unchanged)
+        flagged = 0
+        for i in range(m):
+            qo = L[_Q, i]
+            q = energy(F[L_X, i], F[L_V, i], w0sq, alpha, khi)
+            t = L[_T, i] + h
+            L[_QO, i], L[_Q, i], L[_T, i] = qo, q, t
+            Li[_N, i] += 1  # (read in the burn-in only)
+            armed = Li[_ARM, i] == 1
+            x0, vc = F[L_X0, i], F[L_VC, i]
+            run = ((q >= q_hi) | (q != q) | (t >= t_max)
+                   | bridge_near(B, q_hi, qo, q, x0, vc, h, P)
+                   | ((q <= q0) & (not armed))
+                   | ((not armed) & (qo > q0) & bridge_near(B, q0, qo, q, x0, vc, h, P))
+                   | ((q >= q1) & (armed | (q <= q0))))
+            burn = (q >= q_hi) | (Li[_N, i] >= n_burn)
+            a = burn if Li[_LEV, i] == BURN else run
+            Li[_ACT, i] = a
+            flagged += a
+        if flagged > 0:
+            m = _cycles_read(m, F, S, L, Li, starts, cyc, h, B, P, entries, summary)
 
 
 @jit(inline="always")
 def _cycles_read(m, F, S, L, Li, starts, cyc, h, B, P, entries, summary):
-    """Each of the m busy lanes' tests after a step (the burn-in's, or its cycles':
-    ``_cycle_test``); a lane whose path ended is dropped. Returns the busy lanes left."""
+    """Each flagged lane's tests after a step (the burn-in's, or its cycles': ``_cycle_test``;
+    the screen in ``_cycles_block`` flags them); a lane whose path ended is dropped. Returns
+    the busy lanes left."""
     n_cycles, q0, q1, q_hi, t_max, n_burn = cyc
     w0sq, alpha, khi = P.w0sq, P.alpha, P.khi
     i = 0
     while i < m:
+        if Li[_ACT, i] == 0:  # goes on unchanged
+            i += 1
+            continue
         p = Li[_J, i]
         done = False
-        if Li[_LEV, i] == BURN:
-            Li[_N, i] += 1
+        if Li[_LEV, i] == BURN:  # (its step counted by the screen)
             if L[_Q, i] >= q_hi:
                 Li[_RS, i] += 1
                 if Li[_RS, i] > MAX_RESTARTS:
@@ -251,7 +295,7 @@ def _cycles_read(m, F, S, L, Li, starts, cyc, h, B, P, entries, summary):
             q_old, q, t = L[_QO, i], L[_Q, i], L[_T, i]
             x, v, xi = F[L_X, i], F[L_V, i], F[L_XI, i]
             ev, tc, armed, S[0, i], S[1, i], S[2, i], S[3, i] = _cycle_test(
-                q, q_old, L[_XB, i], F[L_VC, i], t, h, Li[_ARM, i] == 1, q0, q1, q_hi, B, P,
+                q, q_old, F[L_X0, i], F[L_VC, i], t, h, Li[_ARM, i] == 1, q0, q1, q_hi, B, P,
                 S[0, i], S[1, i], S[2, i], S[3, i])
             k, total, succ = Li[_K, i], L[_TOT, i], Li[_SUCC, i]
             in_cycle, t_cycle = Li[_IN, i] == 1, L[_TC, i]
