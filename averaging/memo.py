@@ -11,13 +11,17 @@ computed once and handed out again: the very arrays, so every result is bit for 
 without the memo (tests/test_coefficient_memo.py). Outside it nothing is kept.
 
 The memo is a ``contextvars.ContextVar``: a thread started inside the scope does not see it
-(it computes, as without one), and two runs in two threads keep apart. It holds at most
-MAX_ENTRIES results (the oldest dropped first); arrays handed out are read-only.
+(it computes, as without one), and two runs in two threads keep apart, unless the work handed
+to the thread is wrapped by :func:`carry` (the check solves the models beside its Monte Carlo:
+both threads then share the one memo; two threads asking the same entry at once may both
+compute it, the same bits). It holds at most MAX_ENTRIES results (the oldest dropped first);
+arrays handed out are read-only.
 """
 
 from __future__ import annotations
 
 import hashlib
+import threading
 from collections.abc import Callable, Hashable, Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
@@ -30,6 +34,8 @@ MAX_ENTRIES = 256
 
 _MEMO: ContextVar[dict[Hashable, Any] | None] = ContextVar("vifpk_averaging_memo",
                                                            default=None)
+_MISSING = object()
+_LOCK = threading.Lock()  # the memo's dict between threads that share it (carry)
 
 
 @contextmanager
@@ -44,6 +50,21 @@ def shared() -> Iterator[None]:
         yield
     finally:
         _MEMO.reset(token)
+
+
+def carry(fn: Callable[..., Any]) -> Callable[..., Any]:
+    """``fn`` to be called in another thread, inside the memo in force here (if any): the
+    thread shares this scope's memo instead of computing everything again."""
+    memo = _MEMO.get()
+
+    def carried(*args: Any, **kwargs: Any) -> Any:
+        token = _MEMO.set(memo)
+        try:
+            return fn(*args, **kwargs)
+        finally:
+            _MEMO.reset(token)
+
+    return carried
 
 
 def active() -> bool:
@@ -83,8 +104,12 @@ def recall(what: str, params: Hashable, A: np.ndarray, compute: Callable[[], Any
     A = np.ascontiguousarray(A)
     key = (what, params, A.shape, A.dtype.str,
            hashlib.blake2b(A.tobytes(), digest_size=20).digest())
-    if key not in memo:
-        if len(memo) >= MAX_ENTRIES:
-            del memo[next(iter(memo))]
-        memo[key] = _frozen(compute())
-    return _copy(memo[key])
+    with _LOCK:
+        held = memo.get(key, _MISSING)
+    if held is _MISSING:
+        held = _frozen(compute())
+        with _LOCK:
+            if len(memo) >= MAX_ENTRIES:
+                del memo[next(iter(memo))]
+            memo[key] = held
+    return _copy(held)

@@ -48,9 +48,8 @@ from numpy.polynomial import legendre
 from vifpk.core.defaults import FPK_CELLS
 from vifpk.core.result import Result, Status
 
-from .scheme import ORDER, Array, CoefficientError, discretise
+from .scheme import ORDER, Array, CoefficientError, FPKFailure, discretise
 from .solve import Coefficient, _versions, as_function
-from .stepper import FPKFailure, run
 
 QUAD_NODES = 8  # Gauss-Legendre points per interval
 DELTA = 1e-12  # the geometric cut near A = 0 goes down to DELTA * Ac
@@ -331,6 +330,8 @@ def reliability(drift: Coefficient, diffusion: Coefficient, *, threshold: float,
         if not (math.isfinite(end) and end > 0):
             raise ValueError(f"t_end must be positive and finite, got {t_end!r}")
         ts = _output_times(tau, end, per_decay)
+    from .stepper import run  # py-pde, imported where it steps
+
     out = run(disc, p_start, t_end=float(ts[-1]), stepper=stepper, rtol=rtol,
               snapshots=list(ts[1:]), check_every=float(ts[-1]) / 20.0)
     snaps, sink = out["snapshots"], out["absorbed_snapshots"]
@@ -375,7 +376,7 @@ def reliability(drift: Coefficient, diffusion: Coefficient, *, threshold: float,
             "tail_rate_measured": rate_end, "R_end": float(R[-1]),
         },
         "seconds": {"total": time.perf_counter() - t0, "stepping": out["seconds"]},
-        "versions": _versions(),
+        "versions": _versions(stepping=True),
         "status": (Status.PASSAGE if ok else Status.NOT_FINITE).record(f"{t.size} times"),
         "warnings": [],
     }

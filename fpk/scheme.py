@@ -163,6 +163,15 @@ class Discretisation:
         return math.inf if lam >= 0 else 1.0 / abs(lam)
 
 
+#: the time steppers of ``stepper.run`` (py-pde; named here, so that naming them imports no py-pde)
+STEPPERS = ("bdf", "explicit")
+
+
+class FPKFailure(RuntimeError):
+    """A time-stepping run lost mass or positivity, or failed to converge (``stepper.py``), or
+    a quadrature overflowed (``passage.py``)."""
+
+
 class CoefficientError(ArithmeticError):
     """m or sigma^2 not finite (or sigma^2 not positive) on the grid: a numerical failure of
     the coefficients, not a bad argument (stepper.FPKFailure is raised for it)."""

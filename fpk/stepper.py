@@ -29,13 +29,9 @@ from pde.trackers import CallbackTracker, ConsistencyTracker, SteadyStateTracker
 
 from vifpk.core.registry import one_of
 
-from .scheme import Array, Discretisation
+from .scheme import STEPPERS, Array, Discretisation, FPKFailure
 
-STEPPERS = ("bdf", "explicit")
-
-
-class FPKFailure(RuntimeError):
-    """A time-stepping run lost mass or positivity, or failed to converge."""
+__all__ = ["STEPPERS", "FPKFailure", "run"]
 
 
 class AmplitudeFPK(PDEBase):

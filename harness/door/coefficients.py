@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from typing import Any
 
 
 @contextmanager
@@ -17,3 +18,11 @@ def shared_coefficients() -> Iterator[None]:
 
     with shared():
         yield
+
+
+def carried(fn: Callable[..., Any]) -> Callable[..., Any]:
+    """``fn`` for another thread, inside this thread's scope of shared coefficients (if any):
+    what the check solves beside its Monte Carlo shares the run's coefficients."""
+    from vifpk.averaging.memo import carry
+
+    return carry(fn)

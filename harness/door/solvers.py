@@ -242,10 +242,10 @@ def fpk_stationary(drift: Any, diffusion: Any, **options: Any) -> Any:
 
 
 @boundary
-def fpk_solution(scene: Any, *, model: Any, cells: int, method: str = "stepping",
+def fpk_solution(scene: Any, *, model: Any, cells: int, method: str = "direct",
                  **options: Any) -> Result:
     """vifpk's FPK on the averaged model's m and sigma^2 (``fpk.stationary``, ``method``
-    "stepping" or "direct"), mapped to phase space like the closed form (:func:`_phase_result`)."""
+    "direct" or "stepping"), mapped to phase space like the closed form (:func:`_phase_result`)."""
     from vifpk import fpk
 
     _require_noise(scene)

@@ -283,10 +283,13 @@ def _duration(s: float) -> str:
 
 
 def fpk_seconds(cells: int) -> float:
-    """Lower bound of one FPK stationary solve by stepping: FPK_SECONDS_PER_CELL x cells,
-    times cells / 3200 above 3200 cells (the stable step shrinks with the cell: measured
-    1.4 s of CPU at 3200 cells and more than 56 s at 12800, load 11; it was priced linearly,
-    so --grid 5e6 ran for minutes with no word)."""
+    """One FPK stationary solve priced as py-pde's stepping (``method="stepping"``), on which
+    it was measured: FPK_SECONDS_PER_CELL x cells, times cells / 3200 above 3200 cells (the
+    stable step shrinks with the cell: measured 1.4 s of CPU at 3200 cells and more than 56 s
+    at 12800, load 11; it was priced linearly, so --grid 5e6 ran for minutes with no word).
+    The check and ``solve --solver fpk`` now solve directly (fpk.stationary's default since
+    issue 44, 100-400x cheaper at the default grid): for them this price is an upper estimate,
+    not a lower bound, so the guard asks --yes early on huge grids rather than late."""
     return FPK_SECONDS_PER_CELL * cells * max(1.0, cells / 3200)
 
 

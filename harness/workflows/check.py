@@ -20,14 +20,14 @@ own evidence only.
 from __future__ import annotations
 
 import math
-import sys
 import time
 import zlib
 from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
-from vifpk.harness.door.coefficients import shared_coefficients
+from vifpk.harness.door.boundary import one_blas_thread
+from vifpk.harness.door.coefficients import carried, shared_coefficients
 from vifpk.harness.door.original import original_fpk_problem, original_fpk_solution
 from vifpk.harness.door.solvers import (
     MonteCarloRun,
@@ -40,6 +40,7 @@ from vifpk.harness.door.solvers import (
 from vifpk.harness.request.tolerance import Tolerance
 from vifpk.harness.workflows.assumptions import assumption_warnings
 from vifpk.harness.workflows.compare import compare, paired
+from vifpk.harness.workflows.stages import Beside, Stages
 from vifpk.harness.workflows.tolerance import line as tolerance_line
 from vifpk.harness.workflows.tolerance import model_verdicts
 from vifpk.harness.workflows.truth import truth_metrics, truth_verdicts
@@ -82,43 +83,6 @@ class CheckResult:
     recommendation: str = ""  # one line: the model to trust here and why (recommend())
     models: tuple[str, ...] = CHECK_MODELS  # the averaged models checked, in report order
     tolerance_lines: tuple[str, ...] = ()  # per model: the tolerance verdict (tolerance.line)
-
-
-class _Stages:
-    """Progress on the terminal: one line a stage, with its time."""
-
-    def __init__(self, total: int, quiet: bool):
-        self.total, self.quiet, self.i = total, quiet, 0
-        self.t = self.start = time.perf_counter()
-        self.name = ""
-        self.label = ""
-        self.seconds: dict[str, float] = {}  # stage -> wall seconds (metrics.json "timings")
-
-    def _end(self, now: float) -> None:
-        """The stage's time; on a terminal the label is written again from the line's start
-        ("\r"), since a progress bar drawn on the same line (the Monte Carlo's) erases it
-        when it closes."""
-        again = f"\r{self.label}" if sys.stderr.isatty() else ""
-        print(f"{again} {now - self.t:.1f} s", file=sys.stderr, flush=True)
-
-    def __call__(self, name: str) -> None:
-        now = time.perf_counter()
-        if self.i:
-            self.seconds[self.name] = self.seconds.get(self.name, 0.0) + now - self.t
-            if not self.quiet:
-                self._end(now)
-        self.i += 1
-        self.t, self.name = now, name
-        self.label = f"[{self.i}/{self.total}] {name} ..."
-        if not self.quiet:
-            print(self.label, end="", file=sys.stderr, flush=True)
-
-    def done(self) -> None:
-        now = time.perf_counter()
-        if self.i:
-            self.seconds[self.name] = self.seconds.get(self.name, 0.0) + now - self.t
-        if not self.quiet and self.i:
-            self._end(now)
 
 
 def mc_edges_of(mc: Any) -> dict[str, np.ndarray]:
@@ -187,47 +151,28 @@ def _cross_check(scene: Any, *, quiet: bool, fpk: bool, sde: bool, tail_mass: bo
                  run: MonteCarloRun | None, truth: bool) -> CheckResult:
     tol = tolerance if tolerance is not None else Tolerance()
     models, absent = models_of(scene, models)
-    # closed forms, the original system's Monte Carlo and the metrics; FPK and SDE per model
-    stages = _Stages(3 + len(models) * (int(fpk) + int(sde)), quiet)
-    sol: dict[str, Any] = {}
-    closed = {}
-    stages("averaged models (closed forms)")
-    for m in models:
-        closed[m] = closed_form(scene, model=m, tail_mass=tail_mass)
-        sol[f"closed:{m}"] = closed[m]
-    # every registered FPK solver (vifpk's fpk, plugins') on each model, measured against the
-    # model's closed form (none: nothing to measure against)
-    with_fpk = [m for m in models if fpk and closed[m].info.get("closed_form", True)]
     solvers = registry.model_solver_names() if fpk else ()
-    stages.total += len(with_fpk) * len(solvers) - (len(models) if fpk else 0)
-    for name in solvers:
-        for m in with_fpk:
-            stages(f"{name.upper()} of the {m} model")
-            sol[f"{name}:{m}"] = model_solution(scene, model=m, solver=name, cells=FPK_CELLS)
-    # the original system's simulation: its ranges, burn-in and extensions are its own
-    t_mc = time.perf_counter()
-    budget = scene.montecarlo.budget or math.inf
-    extensions = 0
-    run_scene = scene
-    while True:
-        stages("Monte Carlo of the original system" + (f" (extended x{2 ** extensions})"
-                                                       if extensions else ""))
-        mc = montecarlo_solution(replace(run_scene, observables=replace(
-            run_scene.observables, A=True, x1=True, x2=True, events=True, moments=True)),
-            progress=not quiet, run=run)
-        st = mc.resolved  # typed: what the run resolved (step, burn-in, sampled time, ...)
-        bad = _evidence(mc.info.get("convergence", {}), {})
-        spent = time.perf_counter() - t_mc
-        # extend (twice the burn-in and the sampled time) while the certificate says the run
-        # is too short and the budget allows another run of twice the cost
-        if not bad or extensions >= 3 or spent * 3 > budget - spent:
-            break
-        extensions += 1
-        stages.total += 1
-        mcs = run_scene.montecarlo
-        run_scene = replace(run_scene, montecarlo=replace(
-            mcs, time=2 * st.time, burn_in=2 * st.burn_in, dt=st.dt, floor=0.0))
+    # closed forms, the original system's Monte Carlo and the metrics; FPK and SDE per model
+    stages = Stages(3 + len(models) * (len(solvers) + int(sde)), quiet)
+    # the models' closed forms and FPKs (numpy, Python) beside the original system's Monte
+    # Carlo (numba, the GIL released): nothing flows between them, so each gives the numbers
+    # it gives alone; BLAS is held on one thread around both (door calls in two threads nest)
+    with one_blas_thread():
+        beside = Beside(carried(_model_solves), scene, models, solvers, tail_mass, stages,
+                        name="vifpk-models")
+        try:
+            mc, extensions, bad, run_scene = _original_mc(scene, run, quiet, stages)
+        except Exception:
+            beside.wait()  # its failure came first in a check without the overlap
+            if beside.failed() is not None:
+                raise beside.failed() from None
+            raise
+        closed, fpk_solutions = beside.result()
+    sol: dict[str, Any] = {f"closed:{m}": closed[m] for m in models}
+    sol.update(fpk_solutions)
     sol["mc:original"] = mc
+    st = mc.resolved  # typed: what the run resolved (step, burn-in, sampled time, ...)
+    budget = scene.montecarlo.budget or math.inf
     why_no_truth = original_fpk_problem(scene) if truth else "not asked (truth=False)"
     if why_no_truth is None:
         stages.total += 1
@@ -353,6 +298,53 @@ def _cross_check(scene: Any, *, quiet: bool, fpk: bool, sde: bool, tail_mass: bo
                        tolerance_lines=tuple(metrics["tolerance_verdicts"]))
 
 
+def _model_solves(scene: Any, models: tuple[str, ...], solvers: tuple[str, ...],
+                  tail_mass: bool, stages: Stages) -> tuple[dict[str, Any], dict[str, Any]]:
+    """Each model's closed form, then every registered FPK solver (vifpk's fpk, plugins') on
+    each model that has one, to be measured against it (none: nothing to measure against).
+    Returns (closed forms by model, FPK solutions by "solver:model")."""
+    t = time.perf_counter()
+    closed = {m: closed_form(scene, model=m, tail_mass=tail_mass) for m in models}
+    stages.beside("averaged models (closed forms)", time.perf_counter() - t)
+    with_fpk = [m for m in models if closed[m].info.get("closed_form", True)]
+    stages.total -= (len(models) - len(with_fpk)) * len(solvers)
+    out = {}
+    for name in solvers:
+        for m in with_fpk:
+            t = time.perf_counter()
+            out[f"{name}:{m}"] = model_solution(scene, model=m, solver=name, cells=FPK_CELLS)
+            stages.beside(f"{name.upper()} of the {m} model", time.perf_counter() - t)
+    return closed, out
+
+
+def _original_mc(scene: Any, run: MonteCarloRun | None, quiet: bool, stages: Stages
+                 ) -> tuple[Any, int, list[str], Any]:
+    """The original system's simulation: its ranges, burn-in and extensions are its own.
+    Extended (twice the burn-in and the sampled time) while the certificate says the run is
+    too short and the budget allows another run of twice the cost, at most 3 times. Returns
+    (result, extensions, the certificate's evidence against it, the scene of the last run)."""
+    t_mc = time.perf_counter()
+    budget = scene.montecarlo.budget or math.inf
+    extensions = 0
+    run_scene = scene
+    while True:
+        stages("Monte Carlo of the original system" + (f" (extended x{2 ** extensions})"
+                                                       if extensions else ""))
+        mc = montecarlo_solution(replace(run_scene, observables=replace(
+            run_scene.observables, A=True, x1=True, x2=True, events=True, moments=True)),
+            progress=not quiet, run=run)
+        st = mc.resolved
+        bad = _evidence(mc.info.get("convergence", {}), {})
+        spent = time.perf_counter() - t_mc
+        if not bad or extensions >= 3 or spent * 3 > budget - spent:
+            return mc, extensions, bad, run_scene
+        extensions += 1
+        stages.total += 1
+        mcs = run_scene.montecarlo
+        run_scene = replace(run_scene, montecarlo=replace(
+            mcs, time=2 * st.time, burn_in=2 * st.burn_in, dt=st.dt, floor=0.0))
+
+
 def paired_table(closed: dict[str, Any], truth: Any, models: tuple[str, ...],
                  tol: Tolerance, *, diff_err: float | None = None) -> dict[str, Any]:
     """Every pair of models compared on the SAME sample (compare.paired): the difference of
@@ -377,7 +369,7 @@ def paired_table(closed: dict[str, Any], truth: Any, models: tuple[str, ...],
 
 
 def _sde_run(scene: Any, model: str, closed: Any, edges: dict[str, np.ndarray],
-             st: Resolved, burn_in: Any, budget: float, stages: _Stages
+             st: Resolved, burn_in: Any, budget: float, stages: Stages
              ) -> tuple[Any, int]:
     """The Monte Carlo of ``model``'s averaged SDE on the original system's edges and sample
     plan (its own step, from its relaxation time: montecarlo.averaged_sde), seeded by

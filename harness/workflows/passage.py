@@ -36,8 +36,9 @@ import numpy as np
 from vifpk.harness.door import solvers, timedomain
 from vifpk.harness.workflows import precision
 from vifpk.harness.workflows.assumptions import compounded_tail
-from vifpk.harness.workflows.check import _Stages, models_of, sde_seed
+from vifpk.harness.workflows.check import models_of, sde_seed
 from vifpk.harness.workflows.precision import _fpt, not_measured
+from vifpk.harness.workflows.stages import Stages
 from vifpk.harness.workflows.verdict import RECOMMENDABLE
 
 from vifpk.core.defaults import BURN_FACTOR, CHECK_MODELS
@@ -189,7 +190,7 @@ def passage(scene: Any, *, threshold: float, start: float | str = "stationary",
     from vifpk.harness.workflows import survival
 
     named, models, absent = applicable(scene, models)
-    stages = _Stages(2 + len(models) * (1 + int(sde)), quiet)
+    stages = Stages(2 + len(models) * (1 + int(sde)), quiet)
     sol: dict[str, Any] = {}
     mfpt: dict[str, Any] = {}
     for m in models:

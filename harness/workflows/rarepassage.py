@@ -52,8 +52,8 @@ def run(req: Any, *, reason: str, quiet: bool = True) -> SplittingResult:
     out at the default particles, the splitting runs again with twice as many while the next
     run (priced at twice the last) fits in BUDGET; with ``req.particles`` given, or out of
     budget, door.timedomain.SplittingDiedOut (exit 3, naming --particles)."""
-    from vifpk.harness.workflows.check import _Stages
     from vifpk.harness.workflows.passage import recommend, verdict_class
+    from vifpk.harness.workflows.stages import Stages
 
     t0 = time.perf_counter()
     scene, threshold, start = req.scene, req.threshold, req.start
@@ -61,7 +61,7 @@ def run(req: Any, *, reason: str, quiet: bool = True) -> SplittingResult:
     timedomain.checked_splitting_levels(scene, threshold=threshold, start=start)
     names = tuple(m for m in req.models if isinstance(m, str))
     kept = registry.applicable(scene, names)[0]  # the models that apply to the scene
-    stages = _Stages(len(kept) + 2, quiet)
+    stages = Stages(len(kept) + 2, quiet)
     mfpt: dict[str, Any] = {}
     for m in kept:
         stages(f"MFPT of the {m} model (quadrature)")
