@@ -312,7 +312,7 @@ def simulate_sde(drift: Callable[[np.ndarray], np.ndarray],
                  burn_in: float | str = "auto", sample_every: float = 0.5,
                  seed: int = 20190102,
                  A0: float | None = None, phase: dict[str, Any] | None = None,
-                 observe: dict[str, Any] | None = None) -> Result:
+                 observe: dict[str, Any] | None = None, threads: int | None = None) -> Result:
     """Histogram of A for the averaged SDE with batch error bars (blocks are the batches).
 
     phase: optional ``{"restoring" (k1, k3, ...) or "omega0" and "alpha", "barrier",
@@ -325,7 +325,11 @@ def simulate_sde(drift: Callable[[np.ndarray], np.ndarray],
     observe: optional ``{"sd": callable, "restoring" or "omega0" and "alpha"}``: an
     observation map on the
     sampled energy (sd(A) the rms of a normal fluctuation of U(A), truncated at U >= 0), as
-    the model applies to its closed form (averaging.corrected.CorrectedModel.observe)."""
+    the model applies to its closed form (averaging.corrected.CorrectedModel.observe).
+    threads: numba's threads for this run in the calling thread (0: all cores; None: as the
+    calling thread has them); the numbers are the same for any."""
+    if threads is not None:
+        numba.set_num_threads(threads or numba.config.NUMBA_NUM_THREADS)
     edges = np.asarray(edges, dtype=float)
     top = float(A_table if A_table is not None else 1.5 * edges[-1])
     tau = None

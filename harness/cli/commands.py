@@ -113,6 +113,7 @@ def _mc_overrides(args: argparse.Namespace) -> dict[str, Any]:
 def cmd_check(args: argparse.Namespace) -> int:
     from vifpk.harness.outputs import outdir
     from vifpk.harness.outputs.report import REPORT_FILES, write_report
+    from vifpk.harness.outputs.report_figures import prepare as prepare_figures
     from vifpk.harness.workflows.check import cross_check
 
     from vifpk.core.provenance import folder_name
@@ -136,7 +137,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     with outdir.hold(out, run_id=prov["run_id"], allowed=REPORT_FILES, kind="check report"):
         with cost.guarded_run(scene, args.yes) as run:
             result = cross_check(scene, quiet=args.quiet, models=models, tolerance=tol,
-                                 run=run)
+                                 run=run, warm=prepare_figures)
         files = write_report(result, out, prov=prov, runtime_warnings=_recorded(args))
     for v in result.verdicts:
         print(v)

@@ -443,7 +443,8 @@ def averaged_sde_solution(scene: Any, model: Any, *, edges: dict[str, Any], seed
     The run settings (paths, blocks, dt, time, burn_in, sample_every) are the scene's
     [montecarlo] ones unless given in ``settings`` (e.g. the resolved dt of a run of the
     original system). ``edges``: ``edges_A`` (and ``edges_x``, ``edges_v`` with ``phase``,
-    which also records x1, x2 from time-uniform points of each sampled orbit).
+    which also records x1, x2 from time-uniform points of each sampled orbit). It runs on the
+    scene's ``montecarlo.threads`` in whatever thread calls it (the check runs two at once).
     """
     from vifpk.montecarlo.averaged_sde import simulate_sde
 
@@ -466,7 +467,7 @@ def averaged_sde_solution(scene: Any, model: Any, *, edges: dict[str, Any], seed
     return simulate_sde(m.drift, m.diffusion, edges=edges["edges_A"], paths=kw["paths"],
                         blocks=kw["blocks"], dt=kw["dt"], time_=kw["time"],
                         burn_in=kw["burn_in"], sample_every=kw["sample_every"], seed=seed,
-                        phase=extra, observe=observe)
+                        phase=extra, observe=observe, threads=int(mc.threads))
 
 
 @boundary

@@ -147,5 +147,23 @@ def figure_decomposition(res: CheckResult, text: dict[str, str] | None = None) -
     return _png(fig, text)
 
 
+def prepare() -> None:
+    """What the figures draw with, made ready: matplotlib's figure, Agg canvas, patches and
+    ticker imported, and one 1 x 1 inch figure drawn with a log axis (its fonts loaded,
+    mathtext's parser built for the powers of ten). ``vifpk check`` runs it in a thread while
+    the averaged SDEs' kernels run (harness/workflows/check.py ``warm``), 0.7-1 s of the
+    report's time on paper-base; the figures drawn after it are the same."""
+    from matplotlib.patches import Rectangle  # noqa: F401 - imported here, used by the figures
+    from matplotlib.ticker import NullLocator  # noqa: F401
+
+    from vifpk.core.io import figures
+
+    fig, ax = figures().subplots(1, 1, figsize=(1, 1))
+    ax.set_yscale("log")
+    ax.set_ylim(1e-3, 2.0)
+    ax.set_title("x")
+    png_bytes(fig, dpi=20)
+
+
 def _png(fig: Any, text: dict[str, str] | None) -> bytes:
     return png_bytes(fig, text=text, dpi=DPI)

@@ -13,16 +13,16 @@ its histogram ranges come from its own scale pilot (montecarlo.simulate, the ran
 ``solve --solver montecarlo`` uses), its burn-in from its own relaxation pilot, its extensions
 from its own equilibration certificate, so the same seed gives the same numbers for a model
 whatever else is checked. The averaged SDEs' runs share its edges (bin by bin comparisons);
-each is seeded from the root seed and the model's *name* (:func:`sde_seed`) and extended on its
-own evidence only.
+each is seeded from the root seed and the model's *name* (``checkruns.sde_seed``) and
+extended on its own evidence only.
 """
 
 from __future__ import annotations
 
 import math
 import time
-import zlib
-from dataclasses import dataclass, replace
+from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -31,21 +31,17 @@ from vifpk.harness.door.coefficients import carried, shared_coefficients
 from vifpk.harness.door.original import original_fpk_problem, original_fpk_solution
 from vifpk.harness.door.solvers import (
     MonteCarloRun,
-    averaged_sde_solution,
-    closed_form,
-    model_solution,
-    montecarlo_solution,
     validity,
 )
 from vifpk.harness.request.tolerance import Tolerance
 from vifpk.harness.workflows.assumptions import assumption_warnings
+from vifpk.harness.workflows.checkruns import mc_edges_of, model_solves, original_mc, sde_runs
 from vifpk.harness.workflows.compare import compare, paired
 from vifpk.harness.workflows.stages import Beside, Stages
 from vifpk.harness.workflows.tolerance import line as tolerance_line
 from vifpk.harness.workflows.tolerance import model_verdicts
 from vifpk.harness.workflows.truth import truth_metrics, truth_verdicts
 from vifpk.harness.workflows.verdict import (
-    _evidence,
     assumptions_failing,
     observable_classes,
     recommend,
@@ -56,9 +52,9 @@ from vifpk.harness.workflows.verdict import (
 )
 
 from vifpk.core import registry
-from vifpk.core.defaults import CHECK_MODELS, DENSITY_OBSERVABLES, FPK_CELLS
+from vifpk.core.defaults import CHECK_MODELS, DENSITY_OBSERVABLES
 from vifpk.core.protocols import Ref, WorkflowSpec
-from vifpk.core.result import Resolved, WarningRecord
+from vifpk.core.result import WarningRecord
 
 OBSERVABLES = DENSITY_OBSERVABLES
 
@@ -85,27 +81,11 @@ class CheckResult:
     tolerance_lines: tuple[str, ...] = ()  # per model: the tolerance verdict (tolerance.line)
 
 
-def mc_edges_of(mc: Any) -> dict[str, np.ndarray]:
-    """The histogram edges of a Monte Carlo run of the original system (its own, from its
-    scale pilot: they depend on the scene, the step and the seed, never on a model), for the
-    averaged SDEs' runs that are compared with it bin by bin."""
-    return {"edges_A": np.asarray(mc.data["A"]["edges"]),
-            "edges_x": np.asarray(mc.data["x1"]["edges"]),
-            "edges_v": np.asarray(mc.data["x2"]["edges"])}
-
-
-def sde_seed(root: int, model: str) -> int:
-    """The root seed of the Monte Carlo of ``model``'s averaged SDE: the first word of
-    numpy.random.SeedSequence([root, crc32(name)]), so a function of the scene's seed and the
-    model's name alone, never of its place in the list of models checked."""
-    ss = np.random.SeedSequence([int(root), zlib.crc32(model.encode())])
-    return int(ss.generate_state(1, dtype=np.uint32)[0])
-
-
 def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool = True,
                 tail_mass: bool = True, models: tuple[str, ...] = CHECK_MODELS,
                 tolerance: Tolerance | None = None,
-                run: MonteCarloRun | None = None, truth: bool = True) -> CheckResult:
+                run: MonteCarloRun | None = None, truth: bool = True,
+                warm: Callable[[], Any] | None = None) -> CheckResult:
     """Run every solver on a concrete scene and compute the error decomposition.
 
     ``run``: the cost limit and checkpoint of the original system's Monte Carlo
@@ -140,15 +120,23 @@ def cross_check(scene: Any, *, quiet: bool = False, fpk: bool = True, sde: bool 
 
     The averaged models' coefficients are computed once per grid for the whole run and
     shared by the closed forms, the FPKs and the averaged SDEs (door.shared_coefficients).
+
+    Concurrency (issue 44): the models' closed forms and FPKs are solved in a thread beside
+    the original system's Monte Carlo, and the averaged SDEs run ``checkruns.SDE_LANES`` at a
+    time; every part is a function of the scene (and its model) alone, so the numbers are
+    those of the parts run one after another. ``warm``: the caller's own preparation (the
+    command line imports the report's drawing), run in a thread while the SDEs' kernels run.
     """
     with shared_coefficients():
         return _cross_check(scene, quiet=quiet, fpk=fpk, sde=sde, tail_mass=tail_mass,
-                            models=models, tolerance=tolerance, run=run, truth=truth)
+                            models=models, tolerance=tolerance, run=run, truth=truth,
+                            warm=warm)
 
 
 def _cross_check(scene: Any, *, quiet: bool, fpk: bool, sde: bool, tail_mass: bool,
                  models: tuple[str, ...], tolerance: Tolerance | None,
-                 run: MonteCarloRun | None, truth: bool) -> CheckResult:
+                 run: MonteCarloRun | None, truth: bool,
+                 warm: Callable[[], Any] | None) -> CheckResult:
     tol = tolerance if tolerance is not None else Tolerance()
     models, absent = models_of(scene, models)
     solvers = registry.model_solver_names() if fpk else ()
@@ -158,16 +146,18 @@ def _cross_check(scene: Any, *, quiet: bool, fpk: bool, sde: bool, tail_mass: bo
     # Carlo (numba, the GIL released): nothing flows between them, so each gives the numbers
     # it gives alone; BLAS is held on one thread around both (door calls in two threads nest)
     with one_blas_thread():
-        beside = Beside(carried(_model_solves), scene, models, solvers, tail_mass, stages,
+        beside = Beside(carried(model_solves), scene, models, solvers, tail_mass, stages,
                         name="vifpk-models")
         try:
-            mc, extensions, bad, run_scene = _original_mc(scene, run, quiet, stages)
+            mc, extensions, bad, run_scene = original_mc(scene, run, quiet, stages)
         except Exception:
             beside.wait()  # its failure came first in a check without the overlap
             if beside.failed() is not None:
                 raise beside.failed() from None
             raise
+        stages.done()  # the Monte Carlo's line; then the lines of what ran beside it
         closed, fpk_solutions = beside.result()
+        stages.flush()
     sol: dict[str, Any] = {f"closed:{m}": closed[m] for m in models}
     sol.update(fpk_solutions)
     sol["mc:original"] = mc
@@ -180,9 +170,12 @@ def _cross_check(scene: Any, *, quiet: bool, fpk: bool, sde: bool, tail_mass: bo
         sol["fpk2d:original"] = original_fpk_solution(scene)
     edges = mc_edges_of(mc)
     sde_extensions = {}
-    for m in models if sde else ():
-        sol[f"mc:{m}"], sde_extensions[m] = _sde_run(
-            scene, m, closed[m], edges, st, run_scene.montecarlo.burn_in, budget, stages)
+    # the caller's own preparation, while the SDEs' kernels run
+    warming = Beside(warm, name="vifpk-warm") if warm is not None else None
+    runs = sde_runs(scene, models if sde else (), closed, edges, st,
+                     run_scene.montecarlo.burn_in, budget, stages)
+    for m, (res, ext) in runs.items():
+        sol[f"mc:{m}"], sde_extensions[m] = res, ext
     stages("metrics")
     metrics: dict[str, Any] = {"models": {}}
     if absent:
@@ -265,6 +258,8 @@ def _cross_check(scene: Any, *, quiet: bool, fpk: bool, sde: bool, tail_mass: bo
             warnings.append(WarningRecord("truth_disagrees", metrics["truth"]["words"]))
         verdicts.append(metrics["truth"]["line"])
     stages.done()
+    if warming is not None:  # ended before the caller goes on (it may share its caches)
+        warming.result()
     rec_model, rec_line = recommend(metrics, warnings, val, convergence=conv)
     if metrics["truth"].get("agrees"):
         rec_line += (f" -- decided against the original system's own FPK (no sampling noise; "
@@ -298,53 +293,6 @@ def _cross_check(scene: Any, *, quiet: bool, fpk: bool, sde: bool, tail_mass: bo
                        tolerance_lines=tuple(metrics["tolerance_verdicts"]))
 
 
-def _model_solves(scene: Any, models: tuple[str, ...], solvers: tuple[str, ...],
-                  tail_mass: bool, stages: Stages) -> tuple[dict[str, Any], dict[str, Any]]:
-    """Each model's closed form, then every registered FPK solver (vifpk's fpk, plugins') on
-    each model that has one, to be measured against it (none: nothing to measure against).
-    Returns (closed forms by model, FPK solutions by "solver:model")."""
-    t = time.perf_counter()
-    closed = {m: closed_form(scene, model=m, tail_mass=tail_mass) for m in models}
-    stages.beside("averaged models (closed forms)", time.perf_counter() - t)
-    with_fpk = [m for m in models if closed[m].info.get("closed_form", True)]
-    stages.total -= (len(models) - len(with_fpk)) * len(solvers)
-    out = {}
-    for name in solvers:
-        for m in with_fpk:
-            t = time.perf_counter()
-            out[f"{name}:{m}"] = model_solution(scene, model=m, solver=name, cells=FPK_CELLS)
-            stages.beside(f"{name.upper()} of the {m} model", time.perf_counter() - t)
-    return closed, out
-
-
-def _original_mc(scene: Any, run: MonteCarloRun | None, quiet: bool, stages: Stages
-                 ) -> tuple[Any, int, list[str], Any]:
-    """The original system's simulation: its ranges, burn-in and extensions are its own.
-    Extended (twice the burn-in and the sampled time) while the certificate says the run is
-    too short and the budget allows another run of twice the cost, at most 3 times. Returns
-    (result, extensions, the certificate's evidence against it, the scene of the last run)."""
-    t_mc = time.perf_counter()
-    budget = scene.montecarlo.budget or math.inf
-    extensions = 0
-    run_scene = scene
-    while True:
-        stages("Monte Carlo of the original system" + (f" (extended x{2 ** extensions})"
-                                                       if extensions else ""))
-        mc = montecarlo_solution(replace(run_scene, observables=replace(
-            run_scene.observables, A=True, x1=True, x2=True, events=True, moments=True)),
-            progress=not quiet, run=run)
-        st = mc.resolved
-        bad = _evidence(mc.info.get("convergence", {}), {})
-        spent = time.perf_counter() - t_mc
-        if not bad or extensions >= 3 or spent * 3 > budget - spent:
-            return mc, extensions, bad, run_scene
-        extensions += 1
-        stages.total += 1
-        mcs = run_scene.montecarlo
-        run_scene = replace(run_scene, montecarlo=replace(
-            mcs, time=2 * st.time, burn_in=2 * st.burn_in, dt=st.dt, floor=0.0))
-
-
 def paired_table(closed: dict[str, Any], truth: Any, models: tuple[str, ...],
                  tol: Tolerance, *, diff_err: float | None = None) -> dict[str, Any]:
     """Every pair of models compared on the SAME sample (compare.paired): the difference of
@@ -366,35 +314,6 @@ def paired_table(closed: dict[str, Any], truth: Any, models: tuple[str, ...],
     if diff_err is not None:
         out["truth"] = "original-fpk"
     return out
-
-
-def _sde_run(scene: Any, model: str, closed: Any, edges: dict[str, np.ndarray],
-             st: Resolved, burn_in: Any, budget: float, stages: Stages
-             ) -> tuple[Any, int]:
-    """The Monte Carlo of ``model``'s averaged SDE on the original system's edges and sample
-    plan (its own step, from its relaxation time: montecarlo.averaged_sde), seeded by
-    :func:`sde_seed`; doubled (sampled time and burn-in) while it is off its closed form beyond
-    SAMPLING_FACTOR x its floor on any observable, at most 3 times and while the budget allows
-    a run of twice the cost. Returns (result, extensions): a function of the scene and this
-    model alone."""
-    t0 = time.perf_counter()
-    ext, time_ = 0, st.time
-    while True:
-        stages(f"Monte Carlo of the {model} averaged SDE"
-               + (f" (extended x{2 ** ext})" if ext else ""))
-        res = averaged_sde_solution(
-            scene, model, edges=edges, seed=sde_seed(scene.montecarlo.seed, model), phase=True,
-            paths=st.paths, blocks=st.blocks, dt="auto", time=time_, burn_in=burn_in,
-            sample_every=st.sample_every)
-        spent = time.perf_counter() - t0
-        if (not sampling_failures({o: compare(closed.data[o], res.data[o])
-                                   for o in OBSERVABLES}) or ext >= 3
-                or spent * 3 > budget - spent):
-            return res, ext
-        ext += 1
-        stages.total += 1
-        time_ = 2 * res.resolved.time
-        burn_in = 2 * res.resolved.burn_in
 
 
 def output_problems(result: CheckResult) -> list[str]:

@@ -36,7 +36,8 @@ import numpy as np
 from vifpk.harness.door import solvers, timedomain
 from vifpk.harness.workflows import precision
 from vifpk.harness.workflows.assumptions import compounded_tail
-from vifpk.harness.workflows.check import models_of, sde_seed
+from vifpk.harness.workflows.check import models_of
+from vifpk.harness.workflows.checkruns import sde_seed
 from vifpk.harness.workflows.precision import _fpt, not_measured
 from vifpk.harness.workflows.stages import Stages
 from vifpk.harness.workflows.verdict import RECOMMENDABLE

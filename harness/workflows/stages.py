@@ -38,7 +38,7 @@ class Stages:
         again = f"\r{self.label}" if sys.stderr.isatty() else ""
         print(f"{again} {now - self.t:.1f} s", file=sys.stderr, flush=True)
 
-    def _flush(self) -> None:
+    def flush(self) -> None:
         """The lines of the stages that ended beside this thread's, in the order they ended."""
         with self._lock:
             done, self._beside = self._beside, []
@@ -54,7 +54,7 @@ class Stages:
             self.seconds[self.name] = self.seconds.get(self.name, 0.0) + now - self.t
             if not self.quiet:
                 self._end(now)
-        self._flush()
+        self.flush()
         self.i += 1
         self.t, self.name = now, name
         self.label = f"[{self.i}/{self.total}] {name} ..."
@@ -74,7 +74,7 @@ class Stages:
             if not self.quiet:
                 self._end(now)
             self.name = ""
-        self._flush()
+        self.flush()
 
 
 class Beside:

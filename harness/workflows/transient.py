@@ -28,9 +28,10 @@ import numpy as np
 from vifpk.harness.door import solvers, timedomain
 from vifpk.harness.request.timedomain import MIN_FIT_TIMES  # the fit's fewest times (3)
 from vifpk.harness.workflows import precision
-from vifpk.harness.workflows.check import _Stages, sde_seed
+from vifpk.harness.workflows.checkruns import sde_seed
 from vifpk.harness.workflows.compare import compare
 from vifpk.harness.workflows.passage import applicable, plain_info
+from vifpk.harness.workflows.stages import Stages
 from vifpk.harness.workflows.verdict import observable_class
 
 from vifpk.core.defaults import CHECK_MODELS
@@ -98,7 +99,7 @@ def transient(scene: Any, *, start: float, times: tuple[float, ...],
     which. The histogram grid is fixed by the first unit's paths (snapshot_bins)."""
     named, models, absent = applicable(scene, models)
     times = tuple(float(t) for t in times)
-    stages = _Stages(2 + len(models) * (1 + int(sde)), quiet)
+    stages = Stages(2 + len(models) * (1 + int(sde)), quiet)
     sol: dict[str, Any] = {}
     for m in models:
         stages(f"FPK of the {m} model (time stepping)")
