@@ -56,6 +56,13 @@ DELTA = 1e-12  # the geometric cut near A = 0 goes down to DELTA * Ac
 Start = float | str | Callable[[Array], Array]
 
 
+def run(*args: Any, **kwargs: Any) -> dict[str, Any]:
+    """``stepper.run``, py-pde imported on first use (importing ``vifpk.fpk`` imports none)."""
+    from .stepper import run as step
+
+    return step(*args, **kwargs)
+
+
 def quad_order(nodes: int) -> int:
     """The declared order of the quadrature with ``nodes`` points per interval: 2 nodes.
 
@@ -330,8 +337,6 @@ def reliability(drift: Coefficient, diffusion: Coefficient, *, threshold: float,
         if not (math.isfinite(end) and end > 0):
             raise ValueError(f"t_end must be positive and finite, got {t_end!r}")
         ts = _output_times(tau, end, per_decay)
-    from .stepper import run  # py-pde, imported where it steps
-
     out = run(disc, p_start, t_end=float(ts[-1]), stepper=stepper, rtol=rtol,
               snapshots=list(ts[1:]), check_every=float(ts[-1]) / 20.0)
     snaps, sink = out["snapshots"], out["absorbed_snapshots"]

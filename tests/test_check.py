@@ -30,7 +30,7 @@ def white_envelope(monkeypatch):
 
 
 def test_the_sde_seed_follows_the_name_not_the_place():
-    from vifpk.harness.workflows.check import sde_seed
+    from vifpk.harness.workflows.checkruns import sde_seed
 
     assert sde_seed(7, "exact") == sde_seed(7, "exact")
     seeds = {sde_seed(7, m) for m in ("paper", "exact", "corrected", "white-envelope")}

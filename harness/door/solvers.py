@@ -442,10 +442,8 @@ def averaged_sde_solution(scene: Any, model: Any, *, edges: dict[str, Any], seed
 
     The run settings (paths, blocks, dt, time, burn_in, sample_every) are the scene's
     [montecarlo] ones unless given in ``settings`` (e.g. the resolved dt of a run of the
-    original system). ``edges``: ``edges_A`` (and ``edges_x``, ``edges_v`` with ``phase``,
-    which also records x1, x2 from time-uniform points of each sampled orbit). It runs on the
-    scene's ``montecarlo.threads`` in whatever thread calls it (the check runs two at once).
-    """
+    original system). ``edges``: ``edges_A`` (and ``edges_x``, ``edges_v`` with ``phase``:
+    x1, x2 from time-uniform points of each sampled orbit). On ``montecarlo.threads``."""
     from vifpk.montecarlo.averaged_sde import simulate_sde
 
     mc = scene.montecarlo

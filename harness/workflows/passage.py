@@ -3,9 +3,8 @@
 For each averaged model M (default: the check models that apply to the scene) and the original
 system, from a start at amplitude A0 (or the stationary law restricted to A < Ac):
 
-    M by its FPK     R_M(t) (absorbing wall at Ac), FPT density -dR_M/dt, MFPT by the
-                     Pontryagin quadrature and by int R_M dt (two routes; harness.door.solvers
-                     .passage_averaged, fpk/)
+    M by its FPK     R_M(t) (absorbing wall at Ac), FPT density -dR_M/dt, MFPT by the Pontryagin
+                     quadrature and by int R_M dt (two routes; door.solvers.passage_averaged)
     M by its SDE     Monte Carlo of M's averaged SDE stopped at Ac (sampling check of the
                      routes above: the same model, another method)
     original system  Monte Carlo stopped at the first energy crossing U(A) = U(Ac), censored at
