@@ -143,37 +143,24 @@ def _cross_check(scene: Any, *, quiet: bool, fpk: bool, sde: bool, tail_mass: bo
     # closed forms, the original system's Monte Carlo and the metrics; FPK and SDE per model
     stages = Stages(3 + len(models) * (len(solvers) + int(sde)), quiet)
     # the models' closed forms and FPKs (numpy, Python) beside the original system's Monte
-    # Carlo (numba, the GIL released): nothing flows between them, so each gives the numbers
-    # it gives alone; BLAS is held on one thread around both (door calls in two threads nest)
+    # Carlo (numba, the GIL released), then the averaged SDEs two at a time: nothing flows
+    # between them, so each gives the numbers it gives alone; BLAS is held on one thread
+    # around them all (the door's limits nest: the outermost is undone last)
     with one_blas_thread():
-        beside = Beside(carried(model_solves), scene, models, solvers, tail_mass, stages,
-                        name="vifpk-models")
-        try:
-            mc, extensions, bad, run_scene = original_mc(scene, run, quiet, stages)
-        except Exception:
-            beside.wait()  # its failure came first in a check without the overlap
-            if beside.failed() is not None:
-                raise beside.failed() from None
-            raise
-        stages.done()  # the Monte Carlo's line; then the lines of what ran beside it
-        closed, fpk_solutions = beside.result()
-        stages.flush()
-    sol: dict[str, Any] = {f"closed:{m}": closed[m] for m in models}
-    sol.update(fpk_solutions)
-    sol["mc:original"] = mc
-    st = mc.resolved  # typed: what the run resolved (step, burn-in, sampled time, ...)
-    budget = scene.montecarlo.budget or math.inf
-    why_no_truth = original_fpk_problem(scene) if truth else "not asked (truth=False)"
-    if why_no_truth is None:
-        stages.total += 1
-        stages("FPK of the original system (the truth without sampling noise)")
-        sol["fpk2d:original"] = original_fpk_solution(scene)
-    edges = mc_edges_of(mc)
+        sol, closed, mc, extensions, bad, run_scene = _models_and_mc(
+            scene, models, solvers, tail_mass, run, quiet, stages)
+        st = mc.resolved  # typed: what the run resolved (step, burn-in, sampled time, ...)
+        budget = scene.montecarlo.budget or math.inf
+        why_no_truth = original_fpk_problem(scene) if truth else "not asked (truth=False)"
+        if why_no_truth is None:
+            stages.total += 1
+            stages("FPK of the original system (the truth without sampling noise)")
+            sol["fpk2d:original"] = original_fpk_solution(scene)
+        # the caller's own preparation, while the SDEs' kernels run
+        warming = Beside(warm, name="vifpk-warm") if warm is not None else None
+        runs = sde_runs(scene, models if sde else (), closed, mc_edges_of(mc), st,
+                        run_scene.montecarlo.burn_in, budget, stages)
     sde_extensions = {}
-    # the caller's own preparation, while the SDEs' kernels run
-    warming = Beside(warm, name="vifpk-warm") if warm is not None else None
-    runs = sde_runs(scene, models if sde else (), closed, edges, st,
-                     run_scene.montecarlo.burn_in, budget, stages)
     for m, (res, ext) in runs.items():
         sol[f"mc:{m}"], sde_extensions[m] = res, ext
     stages("metrics")
@@ -291,6 +278,31 @@ def _cross_check(scene: Any, *, quiet: bool, fpk: bool, sde: bool, tail_mass: bo
     return CheckResult(scene=scene, solutions=sol, metrics=metrics, warnings=warnings,
                        verdicts=verdicts, recommendation=rec_line, models=models,
                        tolerance_lines=tuple(metrics["tolerance_verdicts"]))
+
+
+def _models_and_mc(scene: Any, models: tuple[str, ...], solvers: tuple[str, ...],
+                   tail_mass: bool, run: MonteCarloRun | None, quiet: bool, stages: Stages
+                   ) -> tuple[dict[str, Any], dict[str, Any], Any, int, list[str], Any]:
+    """The models' closed forms and FPKs (checkruns.model_solves) in a thread beside the
+    original system's Monte Carlo (checkruns.original_mc) in this one. Returns (the solutions
+    so far, in the check's order, the closed forms, the Monte Carlo's result, its
+    extensions, the certificate's evidence against it, the scene of its last run)."""
+    beside = Beside(carried(model_solves), scene, models, solvers, tail_mass, stages,
+                    name="vifpk-models")
+    try:
+        mc, extensions, bad, run_scene = original_mc(scene, run, quiet, stages)
+    except Exception:
+        beside.wait()  # its failure came first in a check without the overlap
+        if beside.failed() is not None:
+            raise beside.failed() from None
+        raise
+    stages.done()  # the Monte Carlo's line; then the lines of what ran beside it
+    closed, fpk_solutions = beside.result()
+    stages.flush()
+    sol: dict[str, Any] = {f"closed:{m}": closed[m] for m in models}
+    sol.update(fpk_solutions)
+    sol["mc:original"] = mc
+    return sol, closed, mc, extensions, bad, run_scene
 
 
 def paired_table(closed: dict[str, Any], truth: Any, models: tuple[str, ...],
