@@ -79,7 +79,8 @@ def canned_check(tiny_check, monkeypatch):
     import vifpk.harness.workflows.check
 
     def canned(scene, *, quiet=False, fpk=True, sde=True, tail_mass=True, models=None,
-               tolerance=None, run=None):  # run: no Monte Carlo runs, its state stays None
+               tolerance=None, run=None, warm=None):  # run: no Monte Carlo runs, its state
+        # stays None; warm: the caller's preparation beside the SDEs, none here
         res = replace(tiny_check, scene=scene, metrics=copy.deepcopy(tiny_check.metrics))
         if models is not None:
             keep = tuple(dict.fromkeys(models))
