@@ -172,7 +172,12 @@ def _phdr() -> Any:
         _fields_ = [("addr", ctypes.c_void_p), ("name", ctypes.c_char_p)]
 
     try:
-        iterate = ctypes.CDLL(None).dl_iterate_phdr
+        # PyDLL: called with the GIL held throughout. With CDLL, ctypes released the GIL while
+        # dl_iterate_phdr held the loader's lock, and the Python callback waited for the GIL
+        # while another thread, holding it, waited for that lock in dlopen (an extension
+        # module imported): a deadlock, seen in `vifpk check`, whose threads import beside
+        # one another (issue 44, the main job; gdb: take_gil in the callback, dlopen's lock)
+        iterate = ctypes.PyDLL(None).dl_iterate_phdr
     except (OSError, AttributeError):
         return None
     return iterate, ctypes.CFUNCTYPE(ctypes.c_int, ctypes.POINTER(Info), ctypes.c_size_t,
