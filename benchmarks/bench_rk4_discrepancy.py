@@ -138,6 +138,27 @@ def run_rk4(name: str, dt: float, seed: int, T: float, edges: np.ndarray, burn_i
     return out
 
 
+def vifpk_halves(name: str, dt: float, seeds: int, T: float, edges: np.ndarray,
+                 burn_in: float) -> dict:
+    """vifpk's first half of sampled time against its second, the control of the RK4 runs'
+    ``halves``: seed s run for T / 2 and for T (the same paths: the T / 2 run is the T run's
+    first half), the second half's blocks 2 p_T - p_{T/2} (equal sample counts)."""
+    w = np.diff(edges)
+    rows = []
+    for sd in range(1, seeds + 1):
+        a = run_vifpk(name, dt, sd, T / 2, edges, burn_in)
+        b = run_vifpk(name, dt, sd, T, edges, burn_in)
+        c = compare(a, _summary(2 * b["blocks"] - a["blocks"], edges), w)
+        rows.append({"seed": sd, "dmean_A": c["dmean_A"], "dmean_A_se": c["dmean_A_se"]})
+        print(f"vifpk seed {sd} halves dE[A] {c['dmean_A']:+.5f} +- {c['dmean_A_se']:.5f}",
+              flush=True)
+    d = np.array([r["dmean_A"] for r in rows])
+    se = np.array([r["dmean_A_se"] for r in rows])
+    return {"dt": dt, "time": T, "burn_in": burn_in, "runs": rows, "mean": float(d.mean()),
+            "z_combined": float(d.sum() / math.sqrt(np.sum(se ** 2))),
+            "positive": int(np.sum(d > 0))}
+
+
 def _short(x: np.ndarray) -> list:
     """A density for the results file: 5 significant digits (its noise is in the 3rd)."""
     return [float(f"{v:.5g}") for v in np.asarray(x, float)]
@@ -239,6 +260,10 @@ def main() -> None:
                          "one more run named KEY (side:dt:seed), on its own sampled time")
     ap.add_argument("--note", help="recorded beside the machine's load (e.g. when the cached "
                                    "runs were made)")
+    ap.add_argument("--vifpk-halves", type=int, metavar="SEEDS",
+                    help="only the control of the RK4 runs' halves: vifpk at its auto step, "
+                         "seeds 1..SEEDS, first half of --time against the second (recorded "
+                         "as the label's 'vifpk_halves')")
     ap.add_argument("--label", help="the key in the results file (default: the scene)")
     ap.add_argument("--cache", type=Path,
                     help="a JSON file of finished runs (their blocks): read first, written "
@@ -256,6 +281,15 @@ def main() -> None:
     if a.bins_of:
         given = json.loads(a.bins_of.read_text().strip().splitlines()[-1])
         edges, burn, h_auto = np.asarray(given["edges"], float), given["burn_in"], given["dt"]
+    if a.vifpk_halves:
+        res = vifpk_halves(a.scene, h_auto, a.vifpk_halves, a.time, edges, burn)
+        print(f"mean {res['mean']:+.5f}, combined z {res['z_combined']:.2f}, positive "
+              f"{res['positive']}/{len(res['runs'])}")
+        old = json.loads(OUT.read_text()) if OUT.exists() else {}
+        old.setdefault(a.label or a.scene, {})["vifpk_halves"] = {
+            **res, "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())}
+        OUT.write_text(json.dumps(old, indent=1) + "\n")
+        return
     runs: dict = {k: r for k, r in _cached(a.cache).items() if k in a.runs}
     for item in a.add:
         key, path = item.split("=", 1)
