@@ -7,8 +7,11 @@ door/solvers.py and door/timedomain.py is a :func:`boundary`.
 from __future__ import annotations
 
 import functools
+import importlib.machinery
+import sys
+import threading
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager
 from typing import Any
 
 from vifpk.core.guard import PluginError
@@ -79,29 +82,158 @@ def _raised_in_a_solver(exc: BaseException) -> bool:
 
 @contextmanager
 def one_blas_thread() -> Iterator[None]:
-    """BLAS on one thread for the call (threadpoolctl). Every door call sets it, nested ones
-    too (no hidden "already inside the door" state: a nested limit costs ~17 us and restores
-    the outer one on exit, measured with threadpoolctl 3.8).
+    """BLAS on one thread for the call (threadpoolctl): every BLAS library loaded in the
+    process, numpy's from the start and one loaded during the call from the moment it is.
+    Every door call sets it, nested ones too (no hidden "already inside the door" state: a
+    nested limit costs ~30 us and restores the outer one on exit, measured with threadpoolctl
+    3.8).
 
     Why: OpenBLAS cuts a matrix product differently with its thread count, so the closed forms
     (orbit harmonics, phase-space quadratures: ``@`` on (points x nodes) arrays) moved by ~1e-15
     between a serial sweep (2 BLAS threads) and a dask worker (1: dask's nanny sets
     OPENBLAS_NUM_THREADS=1); tests/test_adaptive.py's bit-for-bit comparison of executors
     failed on it. With one thread everywhere the results are the same on every executor; the
-    products are small (milliseconds), so nothing is lost."""
-    with _blas().limit(limits=1, user_api="blas"):
+    products are small (milliseconds), so nothing is lost.
+
+    scipy's BLAS (a wheel carries its own OpenBLAS, apart from numpy's) is loaded by the
+    first of scipy's extension modules that links it (scipy.special, scipy.linalg, ...), not
+    by ``import scipy``. The guard loads nothing itself: a call that uses no scipy (the
+    stationary Monte Carlo: numba and numpy) no longer pays ``import scipy.linalg`` (0.3-0.8 s
+    CPU, issue 44). Instead, inside a door call, each extension module loaded is followed by
+    a look at the process's shared objects (dl_iterate_phdr, ~0.1 ms): a new BLAS among them
+    is put on one thread at once, before any code of the call can use it, until the outermost
+    door call ends (:class:`_Watch`; tests/test_door_blas.py). Where the loaded objects cannot
+    be listed (no dl_iterate_phdr: not Linux), the guard imports scipy.linalg before it looks,
+    as it always did, so scipy's BLAS is in from the first call."""
+    with _LOCK:
+        scope = ExitStack()
+        scope.enter_context(_controller().limit(limits=1, user_api="blas"))
+        _SCOPES.append(scope)
+        if len(_SCOPES) == 1 and _CTL[1] is not None:
+            _Watch.install()
+    try:
         yield
+    finally:
+        with _LOCK:
+            _SCOPES.pop().close()  # the limits it set, the latest first
+            if not _SCOPES:
+                _Watch.remove()
+
+
+#: the active door scopes, outermost first: each holds the limits it set (the outermost also
+#: those of the BLAS libraries loaded inside it, _arrived), undone when it ends
+_SCOPES: list[ExitStack] = []
+_LOCK = threading.RLock()
+#: [the threadpoolctl controller, the loaded BLAS-like objects it was made with (None: they
+#: cannot be listed here)]
+_CTL: list[Any] = [None, None]
+#: what a BLAS library's file name holds (threadpoolctl's prefixes: libopenblas,
+#: libscipy_openblas, libblas, libcblas, libflexiblas, libmkl_rt, libblis)
+BLAS_NAMES = ("blas", "mkl", "blis")
+
+
+def _controller() -> Any:
+    """The threadpoolctl controller over the BLAS libraries loaded (finding them costs ~7 ms,
+    a limit through it ~30 us), made again when a new one is loaded."""
+    names = _blas_objects()
+    if _CTL[0] is not None and names == _CTL[1]:
+        return _CTL[0]
+    import numpy  # noqa: F401 - numpy's BLAS, loaded before the controller looks
+
+    if names is None:  # no list of loaded objects: scipy's BLAS loaded before the look
+        import scipy.linalg  # noqa: F401
+    else:
+        names = _blas_objects()
+    from threadpoolctl import ThreadpoolController
+
+    _CTL[:] = [ThreadpoolController(), names]
+    return _CTL[0]
+
+
+def _arrived() -> None:
+    """After an extension module was loaded inside a door call (_Watch): a BLAS library it
+    brought in is put on one thread until the outermost door call ends."""
+    with _LOCK:
+        if not _SCOPES or _blas_objects() == _CTL[1]:
+            return
+        known = {lib.filepath for lib in _CTL[0].lib_controllers}
+        ctl = _controller()
+        new = [lib.filepath for lib in ctl.lib_controllers if lib.filepath not in known]
+        if new:
+            _SCOPES[0].enter_context(ctl.select(filepath=new).limit(limits=1, user_api="blas"))
 
 
 @functools.cache
-def _blas() -> Any:
-    """One threadpoolctl controller a process (finding the libraries costs ~5 ms, a limit
-    through it ~20 us), made after scipy.linalg is loaded, so that both BLAS libraries the
-    solvers use, numpy's and scipy's, are in it."""
-    import scipy.linalg  # noqa: F401 - loads scipy's BLAS before the controller looks
-    from threadpoolctl import ThreadpoolController
+def _phdr() -> Any:
+    """(libc's dl_iterate_phdr, the ctypes callback type, the info struct) or None."""
+    import ctypes
 
-    return ThreadpoolController()
+    class Info(ctypes.Structure):  # the head of struct dl_phdr_info
+        _fields_ = [("addr", ctypes.c_void_p), ("name", ctypes.c_char_p)]
+
+    try:
+        iterate = ctypes.CDLL(None).dl_iterate_phdr
+    except (OSError, AttributeError):
+        return None
+    return iterate, ctypes.CFUNCTYPE(ctypes.c_int, ctypes.POINTER(Info), ctypes.c_size_t,
+                                     ctypes.c_void_p)
+
+
+def _blas_objects() -> frozenset[str] | None:
+    """The loaded shared objects whose file name says BLAS (BLAS_NAMES), or None where the
+    loaded objects cannot be listed."""
+    found = _phdr()
+    if found is None:
+        return None
+    iterate, callback = found
+    names: list[bytes] = []
+
+    def seen(info: Any, size: int, data: Any) -> int:
+        names.append(info.contents.name or b"")
+        return 0
+
+    iterate(callback(seen), None)
+    return frozenset(n for n in (x.decode(errors="replace") for x in names)
+                     if any(b in n.rsplit("/", 1)[-1].lower() for b in BLAS_NAMES))
+
+
+class _Watch:
+    """A meta path finder, first in sys.meta_path while a door call runs: it finds what the
+    finders after it find, and where that is an extension module (whose loading may load a
+    shared library: scipy's BLAS comes in so), :func:`_arrived` runs right after the module's
+    shared object is loaded."""
+
+    @classmethod
+    def install(cls) -> None:
+        if cls not in sys.meta_path:
+            sys.meta_path.insert(0, cls)  # type: ignore[arg-type]
+
+    @classmethod
+    def remove(cls) -> None:
+        if cls in sys.meta_path:
+            sys.meta_path.remove(cls)  # type: ignore[arg-type]
+
+    @classmethod
+    def find_spec(cls, fullname: str, path: Any = None, target: Any = None) -> Any:
+        finders = sys.meta_path
+        after = finders[finders.index(cls) + 1:] if cls in finders else []
+        for finder in after:
+            find = getattr(finder, "find_spec", None)
+            spec = find(fullname, path, target) if find is not None else None
+            if spec is not None:
+                break
+        else:
+            return None
+        if isinstance(spec.loader, importlib.machinery.ExtensionFileLoader):
+            make = spec.loader.create_module
+
+            def create_module(sp: Any) -> Any:
+                module = make(sp)  # the shared object and what it links, loaded
+                _arrived()
+                return module
+
+            spec.loader.create_module = create_module  # type: ignore[method-assign]
+        return spec
 
 
 def boundary(fn: Callable[..., Any]) -> Callable[..., Any]:
