@@ -4,10 +4,11 @@ sde_time.py, and the lane step the splitting's SDE kernels share (``sde_lane_ste
 
 **The step** (``sde_lane_step``) is averaged_sde.run_sde_blocks's: LANES paths advance
 together, the step with the ziggurat's fast path (lanes.fast_normal) on every lane in one
-loop (averaged_sde.sde_coefficients, sde_update: the arithmetic of ``sde_step``), and a lane
-whose normal took the slow path (NaN) stepped again from its start by averaged_sde.sde_step.
-Each lane's new Z, the sigma its step used and its generator words are therefore those of
-``sde_step`` alone, bit for bit.
+loop (averaged_sde.sde_coefficients_at, sde_update: the arithmetic of ``sde_step``; the
+amplitude sqrt(Z) the kernel's tests took after the step before, where they take it: one square
+root a step less, the same number), and a lane whose normal took the slow path (NaN) stepped
+again from its start by averaged_sde.sde_step. Each lane's new Z, the sigma its step used and
+its generator words are therefore those of ``sde_step`` alone, bit for bit.
 
 **The tests after the step** run in two loops: one over every lane that the compiler can
 vectorise (the new amplitude, the step count, whether the lane needs a look: a crossing, a
