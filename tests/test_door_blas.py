@@ -123,3 +123,23 @@ def test_scipy_imported_before_the_call_has_its_blas_limited_inside_it():
     assert len(out["loaded before"]) == 1  # `import scipy` alone: numpy's BLAS only
     assert len(out["inside"]) == 2 and set(out["inside"].values()) == {1}, out["inside"]
     _as_without_the_door(out["caller after"], out["caller numpy's"])
+
+
+def test_where_loaded_objects_cannot_be_listed_the_guard_loads_scipys_blas_first(monkeypatch):
+    """Without dl_iterate_phdr (not Linux) no library can be seen arriving, so the guard
+    imports scipy.linalg before it looks, as it always did: every BLAS on one thread inside."""
+    from threadpoolctl import threadpool_info
+    from vifpk.harness.door import boundary as B
+
+    monkeypatch.setattr(B, "_phdr", lambda: None)
+    monkeypatch.setattr(B, "_CTL", [None, None])
+
+    @B.boundary
+    def call():
+        return {i["filepath"]: i["num_threads"] for i in threadpool_info()
+                if i["user_api"] == "blas"}
+
+    inside = call()
+    assert "scipy.linalg" in sys.modules and B._CTL[1] is None
+    loaded = {i["filepath"] for i in threadpool_info() if i["user_api"] == "blas"}
+    assert inside.keys() == loaded and set(inside.values()) == {1}, inside
