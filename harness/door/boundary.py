@@ -173,7 +173,7 @@ def _phdr() -> Any:
 
     try:
         iterate = ctypes.CDLL(None).dl_iterate_phdr
-    except (OSError, AttributeError):
+    except (OSError, AttributeError, TypeError):  # no such symbol (macOS), no CDLL(None)
         return None
     return iterate, ctypes.CFUNCTYPE(ctypes.c_int, ctypes.POINTER(Info), ctypes.c_size_t,
                                      ctypes.c_void_p)
