@@ -2,6 +2,8 @@
 
     python benchmarks/bench_fixed_costs.py --rounds 3 OLD_DIR:OLD_PYTHON NEW_DIR:NEW_PYTHON
     # -> benchmarks/results/fixed_costs.json
+    python benchmarks/bench_fixed_costs.py --rounds 3 --scene benchmarks/two-wall.toml \
+        --out fixed_costs_two_wall.json OLD_DIR:OLD_PYTHON NEW_DIR:NEW_PYTHON
 
 Each round runs every checkout once, in turn (alternating, so a change of the machine's load
 hits both alike), in a fresh process from that checkout's directory with its own interpreter:
@@ -13,13 +15,20 @@ parser with every workflow, the door, montecarlo.simulate), before it runs; "dt_
 run-time step check's coarse run; "rest" is what no stage holds (validation, pricing, the
 result and the JSON).
 
-Each round also measures the FLOOR, what any warm numba program of this stack pays before its
-first compiled call returns, in a fresh process of the first checkout's interpreter
-(``--floor-run``): the interpreter, ``import numpy``, ``import numba``, ``import
-scipy.linalg`` (numba's first dispatch imports scipy.linalg.cython_blas: numba/np/arraymath.py
-checks for a BLAS; scipy 1.17's array-API layer then imports numpy.f2py, numpy.testing and
-numpy.ma) and the first call of a one-line ``njit(cache=True)`` function loaded from numba's
-cache (numba's target context: its typing and lowering registries). CPU seconds, cumulative.
+Each round also measures the FLOOR, what any numba program of this stack pays, in a fresh
+process of the first checkout's interpreter (``--floor-run``): the interpreter, ``import
+numpy``, ``import numba`` (cumulative CPU seconds), then the first call of a one-line
+``njit(cache=True)`` function loaded from numba's own cache ("numba's cached call": numba's
+registry refresh, which imports scipy.linalg through numba/np/arraymath.py's BLAS check;
+vifpk's kernels skip it, montecarlo/_jit.py, so a vifpk run's cache load is its "kernel"
+stage instead).
+
+Every process's whole CPU (user + system, its exit included: what the in-process clocks
+cannot see) is read by this script from ``resource.getrusage(RUSAGE_CHILDREN)``: "process"
+in each row; for the floor, "process" of a second process that stops after ``import numba``
+("imports_process": interpreter + numpy + numba + exit).
+
+``--scene PATH`` runs that scene instead of paper-base (e.g. benchmarks/two-wall.toml).
 
 Every process runs without PYTHONDONTWRITEBYTECODE (set in some sandboxes, this machine's
 among them): with it, no .pyc is ever written for an editable install and every run compiles
@@ -31,6 +40,7 @@ from __future__ import annotations
 
 import json
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -108,9 +118,10 @@ def one(x):
 """
 
 
-def floor_run(where: str) -> dict[str, float]:
+def floor_run(where: str, stop: str = "") -> dict[str, float]:
     """CPU seconds (cumulative, process_time) of the floor's steps (module docstring);
-    ``where`` holds the one-line cached module (its cache filled by a first run)."""
+    ``where`` holds the one-line cached module (its cache filled by a first run); with
+    ``stop`` "numba" the process ends after importing numba."""
     t = {"interpreter": time.process_time()}
     import numpy  # noqa: F401
 
@@ -118,25 +129,40 @@ def floor_run(where: str) -> dict[str, float]:
     import numba  # noqa: F401
 
     t["numba"] = time.process_time()
-    import scipy.linalg  # noqa: F401
-
-    t["scipy.linalg"] = time.process_time()
+    if stop == "numba":
+        return t
     sys.path.insert(0, where)
     from floor_one import one
 
     one(1.0)
-    t["first cached call"] = time.process_time()
+    t["numba's cached call"] = time.process_time()
     return t
 
 
+def child_cpu() -> float:
+    """user + system CPU seconds of this process's waited-for children so far."""
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def measured(cmd: list[str], **kw) -> tuple[subprocess.CompletedProcess, float]:
+    """(the finished process, its whole CPU seconds: user + system, its exit included)."""
+    c0 = child_cpu()
+    out = subprocess.run(cmd, check=True, capture_output=True, text=True, **kw)
+    return out, child_cpu() - c0
+
+
 def floor(python: str, tmp: str) -> dict[str, float]:
-    """The floor measured in a fresh process of ``python`` (the cache filled beforehand)."""
+    """The floor measured in fresh processes of ``python`` (the cache filled beforehand)."""
     Path(tmp, "floor_one.py").write_text(FLOOR_MODULE)
     cmd = [python, __file__, "--floor-run", tmp]
     env = {**ENV, "NUMBA_CACHE_DIR": str(Path(tmp, "cache"))}
     subprocess.run(cmd, env=env, check=True, capture_output=True)
-    out = subprocess.run(cmd, env=env, check=True, capture_output=True, text=True)
-    return json.loads(out.stdout.strip().splitlines()[-1])
+    out, cpu = measured(cmd, env=env)
+    row = json.loads(out.stdout.strip().splitlines()[-1])
+    row["process"] = cpu
+    _, row["imports_process"] = measured([*cmd, "numba"], env=env)
+    return row
 
 
 def main() -> None:
@@ -144,16 +170,22 @@ def main() -> None:
         print(json.dumps(stage_run(sys.argv[2:] or ARGS)))
         return
     if sys.argv[1:2] == ["--floor-run"]:
-        print(json.dumps(floor_run(sys.argv[2])))
+        print(json.dumps(floor_run(*sys.argv[2:4])))
         return
-    rounds = 3
+    rounds, out_path, argv = 3, OUT, list(ARGS)
     args = sys.argv[1:]
-    if args[:1] == ["--rounds"]:
-        rounds, args = int(args[1]), args[2:]
-    res = {"command": "vifpk " + " ".join(ARGS), "rounds": [],
+    while args[:1] in (["--rounds"], ["--scene"], ["--out"]):
+        if args[0] == "--rounds":
+            rounds = int(args[1])
+        elif args[0] == "--scene":
+            argv[1] = str(Path(args[1]).resolve())
+        else:
+            out_path = OUT.with_name(args[1])
+        args = args[2:]
+    res = {"command": "vifpk " + " ".join(argv), "rounds": [],
            "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())}
-    if OUT.exists():  # the record before this one, kept beside it
-        before = json.loads(OUT.read_text())
+    if out_path.exists():  # the record before this one, kept beside it
+        before = json.loads(out_path.read_text())
         res["earlier"] = [*before.pop("earlier", []), before]
     for _ in range(rounds):
         with tempfile.TemporaryDirectory() as tmp:
@@ -164,14 +196,15 @@ def main() -> None:
             where, python = spec.split(":")
             with tempfile.TemporaryDirectory() as tmp:
                 record = Path(tmp, "solve.json")
-                out = subprocess.run([python, __file__, "--stage-run", *ARGS, "--json",
-                                      str(record)], cwd=where, capture_output=True, text=True,
-                                     env=ENV, check=True).stdout.strip().splitlines()[-1]
+                run, cpu = measured([python, __file__, "--stage-run", *argv, "--json",
+                                     str(record)], cwd=where, env=ENV)
+                out = run.stdout.strip().splitlines()[-1]
                 timing = json.loads(record.read_text())["info"]["timing"]
             res["rounds"].append({"checkout": where, "load": os.getloadavg()[0],
-                                  "cpu": json.loads(out), "timing": timing})
+                                  "cpu": {**json.loads(out), "process": cpu},
+                                  "timing": timing})
             print(where, res["rounds"][-1]["cpu"], flush=True)
-            OUT.write_text(json.dumps(res, indent=1) + "\n")
+            out_path.write_text(json.dumps(res, indent=1) + "\n")
 
 
 if __name__ == "__main__":

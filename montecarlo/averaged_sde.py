@@ -114,12 +114,20 @@ def sde_coefficients(Z, a_tab, b_tab, inv_d, last):
     linearly at A on the grid A_j = j / inv_d (``sde_tables``; beyond it the last value),
     last = a_tab.size - 1."""
     A = math.sqrt(Z)
+    a, b = sde_coefficients_at(A, a_tab, b_tab, inv_d, last)
+    return A, a, b
+
+
+@jit(inline="always")
+def sde_coefficients_at(A, a_tab, b_tab, inv_d, last):
+    """(a, b) of ``sde_coefficients`` at the amplitude A = sqrt(Z) (a caller that has it: the
+    lane kernels, whose tests take that square root after each step)."""
     u = A * inv_d
     j = int(u)
     if j >= last:
-        return A, a_tab[last], b_tab[last]
+        return a_tab[last], b_tab[last]
     w = u - j
-    return A, (1.0 - w) * a_tab[j] + w * a_tab[j + 1], (1.0 - w) * b_tab[j] + w * b_tab[j + 1]
+    return (1.0 - w) * a_tab[j] + w * a_tab[j + 1], (1.0 - w) * b_tab[j] + w * b_tab[j + 1]
 
 
 @jit(inline="always")

@@ -203,9 +203,10 @@ def _ol_advance_smooth(rec, xi, s0, s1, s2, s3):
 def lane_step(m, F, S, h, half, P, keep, count):
     """One step of lanes 0 .. m - 1 (the module docstring); ``keep``: store what the energy
     balance reads (every lane by strang_step); ``count``: add the events and the time at rest
-    (after the burn-in). Returns (impacts, chatter entries) of the step; F[L_X0] holds each
-    lane's x before the step and F[L_VC] its velocity at the kick (strang_step's o[8]): the
-    bridge tests of first passage and splitting read them."""
+    (after the burn-in). Returns (impacts, chatter entries) of the step; F[L_X0], F[L_V0] hold
+    each lane's x, v before the step and F[L_VC] its velocity at the kick (strang_step's o[8]):
+    the bridge tests of first passage and splitting read them (the splitting's, the energy
+    before the step from x, v)."""
     # F and S indexed in place, no row views: a view made per step costs two atomic reference
     # counts (and a memory barrier each) per row per step (measured: 5 ns a path-step)
     spec = speculate(P.pk, P.pc) and not keep
@@ -238,7 +239,8 @@ def lane_step(m, F, S, h, half, P, keep, count):
         else:
             x, v, xi = F[L_X, j], F[L_V, j], F[L_XI, j]
             s0, s1, s2, s3 = S[0, j], S[1, j], S[2, j], S[3, j]
-            F[L_X0, j] = x  # (every lane's x before the step: F[L_X0], as the smooth loop's)
+            # (every lane's x, v before the step: F[L_X0], F[L_V0], as the smooth loop's)
+            F[L_X0, j], F[L_V0, j] = x, v
         x, v, xi, s0, s1, s2, s3, o = strang_step(x, v, xi, s0, s1, s2, s3, h, half, P)
         F[L_X, j], F[L_V, j], F[L_XI, j] = x, v, xi
         S[0, j], S[1, j], S[2, j], S[3, j] = s0, s1, s2, s3

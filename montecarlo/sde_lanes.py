@@ -4,10 +4,11 @@ sde_time.py, and the lane step the splitting's SDE kernels share (``sde_lane_ste
 
 **The step** (``sde_lane_step``) is averaged_sde.run_sde_blocks's: LANES paths advance
 together, the step with the ziggurat's fast path (lanes.fast_normal) on every lane in one
-loop (averaged_sde.sde_coefficients, sde_update: the arithmetic of ``sde_step``), and a lane
-whose normal took the slow path (NaN) stepped again from its start by averaged_sde.sde_step.
-Each lane's new Z, the sigma its step used and its generator words are therefore those of
-``sde_step`` alone, bit for bit.
+loop (averaged_sde.sde_coefficients_at, sde_update: the arithmetic of ``sde_step``; the
+amplitude sqrt(Z) the kernel's tests took after the step before, where they take it: one square
+root a step less, the same number), and a lane whose normal took the slow path (NaN) stepped
+again from its start by averaged_sde.sde_step. Each lane's new Z, the sigma its step used and
+its generator words are therefore those of ``sde_step`` alone, bit for bit.
 
 **The tests after the step** run in two loops: one over every lane that the compiler can
 vectorise (the new amplitude, the step count, whether the lane needs a look: a crossing, a
@@ -35,7 +36,7 @@ import math
 import numpy as np
 
 from ._jit import jit, over_blocks
-from .averaged_sde import sde_coefficients, sde_step, sde_update
+from .averaged_sde import sde_coefficients_at, sde_step, sde_update
 from .lanes import LANES, drop, fast_normal
 from .passage_kernels import BRIDGE_FLOOR
 from .rng import uniform
@@ -58,16 +59,21 @@ def sde_scratch(n_float, n_int):
 
 
 @jit(inline="always")
-def sde_lane_step(m, F, S, h, sq, a_tab, b_tab, inv_d, last):
+def sde_lane_step(m, F, S, h, sq, a_tab, b_tab, inv_d, last, amp):
     """One step of lanes 0 .. m - 1 (module docstring): F[R_Z] the new Z, F[R_SIG] the sigma
-    each step used, F[R_Z0] and S[4:8] the Z and the words at the step's start. (Rows are
-    indexed in place: views of them made per step cost ~5 ns a path-step in reference
-    counts.)"""
+    each step used, F[R_Z0] and S[4:8] the Z and the words at the step's start. ``amp``
+    (a constant of the caller): F[R_A1] holds sqrt(F[R_Z]) of every lane at the step's start
+    (the caller's tests took that square root after the step before, or at the load), which
+    the step reads instead of taking it again: the same number (the square root is correctly
+    rounded), one square root a path-step less (measured: benchmarks/bench_lanes_split_sde.py,
+    docs/performance.md). (Rows are indexed in place: views of them made per step cost ~5 ns
+    a path-step in reference counts.)"""
     for j in range(m):  # the step on every lane (NaN: a slow-path normal)
         s0, s1, s2, s3 = S[0, j], S[1, j], S[2, j], S[3, j]
         z0 = F[R_Z, j]
         F[R_Z0, j], S[4, j], S[5, j], S[6, j], S[7, j] = z0, s0, s1, s2, s3
-        A, a, bb = sde_coefficients(z0, a_tab, b_tab, inv_d, last)
+        A = F[R_A1, j] if amp else math.sqrt(z0)
+        a, bb = sde_coefficients_at(A, a_tab, b_tab, inv_d, last)
         z, s0, s1, s2, s3 = fast_normal(s0, s1, s2, s3)
         z2, s0, s1, s2, s3 = fast_normal(s0, s1, s2, s3)
         F[R_Z, j], _r = sde_update(A, a, bb, z, z2, h, sq)
@@ -94,6 +100,7 @@ def _next_path(b, i, every, done, k, count):
 def _load(F, Li, S, j, b, i, g, A, states):
     F[R_Z, j] = A * A
     F[R_A, j] = A
+    F[R_A1, j] = math.sqrt(A * A)  # (sde_lane_step's amp: sqrt(Z), which may differ from A)
     Li[I_G, j], Li[I_B, j], Li[I_N, j] = g, b, 0
     for w in range(4):
         S[w, j] = states[b, i, w]
@@ -132,7 +139,7 @@ def _passage_block(first, every, states, starts, offset, count, done, k, n_max, 
             b, i = _next_path(b, i + 1, every, done, k, count)
         if m == 0:
             break
-        sde_lane_step(m, F, S, h, sq, a_tab, b_tab, inv_d, last)
+        sde_lane_step(m, F, S, h, sq, a_tab, b_tab, inv_d, last, True)
         for j in range(m):  # every lane: its amplitude, its step count, whether to look
             a1 = math.sqrt(Z[j])
             A1[j] = a1
@@ -209,7 +216,7 @@ def _snapshots_block(first, every, states, starts, offset, count, done, k, marks
         n = 0
         for jm in range(marks.size):
             while n < marks[jm]:
-                sde_lane_step(m, F, S, h, sq, a_tab, b_tab, inv_d, last)
+                sde_lane_step(m, F, S, h, sq, a_tab, b_tab, inv_d, last, False)
                 n += 1
             for j in range(m):
                 if ALIVE[j] == 0:

@@ -142,7 +142,7 @@ def _advance_block(first, every, recs, rows, start, rng, maxlev, outcome, levels
             m += 1
         if m == 0:
             break
-        sde_lane_step(m, F, S, h, sq, a_tab, b_tab, inv_d, last)
+        sde_lane_step(m, F, S, h, sq, a_tab, b_tab, inv_d, last, True)
         for i in range(m):  # every lane: its clock, whether to look
             a0, a1 = A1[i], math.sqrt(Z[i])  # A1: sqrt of the Z before the step
             A0[i], A1[i] = a0, a1
@@ -223,7 +223,7 @@ def _cycles_block(first, every, starts, rng, cyc, h, tabs, entries, summary):
             m += 1
         if m == 0:
             break
-        sde_lane_step(m, F, S, h, sq, a_tab, b_tab, inv_d, last)
+        sde_lane_step(m, F, S, h, sq, a_tab, b_tab, inv_d, last, True)
         for i in range(m):  # every lane: its clock, whether to look
             a0, a1 = A1[i], math.sqrt(Z[i])  # A1: sqrt of the Z before the step
             A0[i], A1[i] = a0, a1

@@ -9,12 +9,17 @@ again by kernels.strang_step, so each lane's state is strang_step's, bit for bit
 generator words advance by the same draws (montecarlo/lanes.py).
 
 After each step, **the screen**: one loop over the lanes, which the compiler vectorises,
-updates every lane's clock and energy and flags the lanes whose tests may act (a level or
-threshold reached, t_max, a possible bridge draw: passage_kernels.bridge_near, bridge_hit's
-own test). Only the flagged lanes then read their path's tests (levels, the bridge test with
-the lane's velocity at the kick) as the path alone did, in scalar code; a flag is conservative
-(a flagged lane whose tests find nothing goes on as it would have), so the screen changes no
-number. The screen indexes the scratch in place and calls scalar helpers only, and it is
+updates every lane's clock and flags the lanes whose tests may act: its energy outside the
+lane's own bounds L[_LO] < q < L[_HI] (the advance: q_lo and its next level's energy, lowered
+by 1e-9 relative, ``_next_level``; the cycles: those of its phase and arming, ``_arm``,
+``_to_burn``), its clock at its bound, a possible bridge draw (passage_kernels.bridge_near,
+bridge_hit's own test). Only the flagged lanes then read their path's tests (levels, the bridge
+test with the lane's velocity at the kick) as the path alone did, in scalar code, with the
+energies after and before the step taken again from the lane's x, v and F[L_X0], F[L_V0] (the
+same arithmetic, so the same numbers; nothing stored a step beyond the clock and the flag); a
+flag is conservative (a flagged lane whose tests find nothing goes on as it would have), so the
+screen changes no number. (A burn-in's clock counts its steps, 1.0 a step: exact.) The
+screen indexes the scratch in place and calls scalar helpers only, and it is
 written in the kernel's body: a row view, or an array passed to an inlined helper, costs two
 atomic reference counts a step (numba's NRT; measured 1 ns a path-step for the screen as a
 helper, 5 ns for row views), and inside the loop it stops the vectorisation. A lane whose path
@@ -29,11 +34,13 @@ Threads: ``_jit.over_blocks`` with one "block" per path: thread t of n runs path
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ._jit import jit, over_blocks
 from .geometry import energy
-from .lanes import L_REST, L_V, L_VC, L_X, L_X0, L_XI, LANES, drop, lane_step, scratch
+from .lanes import L_REST, L_V, L_V0, L_VC, L_X, L_X0, L_XI, LANES, drop, lane_step, scratch
 from .passage_kernels import bridge_hit, bridge_near
 from .splitting_kernels import (
     MAX_RESTARTS,
@@ -47,12 +54,15 @@ from .splitting_kernels import (
 )
 
 ON = -2  # a lane's path goes on (not an outcome)
-# the lanes' own rows: float (time, energy q, cycle start time, cycles' total time, q before
-# the step, the path's level + 1), int (the path's index, its level or
-# phase, burn-in steps, restarts, armed, in a cycle, cycles completed, successes, whether the
-# lane's tests may act after this step)
-_T, _Q, _TC, _TOT, _QO, _NEXT = range(6)
-_J, _LEV, _N, _RS, _ARM, _IN, _K, _SUCC, _ACT = range(9)
+# the lanes' own rows: float (time, cycle start time, cycles' total time; the screen's bounds:
+# the energies between which the lane's tests cannot act, lo < q < hi, the clock's increment
+# and its bound), int (the path's index, its level or phase, restarts, armed, in a cycle,
+# cycles completed, successes, whether the lane's tests may act after this step)
+_T, _TC, _TOT, _LO, _HI, _DT, _TMAX = range(7)
+N_L = 7
+_J, _LEV, _RS, _ARM, _IN, _K, _SUCC, _ACT = range(8)
+N_LI = 8
+MARGIN = 1e-9  # relative: a level's energy in the screen's bound (_next_level)
 BURN, RUN = 0, 1  # cycles_orig's phases (in _LEV)
 NONE, SUCCESS, START = 0, 1, 2  # what a cycle's step met (_cycle_test)
 
@@ -65,6 +75,15 @@ def advance_orig(recs, rows, start, rng, maxlev, outcome, levels, h, B, P):
     recs[row, start[j] + 1 ..], maxlev[row] and outcome[row]. In lanes (module docstring)."""
     over_blocks(_advance_block, rows.size, recs, rows, start, rng, maxlev, outcome, levels, h,
                 B, P)
+
+
+@jit(inline="always")
+def _next_level(lev, q_lo, q_hi, inv_dq):
+    """An energy below which level_of(q) <= lev and q < q_hi surely hold: the screen's bound
+    (level lev + 1 at (q - q_lo) inv_dq >= lev + 1, lowered by MARGIN relative, far above
+    the rounding of that test: a lane in the margin is flagged, its tests find nothing)."""
+    e = (lev + 1.0) / inv_dq
+    return min(q_hi, q_lo + e - MARGIN * (abs(q_lo) + e))
 
 
 @jit(inline="always")
@@ -84,8 +103,8 @@ def _advance_block(first, every, recs, rows, start, rng, maxlev, outcome, levels
     half = 0.5 * h
     inv_dq = M / (q_hi - q_lo)
     F, S = scratch()
-    L = np.zeros((6, LANES))
-    Li = np.zeros((9, LANES), dtype=np.int64)
+    L = np.zeros((N_L, LANES))
+    Li = np.zeros((N_LI, LANES), dtype=np.int64)
     nxt = first
     m = 0
     while True:
@@ -109,24 +128,24 @@ def _advance_block(first, every, recs, rows, start, rng, maxlev, outcome, levels
             F[L_REST, m] = recs[row, st, 4]
             for w in range(4):
                 S[w, m] = rng[j, w]
-            L[_T, m], L[_Q, m] = recs[row, st, 3], q
-            Li[_J, m], Li[_LEV, m], L[_NEXT, m] = j, lev, lev + 1.0
+            L[_T, m], L[_LO, m], L[_HI, m] = recs[row, st, 3], q_lo, _next_level(lev, q_lo, q_hi,
+                                                                                 inv_dq)
+            Li[_J, m], Li[_LEV, m] = j, lev
             m += 1
         if m == 0:
             break
         lane_step(m, F, S, h, half, P, False, True)  # count: the time at rest (L_REST)
-        # the screen (module docstring): every lane's clock and energy, and whether its tests
-        # may act (not flagged: its energy inside (q_lo, q_hi), below its next level, no
-        # bridge draw, t < t_max: it goes on unchanged)
+        # the screen (module docstring): every lane's clock, and whether its tests may act
+        # (not flagged: its energy inside (q_lo, q_hi) and below its next level, L[_HI]; no
+        # bridge draw; t < t_max: it goes on unchanged)
         flagged = 0
         for i in range(m):
-            q0 = L[_Q, i]
             q = energy(F[L_X, i], F[L_V, i], w0sq, alpha, khi)
             t = L[_T, i] + h
-            L[_QO, i], L[_Q, i], L[_T, i] = q0, q, t
+            L[_T, i] = t
             x0, vc = F[L_X0, i], F[L_VC, i]
-            a = ((q <= q_lo) | (q >= q_hi) | (q != q) | (t >= t_max)
-                 | ((q - q_lo) * inv_dq >= L[_NEXT, i])  # level_of(q) > the path's level
+            q0 = energy(x0, F[L_V0, i], w0sq, alpha, khi)  # (the bridge's; none: not made)
+            a = ((not ((q > q_lo) & (q < L[_HI, i]))) | (t >= t_max)  # (NaN: flagged)
                  | bridge_near(B, q_hi, q0, q, x0, vc, h, P)
                  | bridge_near(B, q_lo, q0, q, x0, vc, h, P))
             Li[_ACT, i] = a
@@ -139,7 +158,10 @@ def _advance_block(first, every, recs, rows, start, rng, maxlev, outcome, levels
                 i += 1
                 continue
             row = rows[Li[_J, i]]
-            q0, q, t = L[_QO, i], L[_Q, i], L[_T, i]
+            # the energies after and before the step (the screen's, the same arithmetic)
+            q = energy(F[L_X, i], F[L_V, i], w0sq, alpha, khi)
+            q0 = energy(F[L_X0, i], F[L_V0, i], w0sq, alpha, khi)
+            t = L[_T, i]
             out = ON
             if q <= q_lo:
                 out = OUT_FAIL
@@ -155,14 +177,13 @@ def _advance_block(first, every, recs, rows, start, rng, maxlev, outcome, levels
                         S[2, i], S[3, i])
                     if hb >= 0.0:
                         out = OUT_FAIL
-            L[_Q, i] = q
             lev = Li[_LEV, i]
             if out == ON:
                 e = level_of(q, q_lo, inv_dq, M)
                 while lev < e:
                     lev += 1
                     _record(recs, row, lev, F, L, i)
-                Li[_LEV, i], L[_NEXT, i] = lev, lev + 1.0
+                Li[_LEV, i], L[_HI, i] = lev, _next_level(lev, q_lo, q_hi, inv_dq)
                 if q >= q_hi:
                     out = OUT_SUCCESS
                 elif not t < t_max:
@@ -196,13 +217,31 @@ def _restart(F, i, starts, p):
 
 
 @jit(inline="always")
-def _to_run(F, L, Li, i, p, q0, w0sq, alpha, khi, summary):
+def _arm(L, Li, i, armed, q0, q1, q_hi):
+    """A cycle's lane armed or not, and the screen's bounds that go with it (unarmed: its
+    tests act at q <= q0 or q >= q_hi; armed: at q >= min(q1, q_hi))."""
+    Li[_ARM, i] = 1 if armed else 0
+    L[_LO, i], L[_HI, i] = (-math.inf, min(q1, q_hi)) if armed else (q0, q_hi)
+
+
+@jit(inline="always")
+def _to_burn(L, Li, i, q_hi, n_burn):
+    """A burn-in (again) from its first step: the clock counts its steps (1.0 a step, whole
+    numbers: exact), its tests act at q >= q_hi or after n_burn steps."""
+    Li[_LEV, i] = BURN
+    L[_T, i], L[_DT, i], L[_TMAX, i] = 0.0, 1.0, float(n_burn)
+    L[_LO, i], L[_HI, i] = -math.inf, q_hi
+
+
+@jit(inline="always")
+def _to_run(F, L, Li, i, p, cyc, h, w0sq, alpha, khi, summary):
     """The burn-in over: the clock starts (cycles_sde's warm-up)."""
+    n_cycles, q0, q1, q_hi, t_max, n_burn = cyc
     summary[p, 6] = Li[_RS, i]
     Li[_LEV, i] = RUN
     q = energy(F[L_X, i], F[L_V, i], w0sq, alpha, khi)
-    L[_T, i], L[_Q, i], L[_TC, i], L[_TOT, i] = 0.0, q, 0.0, 0.0
-    Li[_ARM, i] = 1 if q <= q0 else 0
+    L[_T, i], L[_TC, i], L[_TOT, i], L[_DT, i], L[_TMAX, i] = 0.0, 0.0, 0.0, h, t_max
+    _arm(L, Li, i, q <= q0, q0, q1, q_hi)
     Li[_IN, i], Li[_K, i], Li[_SUCC, i] = 0, 0, 0
 
 
@@ -213,8 +252,8 @@ def _cycles_block(first, every, starts, rng, cyc, h, B, P, entries, summary):
     w0sq, alpha, khi = P.w0sq, P.alpha, P.khi
     half = 0.5 * h
     F, S = scratch()
-    L = np.zeros((6, LANES))
-    Li = np.zeros((9, LANES), dtype=np.int64)
+    L = np.zeros((N_L, LANES))
+    Li = np.zeros((N_LI, LANES), dtype=np.int64)
     nxt = first
     m = 0
     while True:
@@ -225,9 +264,10 @@ def _cycles_block(first, every, starts, rng, cyc, h, B, P, entries, summary):
             F[L_REST, m] = 0.0
             for w in range(4):
                 S[w, m] = rng[p, w]
-            Li[_J, m], Li[_LEV, m], Li[_N, m], Li[_RS, m] = p, BURN, 0, 0
+            Li[_J, m], Li[_RS, m] = p, 0
+            _to_burn(L, Li, m, q_hi, n_burn)
             if n_burn <= 0:
-                _to_run(F, L, Li, m, p, q0, w0sq, alpha, khi, summary)
+                _to_run(F, L, Li, m, p, cyc, h, w0sq, alpha, khi, summary)
                 if not L[_T, m] < t_max:
                     summary[p, 5] = 1.0
                     _cycle_summary(summary, p, 0, 0.0, 0)
@@ -236,26 +276,23 @@ def _cycles_block(first, every, starts, rng, cyc, h, B, P, entries, summary):
         if m == 0:
             break
         lane_step(m, F, S, h, half, P, False, True)
-        # the screen (module docstring): every lane's clock and energy (a burn-in's clock is
-        # not read), its burn-in steps + 1, and whether its tests may act (not flagged: a
-        # burn-in neither at q_hi nor over; a cycle's step with _cycle_test's NONE, its arming
-        # unchanged, t < t_max: it goes on unchanged)
+        # the screen (module docstring): every lane's clock (a burn-in's counts its steps), and
+        # whether its tests may act (not flagged: its energy inside the bounds of its phase
+        # and arming, L[_LO] < q < L[_HI] (_arm, _to_burn), its clock below its bound, and a
+        # cycle's step without a bridge draw: it goes on unchanged)
         flagged = 0
         for i in range(m):
-            qo = L[_Q, i]
             q = energy(F[L_X, i], F[L_V, i], w0sq, alpha, khi)
-            t = L[_T, i] + h
-            L[_QO, i], L[_Q, i], L[_T, i] = qo, q, t
-            Li[_N, i] += 1  # (read in the burn-in only)
-            armed = Li[_ARM, i] == 1
+            t = L[_T, i] + L[_DT, i]
+            L[_T, i] = t
             x0, vc = F[L_X0, i], F[L_VC, i]
-            run = ((q >= q_hi) | (q != q) | (t >= t_max)
-                   | bridge_near(B, q_hi, qo, q, x0, vc, h, P)
-                   | ((q <= q0) & (not armed))
-                   | ((not armed) & (qo > q0) & bridge_near(B, q0, qo, q, x0, vc, h, P))
-                   | ((q >= q1) & (armed | (q <= q0))))
-            burn = (q >= q_hi) | (Li[_N, i] >= n_burn)
-            a = burn if Li[_LEV, i] == BURN else run
+            qo = energy(x0, F[L_V0, i], w0sq, alpha, khi)  # (the bridge's; none: not made)
+            unarmed = Li[_ARM, i] == 0
+            bridge = (Li[_LEV, i] == RUN) & (
+                bridge_near(B, q_hi, qo, q, x0, vc, h, P)
+                | (unarmed & (qo > q0) & bridge_near(B, q0, qo, q, x0, vc, h, P)))
+            a = ((not ((q > L[_LO, i]) & (q < L[_HI, i]))) | (t >= L[_TMAX, i])  # (NaN: flagged)
+                 | bridge)
             Li[_ACT, i] = a
             flagged += a
         if flagged > 0:
@@ -277,23 +314,25 @@ def _cycles_read(m, F, S, L, Li, starts, cyc, h, B, P, entries, summary):
         p = Li[_J, i]
         done = False
         if Li[_LEV, i] == BURN:  # (its step counted by the screen)
-            if L[_Q, i] >= q_hi:
+            if energy(F[L_X, i], F[L_V, i], w0sq, alpha, khi) >= q_hi:
                 Li[_RS, i] += 1
                 if Li[_RS, i] > MAX_RESTARTS:
                     summary[p, 5] = 2.0
                     done = True
                 else:
                     _restart(F, i, starts, p)
-                    Li[_N, i] = 0
-            if not done and Li[_N, i] >= n_burn:
-                _to_run(F, L, Li, i, p, q0, w0sq, alpha, khi, summary)
+                    _to_burn(L, Li, i, q_hi, n_burn)
+            if not done and L[_T, i] >= n_burn:
+                _to_run(F, L, Li, i, p, cyc, h, w0sq, alpha, khi, summary)
                 if not L[_T, i] < t_max:
                     summary[p, 5] = 1.0
                     _cycle_summary(summary, p, 0, 0.0, 0)
                     done = True
         else:  # a step of its cycles (cycles_sde's loop body)
-            q_old, q, t = L[_QO, i], L[_Q, i], L[_T, i]
             x, v, xi = F[L_X, i], F[L_V, i], F[L_XI, i]
+            # the energies after and before the step (the screen's, the same arithmetic)
+            q, t = energy(x, v, w0sq, alpha, khi), L[_T, i]
+            q_old = energy(F[L_X0, i], F[L_V0, i], w0sq, alpha, khi)
             ev, tc, armed, S[0, i], S[1, i], S[2, i], S[3, i] = _cycle_test(
                 q, q_old, F[L_X0, i], F[L_VC, i], t, h, Li[_ARM, i] == 1, q0, q1, q_hi, B, P,
                 S[0, i], S[1, i], S[2, i], S[3, i])
@@ -313,7 +352,7 @@ def _cycles_read(m, F, S, L, Li, starts, cyc, h, B, P, entries, summary):
                         entries[p, k, 3], entries[p, k, 4] = 0.0, 0.0
                     L[_TC, i] = t
                     armed = False
-            Li[_ARM, i] = 1 if armed else 0
+            _arm(L, Li, i, armed, q0, q1, q_hi)
             if not done and not t < t_max:
                 summary[p, 5] = 1.0
                 done = True

@@ -7,9 +7,14 @@ shared machine's load does not inflate; wall seconds are what the user waits for
 stationary run (simulate.py): "plan", "kernel" (compiled, or loaded from numba's cache),
 "scale_pilot", "relaxation_pilot" (burn-in "auto"), "burn_in", "sampling", "densities",
 "certificate", "dt_check" (the step check's coarse run: its own record is in
-info["dt_check"]["timing"]) and "result". The command line adds the process's own:
-"startup" (the interpreter and the imports, before the command ran) and "request"
-(validation and pricing).
+info["dt_check"]["timing"]) and "result". ``vifpk solve`` adds the process's own, so every
+fixed cost it pays before its output is written is one entry: "startup" (the interpreter and
+the imports, before the command ran), "request" (validation and pricing: the first door call
+imports the solver, numba among it), "door" (the door call around the run: its wall and CPU
+less the run's own "total"), "record" (the JSON record built: provenance, arrays to lists)
+and "process" (the process's clocks since it started, just before the record is written:
+startup + request + door + total + record). What comes after, the write and the
+interpreter's exit, is in no record (docs/performance.md measures it).
 """
 
 from __future__ import annotations

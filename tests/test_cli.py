@@ -112,8 +112,13 @@ def test_montecarlo_json_has_edges_and_errors(tmp_path: Path):
     t = d["info"]["timing"]
     assert list(t["stages"]) == ["plan", "kernel", "scale_pilot", "relaxation_pilot",
                                  "burn_in", "sampling", "densities", "certificate", "result"]
-    assert {"startup", "request", "total"} <= set(t)
+    assert {"startup", "request", "door", "record", "process", "total"} <= set(t)
     assert all(v["cpu"] >= 0 and v["wall"] >= 0 for v in t["stages"].values())
+    # the process's stages around the run's: the run's own total lies within the door call
+    # (one clock for both: the door's residual is not negative), the record after it
+    for clock in ("wall", "cpu"):
+        assert t["door"][clock] >= 0 and t["record"][clock] >= 0, clock
+        assert t["process"][clock] >= t["startup"][clock] + t["total"][clock], clock
 
 
 def test_fpk_json(tmp_path: Path):

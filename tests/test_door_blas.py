@@ -10,12 +10,17 @@ test_door_results_do_not_depend_on_the_blas_thread_count checks numpy's BLAS on 
 model's closed form). scipy's wheel carries its own OpenBLAS, loaded only when scipy's first
 BLAS-linked module is (scipy.special, scipy.integrate, scipy.linalg, ...): these tests load it
 first INSIDE a door call, in fresh interpreters (nothing else loaded it before), with the
-caller's limit at 2 threads, and read every library's thread count from threadpoolctl.
+caller's limit at 2 threads, and read every library's thread count from threadpoolctl. After
+the call every library is as it would be without the door: numpy's at the caller's limit,
+scipy's at its count when loaded outside any call (a fresh interpreter's; it depends on the
+environment: OPENBLAS_NUM_THREADS, which dask's workers set in this very test process, and
+the cores), so the interpreters run without the *_NUM_THREADS variables.
 """
 
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 
@@ -70,29 +75,46 @@ def call():
     out["inside"] = blas()
 
 with threadpool_limits(limits=2, user_api="blas"):
+    out["caller numpy's"] = blas()
     call()
     out["caller after"] = blas()
 print(json.dumps(out))
 """
 
 
+#: scipy's BLAS loaded outside any door call: the count it starts with
+ALONE = HEAD + """
+import scipy.special
+print(json.dumps(blas()))
+"""
+
+
 def _run(code: str) -> dict:
+    env = {k: v for k, v in os.environ.items() if not k.endswith("_NUM_THREADS")}
     res = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True,
-                         text=True, check=True)
+                         text=True, check=True, env=env)
     return json.loads(res.stdout.strip().splitlines()[-1])
+
+
+def _as_without_the_door(after: dict, before: dict) -> None:
+    """``after`` (the caller's view after its door calls): the libraries the caller saw at its
+    limit as before; the one loaded inside the calls at its count when loaded alone."""
+    alone = _run(ALONE)
+    for lib, n in after.items():
+        assert n == (before[lib] if lib in before else alone[lib]), (lib, after, before, alone)
 
 
 def test_a_library_loaded_inside_a_door_call_runs_on_one_thread_until_the_call_ends():
     out = _run(FIRST_INSIDE)
     assert out["scipy after a plain call"] is False  # the guard imports no scipy
     assert len(out["plain call"]) == 1 and set(out["plain call"].values()) == {1}  # numpy's
-    assert set(out["caller before"].values()) == {2}
+    assert set(out["caller before"].values()) == {min(2, os.cpu_count() or 1)}
     inner = out["inner, after scipy came in"]
     assert len(inner) == 2, inner  # numpy's and scipy's own
     assert set(inner.values()) == {1}, inner
     assert set(out["outer, after the inner call"].values()) == {1}  # not restored too early
     assert out["caller after"].keys() == inner.keys()
-    assert set(out["caller after"].values()) == {2}  # the caller's setting back
+    _as_without_the_door(out["caller after"], out["caller before"])  # restored
     assert set(out["again, inside"].values()) == {1}
 
 
@@ -100,4 +122,24 @@ def test_scipy_imported_before_the_call_has_its_blas_limited_inside_it():
     out = _run(SCIPY_BEFORE)
     assert len(out["loaded before"]) == 1  # `import scipy` alone: numpy's BLAS only
     assert len(out["inside"]) == 2 and set(out["inside"].values()) == {1}, out["inside"]
-    assert set(out["caller after"].values()) == {2}
+    _as_without_the_door(out["caller after"], out["caller numpy's"])
+
+
+def test_where_loaded_objects_cannot_be_listed_the_guard_loads_scipys_blas_first(monkeypatch):
+    """Without dl_iterate_phdr (not Linux) no library can be seen arriving, so the guard
+    imports scipy.linalg before it looks, as it always did: every BLAS on one thread inside."""
+    from threadpoolctl import threadpool_info
+    from vifpk.harness.door import boundary as B
+
+    monkeypatch.setattr(B, "_phdr", lambda: None)
+    monkeypatch.setattr(B, "_CTL", [None, None])
+
+    @B.boundary
+    def call():
+        return {i["filepath"]: i["num_threads"] for i in threadpool_info()
+                if i["user_api"] == "blas"}
+
+    inside = call()
+    assert "scipy.linalg" in sys.modules and B._CTL[1] is None
+    loaded = {i["filepath"] for i in threadpool_info() if i["user_api"] == "blas"}
+    assert inside.keys() == loaded and set(inside.values()) == {1}, inside

@@ -54,15 +54,22 @@ def cmd_solve(args: argparse.Namespace) -> int:
             result = run_solver(scene, "montecarlo", run=run)
     else:
         result = run_solver(scene, args.solver, model=model, grid=args.grid)
-    result.info.setdefault("timing", {}).update(  # before the solver: this process's stages
-        startup=startup, request={k: ready[k] - startup[k] for k in startup})
+    ran = process_clock()
+    timing = result.info.setdefault("timing", {})
+    run = timing.get("total", {"wall": 0.0, "cpu": 0.0})  # the solver's own stages' sum
+    timing.update(  # this process's stages around the solver's (montecarlo/timing.py)
+        startup=startup, request=_since(startup, ready),
+        door={k: ran[k] - ready[k] - run[k] for k in ran})
     _finite_or_fail(result, scene)
     conv = result.info.get("convergence", {}) if args.solver == "montecarlo" else {}
     stuck = _not_equilibrated(conv) if not args.allow_unequilibrated else ""
     if args.json:
         model = None if args.solver in (registry.ORIGINAL, registry.ORIGINAL_FPK) else model
-        json_out(args.json, solution_record(scene, args.solver, model, result,
-                                            joint=args.joint, provenance=_provenance(args)))
+        record = solution_record(scene, args.solver, model, result, joint=args.joint,
+                                 provenance=_provenance(args))
+        done = process_clock()
+        timing.update(record=_since(ran, done), process=done)  # the record shares ``timing``
+        json_out(args.json, record)
         if not stuck and args.json != validate.STDOUT:
             print(f"wrote {args.json}", file=sys.stderr)
     else:
@@ -79,6 +86,11 @@ def cmd_solve(args: argparse.Namespace) -> int:
               "its densities are not yet the stationary ones: raise --time or --paths, or give "
               "--floor", file=sys.stderr)
     return 0 if result.info["status"]["ok"] else EXIT_SOLVER
+
+
+def _since(a: dict[str, float], b: dict[str, float]) -> dict[str, float]:
+    """{"wall", "cpu"} seconds from process clock ``a`` to ``b`` (provenance.process_clock)."""
+    return {k: b[k] - a[k] for k in a}
 
 
 def _not_equilibrated(conv: dict[str, Any]) -> str:

@@ -14,6 +14,7 @@ handlers.
 
 from __future__ import annotations
 
+import gc
 import os
 import signal
 import sys
@@ -47,7 +48,14 @@ def release() -> None:
 
 
 def main() -> int:
-    """``vifpk``: app.main behind an interruption guard for its imports and its parser."""
+    """``vifpk``: app.main behind an interruption guard for its imports and its parser.
+
+    The command done (its outputs written and closed), the objects it leaves are frozen
+    (``gc.freeze``), so the interpreter's exit does not walk them for cycles: numba's and
+    numpy's hundreds of thousands of objects took 0.2-0.4 s CPU to finalise after a warm
+    ``vifpk solve`` (the process's CPU after main returned; 0.02 s frozen: issue 44,
+    docs/performance.md). atexit handlers run as before; what is not collected is garbage
+    in cycles, which the process's end returns to the system anyway."""
     guard()
     try:
         from vifpk.harness.cli import app
@@ -55,6 +63,7 @@ def main() -> int:
         return app.main(release_guard=release)
     finally:
         release()
+        gc.freeze()
 
 
 if __name__ == "__main__":  # pragma: no cover - the console script calls main()

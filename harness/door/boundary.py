@@ -178,7 +178,7 @@ def _phdr() -> Any:
         # module imported): a deadlock, seen in `vifpk check`, whose threads import beside
         # one another (issue 44, the main job; gdb: take_gil in the callback, dlopen's lock)
         iterate = ctypes.PyDLL(None).dl_iterate_phdr
-    except (OSError, AttributeError):
+    except (OSError, AttributeError, TypeError):  # no such symbol (macOS), no PyDLL(None)
         return None
     return iterate, ctypes.CFUNCTYPE(ctypes.c_int, ctypes.POINTER(Info), ctypes.c_size_t,
                                      ctypes.c_void_p)

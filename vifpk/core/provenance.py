@@ -177,15 +177,24 @@ def stamped(res: Any, prov: dict[str, Any] | None = None) -> tuple[Any, dict[str
 def process_clock() -> dict[str, float]:
     """{"wall": seconds since this process started, "cpu": its CPU seconds so far (every
     thread)}: at a command's start, what the interpreter and the imports cost (the run's
-    timing record, "startup"). The wall from /proc (Linux, to the clock tick); nan elsewhere."""
+    timing record, "startup"). The start from /proc (Linux, to the clock tick; nan elsewhere),
+    read at the first call; later calls add time.perf_counter's seconds since, so the
+    differences of two calls are exact."""
     import time
 
-    try:
-        with open("/proc/self/stat") as f:
-            ticks = int(f.read().rsplit(")", 1)[1].split()[19])  # field 22: starttime
-        with open("/proc/uptime") as f:
-            up = float(f.read().split()[0])
-        wall = up - ticks / os.sysconf("SC_CLK_TCK")
-    except (OSError, ValueError, IndexError):
-        wall = float("nan")
-    return {"wall": wall, "cpu": time.process_time()}
+    now = time.perf_counter()
+    if not _ANCHOR:
+        try:
+            with open("/proc/self/stat") as f:
+                ticks = int(f.read().rsplit(")", 1)[1].split()[19])  # field 22: starttime
+            with open("/proc/uptime") as f:
+                up = float(f.read().split()[0])
+            wall = up - ticks / os.sysconf("SC_CLK_TCK")
+        except (OSError, ValueError, IndexError):
+            wall = float("nan")
+        _ANCHOR.append((now, wall))
+    t0, w0 = _ANCHOR[0]
+    return {"wall": w0 + (now - t0), "cpu": time.process_time()}
+
+
+_ANCHOR: list[tuple[float, float]] = []  # (perf_counter, wall since the start) at the first call
