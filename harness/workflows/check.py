@@ -160,6 +160,8 @@ def _cross_check(scene: Any, *, quiet: bool, fpk: bool, sde: bool, tail_mass: bo
         warming = Beside(warm, name="vifpk-warm") if warm is not None else None
         runs = sde_runs(scene, models if sde else (), closed, mc_edges_of(mc), st,
                         run_scene.montecarlo.burn_in, budget, stages)
+        if warming is not None:  # ended inside the BLAS scope: the door's import watch is
+            warming.result()  # taken off sys.meta_path when it ends, never mid-import
     sde_extensions = {}
     for m, (res, ext) in runs.items():
         sol[f"mc:{m}"], sde_extensions[m] = res, ext
@@ -245,8 +247,6 @@ def _cross_check(scene: Any, *, quiet: bool, fpk: bool, sde: bool, tail_mass: bo
             warnings.append(WarningRecord("truth_disagrees", metrics["truth"]["words"]))
         verdicts.append(metrics["truth"]["line"])
     stages.done()
-    if warming is not None:  # ended before the caller goes on (it may share its caches)
-        warming.result()
     rec_model, rec_line = recommend(metrics, warnings, val, convergence=conv)
     if metrics["truth"].get("agrees"):
         rec_line += (f" -- decided against the original system's own FPK (no sampling noise; "
