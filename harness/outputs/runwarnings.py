@@ -4,8 +4,9 @@ seen).
 
 The command line records a run's warnings into one :class:`RunWarnings` it hands the command
 (``args.run_warnings``); a command that writes metrics.json stores :meth:`RunWarnings.records`
-under ``runtime_warnings``: one entry per distinct (category, message, where), in the order
-first seen, with how many times it was raised::
+under ``runtime_warnings``: one entry per distinct (category, message, where), sorted by
+where, category and message (not by when it was first seen: the check's parts run side by side,
+so that order could change from run to run; issue 44), with how many times it was raised::
 
     "runtime_warnings": [{"category": "RuntimeWarning",
                           "message": "overflow encountered in exp",
@@ -46,15 +47,17 @@ class RunWarnings:
         return [w for w in self.caught if issubclass(w.category, RuntimeWarning)]
 
     def records(self) -> list[dict[str, Any]]:
-        """The RuntimeWarnings so far, counted by (category, message, where)."""
-        out: dict[tuple[str, str, str], dict[str, Any]] = {}
+        """The RuntimeWarnings so far, counted by (category, message, where), sorted by
+        (file, line number, category, message): the same list whichever thread warned first."""
+        out: dict[tuple[str, int, str, str], dict[str, Any]] = {}
         for w in self.runtime():
-            where = f"{'/'.join(str(w.filename).split('/')[-2:])}:{w.lineno}"
-            key = (w.category.__name__, str(w.message), where)
+            file = "/".join(str(w.filename).split("/")[-2:])
+            key = (file, int(w.lineno or 0), w.category.__name__, str(w.message))
             if key not in out:
-                out[key] = {"category": key[0], "message": key[1], "where": where, "count": 0}
+                out[key] = {"category": key[2], "message": key[3], "where": f"{file}:{key[1]}",
+                            "count": 0}
             out[key]["count"] += 1
-        return list(out.values())
+        return [out[k] for k in sorted(out)]
 
     def first(self) -> str:
         """' (numpy: overflow encountered in multiply, averaging/paper.py:165)' or '': the
