@@ -126,12 +126,12 @@ def test_scipy_imported_before_the_call_has_its_blas_limited_inside_it():
 
 
 def test_where_loaded_objects_cannot_be_listed_the_guard_loads_scipys_blas_first(monkeypatch):
-    """Without dl_iterate_phdr (not Linux) no library can be seen arriving, so the guard
+    """Without /proc/self/maps (not Linux) no library can be seen arriving, so the guard
     imports scipy.linalg before it looks, as it always did: every BLAS on one thread inside."""
     from threadpoolctl import threadpool_info
     from vifpk.harness.door import boundary as B
 
-    monkeypatch.setattr(B, "_phdr", lambda: None)
+    monkeypatch.setattr(B, "MAPS", "/nonexistent/maps")
     monkeypatch.setattr(B, "_CTL", [None, None])
 
     @B.boundary

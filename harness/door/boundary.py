@@ -100,12 +100,14 @@ def one_blas_thread() -> Iterator[None]:
     by ``import scipy``. The guard loads nothing itself: a call that uses no scipy (the
     stationary Monte Carlo: numba and numpy) no longer pays ``import scipy.linalg`` (0.3-0.8 s
     CPU, issue 44). Instead, inside a door call, each extension module loaded is followed by
-    a look at the process's shared objects (dl_iterate_phdr, ~0.1 ms): a new BLAS among them
+    a look at the process's mapped files (/proc/self/maps, ~1 ms): a new BLAS among them
     is put on one thread at once, before any code of the call can use it, until the outermost
     door call ends (:class:`_Watch`; tests/test_door_blas.py). Where the loaded objects cannot
-    be listed (no dl_iterate_phdr: not Linux), the guard imports scipy.linalg before it looks,
+    be listed (no /proc/self/maps: not Linux), the guard imports scipy.linalg before it looks,
     as it always did, so scipy's BLAS is in from the first call."""
     with _LOCK:
+        if _SCOPES:  # a BLAS that arrived in another thread's call, not yet taken by its
+            _arrived()  # _arrived: the outermost scope takes it first (review45)
         scope = ExitStack()
         scope.enter_context(_controller().limit(limits=1, user_api="blas"))
         _SCOPES.append(scope)
@@ -163,41 +165,28 @@ def _arrived() -> None:
             _SCOPES[0].enter_context(ctl.select(filepath=new).limit(limits=1, user_api="blas"))
 
 
-@functools.cache
-def _phdr() -> Any:
-    """(libc's dl_iterate_phdr, the ctypes callback type, the info struct) or None."""
-    import ctypes
-
-    class Info(ctypes.Structure):  # the head of struct dl_phdr_info
-        _fields_ = [("addr", ctypes.c_void_p), ("name", ctypes.c_char_p)]
-
-    try:
-        # PyDLL: called with the GIL held throughout. With CDLL, ctypes released the GIL while
-        # dl_iterate_phdr held the loader's lock, and the Python callback waited for the GIL
-        # while another thread, holding it, waited for that lock in dlopen (an extension
-        # module imported): a deadlock, seen in `vifpk check`, whose threads import beside
-        # one another (issue 44, the main job; gdb: take_gil in the callback, dlopen's lock)
-        iterate = ctypes.PyDLL(None).dl_iterate_phdr
-    except (OSError, AttributeError, TypeError):  # no such symbol (macOS), no PyDLL(None)
-        return None
-    return iterate, ctypes.CFUNCTYPE(ctypes.c_int, ctypes.POINTER(Info), ctypes.c_size_t,
-                                     ctypes.c_void_p)
+#: where the process's mapped files are listed (Linux); elsewhere the guard falls back to
+#: importing scipy.linalg first (:func:`_controller`)
+MAPS = "/proc/self/maps"
 
 
 def _blas_objects() -> frozenset[str] | None:
-    """The loaded shared objects whose file name says BLAS (BLAS_NAMES), or None where the
-    loaded objects cannot be listed."""
-    found = _phdr()
-    if found is None:
+    """The loaded shared objects whose file name says BLAS (BLAS_NAMES), read from the
+    process's memory map (MAPS), or None where it cannot be read.
+
+    Not dl_iterate_phdr: it holds the loader's lock while its callback runs, and a Python
+    callback may hand the GIL over (every 5 ms) to a thread that then waits for that lock in
+    dlopen (an extension module imported) while holding the GIL: a deadlock, seen in `vifpk
+    check` (review45 reproduced it with ctypes.PyDLL as well). Reading the map takes no lock
+    and runs no Python inside libc (threadpoolctl >= 3.7 reads it for the same reason)."""
+    try:
+        with open(MAPS, "rb") as maps:
+            text = maps.read()
+    except OSError:
         return None
-    iterate, callback = found
-    names: list[bytes] = []
-
-    def seen(info: Any, size: int, data: Any) -> int:
-        names.append(info.contents.name or b"")
-        return 0
-
-    iterate(callback(seen), None)
+    # a line: address perms offset dev inode [pathname]; the pathname may hold spaces
+    fields = (line.split(None, 5) for line in text.splitlines())
+    names = {f[5] for f in fields if len(f) == 6 and f[5].startswith(b"/")}
     return frozenset(n for n in (x.decode(errors="replace") for x in names)
                      if any(b in n.rsplit("/", 1)[-1].lower() for b in BLAS_NAMES))
 
