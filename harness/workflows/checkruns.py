@@ -107,8 +107,10 @@ def sde_runs(scene: Any, models: tuple[str, ...], closed: dict[str, Any],
               stages: Stages) -> dict[str, tuple[Any, int]]:
     """:func:`sde_run` of each model, SDE_LANES at a time in model order. Each run is a
     function of the scene and its model alone (its seed, its own extensions), so the overlap
-    changes no number. A failure is raised as in a run one after another: the first model's
-    in order that failed (no model is started after one failed)."""
+    changes no number, unless a finite ``budget`` is set: whether a run is extended then
+    depends on the wall time it took, which the parts beside it change. A failure is raised as
+    in a run one after another: the first model's in order that failed (no model is started
+    after one failed)."""
     todo, lock = list(models), threading.Lock()
     done: dict[str, tuple[str, Any]] = {}
 

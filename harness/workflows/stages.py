@@ -81,8 +81,9 @@ class Beside:
     """``fn(*args)`` in a daemon thread (hand it ``harness.door.coefficients.carried(fn)`` for
     it to share the run's coefficients). :meth:`result` waits for it and returns its value or
     raises what it raised. A daemon: a run stopped by Ctrl-C in the caller's thread does not
-    wait for it at exit (what runs beside is bounded work, the closed forms and the FPK
-    solves, never a simulation)."""
+    wait for it at exit: the check hands it the closed forms and the FPK solves (bounded work)
+    and the averaged SDEs' lanes (simulations; after Ctrl-C in API use the lane running then
+    ends in the background)."""
 
     def __init__(self, fn: Callable[..., Any], *args: Any, name: str = "vifpk-beside"):
         self._value: Any = None
